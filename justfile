@@ -1,0 +1,18 @@
+# stickslip task runner (https://github.com/casey/just)
+
+# Run the whole test suite (what CI runs first).
+test:
+    cargo test --all-targets
+
+# Lint and format checks.
+lint:
+    cargo clippy --all-targets -- -D warnings
+    cargo fmt --all -- --check
+
+# Criterion benchmarks of the engine.
+bench:
+    cargo bench --bench engine
+
+# CI as it runs on a fresh clone.
+ci:
+    bash .ci/run

@@ -1,0 +1,68 @@
+//! Option groups shared by several subcommands.
+
+use crate::model::{Absorber, Law, Model};
+use clap::Args;
+
+/// The dimensionless model options of `simulate` and `sweep`.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    /// Mass ratio m = M1/M2.
+    #[arg(long, default_value_t = 4.0)]
+    pub m: f64,
+    /// Stiffness ratio k = K1/K2.
+    #[arg(long, default_value_t = 1.0)]
+    pub k: f64,
+    /// Viscous damping D = d/sqrt(K2 M2).
+    #[arg(long, default_value_t = 0.005)]
+    pub damping: f64,
+    /// Static threshold rho_s (0: no friction; inf: always stuck).
+    #[arg(long = "rho-s", default_value_t = 0.0)]
+    pub rho_s: f64,
+    /// Dynamic level rho_d (default: equal to rho_s).
+    #[arg(long = "rho-d")]
+    pub rho_d: Option<f64>,
+    /// Slope D* of the characteristic.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub slope: f64,
+    /// Stribeck velocity v_s: makes the law ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
+    #[arg(long = "v-s")]
+    pub v_s: Option<f64>,
+    /// Interrupt when the sliding friction falls below F·rho_s.
+    #[arg(long = "stop-below")]
+    pub stop_below: Option<f64>,
+}
+
+impl ModelArgs {
+    /// The validated model.
+    pub fn model(&self) -> crate::Result<Model> {
+        let rho_d = match self.rho_d {
+            Some(v) => v,
+            None if self.rho_s.is_finite() => self.rho_s,
+            None => 0.0,
+        };
+        let law = match self.v_s {
+            None => Law::Linear {
+                rho_s: self.rho_s,
+                rho_d,
+                slope: self.slope,
+            },
+            Some(v_s) => Law::Stribeck {
+                rho_s: self.rho_s,
+                rho_d,
+                slope: self.slope,
+                v_s,
+            },
+        };
+        let model = Model {
+            absorber: Absorber {
+                m: self.m,
+                k: self.k,
+                damping: self.damping,
+            },
+            law,
+            stop_below: self.stop_below,
+        };
+        model.validate()?;
+        Ok(model)
+    }
+}

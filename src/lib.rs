@@ -1,0 +1,31 @@
+//! # stickslip
+//!
+//! Turns rig logs of a passive vibration absorber with dry friction into
+//! validated friction models (Hartung, Schmieg & Vielsack, *Passive vibration
+//! absorber with dry friction*).
+//!
+//! The crate is a pipeline; each stage is one module with one door
+//! (`run(input, config) -> Result<output>` on small typed structs):
+//!
+//! ```text
+//! log ──ingest──▶ Run ──identify──▶ Characteristic ──fit──▶ FittedLaw
+//! sweep log ──ingest──▶ Run ──measure──▶ MeasuredFrc         │
+//!                                           │         sim (exact engine)
+//!                                           ▼                │
+//!                                  validate: Score ◀── PredictedFrc ── report
+//! ```
+//!
+//! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
+//! * [`sim`]: the exact event-driven engine, the paper's RK4 and closed forms.
+//! * [`cli`]: the thin command-line layer over the library.
+//!
+//! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
+//! ρ = R/(A·K2); SI units appear only at the edges (ingest, reports).
+
+pub mod cli;
+pub mod error;
+pub mod io;
+pub mod model;
+pub mod sim;
+
+pub use error::{Error, Result};
