@@ -1,0 +1,643 @@
+//! The exact event-driven engine: pieces together closed-form stick and slip
+//! phases (see [`super::phase`]) at switching events located to machine
+//! precision (see [`super::events`]).
+//!
+//! # Switching logic (derived from the physics, paper §2)
+//!
+//! Let `F = ζ1 − ζ2 + D(ζ1' − ζ2')` be the net non-friction force on M2.
+//!
+//! * **Stick** (ζ2 ≡ ζ2*, ζ2' = 0): the friction is passive, R = F, which
+//!   the pad can hold while |F| ≤ ρs. The stick ends when |F| reaches ρs
+//!   (eq. 4; the paper's ρ of eq. 5 is −F).
+//! * **Breakaway direction**: M2 departs in the direction of F, the net
+//!   force the pad can no longer hold: just after release ζ2'' =
+//!   F − sgn(ζ2')·g(0⁺), which has the sign of F because |F| = ρs ≥ g(0⁺).
+//!   The paper's text says sgn ζ2' = sgn ρ with ρ = ζ2* − ζ1 − Dζ1' = −F;
+//!   that would accelerate M2 *against* the net force and contradict its own
+//!   equation of motion, so we follow the physics. The reference trajectory
+//!   in `datasets/reference/H1.json` (exact, 40 digits) uses sgn F too.
+//! * **Slip** in direction s: friction −s·g(|ζ2'|); the slip ends when ζ2'
+//!   reaches 0 (eq. 3). Then, with F at that instant: |F| < ρs → stick;
+//!   |F| > ρs → reversal into direction sgn F (necessarily −s: a slip that
+//!   decelerated to rest had s·F ≤ g(0⁺) ≤ ρs). At |F| = ρs to rounding the
+//!   sign of F' decides: pointing inward → stick, outward → slip along F.
+//! * **Interruption** (paper §3): a slip whose friction g(|ζ2'|) falls below
+//!   `stop_below·ρs`, or would turn negative, ends the run.
+//!
+//! Time is kept as (period index n, offset s within the period), so the
+//! forcing phase η·s stays exact over arbitrarily long runs.
+
+use super::events::{self, EventFn, Jet};
+use super::linalg::C64;
+use super::phase::{absorber, LinearPhase, Started};
+use super::SimError;
+use crate::model::{Law, Model};
+use std::f64::consts::PI;
+
+/// The contact state of M2.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mode {
+    /// M2 sticks at ζ2 = `z2`.
+    Stick {
+        /// The frozen displacement ζ2*.
+        z2: f64,
+    },
+    /// M2 slides in direction `dir` (+1 or −1).
+    Slip {
+        /// Sign of ζ2'.
+        dir: f64,
+    },
+}
+
+/// Kind of a switching event (names as in the `--events` CSV).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EventKind {
+    /// Slip → stick.
+    Stick,
+    /// Stick → slip with ζ2' > 0.
+    SlipPlus,
+    /// Stick → slip with ζ2' < 0.
+    SlipMinus,
+    /// Slip reversal to ζ2' > 0 without sticking.
+    ReversePlus,
+    /// Slip reversal to ζ2' < 0 without sticking.
+    ReverseMinus,
+    /// The paper's interruption rule fired; the run ends.
+    Interrupt,
+}
+
+impl EventKind {
+    /// Name in the `--events` CSV.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            EventKind::Stick => "stick",
+            EventKind::SlipPlus => "slip+",
+            EventKind::SlipMinus => "slip-",
+            EventKind::ReversePlus => "reverse+",
+            EventKind::ReverseMinus => "reverse-",
+            EventKind::Interrupt => "interrupt",
+        }
+    }
+}
+
+/// A switching event.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Event {
+    /// Time τ.
+    pub tau: f64,
+    /// What happened.
+    pub kind: EventKind,
+    /// State `[ζ1, ζ1', ζ2, ζ2']` at the event.
+    pub x: [f64; 4],
+}
+
+/// Extremes and stick time of one forcing period.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeriodStats {
+    /// min ζ1, min ζ2.
+    pub min: [f64; 2],
+    /// max ζ1, max ζ2.
+    pub max: [f64; 2],
+    /// Time spent sticking.
+    pub stick_time: f64,
+}
+
+impl PeriodStats {
+    fn new(x: &[f64; 4]) -> Self {
+        Self {
+            min: [x[0], x[2]],
+            max: [x[0], x[2]],
+            stick_time: 0.0,
+        }
+    }
+    #[inline]
+    fn add(&mut self, z1: f64, z2: f64) {
+        self.min[0] = self.min[0].min(z1);
+        self.max[0] = self.max[0].max(z1);
+        self.min[1] = self.min[1].min(z2);
+        self.max[1] = self.max[1].max(z2);
+    }
+}
+
+/// What an observer wants after a period.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Flow {
+    /// Go on.
+    Continue,
+    /// Stop the run here.
+    Stop,
+}
+
+/// Receives what the engine computes; every method has a no-op default.
+pub trait Observer {
+    /// A switching event.
+    fn event(&mut self, _ev: &Event) {}
+    /// End of forcing period `n` (1-based count of completed periods) with
+    /// the state on the Poincaré section and the period's statistics.
+    fn period(&mut self, _n: u64, _x: &[f64; 4], _mode: Mode, _stats: &PeriodStats) -> Flow {
+        Flow::Continue
+    }
+    /// Samples per forcing period for [`Observer::sample`] (None: no samples).
+    fn samples_per_period(&self) -> Option<u32> {
+        None
+    }
+    /// A trajectory sample.
+    fn sample(&mut self, _tau: f64, _x: &[f64; 4]) {}
+    /// Whether ζ1's extremes must be located exactly (for amplitudes).
+    fn wants_extremes(&self) -> bool {
+        true
+    }
+}
+
+impl Observer for () {
+    fn wants_extremes(&self) -> bool {
+        false
+    }
+}
+
+/// Why a run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Status {
+    /// All requested periods were integrated.
+    Completed,
+    /// The observer stopped the run (e.g. steady state reached).
+    Stopped,
+    /// The paper's interruption rule fired.
+    Interrupted(String),
+    /// Events accumulate (Zeno/chattering) faster than the engine resolves.
+    Chatter(String),
+}
+
+/// Where a run ended.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunEnd {
+    /// Why it ended.
+    pub status: Status,
+    /// Completed forcing periods.
+    pub periods: u64,
+    /// Final time τ.
+    pub tau: f64,
+    /// Final state.
+    pub x: [f64; 4],
+    /// Final contact mode.
+    pub mode: Mode,
+    /// Number of switching events.
+    pub events: u64,
+    /// Total time spent sticking.
+    pub stick_time: f64,
+}
+
+/// Initial condition of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Init {
+    /// State `[ζ1, ζ1', ζ2, ζ2']`.
+    pub x: [f64; 4],
+    /// Contact mode (for `Stick` the state's ζ2 is used and ζ2' set to 0).
+    pub mode: Mode,
+}
+
+impl Init {
+    /// At rest, M2 sticking at ζ2 = 0 (the paper's start).
+    pub fn rest() -> Self {
+        Self {
+            x: [0.0; 4],
+            mode: Mode::Stick { z2: 0.0 },
+        }
+    }
+}
+
+/// Largest number of zero-length phases at one instant before the run is
+/// declared chattering (a well-posed switch needs at most two).
+const MAX_INSTANT_SWITCHES: u32 = 4;
+/// Largest number of events within one forcing period.
+const MAX_EVENTS_PER_PERIOD: u64 = 100_000;
+
+/// The engine for one model at one forcing frequency: all per-parameter-set
+/// work (eigen-decompositions, particular solutions) is done here, once.
+#[derive(Debug, Clone)]
+pub struct Sim {
+    model: Model,
+    eta: f64,
+    period: f64,
+    stick: LinearPhase<2>,
+    slip: LinearPhase<4>,
+    rho_s: f64,
+    rho_d: f64,
+    /// Speed at which the slip friction reaches the interruption level.
+    v_interrupt: Option<f64>,
+    step_stick: f64,
+    step_slip: f64,
+}
+
+impl Sim {
+    /// Prepares the engine; rejects invalid parameters and laws the exact
+    /// engine cannot integrate in closed form.
+    pub fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
+        model.validate().map_err(SimError::Param)?;
+        crate::model::validate_eta(eta).map_err(SimError::Param)?;
+        let (rho_d, slope) = match model.law {
+            Law::Linear { rho_d, slope, .. } => (rho_d, slope),
+            Law::Stribeck { .. } => {
+                return Err(SimError::Unsupported(
+                    "the exact engine needs an affine friction law (coulomb, decreasing, static-dynamic); \
+                     the stribeck law needs the numerical integrator"
+                        .into(),
+                ))
+            }
+        };
+        let ab = &model.absorber;
+        let stick = LinearPhase::new(absorber::stick_matrix(ab), absorber::stick_input(ab), eta)
+            .ok_or_else(|| SimError::Unsupported("singular stick matrix".into()))?;
+        let slip = LinearPhase::new(absorber::slip_matrix(ab, slope), absorber::slip_input(ab), eta)
+            .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
+        let thr = model.interrupt_level();
+        let v_interrupt = if rho_d < thr {
+            Some(0.0)
+        } else if slope < 0.0 {
+            Some((rho_d - thr) / -slope)
+        } else {
+            None
+        };
+        Ok(Self {
+            model: *model,
+            eta,
+            period: 2.0 * PI / eta,
+            step_stick: 1.0 / stick.fastest,
+            step_slip: 1.0 / slip.fastest,
+            stick,
+            slip,
+            rho_s: model.law.rho_s(),
+            rho_d,
+            v_interrupt,
+        })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Forcing frequency ratio η.
+    pub fn eta(&self) -> f64 {
+        self.eta
+    }
+
+    /// Forcing period 2π/η.
+    pub fn period(&self) -> f64 {
+        self.period
+    }
+
+    /// The state at offset δ into a phase that starts at `x` with mode
+    /// `mode` at period offset `s0` (dense output of the exact solution,
+    /// valid up to the phase's next event).
+    pub fn state_in_phase(&self, x: &[f64; 4], mode: Mode, s0: f64, delta: f64) -> [f64; 4] {
+        match mode {
+            Mode::Stick { z2 } => {
+                let p = self.stick.start([x[0], x[1]], s0, C64::new(1.0, 0.0), self.stick_c(z2));
+                let y = self.stick.state(&p, delta);
+                [y[0], y[1], z2, 0.0]
+            }
+            Mode::Slip { dir } => {
+                let p = self.slip.start(*x, s0, C64::new(1.0, 0.0), self.slip_c(dir));
+                self.slip.state(&p, delta)
+            }
+        }
+    }
+
+    #[inline]
+    fn stick_c(&self, z2: f64) -> [f64; 2] {
+        [0.0, z2 / self.model.absorber.m]
+    }
+
+    #[inline]
+    fn slip_c(&self, dir: f64) -> [f64; 4] {
+        [0.0, 0.0, 0.0, -dir * self.rho_d]
+    }
+
+
+    fn after_slip(&self, x: &[f64; 4], s: f64) -> Mode {
+        let (z, _) = self.stick.drive(C64::new(1.0, 0.0), s);
+        after_slip(&self.model, x, z)
+    }
+
+    /// Integrates `periods` forcing periods from `init`, reporting to `obs`.
+    pub fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
+        let frictionless = self.model.law.is_frictionless();
+        let mut mode = if frictionless {
+            Mode::Slip { dir: 1.0 }
+        } else if self.model.law.is_always_stuck() {
+            Mode::Stick { z2: init.x[2] }
+        } else {
+            init.mode
+        };
+        let mut x = init.x;
+        if let Mode::Stick { z2 } = mode {
+            x[2] = z2;
+            x[3] = 0.0;
+        }
+        let extremes = obs.wants_extremes();
+        let spp = obs.samples_per_period();
+        let t = self.period;
+        let mut n: u64 = 0;
+        let mut s = 0.0;
+        let mut events: u64 = 0;
+        let mut period_events: u64 = 0;
+        let mut stick_time = 0.0;
+        let mut stats = PeriodStats::new(&x);
+        let mut instant = 0u32;
+        let mut next_sample = 0u32;
+        if spp.is_some() {
+            obs.sample(0.0, &x);
+            next_sample = 1;
+        }
+        let u = C64::new(1.0, 0.0);
+        let end = |n: u64, s: f64, x: [f64; 4], mode, status, events, stick_time| RunEnd {
+            status,
+            periods: n,
+            tau: n as f64 * t + s,
+            x,
+            mode,
+            events,
+            stick_time,
+        };
+        while n < periods {
+            let left = t - s;
+            let tau0 = n as f64 * t;
+            // Samples on the grid k·T/spp of this period (the boundary
+            // sample is emitted at the period's end).
+            let mut sampler = |a: f64, b: f64, f: &dyn Fn(f64) -> [f64; 4], obs: &mut O| {
+                if let Some(spp) = spp {
+                    let h = t / spp as f64;
+                    while next_sample < spp {
+                        let ts = next_sample as f64 * h;
+                        if ts > s + b {
+                            break;
+                        }
+                        if ts >= s + a {
+                            obs.sample(tau0 + ts, &f(ts - s));
+                        }
+                        next_sample += 1;
+                    }
+                }
+            };
+            let (hit, x_end, which_mode) = match mode {
+                Mode::Stick { z2 } => {
+                    let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
+                    let eval = |d: f64| stick_jet(&self.stick, &p, d, z2);
+                    let fns = self.stick_events(z2);
+                    let nf = if self.rho_s.is_finite() { 2 } else { 0 };
+                    let (hit, jb) = events::first_event(&eval, &fns[..nf], left, self.step_stick, |a, ja, b, jb| {
+                        if extremes {
+                            track_extremum(&eval, &mut stats, a, ja, b, jb);
+                        }
+                        sampler(a, b, &|d| eval(d).x, obs);
+                    });
+                    (hit, jb, 0)
+                }
+                Mode::Slip { dir } => {
+                    let p = self.slip.start(x, s, u, self.slip_c(dir));
+                    let eval = |d: f64| slip_jet(&self.slip, &p, d);
+                    let (fns, nf) = self.slip_events(dir, frictionless);
+                    let (hit, jb) = events::first_event(&eval, &fns[..nf], left, self.step_slip, |a, ja, b, jb| {
+                        if extremes {
+                            track_extremum(&eval, &mut stats, a, ja, b, jb);
+                        }
+                        sampler(a, b, &|d| eval(d).x, obs);
+                    });
+                    (hit, jb, 1)
+                }
+            };
+            match hit {
+                None => {
+                    if let Mode::Stick { .. } = mode {
+                        stick_time += left;
+                        stats.stick_time += left;
+                    }
+                    x = x_end.x;
+                    if let Mode::Stick { z2 } = mode {
+                        x[2] = z2;
+                        x[3] = 0.0;
+                    }
+                    stats.add(x[0], x[2]);
+                    n += 1;
+                    s = 0.0;
+                    instant = 0;
+                    period_events = 0;
+                    next_sample = 1;
+                    if spp.is_some() {
+                        obs.sample(n as f64 * t, &x);
+                    }
+                    let flow = obs.period(n, &x, mode, &stats);
+                    stats = PeriodStats::new(&x);
+                    if flow == Flow::Stop {
+                        return end(n, 0.0, x, mode, Status::Stopped, events, stick_time);
+                    }
+                }
+                Some(h) => {
+                    if h.delta == 0.0 {
+                        instant += 1;
+                        if instant > MAX_INSTANT_SWITCHES {
+                            return end(
+                                n,
+                                s,
+                                x,
+                                mode,
+                                Status::Chatter(format!(
+                                    "{} switches at one instant (tau = {})",
+                                    instant,
+                                    n as f64 * t + s
+                                )),
+                                events,
+                                stick_time,
+                            );
+                        }
+                    } else {
+                        instant = 0;
+                    }
+                    if let Mode::Stick { .. } = mode {
+                        stick_time += h.delta;
+                        stats.stick_time += h.delta;
+                    }
+                    s += h.delta;
+                    let tau = n as f64 * t + s;
+                    let (kind, next) = if which_mode == 0 {
+                        let z2 = x[2];
+                        x = [h.jet.x[0], h.jet.x[1], z2, 0.0];
+                        let dir = if h.which == 0 { 1.0 } else { -1.0 };
+                        let k = if dir > 0.0 { EventKind::SlipPlus } else { EventKind::SlipMinus };
+                        (k, Mode::Slip { dir })
+                    } else {
+                        x = h.jet.x;
+                        if h.which == 1 {
+                            // Interruption.
+                            let ev = Event {
+                                tau,
+                                kind: EventKind::Interrupt,
+                                x,
+                            };
+                            obs.event(&ev);
+                            stats.add(x[0], x[2]);
+                            let g = self.model.law.sliding(x[3].abs());
+                            let why = if g <= 0.0 {
+                                format!("sliding friction would turn negative at tau = {tau:.6}")
+                            } else {
+                                format!(
+                                    "sliding friction fell below {}*rho_s at tau = {tau:.6}",
+                                    self.model.stop_below.unwrap_or(0.0)
+                                )
+                            };
+                            return end(n, s, x, mode, Status::Interrupted(why), events + 1, stick_time);
+                        }
+                        x[3] = 0.0;
+                        let Mode::Slip { dir: old } = mode else { unreachable!() };
+                        match self.after_slip(&x, s) {
+                            Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }),
+                            Mode::Slip { dir } if dir != old => {
+                                let k = if dir > 0.0 {
+                                    EventKind::ReversePlus
+                                } else {
+                                    EventKind::ReverseMinus
+                                };
+                                (k, Mode::Slip { dir })
+                            }
+                            Mode::Slip { dir } => {
+                                // Touched rest on the threshold and goes on
+                                // the same way: a stick of zero length.
+                                obs.event(&Event {
+                                    tau,
+                                    kind: EventKind::Stick,
+                                    x,
+                                });
+                                events += 1;
+                                let k = if dir > 0.0 { EventKind::SlipPlus } else { EventKind::SlipMinus };
+                                (k, Mode::Slip { dir })
+                            }
+                        }
+                    };
+                    stats.add(x[0], x[2]);
+                    obs.event(&Event { tau, kind, x });
+                    events += 1;
+                    period_events += 1;
+                    if period_events > MAX_EVENTS_PER_PERIOD {
+                        return end(
+                            n,
+                            s,
+                            x,
+                            mode,
+                            Status::Chatter(format!(
+                                "more than {MAX_EVENTS_PER_PERIOD} events in one forcing period at tau = {tau}"
+                            )),
+                            events,
+                            stick_time,
+                        );
+                    }
+                    mode = next;
+                }
+            }
+        }
+        end(n, s, x, mode, Status::Completed, events, stick_time)
+    }
+
+    fn stick_events(&self, z2: f64) -> [EventFn<4>; 2] {
+        let d = self.model.absorber.damping;
+        // F = ζ1 − z2 + Dζ1'; h+ = ρs − F, h− = ρs + F.
+        [
+            EventFn {
+                g: [-1.0, -d, 0.0, 0.0],
+                g0: self.rho_s + z2,
+            },
+            EventFn {
+                g: [1.0, d, 0.0, 0.0],
+                g0: self.rho_s - z2,
+            },
+        ]
+    }
+
+    fn slip_events(&self, dir: f64, frictionless: bool) -> ([EventFn<4>; 2], usize) {
+        let end = EventFn {
+            g: [0.0, 0.0, 0.0, dir],
+            g0: 0.0,
+        };
+        let stop = EventFn {
+            g: [0.0, 0.0, 0.0, -dir],
+            g0: self.v_interrupt.unwrap_or(0.0),
+        };
+        if frictionless {
+            ([end, stop], 0)
+        } else if self.v_interrupt.is_some() {
+            ([end, stop], 2)
+        } else {
+            ([end, stop], 1)
+        }
+    }
+}
+
+/// Net non-friction force on M2, `F = ζ1 − ζ2 + D(ζ1' − ζ2')`.
+#[inline]
+pub fn net_force(model: &Model, x: &[f64; 4]) -> f64 {
+    x[0] - x[2] + model.absorber.damping * (x[1] - x[3])
+}
+
+/// The contact mode after a slip has come to rest (ζ2' = 0) with the drive
+/// at ζ0 = `z0`; see the module doc for the derivation.
+pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
+    let rho_s = model.law.rho_s();
+    if rho_s == 0.0 {
+        return Mode::Slip { dir: 1.0 };
+    }
+    let f = net_force(model, x);
+    let ab = &model.absorber;
+    let tol = 64.0 * f64::EPSILON * (rho_s + x[0].abs() + x[2].abs() + ab.damping * x[1].abs());
+    if f.abs() < rho_s - tol {
+        return Mode::Stick { z2: x[2] };
+    }
+    if f.abs() > rho_s + tol {
+        return Mode::Slip { dir: f.signum() };
+    }
+    // On the threshold: the sign of F' in the stick dynamics decides.
+    let dd1 = (-ab.damping * x[1] - (1.0 + ab.k) * x[0] + x[2] + ab.k * z0) / ab.m;
+    let df = x[1] + ab.damping * dd1;
+    if f.signum() * df < 0.0 {
+        Mode::Stick { z2: x[2] }
+    } else {
+        Mode::Slip { dir: f.signum() }
+    }
+}
+
+#[inline]
+fn stick_jet(ph: &LinearPhase<2>, p: &Started<2>, d: f64, z2: f64) -> Jet<4> {
+    let y = ph.state(p, d);
+    let (dy, ddy) = ph.derivs(p, d, &y);
+    Jet {
+        x: [y[0], y[1], z2, 0.0],
+        dx: [dy[0], dy[1], 0.0, 0.0],
+        ddx: [ddy[0], ddy[1], 0.0, 0.0],
+    }
+}
+
+#[inline]
+fn slip_jet(ph: &LinearPhase<4>, p: &Started<4>, d: f64) -> Jet<4> {
+    let x = ph.state(p, d);
+    let (dx, ddx) = ph.derivs(p, d, &x);
+    Jet { x, dx, ddx }
+}
+
+/// Locates an extremum of ζ1 inside a step (a sign change of ζ1') exactly.
+#[inline]
+fn track_extremum<E: Fn(f64) -> Jet<4>>(eval: &E, st: &mut PeriodStats, a: f64, ja: &Jet<4>, b: f64, jb: &Jet<4>) {
+    let (va, vb) = (ja.dx[0], jb.dx[0]);
+    if va * vb < 0.0 {
+        let sgn = va.signum();
+        let r = events::refine(
+            |d| {
+                let j = eval(d);
+                (sgn * j.dx[0], sgn * j.ddx[0])
+            },
+            a,
+            b,
+        );
+        let j = eval(r);
+        st.add(j.x[0], j.x[2]);
+    }
+    st.add(jb.x[0], jb.x[2]);
+}

@@ -1,0 +1,72 @@
+//! Closed forms of the two linear limits (paper §3, the reference curves of
+//! Figs. 3–5), written from the dynamic-stiffness matrices, independently of
+//! the engine's phase machinery:
+//!
+//! * ρs = 0: the frictionless 2-DOF absorber (a viscous slope D* ≥ 0 adds
+//!   damping to M2);
+//! * ρs = ∞: M2 never moves; the 1-DOF system m ζ1'' + D ζ1' + (1+k) ζ1 =
+//!   ζ2* + k cos ητ.
+
+use crate::model::Absorber;
+use num_complex::Complex;
+
+type C = Complex<f64>;
+
+/// Complex steady-state amplitudes (X1, X2) with ζi = Re(Xi·e^{iητ}) of the
+/// frictionless 2-DOF system with extra damping `slope` on M2.
+pub fn free_response(ab: &Absorber, slope: f64, eta: f64) -> (C, C) {
+    let (m, k, d) = (ab.m, ab.k, ab.damping);
+    let i = C::new(0.0, 1.0);
+    let z11 = C::new(1.0 + k - m * eta * eta, 0.0) + i * eta * d;
+    let z12 = C::new(-1.0, 0.0) - i * eta * d;
+    let z22 = C::new(1.0 - eta * eta, 0.0) + i * eta * (d + slope);
+    let det = z11 * z22 - z12 * z12;
+    (k * z22 / det, -k * z12 / det)
+}
+
+/// Complex steady-state amplitude X1 of the stuck 1-DOF system.
+pub fn stuck_response(ab: &Absorber, eta: f64) -> C {
+    let z = C::new(1.0 + ab.k - ab.m * eta * eta, eta * ab.damping);
+    ab.k / z
+}
+
+/// Steady amplitudes (A1/A, A2/A) of the frictionless system.
+pub fn free_amplitudes(ab: &Absorber, slope: f64, eta: f64) -> (f64, f64) {
+    let (x1, x2) = free_response(ab, slope, eta);
+    (x1.norm(), x2.norm())
+}
+
+/// Steady amplitudes (A1/A, 0) of the stuck system.
+pub fn stuck_amplitudes(ab: &Absorber, eta: f64) -> (f64, f64) {
+    (stuck_response(ab, eta).norm(), 0.0)
+}
+
+/// The frictionless steady state `[ζ1, ζ1', ζ2, ζ2']` at τ = 0 (mod T).
+pub fn free_state(ab: &Absorber, slope: f64, eta: f64) -> [f64; 4] {
+    let (x1, x2) = free_response(ab, slope, eta);
+    [x1.re, -eta * x1.im, x2.re, -eta * x2.im]
+}
+
+/// The stuck steady state at τ = 0 (mod T) with M2 held at ζ2*.
+pub fn stuck_state(ab: &Absorber, eta: f64, z2: f64) -> [f64; 4] {
+    let x1 = stuck_response(ab, eta);
+    [x1.re + z2 / (1.0 + ab.k), -eta * x1.im, z2, 0.0]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The classical absorber's antiresonance: without damping A1 = 0 at
+    /// η = 1 (M2's own frequency), and A2 = k (it balances the drive force).
+    #[test]
+    fn antiresonance_at_eta_one() {
+        let ab = Absorber {
+            damping: 0.0,
+            ..Default::default()
+        };
+        let (a1, a2) = free_amplitudes(&ab, 0.0, 1.0);
+        assert!(a1 < 1e-15);
+        assert!((a2 - ab.k).abs() < 1e-14);
+    }
+}

@@ -1,0 +1,327 @@
+//! Closed-form propagation of one stick or slip phase.
+//!
+//! Within a phase the motion obeys a linear ODE with constant coefficients
+//! (paper eqs. 1–2, affine friction law):
+//!
+//! ```text
+//! x' = A·x + b·ζ0(s) + c,    ζ0(s) = Re(U·e^{iηs})
+//! ```
+//!
+//! with the harmonic base motion ζ0 of complex amplitude U (|U| = 1 and the
+//! phase φ = arg U for the paper's drive) and a constant input c (the dynamic
+//! friction level in a slip, the frozen ζ2* in a stick). Its exact solution is
+//!
+//! ```text
+//! x(s0+δ) = x_c + Re(X·U·e^{iη(s0+δ)}) + Re(V·(y0 ∘ e^{λδ})),
+//! x_c = −A⁻¹c,  (iηI − A)·X = b,  y0 = V⁻¹·(x(s0) − x_c − Re(X·U·e^{iηs0}))
+//! ```
+//!
+//! where `A = V·diag(λ)·V⁻¹` is computed once per parameter set (faer) and X
+//! once per forcing frequency. Where the modal form is unreliable (a
+//! defective or nearly defective A, e.g. critical damping, or undamped
+//! forcing at an eigenfrequency, whose particular solution grows secularly)
+//! the phase falls back to the matrix exponential of the augmented system
+//! `[x, Re, Im, 1]`, which is exact for every matrix.
+
+use super::linalg::{self, Aug, Modal, C64, MAX_AUG};
+
+/// Condition number of the eigenvector matrix above which the modal form is
+/// abandoned for the matrix exponential (its error grows like cond·ε).
+const MAX_COND: f64 = 1e6;
+
+#[derive(Debug, Clone, Copy)]
+enum Repr<const N: usize> {
+    /// Modal form with the unit-amplitude harmonic response X.
+    Modal { md: Modal<N>, xh: [C64; N] },
+    /// Augmented matrix `[[A, b, 0, c̃], [0, 0, −η, 0], [0, η, 0, 0], 0]` without
+    /// the constant column (set per phase); exponentials taken per call.
+    Expm,
+}
+
+/// A linear phase system `x' = A x + b ζ0 + c` at one forcing frequency η,
+/// with everything precomputed that does not depend on the initial state.
+#[derive(Debug, Clone, Copy)]
+pub struct LinearPhase<const N: usize> {
+    /// System matrix.
+    pub a: [[f64; N]; N],
+    /// Drive input vector.
+    pub b: [f64; N],
+    /// Forcing frequency ratio η.
+    pub eta: f64,
+    ainv: [[f64; N]; N],
+    repr: Repr<N>,
+    /// Largest |λ| and η: the fastest rate present (bounds bracketing steps).
+    pub fastest: f64,
+}
+
+/// A phase started from a given state: evaluates the exact solution at any
+/// offset δ ≥ 0 from its start.
+#[derive(Debug, Clone, Copy)]
+pub struct Started<const N: usize> {
+    x0: [f64; N],
+    c: [f64; N],
+    xc: [f64; N],
+    u: C64,
+    s0: f64,
+    y0: [C64; N],
+}
+
+impl<const N: usize> LinearPhase<N> {
+    /// Precomputes the phase system; `None` only if A is singular (it never
+    /// is for a physical absorber: det ∝ k > 0).
+    pub fn new(a: [[f64; N]; N], b: [f64; N], eta: f64) -> Option<Self> {
+        let ainv = linalg::real_inverse(&a)?;
+        let md = linalg::modal(&a);
+        let fastest = md
+            .as_ref()
+            .map(|m| m.lambda.iter().map(|l| l.norm()).fold(0.0, f64::max))
+            .unwrap_or_else(|| {
+                (0..N)
+                    .map(|i| (0..N).map(|j| a[i][j].abs()).sum::<f64>())
+                    .fold(0.0, f64::max)
+            })
+            .max(eta);
+        let repr = match md {
+            Some(md) if md.cond < MAX_COND => {
+                match linalg::shifted_solve(&a, C64::new(0.0, eta), &b) {
+                    Some(xh) => Repr::Modal { md, xh },
+                    None => Repr::Expm,
+                }
+            }
+            _ => Repr::Expm,
+        };
+        Some(Self {
+            a,
+            b,
+            eta,
+            ainv,
+            repr,
+            fastest,
+        })
+    }
+
+    /// True when the closed form is the modal one (false: matrix exponential).
+    pub fn is_modal(&self) -> bool {
+        matches!(self.repr, Repr::Modal { .. })
+    }
+
+    /// Starts the phase at state `x0`, offset `s0` within the drive frame
+    /// (forcing ζ0 = Re(U e^{iη(s0+δ)})), with constant input `c`.
+    #[inline]
+    pub fn start(&self, x0: [f64; N], s0: f64, u: C64, c: [f64; N]) -> Started<N> {
+        let mut xc = [0.0; N];
+        for i in 0..N {
+            for j in 0..N {
+                xc[i] -= self.ainv[i][j] * c[j];
+            }
+        }
+        let mut y0 = [C64::new(0.0, 0.0); N];
+        if let Repr::Modal { md, xh } = &self.repr {
+            let e = u * C64::from_polar(1.0, self.eta * s0);
+            let mut r = [0.0; N];
+            for i in 0..N {
+                r[i] = x0[i] - xc[i] - (xh[i] * e).re;
+            }
+            for (k, yk) in y0.iter_mut().enumerate() {
+                for (i, ri) in r.iter().enumerate() {
+                    *yk += md.vinv[k][i] * ri;
+                }
+            }
+        }
+        Started {
+            x0,
+            c,
+            xc,
+            u,
+            s0,
+            y0,
+        }
+    }
+
+    /// The drive ζ0 and its derivative at frame offset s.
+    #[inline]
+    pub fn drive(&self, u: C64, s: f64) -> (f64, f64) {
+        let e = u * C64::from_polar(1.0, self.eta * s);
+        (e.re, -self.eta * e.im)
+    }
+
+    /// Exact state at offset δ from the phase start.
+    #[inline]
+    pub fn state(&self, p: &Started<N>, delta: f64) -> [f64; N] {
+        match &self.repr {
+            Repr::Modal { md, xh } => {
+                let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
+                let mut ey = [C64::new(0.0, 0.0); N];
+                for k in 0..N {
+                    ey[k] = p.y0[k] * (md.lambda[k] * delta).exp();
+                }
+                let mut x = [0.0; N];
+                for i in 0..N {
+                    let mut h = 0.0;
+                    for (k, eyk) in ey.iter().enumerate() {
+                        let z = md.v[i][k] * eyk;
+                        h += z.re;
+                    }
+                    x[i] = p.xc[i] + (xh[i] * e).re + h;
+                }
+                x
+            }
+            Repr::Expm => self.state_expm(p, delta),
+        }
+    }
+
+    fn state_expm(&self, p: &Started<N>, delta: f64) -> [f64; N] {
+        let n = N + 3;
+        let mut m: Aug = [[0.0; MAX_AUG]; MAX_AUG];
+        for i in 0..N {
+            for j in 0..N {
+                m[i][j] = self.a[i][j] * delta;
+            }
+            m[i][N] = self.b[i] * delta;
+            m[i][N + 2] = p.c[i] * delta;
+        }
+        m[N][N + 1] = -self.eta * delta;
+        m[N + 1][N] = self.eta * delta;
+        let e = linalg::expm(&m, n);
+        let w = p.u * C64::from_polar(1.0, self.eta * p.s0);
+        let mut y = [0.0; MAX_AUG];
+        y[..N].copy_from_slice(&p.x0);
+        y[N] = w.re;
+        y[N + 1] = w.im;
+        y[N + 2] = 1.0;
+        let mut x = [0.0; N];
+        for (i, xi) in x.iter_mut().enumerate() {
+            *xi = (0..n).map(|j| e[i][j] * y[j]).sum();
+        }
+        x
+    }
+
+    /// Time derivatives x' and x'' at offset δ, given the state x there
+    /// (from the ODE, exact).
+    #[inline]
+    pub fn derivs(&self, p: &Started<N>, delta: f64, x: &[f64; N]) -> ([f64; N], [f64; N]) {
+        let (z, dz) = self.drive(p.u, p.s0 + delta);
+        let mut d1 = [0.0; N];
+        for i in 0..N {
+            let mut s = self.b[i] * z + p.c[i];
+            for j in 0..N {
+                s += self.a[i][j] * x[j];
+            }
+            d1[i] = s;
+        }
+        let mut d2 = [0.0; N];
+        for i in 0..N {
+            let mut s = self.b[i] * dz;
+            for j in 0..N {
+                s += self.a[i][j] * d1[j];
+            }
+            d2[i] = s;
+        }
+        (d1, d2)
+    }
+}
+
+/// Phase matrices of the absorber (paper eqs. 1–2) for an affine law.
+pub mod absorber {
+    use crate::model::Absorber;
+
+    /// Slip-phase matrix for state `[ζ1, ζ1', ζ2, ζ2']` with slope D* (the
+    /// velocity-proportional part of the friction acts like extra damping).
+    pub fn slip_matrix(a: &Absorber, slope: f64) -> [[f64; 4]; 4] {
+        let (m, k, d) = (a.m, a.k, a.damping);
+        [
+            [0.0, 1.0, 0.0, 0.0],
+            [-(1.0 + k) / m, -d / m, 1.0 / m, d / m],
+            [0.0, 0.0, 0.0, 1.0],
+            [1.0, d, -1.0, -(d + slope)],
+        ]
+    }
+
+    /// Drive input of the slip phase: k·ζ0 acts on M1.
+    pub fn slip_input(a: &Absorber) -> [f64; 4] {
+        [0.0, a.k / a.m, 0.0, 0.0]
+    }
+
+    /// Stick-phase matrix for state `[ζ1, ζ1']` (eq. 2).
+    pub fn stick_matrix(a: &Absorber) -> [[f64; 2]; 2] {
+        [[0.0, 1.0], [-(1.0 + a.k) / a.m, -a.damping / a.m]]
+    }
+
+    /// Drive input of the stick phase.
+    pub fn stick_input(a: &Absorber) -> [f64; 2] {
+        [0.0, a.k / a.m]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Absorber;
+
+    fn both_reprs(a: [[f64; 4]; 4], b: [f64; 4], eta: f64) -> (LinearPhase<4>, LinearPhase<4>) {
+        let modal = LinearPhase::new(a, b, eta).unwrap();
+        assert!(modal.is_modal());
+        let mut expm = modal;
+        expm.repr = Repr::Expm;
+        (modal, expm)
+    }
+
+    /// The modal closed form and the matrix exponential are two independent
+    /// exact solutions: they must agree to rounding over a long offset.
+    #[test]
+    fn modal_agrees_with_expm() {
+        let ab = Absorber::default();
+        let (p, q) = both_reprs(
+            absorber::slip_matrix(&ab, -0.04),
+            absorber::slip_input(&ab),
+            0.6,
+        );
+        let x0 = [0.3, -0.1, 0.2, 0.05];
+        let u = C64::from_polar(1.0, 0.7);
+        let c = [0.0, 0.0, 0.0, -0.375];
+        let (sp, sq) = (p.start(x0, 1.3, u, c), q.start(x0, 1.3, u, c));
+        for &d in &[0.0, 0.1, 1.0, 5.0, 10.0] {
+            let (xp, xq) = (p.state(&sp, d), q.state(&sq, d));
+            for i in 0..4 {
+                assert!((xp[i] - xq[i]).abs() < 2e-13, "δ={d} i={i}: {} vs {}", xp[i], xq[i]);
+            }
+        }
+    }
+
+    /// Critical damping of the stick system makes A defective: the phase
+    /// must fall back and still match the closed form of a critically damped
+    /// oscillator, x(t) = (x0 + (v0 + ω x0) t) e^{−ω t}.
+    #[test]
+    fn critical_damping_is_exact() {
+        let ab = Absorber {
+            m: 1.0,
+            k: 3.0,
+            damping: 4.0, // D² = 4 m (1+k): critical
+        };
+        let p = LinearPhase::new(absorber::stick_matrix(&ab), [0.0, 0.0], 0.5).unwrap();
+        assert!(!p.is_modal());
+        let w = 2.0;
+        let (x0, v0) = (0.4, -0.3);
+        let s = p.start([x0, v0], 0.0, C64::new(0.0, 0.0), [0.0, 0.0]);
+        for &t in &[0.1, 1.0, 3.0] {
+            let x = p.state(&s, t);
+            let exact = (x0 + (v0 + w * x0) * t) * (-w * t).exp();
+            assert!((x[0] - exact).abs() < 1e-14, "{} vs {exact}", x[0]);
+        }
+    }
+
+    /// Undamped forcing at the eigenfrequency: x'' + ω²x = cos(ωt) from rest
+    /// has the secular solution t·sin(ωt)/(2ω).
+    #[test]
+    fn undamped_resonance_grows_secularly() {
+        let w: f64 = 0.7;
+        let p = LinearPhase::new([[0.0, 1.0], [-w * w, 0.0]], [0.0, 1.0], w).unwrap();
+        assert!(!p.is_modal());
+        let s = p.start([0.0, 0.0], 0.0, C64::new(1.0, 0.0), [0.0, 0.0]);
+        for &t in &[1.0, 10.0, 40.0] {
+            let x = p.state(&s, t);
+            let exact = t * (w * t).sin() / (2.0 * w);
+            assert!((x[0] - exact).abs() < 1e-12 * (1.0 + exact.abs()), "{} vs {exact}", x[0]);
+        }
+    }
+}

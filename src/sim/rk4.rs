@@ -1,0 +1,261 @@
+//! The paper's own integration procedure (§2): classical fourth-order
+//! Runge–Kutta with fixed step H on eqs. (1)/(2), and switching-time
+//! determination by re-integrating the step that contains a sign change of a
+//! switching function with a shorter step until the switching function is
+//! zero. Written directly from the equations of motion, independently of the
+//! exact engine's matrices, so it cross-checks them; the switching decisions
+//! are the same physics ([`super::engine::after_slip`]). Errors are O(H⁴).
+
+use super::engine::{after_slip, net_force, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status};
+use super::events;
+use super::SimError;
+use crate::model::{Law, Model};
+use std::f64::consts::PI;
+
+/// The paper's RK4 integrator with step `h` (dimensionless time).
+#[derive(Debug, Clone)]
+pub struct Rk4 {
+    model: Model,
+    eta: f64,
+    h: f64,
+    rho_d: f64,
+    v_interrupt: Option<f64>,
+}
+
+impl Rk4 {
+    /// Prepares the integrator (affine laws only, like the exact engine).
+    pub fn new(model: &Model, eta: f64, h: f64) -> Result<Self, SimError> {
+        model.validate()?;
+        crate::model::validate_eta(eta)?;
+        if !(h.is_finite() && h > 0.0) {
+            return Err(SimError::Unsupported(format!("step must be finite and > 0, got {h}")));
+        }
+        let (rho_d, slope) = match model.law {
+            Law::Linear { rho_d, slope, .. } => (rho_d, slope),
+            Law::Stribeck { .. } => return Err(SimError::Unsupported("rk4 supports affine laws only".into())),
+        };
+        let thr = model.interrupt_level();
+        let v_interrupt = if rho_d < thr {
+            Some(0.0)
+        } else if slope < 0.0 {
+            Some((rho_d - thr) / -slope)
+        } else {
+            None
+        };
+        Ok(Self {
+            model: *model,
+            eta,
+            h,
+            rho_d,
+            v_interrupt,
+        })
+    }
+
+    /// Right-hand side of eq. (1) (slip) or eq. (2) (stick) at period offset s.
+    fn rhs(&self, mode: Mode, s: f64, x: &[f64; 4]) -> [f64; 4] {
+        let ab = &self.model.absorber;
+        let (m, k, d) = (ab.m, ab.k, ab.damping);
+        let drive = k * (self.eta * s).cos();
+        match mode {
+            Mode::Stick { z2 } => {
+                let a1 = (drive - d * x[1] - (1.0 + k) * x[0] + z2) / m;
+                [x[1], a1, 0.0, 0.0]
+            }
+            Mode::Slip { dir } => {
+                let a1 = (drive - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
+                let fric = if self.model.law.is_frictionless() {
+                    self.model.law.slope() * x[3]
+                } else {
+                    dir * self.rho_d + self.model.law.slope() * x[3]
+                };
+                let a2 = d * (x[1] - x[3]) + x[0] - x[2] - fric;
+                [x[1], a1, x[3], a2]
+            }
+        }
+    }
+
+    fn step(&self, mode: Mode, s: f64, x: &[f64; 4], dt: f64) -> [f64; 4] {
+        let add = |a: &[f64; 4], b: &[f64; 4], f: f64| std::array::from_fn::<f64, 4, _>(|i| a[i] + f * b[i]);
+        let k1 = self.rhs(mode, s, x);
+        let k2 = self.rhs(mode, s + 0.5 * dt, &add(x, &k1, 0.5 * dt));
+        let k3 = self.rhs(mode, s + 0.5 * dt, &add(x, &k2, 0.5 * dt));
+        let k4 = self.rhs(mode, s + dt, &add(x, &k3, dt));
+        std::array::from_fn(|i| x[i] + dt / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]))
+    }
+
+    /// Switching functions of a mode, each > 0 while the mode holds.
+    fn switching(&self, mode: Mode, x: &[f64; 4]) -> [f64; 2] {
+        let rho_s = self.model.law.rho_s();
+        match mode {
+            Mode::Stick { .. } => {
+                let f = net_force(&self.model, x);
+                [rho_s - f, rho_s + f]
+            }
+            Mode::Slip { dir } => {
+                let vi = self.v_interrupt.map_or(f64::INFINITY, |v| v - dir * x[3]);
+                if self.model.law.is_frictionless() {
+                    [f64::INFINITY, f64::INFINITY]
+                } else {
+                    [dir * x[3], vi]
+                }
+            }
+        }
+    }
+
+    /// Integrates `periods` forcing periods (same observer protocol as the
+    /// exact engine, without extremum location: amplitudes from step points).
+    pub fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
+        let t = 2.0 * PI / self.eta;
+        let mut mode = if self.model.law.is_frictionless() {
+            Mode::Slip { dir: 1.0 }
+        } else {
+            init.mode
+        };
+        let mut x = init.x;
+        if let Mode::Stick { z2 } = mode {
+            x[2] = z2;
+            x[3] = 0.0;
+        }
+        let (mut events, mut stick_time) = (0u64, 0.0);
+        let mut fresh = true;
+        for n in 0..periods {
+            let mut s = 0.0;
+            let mut st = PeriodStats {
+                min: [x[0], x[2]],
+                max: [x[0], x[2]],
+                stick_time: 0.0,
+            };
+            while s < t {
+                let dt = self.h.min(t - s);
+                let x1 = self.step(mode, s, &x, dt);
+                let h0 = self.switching(mode, &x);
+                let h1 = self.switching(mode, &x1);
+                // Earliest sign change (a function on its boundary at a fresh
+                // phase start counts as positive: it leaves the boundary).
+                let mut best: Option<(f64, usize)> = None;
+                for i in 0..2 {
+                    let pos0 = h0[i] > 0.0 || (fresh && h0[i] == 0.0);
+                    if pos0 && h1[i] <= 0.0 {
+                        let f = |d: f64| {
+                            let y = self.step(mode, s, &x, d);
+                            let dy = self.rhs(mode, s + d, &y);
+                            let g = self.switching(mode, &y)[i];
+                            let dg = match (mode, i) {
+                                (Mode::Stick { .. }, _) => {
+                                    let df = dy[0] + self.model.absorber.damping * dy[1];
+                                    if i == 0 {
+                                        -df
+                                    } else {
+                                        df
+                                    }
+                                }
+                                (Mode::Slip { dir }, 0) => dir * dy[3],
+                                (Mode::Slip { dir }, _) => -dir * dy[3],
+                            };
+                            (g, dg)
+                        };
+                        // Bracket start: a point where the function is > 0.
+                        let mut lo = 0.0;
+                        if h0[i] <= 0.0 {
+                            lo = dt;
+                            for _ in 0..60 {
+                                lo *= 0.5;
+                                if f(lo).0 > 0.0 {
+                                    break;
+                                }
+                            }
+                        }
+                        let r = if f(lo).0 > 0.0 { events::refine(f, lo, dt) } else { 0.0 };
+                        if best.is_none_or(|(b, _)| r < b) {
+                            best = Some((r, i));
+                        }
+                    }
+                }
+                fresh = false;
+                let Some((d, which)) = best else {
+                    if matches!(mode, Mode::Stick { .. }) {
+                        stick_time += dt;
+                        st.stick_time += dt;
+                    }
+                    x = x1;
+                    s += dt;
+                    st.min = [st.min[0].min(x[0]), st.min[1].min(x[2])];
+                    st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
+                    continue;
+                };
+                if matches!(mode, Mode::Stick { .. }) {
+                    stick_time += d;
+                    st.stick_time += d;
+                }
+                x = self.step(mode, s, &x, d);
+                s += d;
+                let tau = n as f64 * t + s;
+                let (kind, next) = match mode {
+                    Mode::Stick { z2 } => {
+                        x[2] = z2;
+                        x[3] = 0.0;
+                        if which == 0 {
+                            (EventKind::SlipPlus, Mode::Slip { dir: 1.0 })
+                        } else {
+                            (EventKind::SlipMinus, Mode::Slip { dir: -1.0 })
+                        }
+                    }
+                    Mode::Slip { .. } if which == 1 => {
+                        obs.event(&Event {
+                            tau,
+                            kind: EventKind::Interrupt,
+                            x,
+                        });
+                        return RunEnd {
+                            status: Status::Interrupted(format!("sliding friction below the limit at tau = {tau}")),
+                            periods: n,
+                            tau,
+                            x,
+                            mode,
+                            events: events + 1,
+                            stick_time,
+                        };
+                    }
+                    Mode::Slip { dir: old } => {
+                        x[3] = 0.0;
+                        match after_slip(&self.model, &x, (self.eta * s).cos()) {
+                            Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }),
+                            Mode::Slip { dir } if dir > 0.0 && old < 0.0 => (EventKind::ReversePlus, Mode::Slip { dir }),
+                            Mode::Slip { dir } if dir < 0.0 && old > 0.0 => (EventKind::ReverseMinus, Mode::Slip { dir }),
+                            Mode::Slip { dir } => (
+                                if dir > 0.0 { EventKind::SlipPlus } else { EventKind::SlipMinus },
+                                Mode::Slip { dir },
+                            ),
+                        }
+                    }
+                };
+                st.min = [st.min[0].min(x[0]), st.min[1].min(x[2])];
+                st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
+                obs.event(&Event { tau, kind, x });
+                events += 1;
+                mode = next;
+                fresh = true;
+            }
+            if obs.period(n + 1, &x, mode, &st) == Flow::Stop {
+                return RunEnd {
+                    status: Status::Stopped,
+                    periods: n + 1,
+                    tau: (n + 1) as f64 * t,
+                    x,
+                    mode,
+                    events,
+                    stick_time,
+                };
+            }
+        }
+        RunEnd {
+            status: Status::Completed,
+            periods,
+            tau: periods as f64 * t,
+            x,
+            mode,
+            events,
+            stick_time,
+        }
+    }
+}

@@ -1,0 +1,249 @@
+//! Amplitudes (paper eq. 6), steady state and period-n detection on the
+//! Poincaré section at the forcing period, and the `simulate` job built on
+//! the engine.
+//!
+//! The Poincaré map P samples the state at τ = nT. A response is period-p
+//! (p ≤ 8) when ‖P(n) − P(n−p)‖∞ ≤ tol·(1 + ‖x‖∞) holds for 2p consecutive
+//! periods (two whole orbits) with the same contact mode; the smallest such
+//! p is reported. Amplitudes are then (max ζi − min ζi)/2 over the last p
+//! periods, with the extremes located exactly (roots of ζ1', events for ζ2).
+
+use super::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, Sim, Status};
+use super::linear;
+
+/// Largest period multiple detected.
+pub const MAX_PERIOD_MULTIPLE: usize = 8;
+const RING: usize = 64;
+
+/// What to simulate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimOptions {
+    /// Integrate exactly this many periods (`None`: until steady).
+    pub periods: Option<u64>,
+    /// Longest run when integrating until steady.
+    pub max_periods: u64,
+    /// Periods over which a non-periodic response's amplitude is taken.
+    pub window: u64,
+    /// Relative tolerance of the Poincaré-map periodicity test.
+    pub tol: f64,
+    /// Initial condition.
+    pub init: Init,
+    /// Use the closed form where it is exact (ρs = 0, ρs = ∞) for steady runs.
+    pub shortcuts: bool,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self {
+            periods: None,
+            max_periods: 20_000,
+            window: 10,
+            tol: 1e-9,
+            init: Init::rest(),
+            shortcuts: true,
+        }
+    }
+}
+
+/// The result of a `simulate` job (the interface's JSON keys).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// η.
+    pub eta: f64,
+    /// Final time.
+    pub tau_end: f64,
+    /// Final state.
+    pub final_state: [f64; 4],
+    /// Number of switching events.
+    pub events: u64,
+    /// A1/A by eq. 6 (None if interrupted).
+    pub amplitude1: Option<f64>,
+    /// A2/A by eq. 6 (None if interrupted).
+    pub amplitude2: Option<f64>,
+    /// Whether the response is periodic on the Poincaré section.
+    pub steady: bool,
+    /// n of a period-n response.
+    pub period_multiple: Option<u32>,
+    /// Fraction of the simulated time M2 sticks (over the amplitude window).
+    pub stick_fraction: f64,
+    /// The interruption rule fired.
+    pub interrupted: bool,
+    /// How the run ended (`steady`, `completed`, `interrupted`, `chatter`,
+    /// `not-settled`, `closed-form`).
+    pub status: &'static str,
+    /// Why the run ended early, if it did.
+    pub reason: Option<String>,
+    /// Forcing periods integrated.
+    pub periods: u64,
+}
+
+/// Tracks the Poincaré section and per-period statistics; forwards events
+/// and samples to an inner observer.
+pub struct Tracker<'a, O: Observer> {
+    inner: &'a mut O,
+    tol: f64,
+    stop_when_steady: bool,
+    n: u64,
+    points: [([f64; 4], bool); RING],
+    stats: [PeriodStats; RING],
+    streak: [u64; MAX_PERIOD_MULTIPLE + 1],
+    /// Detected period multiple.
+    pub steady: Option<u32>,
+}
+
+impl<'a, O: Observer> Tracker<'a, O> {
+    /// A tracker forwarding to `inner`.
+    pub fn new(inner: &'a mut O, tol: f64, stop_when_steady: bool) -> Self {
+        let empty = PeriodStats {
+            min: [0.0; 2],
+            max: [0.0; 2],
+            stick_time: 0.0,
+        };
+        Self {
+            inner,
+            tol,
+            stop_when_steady,
+            n: 0,
+            points: [([0.0; 4], false); RING],
+            stats: [empty; RING],
+            streak: [0; MAX_PERIOD_MULTIPLE + 1],
+            steady: None,
+        }
+    }
+
+    /// Merged statistics over the last `w` periods (w ≤ periods seen, ≤ 64).
+    pub fn window(&self, w: u64) -> Option<PeriodStats> {
+        let w = w.min(self.n).min(RING as u64);
+        if w == 0 {
+            return None;
+        }
+        let mut acc = self.stats[((self.n - 1) % RING as u64) as usize];
+        for j in 1..w {
+            let s = &self.stats[((self.n - 1 - j) % RING as u64) as usize];
+            for i in 0..2 {
+                acc.min[i] = acc.min[i].min(s.min[i]);
+                acc.max[i] = acc.max[i].max(s.max[i]);
+            }
+            acc.stick_time += s.stick_time;
+        }
+        Some(acc)
+    }
+}
+
+impl<O: Observer> Observer for Tracker<'_, O> {
+    fn event(&mut self, ev: &Event) {
+        self.inner.event(ev);
+    }
+    fn samples_per_period(&self) -> Option<u32> {
+        self.inner.samples_per_period()
+    }
+    fn sample(&mut self, tau: f64, x: &[f64; 4]) {
+        self.inner.sample(tau, x);
+    }
+    fn period(&mut self, n: u64, x: &[f64; 4], mode: Mode, stats: &PeriodStats) -> Flow {
+        let idx = ((n - 1) % RING as u64) as usize;
+        let stuck = matches!(mode, Mode::Stick { .. });
+        self.points[idx] = (*x, stuck);
+        self.stats[idx] = *stats;
+        self.n = n;
+        let scale = 1.0 + x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        self.steady = None;
+        for p in 1..=MAX_PERIOD_MULTIPLE {
+            if n <= p as u64 {
+                self.streak[p] = 0;
+                continue;
+            }
+            let (y, ystuck) = self.points[((n - 1 - p as u64) % RING as u64) as usize];
+            let close = ystuck == stuck && x.iter().zip(&y).all(|(a, b)| (a - b).abs() <= self.tol * scale);
+            self.streak[p] = if close { self.streak[p] + 1 } else { 0 };
+            if self.steady.is_none() && self.streak[p] >= 2 * p as u64 {
+                self.steady = Some(p as u32);
+            }
+        }
+        let inner = self.inner.period(n, x, mode, stats);
+        if inner == Flow::Stop || (self.stop_when_steady && self.steady.is_some()) {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
+}
+
+/// Runs a `simulate` job: `opts.periods` periods, or until steady.
+pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summary {
+    let model = sim.model();
+    let eta = sim.eta();
+    if opts.periods.is_none() && opts.shortcuts && opts.init == Init::rest() {
+        // The linear limits are exact in closed form: skip the integration.
+        let closed = if model.law.is_frictionless() {
+            let (a1, a2) = linear::free_amplitudes(&model.absorber, model.law.slope(), eta);
+            Some((a1, a2, linear::free_state(&model.absorber, model.law.slope(), eta), 0.0))
+        } else if model.law.is_always_stuck() {
+            let (a1, a2) = linear::stuck_amplitudes(&model.absorber, eta);
+            Some((a1, a2, linear::stuck_state(&model.absorber, eta, 0.0), 1.0))
+        } else {
+            None
+        };
+        if let Some((a1, a2, x, sf)) = closed {
+            return Summary {
+                eta,
+                tau_end: 0.0,
+                final_state: x,
+                events: 0,
+                amplitude1: Some(a1),
+                amplitude2: Some(a2),
+                steady: true,
+                period_multiple: Some(1),
+                stick_fraction: sf,
+                interrupted: false,
+                status: "closed-form",
+                reason: None,
+                periods: 0,
+            };
+        }
+    }
+    let periods = opts.periods.unwrap_or(opts.max_periods);
+    let mut tr = Tracker::new(obs, opts.tol, opts.periods.is_none());
+    let end = sim.run(opts.init, periods, &mut tr);
+    let steady = tr.steady;
+    let w = match steady {
+        Some(p) => p as u64,
+        None if opts.periods.is_none() => opts.window.max(50),
+        None => opts.window,
+    };
+    let stats = tr.window(w);
+    let (status, reason, interrupted) = match &end.status {
+        Status::Interrupted(r) => ("interrupted", Some(r.clone()), true),
+        Status::Chatter(r) => ("chatter", Some(r.clone()), false),
+        Status::Stopped => ("steady", None, false),
+        Status::Completed if steady.is_some() => ("steady", None, false),
+        Status::Completed if opts.periods.is_none() => (
+            "not-settled",
+            Some(format!("no period-n response (n <= 8) within {periods} periods")),
+            false,
+        ),
+        Status::Completed => ("completed", None, false),
+    };
+    let ok = !interrupted && !matches!(end.status, Status::Chatter(_));
+    let amp = |i: usize| stats.filter(|_| ok).map(|s| 0.5 * (s.max[i] - s.min[i]));
+    let stick_fraction = match stats {
+        Some(s) if ok => s.stick_time / (w.min(end.periods) as f64 * sim.period()),
+        _ if end.tau > 0.0 => end.stick_time / end.tau,
+        _ => 0.0,
+    };
+    Summary {
+        eta,
+        tau_end: end.tau,
+        final_state: end.x,
+        events: end.events,
+        amplitude1: amp(0),
+        amplitude2: amp(1),
+        steady: steady.is_some() && ok,
+        period_multiple: steady.filter(|_| ok),
+        stick_fraction,
+        interrupted,
+        status,
+        reason,
+        periods: end.periods,
+    }
+}
