@@ -126,11 +126,12 @@ pub enum Law {
 }
 
 impl Law {
-    /// Coulomb's law, ρd = ρs (Fig. 2a).
+    /// Coulomb's law, ρd = ρs (Fig. 2a). For ρs = ∞ (never slides) the
+    /// unused dynamic level is set to 0.
     pub fn coulomb(rho_s: f64) -> Self {
         Law::Linear {
             rho_s,
-            rho_d: rho_s,
+            rho_d: if rho_s.is_finite() { rho_s } else { 0.0 },
             slope: 0.0,
         }
     }

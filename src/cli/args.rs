@@ -7,19 +7,19 @@ use clap::Args;
 #[derive(Debug, Clone, Args)]
 pub struct ModelArgs {
     /// Mass ratio m = M1/M2.
-    #[arg(long, default_value_t = 4.0)]
+    #[arg(long, default_value_t = 4.0, allow_hyphen_values = true)]
     pub m: f64,
     /// Stiffness ratio k = K1/K2.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub k: f64,
     /// Viscous damping D = d/sqrt(K2 M2).
-    #[arg(long, default_value_t = 0.005)]
+    #[arg(long, default_value_t = 0.005, allow_hyphen_values = true)]
     pub damping: f64,
     /// Static threshold rho_s (0: no friction; inf: always stuck).
-    #[arg(long = "rho-s", default_value_t = 0.0)]
+    #[arg(long = "rho-s", default_value_t = 0.0, allow_hyphen_values = true)]
     pub rho_s: f64,
     /// Dynamic level rho_d (default: equal to rho_s).
-    #[arg(long = "rho-d")]
+    #[arg(long = "rho-d", allow_hyphen_values = true)]
     pub rho_d: Option<f64>,
     /// Slope D* of the characteristic.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]

@@ -1,7 +1,24 @@
-//! `stickslip simulate`: one forcing frequency, exact engine.
+//! `stickslip simulate`: one forcing frequency with the exact engine (or the
+//! paper's RK4 for cross-checks), optional event and trajectory files
+//! streamed to disk in constant memory and written atomically.
 
 use super::ModelArgs;
-use clap::Args;
+use crate::io::AtomicFile;
+use crate::sim::rk4::Rk4;
+use crate::sim::{self, Event, Flow, Mode, Observer, PeriodStats, Sim, SimOptions};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Integration method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Exact event-driven closed-form engine.
+    Exact,
+    /// The paper's classical RK4 with switching-time determination.
+    Rk4,
+}
 
 /// Arguments of `stickslip simulate`.
 #[derive(Debug, Args)]
@@ -10,13 +27,169 @@ pub struct SimulateArgs {
     #[command(flatten)]
     pub model: ModelArgs,
     /// Forcing frequency ratio η = Ω·sqrt(M2/K2).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub eta: f64,
+    /// Integrate exactly N forcing periods.
+    #[arg(long, conflicts_with = "steady", required_unless_present = "steady")]
+    pub periods: Option<u64>,
+    /// Integrate until the response is periodic (or declared not periodic).
+    #[arg(long)]
+    pub steady: bool,
+    /// Longest run with --steady, in forcing periods.
+    #[arg(long, default_value_t = 20_000)]
+    pub max_periods: u64,
+    /// Start at rest with M2 sticking (the default initial state).
+    #[arg(long)]
+    pub from_rest: bool,
+    /// Write every switching event to this CSV.
+    #[arg(long)]
+    pub events: Option<PathBuf>,
+    /// Write the trajectory (uniform samples) to this CSV.
+    #[arg(long)]
+    pub trajectory: Option<PathBuf>,
+    /// Trajectory samples per forcing period.
+    #[arg(long, default_value_t = 64)]
+    pub samples_per_period: u32,
+    /// Integration method.
+    #[arg(long, value_enum, default_value_t = Method::Exact)]
+    pub method: Method,
+    /// RK4 step size H (dimensionless time), with --method rk4.
+    #[arg(long, default_value_t = 1e-2)]
+    pub step: f64,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Streams events and samples into CSV files.
+struct Files {
+    events: Option<AtomicFile>,
+    traj: Option<(AtomicFile, u32)>,
+    err: Option<crate::Error>,
+}
+
+impl Files {
+    fn write(&mut self, which: bool, line: std::fmt::Arguments<'_>) {
+        if self.err.is_some() {
+            return;
+        }
+        let f = if which {
+            self.events.as_mut()
+        } else {
+            self.traj.as_mut().map(|t| &mut t.0)
+        };
+        if let Some(f) = f {
+            if let Err(e) = f.writer().write_fmt(line) {
+                self.err = Some(f.io_err(e));
+            }
+        }
+    }
+}
+
+impl Observer for Files {
+    fn event(&mut self, ev: &Event) {
+        let x = ev.x;
+        self.write(
+            true,
+            format_args!("{},{},{},{},{},{}\n", ev.tau, ev.kind.as_str(), x[0], x[1], x[2], x[3]),
+        );
+    }
+    fn samples_per_period(&self) -> Option<u32> {
+        self.traj.as_ref().map(|t| t.1)
+    }
+    fn sample(&mut self, tau: f64, x: &[f64; 4]) {
+        self.write(false, format_args!("{},{},{},{},{}\n", tau, x[0], x[1], x[2], x[3]));
+    }
+    fn period(&mut self, _n: u64, _x: &[f64; 4], _m: Mode, _s: &PeriodStats) -> Flow {
+        if self.err.is_some() {
+            Flow::Stop
+        } else {
+            Flow::Continue
+        }
+    }
 }
 
 /// Runs `simulate`.
 pub fn run(args: SimulateArgs) -> crate::Result<()> {
-    let _model = args.model.model()?;
+    let model = args.model.model()?;
     crate::model::validate_eta(args.eta)?;
-    Err(crate::sim::SimError::Unsupported("simulate: engine not built yet".into()).into())
+    if args.samples_per_period == 0 {
+        return Err(crate::sim::SimError::Unsupported("--samples-per-period must be >= 1".into()).into());
+    }
+    let mut files = Files {
+        events: None,
+        traj: None,
+        err: None,
+    };
+    if let Some(p) = &args.events {
+        let mut f = AtomicFile::create(p)?;
+        writeln!(f.writer(), "tau,kind,zeta1,dzeta1,zeta2,dzeta2").map_err(|e| f.io_err(e))?;
+        files.events = Some(f);
+    }
+    if let Some(p) = &args.trajectory {
+        let mut f = AtomicFile::create(p)?;
+        writeln!(f.writer(), "tau,zeta1,dzeta1,zeta2,dzeta2").map_err(|e| f.io_err(e))?;
+        files.traj = Some((f, args.samples_per_period));
+    }
+    let opts = SimOptions {
+        periods: args.periods,
+        max_periods: args.max_periods,
+        // Files want the integrated trajectory, not a closed-form answer.
+        shortcuts: args.events.is_none() && args.trajectory.is_none(),
+        ..SimOptions::default()
+    };
+    let summary = match args.method {
+        Method::Exact => {
+            let sim = Sim::new(&model, args.eta)?;
+            sim::simulate(&sim, &opts, &mut files)
+        }
+        Method::Rk4 => {
+            let rk = Rk4::new(&model, args.eta, args.step)?;
+            sim::steady::simulate_with(&opts, args.eta, |init, n, obs| rk.run(init, n, obs), 2.0 * std::f64::consts::PI / args.eta, &mut files)
+        }
+    };
+    if let Some(e) = files.err.take() {
+        return Err(e);
+    }
+    if let Some(f) = files.events.take() {
+        f.commit()?;
+    }
+    if let Some((f, _)) = files.traj.take() {
+        f.commit()?;
+    }
+    let s = &summary;
+    if args.json {
+        super::print_json(&json!({
+            "eta": s.eta,
+            "tau_end": s.tau_end,
+            "final_state": s.final_state,
+            "events": s.events,
+            "amplitude1": s.amplitude1,
+            "amplitude2": s.amplitude2,
+            "steady": s.steady,
+            "period_multiple": s.period_multiple,
+            "stick_fraction": s.stick_fraction,
+            "interrupted": s.interrupted,
+            "status": s.status,
+            "reason": s.reason,
+            "periods": s.periods,
+            "method": match args.method { Method::Exact => "exact", Method::Rk4 => "rk4" },
+            "law": model.law.name(),
+        }));
+    } else {
+        let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6}"));
+        eprintln!(
+            "eta {:.4}  {}  A1/A {}  A2/A {}  stick {:.3}  events {}  periods {}  status {}{}",
+            s.eta,
+            model.law,
+            f(s.amplitude1),
+            f(s.amplitude2),
+            s.stick_fraction,
+            s.events,
+            s.periods,
+            s.status,
+            s.reason.as_ref().map_or(String::new(), |r| format!(" ({r})")),
+        );
+    }
+    Ok(())
 }

@@ -622,22 +622,26 @@ fn slip_jet(ph: &LinearPhase<4>, p: &Started<4>, d: f64) -> Jet<4> {
     Jet { x, dx, ddx }
 }
 
-/// Locates an extremum of ζ1 inside a step (a sign change of ζ1') exactly.
+/// Locates the extremes of ζ1 and ζ2 inside a step (sign changes of ζ1',
+/// ζ2') exactly. (Within a slip with friction ζ2' cannot change sign, a
+/// zero of ζ2' is an event; without friction it can.)
 #[inline]
 fn track_extremum<E: Fn(f64) -> Jet<4>>(eval: &E, st: &mut PeriodStats, a: f64, ja: &Jet<4>, b: f64, jb: &Jet<4>) {
-    let (va, vb) = (ja.dx[0], jb.dx[0]);
-    if va * vb < 0.0 {
-        let sgn = va.signum();
-        let r = events::refine(
-            |d| {
-                let j = eval(d);
-                (sgn * j.dx[0], sgn * j.ddx[0])
-            },
-            a,
-            b,
-        );
-        let j = eval(r);
-        st.add(j.x[0], j.x[2]);
+    for c in [0, 2] {
+        let (va, vb) = (ja.dx[c], jb.dx[c]);
+        if va * vb < 0.0 {
+            let sgn = va.signum();
+            let r = events::refine(
+                |d| {
+                    let j = eval(d);
+                    (sgn * j.dx[c], sgn * j.ddx[c])
+                },
+                a,
+                b,
+            );
+            let j = eval(r);
+            st.add(j.x[0], j.x[2]);
+        }
     }
     st.add(jb.x[0], jb.x[2]);
 }

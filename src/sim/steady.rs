@@ -2,10 +2,14 @@
 //! Poincaré section at the forcing period, and the `simulate` job built on
 //! the engine.
 //!
-//! The Poincaré map P samples the state at τ = nT. A response is period-p
-//! (p ≤ 8) when ‖P(n) − P(n−p)‖∞ ≤ tol·(1 + ‖x‖∞) holds for 2p consecutive
-//! periods (two whole orbits) with the same contact mode; the smallest such
-//! p is reported. Amplitudes are then (max ζi − min ζi)/2 over the last p
+//! The Poincaré map P samples the state at τ = nT. For each p ≤ 8 the
+//! distance d(n) = ‖P(n) − P(n−p)‖∞ is watched; for a linearly converging
+//! orbit with contraction r = d(n)/d(n−p) < 1 the distance to the periodic
+//! orbit is about d(n)·r/(1 − r) (not d(n): slowly contracting, lightly
+//! damped orbits would be declared steady far too early). A response is
+//! period-p when that estimate, and d(n), stay ≤ tol·(1 + ‖x‖∞) for 2p
+//! consecutive periods (two whole orbits) with the same contact mode; the
+//! smallest such p is reported. Amplitudes are then (max ζi − min ζi)/2 over the last p
 //! periods, with the extremes located exactly (roots of ζ1', events for ζ2).
 
 use super::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, Sim, Status};
@@ -87,6 +91,7 @@ pub struct Tracker<'a, O: Observer> {
     points: [([f64; 4], bool); RING],
     stats: [PeriodStats; RING],
     streak: [u64; MAX_PERIOD_MULTIPLE + 1],
+    dist: [[f64; MAX_PERIOD_MULTIPLE]; MAX_PERIOD_MULTIPLE + 1],
     /// Detected period multiple.
     pub steady: Option<u32>,
 }
@@ -107,6 +112,7 @@ impl<'a, O: Observer> Tracker<'a, O> {
             points: [([0.0; 4], false); RING],
             stats: [empty; RING],
             streak: [0; MAX_PERIOD_MULTIPLE + 1],
+            dist: [[f64::INFINITY; MAX_PERIOD_MULTIPLE]; MAX_PERIOD_MULTIPLE + 1],
             steady: None,
         }
     }
@@ -127,6 +133,28 @@ impl<'a, O: Observer> Tracker<'a, O> {
             acc.stick_time += s.stick_time;
         }
         Some(acc)
+    }
+}
+
+impl<O: Observer> Tracker<'_, O> {
+    /// The smallest divisor q of a converged period p whose shift maps the
+    /// last 2p section points onto each other within `lim` (oscillating
+    /// convergence can make a period-1 orbit pass the test at p = 2 first).
+    fn minimal_period(&self, p: usize, n: u64, lim: f64) -> u32 {
+        for q in 1..p {
+            if p % q != 0 {
+                continue;
+            }
+            let ok = (0..2 * p as u64).all(|j| {
+                let (a, sa) = self.points[((n - 1 - j) % RING as u64) as usize];
+                let (b, sb) = self.points[((n - 1 - j - q as u64) % RING as u64) as usize];
+                sa == sb && a.iter().zip(&b).all(|(u, v)| (u - v).abs() <= lim)
+            });
+            if ok {
+                return q as u32;
+            }
+        }
+        p as u32
     }
 }
 
@@ -154,10 +182,25 @@ impl<O: Observer> Observer for Tracker<'_, O> {
                 continue;
             }
             let (y, ystuck) = self.points[((n - 1 - p as u64) % RING as u64) as usize];
-            let close = ystuck == stuck && x.iter().zip(&y).all(|(a, b)| (a - b).abs() <= self.tol * scale);
+            let d = if ystuck == stuck {
+                x.iter().zip(&y).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+            } else {
+                f64::INFINITY
+            };
+            // d(n − p), kept in a ring of p slots.
+            let slot = (n % p as u64) as usize;
+            let prev = self.dist[p][slot];
+            self.dist[p][slot] = d;
+            let lim = self.tol * scale;
+            let close = if d <= 1e-3 * lim {
+                true // converged in finite time (stick phases reset the state)
+            } else {
+                let r = d / prev;
+                d <= lim && r < 1.0 && d * r / (1.0 - r) <= lim
+            };
             self.streak[p] = if close { self.streak[p] + 1 } else { 0 };
             if self.steady.is_none() && self.streak[p] >= 2 * p as u64 {
-                self.steady = Some(p as u32);
+                self.steady = Some(self.minimal_period(p, n, lim));
             }
         }
         let inner = self.inner.period(n, x, mode, stats);
@@ -202,9 +245,19 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
             };
         }
     }
+    simulate_with(opts, eta, |init, n, o| sim.run(init, n, o), sim.period(), obs)
+}
+
+/// The `simulate` job over any integrator with the engine's observer
+/// protocol (`run(init, periods, observer)`), e.g. the paper's RK4.
+pub fn simulate_with<O, R>(opts: &SimOptions, eta: f64, run: R, period: f64, obs: &mut O) -> Summary
+where
+    O: Observer,
+    R: FnOnce(Init, u64, &mut Tracker<'_, O>) -> super::engine::RunEnd,
+{
     let periods = opts.periods.unwrap_or(opts.max_periods);
     let mut tr = Tracker::new(obs, opts.tol, opts.periods.is_none());
-    let end = sim.run(opts.init, periods, &mut tr);
+    let end = run(opts.init, periods, &mut tr);
     let steady = tr.steady;
     let w = match steady {
         Some(p) => p as u64,
@@ -227,7 +280,7 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
     let ok = !interrupted && !matches!(end.status, Status::Chatter(_));
     let amp = |i: usize| stats.filter(|_| ok).map(|s| 0.5 * (s.max[i] - s.min[i]));
     let stick_fraction = match stats {
-        Some(s) if ok => s.stick_time / (w.min(end.periods) as f64 * sim.period()),
+        Some(s) if ok => s.stick_time / (w.min(end.periods) as f64 * period),
         _ if end.tau > 0.0 => end.stick_time / end.tau,
         _ => 0.0,
     };
