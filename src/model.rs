@@ -64,8 +64,18 @@ impl Default for Absorber {
 impl Absorber {
     /// Checks that the absorber is physical (finite, m > 0, k > 0, D ≥ 0).
     pub fn validate(&self) -> Result<(), ParamError> {
-        check("m", self.m, self.m.is_finite() && self.m > 0.0, "must be finite and > 0")?;
-        check("k", self.k, self.k.is_finite() && self.k > 0.0, "must be finite and > 0")?;
+        check(
+            "m",
+            self.m,
+            self.m.is_finite() && self.m > 0.0,
+            "must be finite and > 0",
+        )?;
+        check(
+            "k",
+            self.k,
+            self.k.is_finite() && self.k > 0.0,
+            "must be finite and > 0",
+        )?;
         check(
             "damping",
             self.damping,
@@ -215,15 +225,40 @@ impl Law {
     /// v_s > 0 finite.
     pub fn validate(&self) -> Result<(), ParamError> {
         let (rs, rd, sl) = (self.rho_s(), self.rho_d(), self.slope());
-        check("rho-s", rs, !rs.is_nan() && rs >= 0.0, "must be >= 0 (inf allowed)")?;
-        check("rho-d", rd, rd.is_finite() && rd >= 0.0, "must be finite and >= 0")?;
-        check("rho-d", rd, rd <= rs, "must not exceed rho-s (dynamic > static friction)")?;
+        check(
+            "rho-s",
+            rs,
+            !rs.is_nan() && rs >= 0.0,
+            "must be >= 0 (inf allowed)",
+        )?;
+        check(
+            "rho-d",
+            rd,
+            rd.is_finite() && rd >= 0.0,
+            "must be finite and >= 0",
+        )?;
+        check(
+            "rho-d",
+            rd,
+            rd <= rs,
+            "must not exceed rho-s (dynamic > static friction)",
+        )?;
         check("slope", sl, sl.is_finite(), "must be finite")?;
         if rs == 0.0 {
-            check("slope", sl, sl >= 0.0, "a negative slope without friction is an active damper")?;
+            check(
+                "slope",
+                sl,
+                sl >= 0.0,
+                "a negative slope without friction is an active damper",
+            )?;
         }
         if let Law::Stribeck { v_s, .. } = *self {
-            check("v-s", v_s, v_s.is_finite() && v_s > 0.0, "must be finite and > 0")?;
+            check(
+                "v-s",
+                v_s,
+                v_s.is_finite() && v_s > 0.0,
+                "must be finite and > 0",
+            )?;
         }
         Ok(())
     }
@@ -233,7 +268,11 @@ impl Law {
     pub fn name(&self) -> &'static str {
         match *self {
             Law::Stribeck { .. } => "stribeck",
-            Law::Linear { rho_s, rho_d, slope } => {
+            Law::Linear {
+                rho_s,
+                rho_d,
+                slope,
+            } => {
                 if rho_d < rho_s {
                     "static-dynamic"
                 } else if slope != 0.0 {
@@ -279,7 +318,12 @@ impl Model {
         self.absorber.validate()?;
         self.law.validate()?;
         if let Some(f) = self.stop_below {
-            check("stop-below", f, f.is_finite() && (0.0..=1.0).contains(&f), "must be in [0, 1]")?;
+            check(
+                "stop-below",
+                f,
+                f.is_finite() && (0.0..=1.0).contains(&f),
+                "must be in [0, 1]",
+            )?;
         }
         Ok(())
     }
@@ -296,7 +340,12 @@ impl Model {
 
 /// Validates a forcing frequency ratio η.
 pub fn validate_eta(eta: f64) -> Result<(), ParamError> {
-    check("eta", eta, eta.is_finite() && eta > 0.0, "must be finite and > 0")
+    check(
+        "eta",
+        eta,
+        eta.is_finite() && eta > 0.0,
+        "must be finite and > 0",
+    )
 }
 
 #[cfg(test)]
@@ -305,6 +354,7 @@ mod tests {
 
     /// η0, η1, η2 for m = 4, k = 1 as printed with the paper's Figs. 3–5.
     #[test]
+    #[allow(clippy::approx_constant)] // 0.7071 is the paper's printed η0
     fn paper_natural_frequencies() {
         let a = Absorber::default();
         let (e1, e2) = a.eta_linear();
@@ -316,18 +366,44 @@ mod tests {
     #[test]
     fn rejects_unphysical() {
         let bad = [
-            Absorber { m: 0.0, ..Default::default() },
-            Absorber { k: -1.0, ..Default::default() },
-            Absorber { damping: f64::NAN, ..Default::default() },
+            Absorber {
+                m: 0.0,
+                ..Default::default()
+            },
+            Absorber {
+                k: -1.0,
+                ..Default::default()
+            },
+            Absorber {
+                damping: f64::NAN,
+                ..Default::default()
+            },
         ];
         for a in bad {
             assert!(a.validate().is_err(), "{a:?}");
         }
         let laws = [
-            Law::Linear { rho_s: 0.3, rho_d: 0.4, slope: 0.0 },
-            Law::Linear { rho_s: f64::NAN, rho_d: 0.0, slope: 0.0 },
-            Law::Linear { rho_s: 0.3, rho_d: 0.3, slope: f64::INFINITY },
-            Law::Stribeck { rho_s: 0.3, rho_d: 0.2, slope: 0.0, v_s: 0.0 },
+            Law::Linear {
+                rho_s: 0.3,
+                rho_d: 0.4,
+                slope: 0.0,
+            },
+            Law::Linear {
+                rho_s: f64::NAN,
+                rho_d: 0.0,
+                slope: 0.0,
+            },
+            Law::Linear {
+                rho_s: 0.3,
+                rho_d: 0.3,
+                slope: f64::INFINITY,
+            },
+            Law::Stribeck {
+                rho_s: 0.3,
+                rho_d: 0.2,
+                slope: 0.0,
+                v_s: 0.0,
+            },
         ];
         for l in laws {
             assert!(l.validate().is_err(), "{l:?}");
@@ -338,7 +414,23 @@ mod tests {
     #[test]
     fn law_names() {
         assert_eq!(Law::coulomb(0.3).name(), "coulomb");
-        assert_eq!(Law::Linear { rho_s: 0.3, rho_d: 0.3, slope: -0.04 }.name(), "decreasing");
-        assert_eq!(Law::Linear { rho_s: 0.3, rho_d: 0.15, slope: 0.0 }.name(), "static-dynamic");
+        assert_eq!(
+            Law::Linear {
+                rho_s: 0.3,
+                rho_d: 0.3,
+                slope: -0.04
+            }
+            .name(),
+            "decreasing"
+        );
+        assert_eq!(
+            Law::Linear {
+                rho_s: 0.3,
+                rho_d: 0.15,
+                slope: 0.0
+            }
+            .name(),
+            "static-dynamic"
+        );
     }
 }

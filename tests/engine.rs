@@ -1,9 +1,12 @@
 //! Accuracy of the exact engine against closed forms, the paper's RK4, and
+#![allow(clippy::needless_range_loop)]
 //! the energy balance. Every reference value names its source.
 
 use stickslip::model::{Absorber, Law, Model};
 use stickslip::sim::rk4::Rk4;
-use stickslip::sim::{linear, simulate, Event, Flow, Init, Mode, Observer, PeriodStats, Sim, SimOptions};
+use stickslip::sim::{
+    linear, simulate, Event, Flow, Init, Mode, Observer, PeriodStats, Sim, SimOptions,
+};
 
 fn model(law: Law) -> Model {
     Model {
@@ -42,14 +45,24 @@ fn frictionless_limit_matches_closed_form() {
         let sim = Sim::new(&model(Law::coulomb(0.0)), eta).unwrap();
         let x0 = linear::free_state(&ab, 0.0, eta);
         let mut c = Collect::default();
-        let end = sim.run(Init { x: x0, mode: Mode::Slip { dir: 1.0 } }, 3, &mut c);
+        let end = sim.run(
+            Init {
+                x: x0,
+                mode: Mode::Slip { dir: 1.0 },
+            },
+            3,
+            &mut c,
+        );
         let (a1, a2) = linear::free_amplitudes(&ab, 0.0, eta);
         let s = c.stats.last().unwrap();
         let (e1, e2) = (0.5 * (s.max[0] - s.min[0]), 0.5 * (s.max[1] - s.min[1]));
         assert!((e1 - a1).abs() <= 1e-9 * a1, "eta {eta}: A1 {e1} vs {a1}");
         assert!((e2 - a2).abs() <= 1e-9 * a2, "eta {eta}: A2 {e2} vs {a2}");
         for i in 0..4 {
-            assert!((end.x[i] - x0[i]).abs() <= 1e-9 * (1.0 + x0[i].abs()), "eta {eta}: drift in x[{i}]");
+            assert!(
+                (end.x[i] - x0[i]).abs() <= 1e-9 * (1.0 + x0[i].abs()),
+                "eta {eta}: drift in x[{i}]"
+            );
         }
         assert_eq!(end.events, 0);
     }
@@ -63,7 +76,14 @@ fn stuck_limit_matches_closed_form() {
         let sim = Sim::new(&model(Law::coulomb(f64::INFINITY)), eta).unwrap();
         let x0 = linear::stuck_state(&ab, eta, 0.1);
         let mut c = Collect::default();
-        let end = sim.run(Init { x: x0, mode: Mode::Stick { z2: 0.1 } }, 3, &mut c);
+        let end = sim.run(
+            Init {
+                x: x0,
+                mode: Mode::Stick { z2: 0.1 },
+            },
+            3,
+            &mut c,
+        );
         let (a1, _) = linear::stuck_amplitudes(&ab, eta);
         let s = c.stats.last().unwrap();
         let e1 = 0.5 * (s.max[0] - s.min[0]);
@@ -96,7 +116,10 @@ fn event_engine_converges_to_both_limits() {
         for &rs in &[4e-2, 2e-2, 1e-2] {
             let sim = Sim::new(&model(Law::coulomb(rs)), eta).unwrap();
             let opts = SimOptions {
-                init: Init { x: linear::free_state(&ab, 0.0, eta), mode: Mode::Slip { dir: 1.0 } },
+                init: Init {
+                    x: linear::free_state(&ab, 0.0, eta),
+                    mode: Mode::Slip { dir: 1.0 },
+                },
                 max_periods: 200_000,
                 ..SimOptions::default()
             };
@@ -105,7 +128,10 @@ fn event_engine_converges_to_both_limits() {
             errs.push((s.amplitude1.unwrap() - a1).abs() / a1);
         }
         eprintln!("eta {eta}: rel. A1 error vs rho_s 4e-2, 2e-2, 1e-2: {errs:?}");
-        assert!(errs[1] < 0.7 * errs[0] && errs[2] < 0.7 * errs[1], "{errs:?}");
+        assert!(
+            errs[1] < 0.7 * errs[0] && errs[2] < 0.7 * errs[1],
+            "{errs:?}"
+        );
     }
     // Large ρs: the stuck orbit's contact force F = ζ1 − ζ2* + Dζ1' has the
     // closed-form amplitude |X1|·|1 + iηD| around ζ2*/(1+k) − ζ2*.
@@ -116,15 +142,35 @@ fn event_engine_converges_to_both_limits() {
         let sim = Sim::new(&model(Law::coulomb(1.0001 * fmax)), eta).unwrap();
         let x0 = linear::stuck_state(&ab, eta, z2);
         let mut c = Collect::default();
-        sim.run(Init { x: x0, mode: Mode::Stick { z2 } }, 5, &mut c);
-        assert!(c.events.is_empty(), "eta {eta}: slid although rho_s > max |F|");
+        sim.run(
+            Init {
+                x: x0,
+                mode: Mode::Stick { z2 },
+            },
+            5,
+            &mut c,
+        );
+        assert!(
+            c.events.is_empty(),
+            "eta {eta}: slid although rho_s > max |F|"
+        );
         let a1 = 0.5 * (c.stats[4].max[0] - c.stats[4].min[0]);
         assert!((a1 - x1.norm()).abs() < 1e-9 * x1.norm());
         // Just below the largest force it must break away.
         let sim = Sim::new(&model(Law::coulomb(0.999 * fmax)), eta).unwrap();
         let mut c = Collect::default();
-        sim.run(Init { x: x0, mode: Mode::Stick { z2 } }, 5, &mut c);
-        assert!(!c.events.is_empty(), "eta {eta}: stuck although rho_s < max |F|");
+        sim.run(
+            Init {
+                x: x0,
+                mode: Mode::Stick { z2 },
+            },
+            5,
+            &mut c,
+        );
+        assert!(
+            !c.events.is_empty(),
+            "eta {eta}: stuck although rho_s < max |F|"
+        );
     }
 }
 
@@ -135,7 +181,14 @@ fn event_engine_converges_to_both_limits() {
 fn rk4_converges_at_fourth_order() {
     for (law, eta) in [
         (Law::coulomb(0.375), 0.6),
-        (Law::Linear { rho_s: 0.5, rho_d: 0.25, slope: 0.0 }, 1.1),
+        (
+            Law::Linear {
+                rho_s: 0.5,
+                rho_d: 0.25,
+                slope: 0.0,
+            },
+            1.1,
+        ),
     ] {
         let m = model(law);
         let mut exact = Collect::default();
@@ -179,8 +232,22 @@ const GL: [(f64, f64); 5] = [
 fn energy_balance_over_a_steady_period() {
     let cases = [
         (Law::coulomb(0.375), 0.6),
-        (Law::Linear { rho_s: 0.375, rho_d: 0.375, slope: -0.04 }, 0.9),
-        (Law::Linear { rho_s: 0.5, rho_d: 0.25, slope: 0.0 }, 1.1),
+        (
+            Law::Linear {
+                rho_s: 0.375,
+                rho_d: 0.375,
+                slope: -0.04,
+            },
+            0.9,
+        ),
+        (
+            Law::Linear {
+                rho_s: 0.5,
+                rho_d: 0.25,
+                slope: 0.0,
+            },
+            1.1,
+        ),
     ];
     for (law, eta) in cases {
         let m = model(law);
@@ -192,9 +259,13 @@ fn energy_balance_over_a_steady_period() {
             // Mode at the section from the state: stuck iff ζ2' = 0 and |F| < ρs.
             let f = stickslip::sim::engine::net_force(&m, &s.final_state);
             if s.final_state[3] == 0.0 && f.abs() < law.rho_s() {
-                Mode::Stick { z2: s.final_state[2] }
+                Mode::Stick {
+                    z2: s.final_state[2],
+                }
             } else {
-                Mode::Slip { dir: s.final_state[3].signum() }
+                Mode::Slip {
+                    dir: s.final_state[3].signum(),
+                }
             }
         });
         let mut c = Collect::default();
@@ -233,7 +304,9 @@ fn energy_balance_over_a_steady_period() {
             }
         }
         let rel = (w_in - w_visc - w_fric).abs() / w_in;
-        eprintln!("{law} eta {eta}: W_in {w_in:.12} W_visc {w_visc:.12} W_fric {w_fric:.12} rel {rel:e}");
+        eprintln!(
+            "{law} eta {eta}: W_in {w_in:.12} W_visc {w_visc:.12} W_fric {w_fric:.12} rel {rel:e}"
+        );
         assert!(rel < 1e-9, "energy balance off by {rel:e}");
         for i in 0..4 {
             assert!((end.x[i] - x0[i]).abs() < 1e-9, "orbit not periodic");

@@ -78,7 +78,8 @@ proptest! {
             stuck_samples: 0,
             worst_excess: f64::NEG_INFINITY,
             nan: false,
-            mode: Mode::Stick { z2: 0.0 },
+            // The engine's start: frictionless runs slide from the outset.
+            mode: if rs == 0.0 { Mode::Slip { dir: 1.0 } } else { Mode::Stick { z2: 0.0 } },
         };
         let end = sim.run(Init::rest(), 12, &mut c);
         prop_assert!(!c.nan, "NaN in the trajectory");

@@ -27,7 +27,11 @@ fn kind_name(k: EventKind) -> &'static str {
 
 #[test]
 fn h1_events_and_final_state_match_40_digit_reference() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/datasets/reference/H1.json")).unwrap();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/datasets/reference/H1.json"
+    ))
+    .unwrap();
     let r: serde_json::Value = serde_json::from_str(&text).unwrap();
     let model = Model {
         absorber: Absorber {
@@ -46,7 +50,12 @@ fn h1_events_and_final_state_match_40_digit_reference() {
     let mut worst_t: f64 = 0.0;
     let mut worst_x: f64 = 0.0;
     for (e, rf) in c.0.iter().zip(refs) {
-        assert_eq!(kind_name(e.kind), rf["kind"].as_str().unwrap(), "kind at tau {}", e.tau);
+        assert_eq!(
+            kind_name(e.kind),
+            rf["kind"].as_str().unwrap(),
+            "kind at tau {}",
+            e.tau
+        );
         let t = num(&rf["tau"]);
         worst_t = worst_t.max((e.tau - t).abs() / t);
         for (i, xr) in rf["x"].as_array().unwrap().iter().enumerate() {

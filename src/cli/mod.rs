@@ -12,7 +12,11 @@ pub use args::ModelArgs;
 
 /// Command line of the `stickslip` binary.
 #[derive(Debug, Parser)]
-#[command(name = "stickslip", version, about = "Dry-friction vibration absorber: identify, simulate, validate")]
+#[command(
+    name = "stickslip",
+    version,
+    about = "Dry-friction vibration absorber: identify, simulate, validate"
+)]
 pub struct Cli {
     /// The job to run.
     #[command(subcommand)]

@@ -91,14 +91,25 @@ impl Observer for Files {
         let x = ev.x;
         self.write(
             true,
-            format_args!("{},{},{},{},{},{}\n", ev.tau, ev.kind.as_str(), x[0], x[1], x[2], x[3]),
+            format_args!(
+                "{},{},{},{},{},{}\n",
+                ev.tau,
+                ev.kind.as_str(),
+                x[0],
+                x[1],
+                x[2],
+                x[3]
+            ),
         );
     }
     fn samples_per_period(&self) -> Option<u32> {
         self.traj.as_ref().map(|t| t.1)
     }
     fn sample(&mut self, tau: f64, x: &[f64; 4]) {
-        self.write(false, format_args!("{},{},{},{},{}\n", tau, x[0], x[1], x[2], x[3]));
+        self.write(
+            false,
+            format_args!("{},{},{},{},{}\n", tau, x[0], x[1], x[2], x[3]),
+        );
     }
     fn period(&mut self, _n: u64, _x: &[f64; 4], _m: Mode, _s: &PeriodStats) -> Flow {
         if self.err.is_some() {
@@ -114,7 +125,9 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
     let model = args.model.model()?;
     crate::model::validate_eta(args.eta)?;
     if args.samples_per_period == 0 {
-        return Err(crate::sim::SimError::Unsupported("--samples-per-period must be >= 1".into()).into());
+        return Err(
+            crate::sim::SimError::Unsupported("--samples-per-period must be >= 1".into()).into(),
+        );
     }
     let mut files = Files {
         events: None,
@@ -145,7 +158,13 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
         }
         Method::Rk4 => {
             let rk = Rk4::new(&model, args.eta, args.step)?;
-            sim::steady::simulate_with(&opts, args.eta, |init, n, obs| rk.run(init, n, obs), 2.0 * std::f64::consts::PI / args.eta, &mut files)
+            sim::steady::simulate_with(
+                &opts,
+                args.eta,
+                |init, n, obs| rk.run(init, n, obs),
+                2.0 * std::f64::consts::PI / args.eta,
+                &mut files,
+            )
         }
     };
     if let Some(e) = files.err.take() {
@@ -188,7 +207,9 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
             s.events,
             s.periods,
             s.status,
-            s.reason.as_ref().map_or(String::new(), |r| format!(" ({r})")),
+            s.reason
+                .as_ref()
+                .map_or(String::new(), |r| format!(" ({r})")),
         );
     }
     Ok(())

@@ -248,8 +248,12 @@ impl Sim {
         let ab = &model.absorber;
         let stick = LinearPhase::new(absorber::stick_matrix(ab), absorber::stick_input(ab), eta)
             .ok_or_else(|| SimError::Unsupported("singular stick matrix".into()))?;
-        let slip = LinearPhase::new(absorber::slip_matrix(ab, slope), absorber::slip_input(ab), eta)
-            .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
+        let slip = LinearPhase::new(
+            absorber::slip_matrix(ab, slope),
+            absorber::slip_input(ab),
+            eta,
+        )
+        .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
         let thr = model.interrupt_level();
         let v_interrupt = if rho_d < thr {
             Some(0.0)
@@ -293,12 +297,16 @@ impl Sim {
     pub fn state_in_phase(&self, x: &[f64; 4], mode: Mode, s0: f64, delta: f64) -> [f64; 4] {
         match mode {
             Mode::Stick { z2 } => {
-                let p = self.stick.start([x[0], x[1]], s0, C64::new(1.0, 0.0), self.stick_c(z2));
+                let p = self
+                    .stick
+                    .start([x[0], x[1]], s0, C64::new(1.0, 0.0), self.stick_c(z2));
                 let y = self.stick.state(&p, delta);
                 [y[0], y[1], z2, 0.0]
             }
             Mode::Slip { dir } => {
-                let p = self.slip.start(*x, s0, C64::new(1.0, 0.0), self.slip_c(dir));
+                let p = self
+                    .slip
+                    .start(*x, s0, C64::new(1.0, 0.0), self.slip_c(dir));
                 self.slip.state(&p, delta)
             }
         }
@@ -313,7 +321,6 @@ impl Sim {
     fn slip_c(&self, dir: f64) -> [f64; 4] {
         [0.0, 0.0, 0.0, -dir * self.rho_d]
     }
-
 
     fn after_slip(&self, x: &[f64; 4], s: f64) -> Mode {
         let (z, _) = self.stick.drive(C64::new(1.0, 0.0), s);
@@ -386,24 +393,38 @@ impl Sim {
                     let eval = |d: f64| stick_jet(&self.stick, &p, d, z2);
                     let fns = self.stick_events(z2);
                     let nf = if self.rho_s.is_finite() { 2 } else { 0 };
-                    let (hit, jb) = events::first_event(&eval, &fns[..nf], left, self.step_stick, |a, ja, b, jb| {
-                        if extremes {
-                            track_extremum(&eval, &mut stats, a, ja, b, jb);
-                        }
-                        sampler(a, b, &|d| eval(d).x, obs);
-                    });
+                    let (hit, jb) = events::first_event(
+                        &eval,
+                        &fns[..nf],
+                        left,
+                        self.step_stick,
+                        t,
+                        |a, ja, b, jb| {
+                            if extremes {
+                                track_extremum(&eval, &mut stats, a, ja, b, jb);
+                            }
+                            sampler(a, b, &|d| eval(d).x, obs);
+                        },
+                    );
                     (hit, jb, 0)
                 }
                 Mode::Slip { dir } => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
                     let eval = |d: f64| slip_jet(&self.slip, &p, d);
                     let (fns, nf) = self.slip_events(dir, frictionless);
-                    let (hit, jb) = events::first_event(&eval, &fns[..nf], left, self.step_slip, |a, ja, b, jb| {
-                        if extremes {
-                            track_extremum(&eval, &mut stats, a, ja, b, jb);
-                        }
-                        sampler(a, b, &|d| eval(d).x, obs);
-                    });
+                    let (hit, jb) = events::first_event(
+                        &eval,
+                        &fns[..nf],
+                        left,
+                        self.step_slip,
+                        t,
+                        |a, ja, b, jb| {
+                            if extremes {
+                                track_extremum(&eval, &mut stats, a, ja, b, jb);
+                            }
+                            sampler(a, b, &|d| eval(d).x, obs);
+                        },
+                    );
                     (hit, jb, 1)
                 }
             };
@@ -464,7 +485,11 @@ impl Sim {
                         let z2 = x[2];
                         x = [h.jet.x[0], h.jet.x[1], z2, 0.0];
                         let dir = if h.which == 0 { 1.0 } else { -1.0 };
-                        let k = if dir > 0.0 { EventKind::SlipPlus } else { EventKind::SlipMinus };
+                        let k = if dir > 0.0 {
+                            EventKind::SlipPlus
+                        } else {
+                            EventKind::SlipMinus
+                        };
                         (k, Mode::Slip { dir })
                     } else {
                         x = h.jet.x;
@@ -486,10 +511,20 @@ impl Sim {
                                     self.model.stop_below.unwrap_or(0.0)
                                 )
                             };
-                            return end(n, s, x, mode, Status::Interrupted(why), events + 1, stick_time);
+                            return end(
+                                n,
+                                s,
+                                x,
+                                mode,
+                                Status::Interrupted(why),
+                                events + 1,
+                                stick_time,
+                            );
                         }
                         x[3] = 0.0;
-                        let Mode::Slip { dir: old } = mode else { unreachable!() };
+                        let Mode::Slip { dir: old } = mode else {
+                            unreachable!()
+                        };
                         match self.after_slip(&x, s) {
                             Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }),
                             Mode::Slip { dir } if dir != old => {
@@ -509,7 +544,11 @@ impl Sim {
                                     x,
                                 });
                                 events += 1;
-                                let k = if dir > 0.0 { EventKind::SlipPlus } else { EventKind::SlipMinus };
+                                let k = if dir > 0.0 {
+                                    EventKind::SlipPlus
+                                } else {
+                                    EventKind::SlipMinus
+                                };
                                 (k, Mode::Slip { dir })
                             }
                         }
@@ -626,7 +665,14 @@ fn slip_jet(ph: &LinearPhase<4>, p: &Started<4>, d: f64) -> Jet<4> {
 /// ζ2') exactly. (Within a slip with friction ζ2' cannot change sign, a
 /// zero of ζ2' is an event; without friction it can.)
 #[inline]
-fn track_extremum<E: Fn(f64) -> Jet<4>>(eval: &E, st: &mut PeriodStats, a: f64, ja: &Jet<4>, b: f64, jb: &Jet<4>) {
+fn track_extremum<E: Fn(f64) -> Jet<4>>(
+    eval: &E,
+    st: &mut PeriodStats,
+    a: f64,
+    ja: &Jet<4>,
+    b: f64,
+    jb: &Jet<4>,
+) {
     for c in [0, 2] {
         let (va, vb) = (ja.dx[c], jb.dx[c]);
         if va * vb < 0.0 {
@@ -637,6 +683,7 @@ fn track_extremum<E: Fn(f64) -> Jet<4>>(eval: &E, st: &mut PeriodStats, a: f64, 
                     (sgn * j.dx[c], sgn * j.ddx[c])
                 },
                 a,
+                b,
                 b,
             );
             let j = eval(r);

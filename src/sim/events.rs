@@ -53,36 +53,40 @@ impl<const N: usize> EventFn<N> {
 
 /// Safeguarded Newton (Newton steps kept inside a shrinking bracket, bisection
 /// otherwise) for the root of `f` in [a, b] with f(a) > 0 ≥ f(b). `f`
-/// returns (value, derivative). Converges to the last representable bracket.
-pub fn refine<F: FnMut(f64) -> (f64, f64)>(mut f: F, mut a: f64, mut b: f64) -> f64 {
+/// returns (value, derivative). Converges to machine precision relative to
+/// `scale` (the magnitude of the time the offsets are added to: resolving an
+/// offset of 1e-15 to 1e-31 would be meaningless once added to τ).
+pub fn refine<F: FnMut(f64) -> (f64, f64)>(mut f: F, mut a: f64, mut b: f64, scale: f64) -> f64 {
+    // The result is always on the event side (f ≤ 0): a switching state
+    // must satisfy its switching condition (e.g. |F| ≥ ρs at breakaway, so
+    // the slip starts with an acceleration of the right sign).
     let mut x = 0.5 * (a + b);
     for _ in 0..200 {
         let (v, d) = f(x);
-        if v == 0.0 {
-            return x;
-        }
-        if v > 0.0 {
-            a = x;
-        } else {
+        if v <= 0.0 {
             b = x;
+        } else {
+            a = x;
+        }
+        let res = 2.0 * f64::EPSILON * x.abs().max(scale);
+        if v == 0.0 || b - a <= res {
+            return b;
         }
         let newton = x - v / d;
-        let next = if d != 0.0 && newton.is_finite() && newton > a && newton < b {
+        let small = d != 0.0 && (newton - x).abs() <= 0.5 * res;
+        if small && v <= 0.0 {
+            return x;
+        }
+        x = if small {
+            // Converged from the valid side: step just past the root.
+            (x + res).min(b)
+        } else if d != 0.0 && newton.is_finite() && newton > a && newton < b {
             newton
         } else {
             0.5 * (a + b)
         };
-        // Stop once the bracket is at the resolution of the numbers.
-        let tol = 2.0 * f64::EPSILON * a.abs().max(b.abs());
-        if (b - a) <= tol || next == x {
-            return if next > a && next < b { next } else { b };
-        }
-        if (next - x).abs() <= 0.5 * f64::EPSILON * x.abs() {
-            return next;
-        }
-        x = next;
     }
-    x
+    b
 }
 
 /// The first event of a phase.
@@ -112,6 +116,7 @@ pub fn first_event<const N: usize, E, S>(
     fns: &[EventFn<N>],
     end: f64,
     step: f64,
+    scale: f64,
     mut on_step: S,
 ) -> (Option<Hit<N>>, Jet<N>)
 where
@@ -169,7 +174,7 @@ where
                         lo_i = t;
                     }
                 }
-                let r = refine(|d| deriv1(f, &eval(d)), lo_i, b);
+                let r = refine(|d| deriv1(f, &eval(d)), lo_i, b, scale);
                 if best.is_none_or(|(d, _)| r < d) {
                     best = Some((r, i));
                 }
@@ -179,16 +184,16 @@ where
                 continue;
             }
             if hb <= 0.0 && ha > 0.0 {
-                let r = refine(|d| deriv1(f, &eval(d)), lo_i, b);
+                let r = refine(|d| deriv1(f, &eval(d)), lo_i, b, scale);
                 if best.is_none_or(|(d, _)| r < d) {
                     best = Some((r, i));
                 }
             } else if ha > 0.0 && hb > 0.0 && da < 0.0 && db > 0.0 {
                 // A minimum inside: grazing candidate.
-                let tm = refine(|d| deriv2(f, &eval(d)), a, b);
+                let tm = refine(|d| deriv2(f, &eval(d)), a, b, scale);
                 let (hm, _, _) = f.eval(&eval(tm));
                 if hm <= 0.0 {
-                    let r = refine(|d| deriv1(f, &eval(d)), a, tm);
+                    let r = refine(|d| deriv1(f, &eval(d)), a, tm, scale);
                     if best.is_none_or(|(d, _)| r < d) {
                         best = Some((r, i));
                     }
@@ -196,11 +201,13 @@ where
             }
         }
         if let Some((d, i)) = best {
+            let jd = eval(d);
+            on_step(a, &ja, d, &jd);
             return (
                 Some(Hit {
                     delta: d,
                     which: i,
-                    jet: eval(d),
+                    jet: jd,
                 }),
                 jb,
             );
@@ -242,7 +249,7 @@ mod tests {
 
     #[test]
     fn refine_reaches_machine_precision() {
-        let r = refine(|x| (2.0 - x * x, -2.0 * x), 1.0, 2.0);
+        let r = refine(|x| (2.0 - x * x, -2.0 * x), 1.0, 2.0, 0.0);
         assert!((r - 2f64.sqrt()).abs() <= 2.0 * f64::EPSILON);
     }
 
@@ -252,13 +259,15 @@ mod tests {
     fn finds_grazing_zero() {
         let f = EventFn { g: [1.0], g0: 0.0 };
         let eval = |t: f64| jet_cos(t, 1.0, 1.0 - 1e-9);
-        let (hit, _) = first_event(&eval, &[f], 10.0, 1.0, |_, _, _, _| {});
+        let (hit, _) = first_event(&eval, &[f], 10.0, 1.0, 10.0, |_, _, _, _| {});
         let hit = hit.expect("grazing zero found");
         let exact = std::f64::consts::PI - (2e-9f64).sqrt();
         assert!((hit.delta - exact).abs() < 1e-12, "{}", hit.delta);
         // A pure touch that stays positive is not an event.
         let eval = |t: f64| jet_cos(t, 1.0, 1.0 + 1e-9);
-        assert!(first_event(&eval, &[f], 10.0, 1.0, |_, _, _, _| {}).0.is_none());
+        assert!(first_event(&eval, &[f], 10.0, 1.0, 10.0, |_, _, _, _| {})
+            .0
+            .is_none());
     }
 
     /// A function starting on its boundary (h(0) = 0, leaving upwards) must
@@ -271,14 +280,21 @@ mod tests {
             dx: [t.cos()],
             ddx: [-t.sin()],
         };
-        let (hit, _) = first_event(&eval, &[f], 10.0, 1.0, |_, _, _, _| {});
-        assert!((hit.unwrap().delta - std::f64::consts::PI).abs() < 1e-15);
+        let (hit, _) = first_event(&eval, &[f], 10.0, 1.0, 10.0, |_, _, _, _| {});
+        // Machine precision relative to the time scale passed (10).
+        assert!((hit.unwrap().delta - std::f64::consts::PI).abs() <= 4.0 * f64::EPSILON * 10.0);
         // Leaving downwards: zero-length phase.
         let eval = |t: f64| Jet {
             x: [-t * t],
             dx: [-2.0 * t],
             ddx: [-2.0],
         };
-        assert_eq!(first_event(&eval, &[f], 10.0, 1.0, |_, _, _, _| {}).0.unwrap().delta, 0.0);
+        assert_eq!(
+            first_event(&eval, &[f], 10.0, 1.0, 10.0, |_, _, _, _| {})
+                .0
+                .unwrap()
+                .delta,
+            0.0
+        );
     }
 }

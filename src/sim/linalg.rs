@@ -38,7 +38,11 @@ pub fn modal<const N: usize>(a: &[[f64; N]; N]) -> Option<Modal<N>> {
     }
     let vinv = inverse(&v)?;
     let cond = norm_inf(&v) * norm_inf(&vinv);
-    if !cond.is_finite() || lambda.iter().any(|l| !l.re.is_finite() || !l.im.is_finite()) {
+    if !cond.is_finite()
+        || lambda
+            .iter()
+            .any(|l| !l.re.is_finite() || !l.im.is_finite())
+    {
         return None;
     }
     Some(Modal {

@@ -10,6 +10,9 @@
 //! * [`rk4`]: the paper's own method, classical RK4 with switching-time
 //!   determination, for cross-checks and benchmarks.
 
+// Index loops mirror the matrix formulas (A·x, V·y) and read clearer here.
+#![allow(clippy::needless_range_loop)]
+
 pub mod engine;
 pub mod events;
 pub mod linalg;

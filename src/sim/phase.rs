@@ -31,8 +31,15 @@ const MAX_COND: f64 = 1e6;
 
 #[derive(Debug, Clone, Copy)]
 enum Repr<const N: usize> {
-    /// Modal form with the unit-amplitude harmonic response X.
-    Modal { md: Modal<N>, xh: [C64; N] },
+    /// Modal form with the unit-amplitude harmonic response X. Complex
+    /// eigenvalues of a real matrix come in conjugate pairs whose terms are
+    /// conjugate: only one of each pair is evaluated, weighted by 2.
+    Modal {
+        md: Modal<N>,
+        xh: [C64; N],
+        terms: [(usize, f64); N],
+        nterms: usize,
+    },
     /// Augmented matrix `[[A, b, 0, c̃], [0, 0, −η, 0], [0, η, 0, 0], 0]` without
     /// the constant column (set per phase); exponentials taken per call.
     Expm,
@@ -83,9 +90,17 @@ impl<const N: usize> LinearPhase<N> {
             .max(eta);
         let repr = match md {
             Some(md) if md.cond < MAX_COND => {
-                match linalg::shifted_solve(&a, C64::new(0.0, eta), &b) {
-                    Some(xh) => Repr::Modal { md, xh },
-                    None => Repr::Expm,
+                match (
+                    linalg::shifted_solve(&a, C64::new(0.0, eta), &b),
+                    conjugate_terms(&md),
+                ) {
+                    (Some(xh), Some((terms, nterms))) => Repr::Modal {
+                        md,
+                        xh,
+                        terms,
+                        nterms,
+                    },
+                    _ => Repr::Expm,
                 }
             }
             _ => Repr::Expm,
@@ -116,7 +131,7 @@ impl<const N: usize> LinearPhase<N> {
             }
         }
         let mut y0 = [C64::new(0.0, 0.0); N];
-        if let Repr::Modal { md, xh } = &self.repr {
+        if let Repr::Modal { md, xh, .. } = &self.repr {
             let e = u * C64::from_polar(1.0, self.eta * s0);
             let mut r = [0.0; N];
             for i in 0..N {
@@ -149,20 +164,22 @@ impl<const N: usize> LinearPhase<N> {
     #[inline]
     pub fn state(&self, p: &Started<N>, delta: f64) -> [f64; N] {
         match &self.repr {
-            Repr::Modal { md, xh } => {
+            Repr::Modal {
+                md,
+                xh,
+                terms,
+                nterms,
+            } => {
                 let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
-                let mut ey = [C64::new(0.0, 0.0); N];
-                for k in 0..N {
-                    ey[k] = p.y0[k] * (md.lambda[k] * delta).exp();
-                }
                 let mut x = [0.0; N];
                 for i in 0..N {
-                    let mut h = 0.0;
-                    for (k, eyk) in ey.iter().enumerate() {
-                        let z = md.v[i][k] * eyk;
-                        h += z.re;
+                    x[i] = p.xc[i] + (xh[i] * e).re;
+                }
+                for &(k, w) in &terms[..*nterms] {
+                    let ey = p.y0[k] * (md.lambda[k] * delta).exp() * w;
+                    for (i, xi) in x.iter_mut().enumerate() {
+                        *xi += md.v[i][k].re * ey.re - md.v[i][k].im * ey.im;
                     }
-                    x[i] = p.xc[i] + (xh[i] * e).re + h;
                 }
                 x
             }
@@ -219,6 +236,33 @@ impl<const N: usize> LinearPhase<N> {
         }
         (d1, d2)
     }
+}
+
+/// Pairs conjugate eigenvalues: returns the representative terms with their
+/// weights (2 for a pair, 1 for a real eigenvalue); `None` if the spectrum
+/// does not pair up (then the modal form is not used).
+fn conjugate_terms<const N: usize>(md: &Modal<N>) -> Option<([(usize, f64); N], usize)> {
+    let mut terms = [(0usize, 0.0f64); N];
+    let mut n = 0;
+    let mut used = [false; N];
+    for k in 0..N {
+        if used[k] {
+            continue;
+        }
+        used[k] = true;
+        let l = md.lambda[k];
+        let tol = 1e-12 * l.norm().max(1e-300);
+        if l.im.abs() <= tol {
+            terms[n] = (k, 1.0);
+        } else {
+            let j = (0..N)
+                .find(|&j| !used[j] && (md.lambda[j] - l.conj()).norm() <= 1e-9 * l.norm())?;
+            used[j] = true;
+            terms[n] = (k, 2.0);
+        }
+        n += 1;
+    }
+    Some((terms, n))
 }
 
 /// Phase matrices of the absorber (paper eqs. 1–2) for an affine law.
@@ -283,7 +327,12 @@ mod tests {
         for &d in &[0.0, 0.1, 1.0, 5.0, 10.0] {
             let (xp, xq) = (p.state(&sp, d), q.state(&sq, d));
             for i in 0..4 {
-                assert!((xp[i] - xq[i]).abs() < 2e-13, "δ={d} i={i}: {} vs {}", xp[i], xq[i]);
+                assert!(
+                    (xp[i] - xq[i]).abs() < 2e-13,
+                    "δ={d} i={i}: {} vs {}",
+                    xp[i],
+                    xq[i]
+                );
             }
         }
     }
@@ -321,7 +370,11 @@ mod tests {
         for &t in &[1.0, 10.0, 40.0] {
             let x = p.state(&s, t);
             let exact = t * (w * t).sin() / (2.0 * w);
-            assert!((x[0] - exact).abs() < 1e-12 * (1.0 + exact.abs()), "{} vs {exact}", x[0]);
+            assert!(
+                (x[0] - exact).abs() < 1e-12 * (1.0 + exact.abs()),
+                "{} vs {exact}",
+                x[0]
+            );
         }
     }
 }

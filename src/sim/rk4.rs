@@ -6,7 +6,10 @@
 //! exact engine's matrices, so it cross-checks them; the switching decisions
 //! are the same physics ([`super::engine::after_slip`]). Errors are O(H⁴).
 
-use super::engine::{after_slip, net_force, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status};
+use super::engine::{
+    after_slip, net_force, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd,
+    Status,
+};
 use super::events;
 use super::SimError;
 use crate::model::{Law, Model};
@@ -28,11 +31,17 @@ impl Rk4 {
         model.validate()?;
         crate::model::validate_eta(eta)?;
         if !(h.is_finite() && h > 0.0) {
-            return Err(SimError::Unsupported(format!("step must be finite and > 0, got {h}")));
+            return Err(SimError::Unsupported(format!(
+                "step must be finite and > 0, got {h}"
+            )));
         }
         let (rho_d, slope) = match model.law {
             Law::Linear { rho_d, slope, .. } => (rho_d, slope),
-            Law::Stribeck { .. } => return Err(SimError::Unsupported("rk4 supports affine laws only".into())),
+            Law::Stribeck { .. } => {
+                return Err(SimError::Unsupported(
+                    "rk4 supports affine laws only".into(),
+                ))
+            }
         };
         let thr = model.interrupt_level();
         let v_interrupt = if rho_d < thr {
@@ -75,7 +84,9 @@ impl Rk4 {
     }
 
     fn step(&self, mode: Mode, s: f64, x: &[f64; 4], dt: f64) -> [f64; 4] {
-        let add = |a: &[f64; 4], b: &[f64; 4], f: f64| std::array::from_fn::<f64, 4, _>(|i| a[i] + f * b[i]);
+        let add = |a: &[f64; 4], b: &[f64; 4], f: f64| {
+            std::array::from_fn::<f64, 4, _>(|i| a[i] + f * b[i])
+        };
         let k1 = self.rhs(mode, s, x);
         let k2 = self.rhs(mode, s + 0.5 * dt, &add(x, &k1, 0.5 * dt));
         let k3 = self.rhs(mode, s + 0.5 * dt, &add(x, &k2, 0.5 * dt));
@@ -165,7 +176,11 @@ impl Rk4 {
                                 }
                             }
                         }
-                        let r = if f(lo).0 > 0.0 { events::refine(f, lo, dt) } else { 0.0 };
+                        let r = if f(lo).0 > 0.0 {
+                            events::refine(f, lo, dt, t)
+                        } else {
+                            0.0
+                        };
                         if best.is_none_or(|(b, _)| r < b) {
                             best = Some((r, i));
                         }
@@ -207,7 +222,9 @@ impl Rk4 {
                             x,
                         });
                         return RunEnd {
-                            status: Status::Interrupted(format!("sliding friction below the limit at tau = {tau}")),
+                            status: Status::Interrupted(format!(
+                                "sliding friction below the limit at tau = {tau}"
+                            )),
                             periods: n,
                             tau,
                             x,
@@ -220,10 +237,18 @@ impl Rk4 {
                         x[3] = 0.0;
                         match after_slip(&self.model, &x, (self.eta * s).cos()) {
                             Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }),
-                            Mode::Slip { dir } if dir > 0.0 && old < 0.0 => (EventKind::ReversePlus, Mode::Slip { dir }),
-                            Mode::Slip { dir } if dir < 0.0 && old > 0.0 => (EventKind::ReverseMinus, Mode::Slip { dir }),
+                            Mode::Slip { dir } if dir > 0.0 && old < 0.0 => {
+                                (EventKind::ReversePlus, Mode::Slip { dir })
+                            }
+                            Mode::Slip { dir } if dir < 0.0 && old > 0.0 => {
+                                (EventKind::ReverseMinus, Mode::Slip { dir })
+                            }
                             Mode::Slip { dir } => (
-                                if dir > 0.0 { EventKind::SlipPlus } else { EventKind::SlipMinus },
+                                if dir > 0.0 {
+                                    EventKind::SlipPlus
+                                } else {
+                                    EventKind::SlipMinus
+                                },
                                 Mode::Slip { dir },
                             ),
                         }

@@ -183,7 +183,9 @@ impl<O: Observer> Observer for Tracker<'_, O> {
             }
             let (y, ystuck) = self.points[((n - 1 - p as u64) % RING as u64) as usize];
             let d = if ystuck == stuck {
-                x.iter().zip(&y).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+                x.iter()
+                    .zip(&y)
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
             } else {
                 f64::INFINITY
             };
@@ -220,7 +222,12 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
         // The linear limits are exact in closed form: skip the integration.
         let closed = if model.law.is_frictionless() {
             let (a1, a2) = linear::free_amplitudes(&model.absorber, model.law.slope(), eta);
-            Some((a1, a2, linear::free_state(&model.absorber, model.law.slope(), eta), 0.0))
+            Some((
+                a1,
+                a2,
+                linear::free_state(&model.absorber, model.law.slope(), eta),
+                0.0,
+            ))
         } else if model.law.is_always_stuck() {
             let (a1, a2) = linear::stuck_amplitudes(&model.absorber, eta);
             Some((a1, a2, linear::stuck_state(&model.absorber, eta, 0.0), 1.0))
@@ -245,7 +252,13 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
             };
         }
     }
-    simulate_with(opts, eta, |init, n, o| sim.run(init, n, o), sim.period(), obs)
+    simulate_with(
+        opts,
+        eta,
+        |init, n, o| sim.run(init, n, o),
+        sim.period(),
+        obs,
+    )
 }
 
 /// The `simulate` job over any integrator with the engine's observer
@@ -272,7 +285,9 @@ where
         Status::Completed if steady.is_some() => ("steady", None, false),
         Status::Completed if opts.periods.is_none() => (
             "not-settled",
-            Some(format!("no period-n response (n <= 8) within {periods} periods")),
+            Some(format!(
+                "no period-n response (n <= 8) within {periods} periods"
+            )),
             false,
         ),
         Status::Completed => ("completed", None, false),
