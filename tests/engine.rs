@@ -1,6 +1,6 @@
 //! Accuracy of the exact engine against closed forms, the paper's RK4, and
-#![allow(clippy::needless_range_loop)]
 //! the energy balance. Every reference value names its source.
+#![allow(clippy::needless_range_loop)]
 
 use stickslip::model::{Absorber, Law, Model};
 use stickslip::sim::rk4::Rk4;

@@ -1,0 +1,133 @@
+//! `stickslip simulate` through the binary: the interface's JSON keys, the
+//! exit codes, and the event/trajectory files.
+
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_stickslip"))
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("stickslip-test-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn json_has_the_interface_keys() {
+    let out = bin()
+        .args([
+            "simulate", "--rho-s", "0.375", "--eta", "0.6", "--steady", "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for k in [
+        "eta",
+        "tau_end",
+        "final_state",
+        "events",
+        "amplitude1",
+        "amplitude2",
+        "steady",
+        "period_multiple",
+        "stick_fraction",
+        "interrupted",
+    ] {
+        assert!(v.get(k).is_some(), "missing key {k}");
+    }
+    assert_eq!(v["steady"], true);
+    assert_eq!(v["final_state"].as_array().unwrap().len(), 4);
+}
+
+#[test]
+fn events_and_trajectory_files() {
+    let d = tmpdir("files");
+    let (ev, tr) = (d.join("ev.csv"), d.join("tr.csv"));
+    let out = bin()
+        .args([
+            "simulate",
+            "--rho-s",
+            "0.375",
+            "--eta",
+            "0.6",
+            "--periods",
+            "20",
+            "--json",
+        ])
+        .arg("--events")
+        .arg(&ev)
+        .arg("--trajectory")
+        .arg(&tr)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let ev = std::fs::read_to_string(ev).unwrap();
+    let mut lines = ev.lines();
+    assert_eq!(lines.next(), Some("tau,kind,zeta1,dzeta1,zeta2,dzeta2"));
+    // One row per event, as counted in the JSON (43 for H1: datasets/reference).
+    assert_eq!(lines.count() as u64, v["events"].as_u64().unwrap());
+    assert_eq!(v["events"], 43);
+    let tr = std::fs::read_to_string(tr).unwrap();
+    // 64 samples per period plus the initial state.
+    assert_eq!(tr.lines().count(), 1 + 20 * 64 + 1);
+    std::fs::remove_dir_all(d).ok();
+}
+
+#[test]
+fn bad_parameters_exit_1_with_one_error_line() {
+    for args in [
+        vec!["--rho-s", "0.3", "--rho-d", "0.4"],
+        vec!["--rho-s", "-1"],
+        vec!["--m", "0"],
+        vec!["--damping", "nan"],
+        vec!["--rho-s", "0.3", "--v-s", "0.1"],
+    ] {
+        let out = bin()
+            .arg("simulate")
+            .args(&args)
+            .args(["--eta", "0.6", "--periods", "3"])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.starts_with("error: "), "{err}");
+        assert!(out.stdout.is_empty());
+    }
+    let out = bin()
+        .args(["simulate", "--eta", "0"])
+        .args(["--periods", "1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    // Neither --periods nor --steady: a bad command line.
+    let out = bin().args(["simulate", "--eta", "0.6"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn unwritable_output_fails_cleanly() {
+    let out = bin()
+        .args([
+            "simulate",
+            "--rho-s",
+            "0.3",
+            "--eta",
+            "0.6",
+            "--periods",
+            "2",
+            "--events",
+        ])
+        .arg("/nonexistent-dir/ev.csv")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: /nonexistent-dir/ev.csv"));
+}
