@@ -29,7 +29,7 @@
 
 use super::events::{self, EventFn, Jet};
 use super::linalg::C64;
-use super::phase::{absorber, LinearPhase, Started};
+use super::phase::{absorber, LinearPhase};
 use super::SimError;
 use crate::model::{Law, Model};
 use std::f64::consts::PI;
@@ -225,8 +225,6 @@ pub struct Sim {
     rho_d: f64,
     /// Speed at which the slip friction reaches the interruption level.
     v_interrupt: Option<f64>,
-    step_stick: f64,
-    step_slip: f64,
 }
 
 impl Sim {
@@ -266,8 +264,6 @@ impl Sim {
             model: *model,
             eta,
             period: 2.0 * PI / eta,
-            step_stick: 1.0 / stick.fastest,
-            step_slip: 1.0 / slip.fastest,
             stick,
             slip,
             rho_s: model.law.rho_s(),
@@ -390,14 +386,23 @@ impl Sim {
             let (hit, x_end, which_mode) = match mode {
                 Mode::Stick { z2 } => {
                     let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
-                    let eval = |d: f64| stick_jet(&self.stick, &p, d, z2);
+                    let eval = |d: f64| stick_jet(self.stick.jet(&p, d), z2);
+                    let mut cur = self.stick.cursor(&p);
+                    let next = |b: f64| {
+                        if b == cur.delta + self.stick.step {
+                            stick_jet(self.stick.advance(&p, &mut cur), z2)
+                        } else {
+                            eval(b)
+                        }
+                    };
                     let fns = self.stick_events(z2);
                     let nf = if self.rho_s.is_finite() { 2 } else { 0 };
                     let (hit, jb) = events::first_event(
                         &eval,
+                        next,
                         &fns[..nf],
                         left,
-                        self.step_stick,
+                        self.stick.step,
                         t,
                         |a, ja, b, jb| {
                             if extremes {
@@ -410,13 +415,22 @@ impl Sim {
                 }
                 Mode::Slip { dir } => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
-                    let eval = |d: f64| slip_jet(&self.slip, &p, d);
+                    let eval = |d: f64| slip_jet(self.slip.jet(&p, d));
+                    let mut cur = self.slip.cursor(&p);
+                    let next = |b: f64| {
+                        if b == cur.delta + self.slip.step {
+                            slip_jet(self.slip.advance(&p, &mut cur))
+                        } else {
+                            eval(b)
+                        }
+                    };
                     let (fns, nf) = self.slip_events(dir, frictionless);
                     let (hit, jb) = events::first_event(
                         &eval,
+                        next,
                         &fns[..nf],
                         left,
-                        self.step_slip,
+                        self.slip.step,
                         t,
                         |a, ja, b, jb| {
                             if extremes {
@@ -644,9 +658,7 @@ pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
 }
 
 #[inline]
-fn stick_jet(ph: &LinearPhase<2>, p: &Started<2>, d: f64, z2: f64) -> Jet<4> {
-    let y = ph.state(p, d);
-    let (dy, ddy) = ph.derivs(p, d, &y);
+fn stick_jet((y, dy, ddy): ([f64; 2], [f64; 2], [f64; 2]), z2: f64) -> Jet<4> {
     Jet {
         x: [y[0], y[1], z2, 0.0],
         dx: [dy[0], dy[1], 0.0, 0.0],
@@ -655,9 +667,7 @@ fn stick_jet(ph: &LinearPhase<2>, p: &Started<2>, d: f64, z2: f64) -> Jet<4> {
 }
 
 #[inline]
-fn slip_jet(ph: &LinearPhase<4>, p: &Started<4>, d: f64) -> Jet<4> {
-    let x = ph.state(p, d);
-    let (dx, ddx) = ph.derivs(p, d, &x);
+fn slip_jet((x, dx, ddx): ([f64; 4], [f64; 4], [f64; 4])) -> Jet<4> {
     Jet { x, dx, ddx }
 }
 
@@ -677,14 +687,17 @@ fn track_extremum<E: Fn(f64) -> Jet<4>>(
         let (va, vb) = (ja.dx[c], jb.dx[c]);
         if va * vb < 0.0 {
             let sgn = va.signum();
+            let g =
+                events::hermite_guess(a, sgn * va, sgn * ja.ddx[c], b, sgn * vb, sgn * jb.ddx[c]);
             let r = events::refine(
                 |d| {
                     let j = eval(d);
-                    (sgn * j.dx[c], sgn * j.ddx[c])
+                    (sgn * j.dx[c], sgn * j.ddx[c], 0.0)
                 },
                 a,
                 b,
                 b,
+                g,
             );
             let j = eval(r);
             st.add(j.x[0], j.x[2]);

@@ -59,6 +59,23 @@ pub struct LinearPhase<const N: usize> {
     repr: Repr<N>,
     /// Largest |λ| and η: the fastest rate present (bounds bracketing steps).
     pub fastest: f64,
+    /// Bracketing step h = 1/fastest and the modal/forcing multipliers
+    /// e^{λh}, e^{iηh} that advance a [`Cursor`] by h without transcendentals.
+    pub step: f64,
+    lam_step: [C64; N],
+    eta_step: C64,
+}
+
+/// The exact solution marched on the bracketing grid δ = j·h: modal terms
+/// and the forcing phasor are multiplied by precomputed e^{λh}, e^{iηh}
+/// (rounding grows like j·ε, j ≤ a few dozen per phase; events and phase
+/// ends are evaluated directly).
+#[derive(Debug, Clone, Copy)]
+pub struct Cursor<const N: usize> {
+    z: [C64; N],
+    e: C64,
+    /// Offset δ of the cursor.
+    pub delta: f64,
 }
 
 /// A phase started from a given state: evaluates the exact solution at any
@@ -105,6 +122,13 @@ impl<const N: usize> LinearPhase<N> {
             }
             _ => Repr::Expm,
         };
+        let step = 1.0 / fastest;
+        let mut lam_step = [C64::new(0.0, 0.0); N];
+        if let Repr::Modal { md, .. } = &repr {
+            for k in 0..N {
+                lam_step[k] = (md.lambda[k] * step).exp();
+            }
+        }
         Some(Self {
             a,
             b,
@@ -112,6 +136,9 @@ impl<const N: usize> LinearPhase<N> {
             ainv,
             repr,
             fastest,
+            step,
+            lam_step,
+            eta_step: C64::from_polar(1.0, eta * step),
         })
     }
 
@@ -211,6 +238,122 @@ impl<const N: usize> LinearPhase<N> {
             *xi = (0..n).map(|j| e[i][j] * y[j]).sum();
         }
         x
+    }
+
+    /// State and its first two derivatives at offset δ (one forcing
+    /// evaluation shared by all three).
+    #[inline]
+    pub fn jet(&self, p: &Started<N>, delta: f64) -> ([f64; N], [f64; N], [f64; N]) {
+        if delta == 0.0 {
+            // Exactly the initial state: the modal reconstruction carries
+            // rounding of order ε·cond(V), which must not move a switching
+            // function off the boundary the phase starts on.
+            let e = p.u * C64::from_polar(1.0, self.eta * p.s0);
+            let (d1, d2) = self.derivs_e(p, &p.x0, e);
+            return (p.x0, d1, d2);
+        }
+        match &self.repr {
+            Repr::Modal {
+                md,
+                xh,
+                terms,
+                nterms,
+            } => {
+                let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
+                let mut z = [C64::new(0.0, 0.0); N];
+                for &(k, _) in &terms[..*nterms] {
+                    z[k] = p.y0[k] * (md.lambda[k] * delta).exp();
+                }
+                let x = self.modal_state(md, xh, terms, *nterms, p, &z, e);
+                let (d1, d2) = self.derivs_e(p, &x, e);
+                (x, d1, d2)
+            }
+            Repr::Expm => {
+                let x = self.state_expm(p, delta);
+                let (d1, d2) = self.derivs(p, delta, &x);
+                (x, d1, d2)
+            }
+        }
+    }
+
+    /// A cursor at δ = 0.
+    #[inline]
+    pub fn cursor(&self, p: &Started<N>) -> Cursor<N> {
+        Cursor {
+            z: p.y0,
+            e: p.u * C64::from_polar(1.0, self.eta * p.s0),
+            delta: 0.0,
+        }
+    }
+
+    /// Advances the cursor by one bracketing step and returns the jet there.
+    #[inline]
+    pub fn advance(&self, p: &Started<N>, c: &mut Cursor<N>) -> ([f64; N], [f64; N], [f64; N]) {
+        c.delta += self.step;
+        match &self.repr {
+            Repr::Modal {
+                md,
+                xh,
+                terms,
+                nterms,
+            } => {
+                for &(k, _) in &terms[..*nterms] {
+                    c.z[k] *= self.lam_step[k];
+                }
+                c.e *= self.eta_step;
+                let x = self.modal_state(md, xh, terms, *nterms, p, &c.z, c.e);
+                let (d1, d2) = self.derivs_e(p, &x, c.e);
+                (x, d1, d2)
+            }
+            Repr::Expm => self.jet(p, c.delta),
+        }
+    }
+
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    fn modal_state(
+        &self,
+        md: &Modal<N>,
+        xh: &[C64; N],
+        terms: &[(usize, f64); N],
+        nterms: usize,
+        p: &Started<N>,
+        z: &[C64; N],
+        e: C64,
+    ) -> [f64; N] {
+        let mut x = [0.0; N];
+        for i in 0..N {
+            x[i] = p.xc[i] + (xh[i] * e).re;
+        }
+        for &(k, w) in &terms[..nterms] {
+            let ey = z[k] * w;
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi += md.v[i][k].re * ey.re - md.v[i][k].im * ey.im;
+            }
+        }
+        x
+    }
+
+    #[inline]
+    fn derivs_e(&self, p: &Started<N>, x: &[f64; N], e: C64) -> ([f64; N], [f64; N]) {
+        let (z, dz) = (e.re, -self.eta * e.im);
+        let mut d1 = [0.0; N];
+        for i in 0..N {
+            let mut s = self.b[i] * z + p.c[i];
+            for j in 0..N {
+                s += self.a[i][j] * x[j];
+            }
+            d1[i] = s;
+        }
+        let mut d2 = [0.0; N];
+        for i in 0..N {
+            let mut s = self.b[i] * dz;
+            for j in 0..N {
+                s += self.a[i][j] * d1[j];
+            }
+            d2[i] = s;
+        }
+        (d1, d2)
     }
 
     /// Time derivatives x' and x'' at offset δ, given the state x there

@@ -163,7 +163,7 @@ impl Rk4 {
                                 (Mode::Slip { dir }, 0) => dir * dy[3],
                                 (Mode::Slip { dir }, _) => -dir * dy[3],
                             };
-                            (g, dg)
+                            (g, dg, 0.0)
                         };
                         // Bracket start: a point where the function is > 0.
                         let mut lo = 0.0;
@@ -177,7 +177,7 @@ impl Rk4 {
                             }
                         }
                         let r = if f(lo).0 > 0.0 {
-                            events::refine(f, lo, dt, t)
+                            events::refine(f, lo, dt, t, f64::NAN)
                         } else {
                             0.0
                         };
