@@ -87,7 +87,7 @@ fn bad_parameters_exit_1_with_one_error_line() {
         vec!["--rho-s", "-1"],
         vec!["--m", "0"],
         vec!["--damping", "nan"],
-        vec!["--rho-s", "0.3", "--v-s", "0.1"],
+        vec!["--rho-s", "0.3", "--rho-d", "0.2", "--v-s", "0"],
     ] {
         let out = bin()
             .arg("simulate")
@@ -130,4 +130,18 @@ fn unwritable_output_fails_cleanly() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("error: /nonexistent-dir/ev.csv"));
+}
+
+/// A law without a closed form (stribeck) runs on the numerical engine.
+#[test]
+fn stribeck_runs_on_the_numerical_engine() {
+    let out = bin()
+        .args(["simulate", "--rho-s", "0.5", "--rho-d", "0.3", "--v-s", "0.05", "--eta", "0.6", "--steady", "--json"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["method"], "dopri");
+    assert_eq!(v["law"], "stribeck");
+    assert_eq!(v["steady"], true);
 }

@@ -18,6 +18,8 @@ pub enum Method {
     Exact,
     /// The paper's classical RK4 with switching-time determination.
     Rk4,
+    /// Dormand–Prince 5(4) with events on its dense output (any law).
+    Dopri,
 }
 
 /// Arguments of `stickslip simulate`.
@@ -56,6 +58,10 @@ pub struct SimulateArgs {
     /// RK4 step size H (dimensionless time), with --method rk4.
     #[arg(long, default_value_t = 1e-2)]
     pub step: f64,
+    /// Relative tolerance of --method dopri (the default method of laws
+    /// without a closed form, e.g. stribeck).
+    #[arg(long, default_value_t = 1e-10)]
+    pub tol: f64,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -151,7 +157,31 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
         shortcuts: args.events.is_none() && args.trajectory.is_none(),
         ..SimOptions::default()
     };
-    let summary = match args.method {
+    let method = match args.method {
+        Method::Exact if model.law.affine().is_none() => Method::Dopri,
+        m => m,
+    };
+    let period = 2.0 * std::f64::consts::PI / args.eta;
+    let summary = match method {
+        Method::Dopri => {
+            let drive = crate::model::Drive::Harmonic {
+                eta: args.eta,
+                phase: 0.0,
+                amplitude: 1.0,
+            };
+            let opts_n = crate::sim::numeric::NumericOptions {
+                rtol: args.tol,
+                atol: args.tol * 1e-2,
+            };
+            let ns = crate::sim::numeric::NumericSim::new(&model, drive, opts_n)?;
+            sim::steady::simulate_with(
+                &opts,
+                args.eta,
+                |init, n, obs| ns.run(init, n as f64 * period, obs),
+                period,
+                &mut files,
+            )
+        }
         Method::Exact => {
             let sim = Sim::new(&model, args.eta)?;
             sim::simulate(&sim, &opts, &mut files)
@@ -192,7 +222,7 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
             "status": s.status,
             "reason": s.reason,
             "periods": s.periods,
-            "method": match args.method { Method::Exact => "exact", Method::Rk4 => "rk4" },
+            "method": match method { Method::Exact => "exact", Method::Rk4 => "rk4", Method::Dopri => "dopri" },
             "law": model.law.name(),
         }));
     } else {

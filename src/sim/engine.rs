@@ -103,6 +103,11 @@ pub struct PeriodStats {
 }
 
 impl PeriodStats {
+    /// Statistics of a period starting at state x.
+    pub fn new_at(x: &[f64; 4]) -> Self {
+        Self::new(x)
+    }
+
     fn new(x: &[f64; 4]) -> Self {
         Self {
             min: [x[0], x[2]],
@@ -110,8 +115,9 @@ impl PeriodStats {
             stick_time: 0.0,
         }
     }
+    /// Includes a point (ζ1, ζ2).
     #[inline]
-    fn add(&mut self, z1: f64, z2: f64) {
+    pub fn add(&mut self, z1: f64, z2: f64) {
         self.min[0] = self.min[0].min(z1);
         self.max[0] = self.max[0].max(z1);
         self.min[1] = self.min[1].min(z2);
@@ -318,13 +324,51 @@ impl Sim {
         [0.0, 0.0, 0.0, -dir * self.rho_d]
     }
 
-    fn after_slip(&self, x: &[f64; 4], s: f64) -> Mode {
-        let (z, _) = self.stick.drive(C64::new(1.0, 0.0), s);
-        after_slip(&self.model, x, z)
-    }
-
     /// Integrates `periods` forcing periods from `init`, reporting to `obs`.
     pub fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
+        self.run_inner(init, C64::new(1.0, 0.0), periods, 0.0, obs)
+    }
+
+    /// Integrates a span of length `duration` of the drive
+    /// `amplitude·cos(ητ + phase)` (τ from the span's start): whole periods,
+    /// then the remainder. Period callbacks come at whole periods from the
+    /// span's start.
+    pub fn run_span<O: Observer>(
+        &self,
+        init: Init,
+        phase: f64,
+        amplitude: f64,
+        duration: f64,
+        obs: &mut O,
+    ) -> RunEnd {
+        let t = self.period;
+        let mut full = (duration / t).floor();
+        let mut tail = duration - full * t;
+        if tail < 0.0 {
+            tail = 0.0;
+        }
+        if t - tail <= 4.0 * f64::EPSILON * duration.max(t) {
+            // The remainder is a whole period up to rounding.
+            full += 1.0;
+            tail = 0.0;
+        }
+        self.run_inner(
+            init,
+            C64::from_polar(amplitude, phase),
+            full as u64,
+            tail,
+            obs,
+        )
+    }
+
+    fn run_inner<O: Observer>(
+        &self,
+        init: Init,
+        u: C64,
+        periods: u64,
+        tail: f64,
+        obs: &mut O,
+    ) -> RunEnd {
         let frictionless = self.model.law.is_frictionless();
         let mut mode = if frictionless {
             Mode::Slip { dir: 1.0 }
@@ -353,7 +397,6 @@ impl Sim {
             obs.sample(0.0, &x);
             next_sample = 1;
         }
-        let u = C64::new(1.0, 0.0);
         let end = |n: u64, s: f64, x: [f64; 4], mode, status, events, stick_time| RunEnd {
             status,
             periods: n,
@@ -363,8 +406,9 @@ impl Sim {
             events,
             stick_time,
         };
-        while n < periods {
-            let left = t - s;
+        while n < periods || (n == periods && s < tail) {
+            let in_tail = n == periods;
+            let left = if in_tail { tail - s } else { t - s };
             let tau0 = n as f64 * t;
             // Samples on the grid k·T/spp of this period (the boundary
             // sample is emitted at the period's end).
@@ -383,7 +427,7 @@ impl Sim {
                     }
                 }
             };
-            let (hit, x_end, which_mode) = match mode {
+            let (hit, x_end) = match mode {
                 Mode::Stick { z2 } => {
                     let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
                     let eval = |d: f64| stick_jet(self.stick.jet(&p, d), z2);
@@ -411,7 +455,7 @@ impl Sim {
                             sampler(a, b, &|d| eval(d).x, obs);
                         },
                     );
-                    (hit, jb, 0)
+                    (hit, jb)
                 }
                 Mode::Slip { dir } => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
@@ -439,7 +483,7 @@ impl Sim {
                             sampler(a, b, &|d| eval(d).x, obs);
                         },
                     );
-                    (hit, jb, 1)
+                    (hit, jb)
                 }
             };
             match hit {
@@ -454,6 +498,10 @@ impl Sim {
                         x[3] = 0.0;
                     }
                     stats.add(x[0], x[2]);
+                    if in_tail {
+                        s = tail;
+                        break;
+                    }
                     n += 1;
                     s = 0.0;
                     instant = 0;
@@ -495,76 +543,41 @@ impl Sim {
                     }
                     s += h.delta;
                     let tau = n as f64 * t + s;
-                    let (kind, next) = if which_mode == 0 {
-                        let z2 = x[2];
-                        x = [h.jet.x[0], h.jet.x[1], z2, 0.0];
-                        let dir = if h.which == 0 { 1.0 } else { -1.0 };
-                        let k = if dir > 0.0 {
-                            EventKind::SlipPlus
-                        } else {
-                            EventKind::SlipMinus
-                        };
-                        (k, Mode::Slip { dir })
-                    } else {
-                        x = h.jet.x;
-                        if h.which == 1 {
-                            // Interruption.
-                            let ev = Event {
+                    let (z0, _) = self.stick.drive(u, s);
+                    let (kind, next) = match switch(&self.model, mode, h.which, &h.jet.x, z0, tau) {
+                        Switched::Interrupt { x: xi, why } => {
+                            obs.event(&Event {
                                 tau,
                                 kind: EventKind::Interrupt,
-                                x,
-                            };
-                            obs.event(&ev);
-                            stats.add(x[0], x[2]);
-                            let g = self.model.law.sliding(x[3].abs());
-                            let why = if g <= 0.0 {
-                                format!("sliding friction would turn negative at tau = {tau:.6}")
-                            } else {
-                                format!(
-                                    "sliding friction fell below {}*rho_s at tau = {tau:.6}",
-                                    self.model.stop_below.unwrap_or(0.0)
-                                )
-                            };
+                                x: xi,
+                            });
+                            stats.add(xi[0], xi[2]);
                             return end(
                                 n,
                                 s,
-                                x,
+                                xi,
                                 mode,
                                 Status::Interrupted(why),
                                 events + 1,
                                 stick_time,
                             );
                         }
-                        x[3] = 0.0;
-                        let Mode::Slip { dir: old } = mode else {
-                            unreachable!()
-                        };
-                        match self.after_slip(&x, s) {
-                            Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }),
-                            Mode::Slip { dir } if dir != old => {
-                                let k = if dir > 0.0 {
-                                    EventKind::ReversePlus
-                                } else {
-                                    EventKind::ReverseMinus
-                                };
-                                (k, Mode::Slip { dir })
-                            }
-                            Mode::Slip { dir } => {
-                                // Touched rest on the threshold and goes on
-                                // the same way: a stick of zero length.
+                        Switched::To {
+                            x: xn,
+                            kind,
+                            next,
+                            stop_first,
+                        } => {
+                            x = xn;
+                            if stop_first {
                                 obs.event(&Event {
                                     tau,
                                     kind: EventKind::Stick,
                                     x,
                                 });
                                 events += 1;
-                                let k = if dir > 0.0 {
-                                    EventKind::SlipPlus
-                                } else {
-                                    EventKind::SlipMinus
-                                };
-                                (k, Mode::Slip { dir })
                             }
+                            (kind, next)
                         }
                     };
                     stats.add(x[0], x[2]);
@@ -631,6 +644,100 @@ pub fn net_force(model: &Model, x: &[f64; 4]) -> f64 {
     x[0] - x[2] + model.absorber.damping * (x[1] - x[3])
 }
 
+/// The outcome of a switching event.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Switched {
+    /// The motion goes on in mode `next` from state `x`.
+    To {
+        /// State after the switch (ζ2' set to exactly 0 where it vanishes).
+        x: [f64; 4],
+        /// The event's kind.
+        kind: EventKind,
+        /// The new mode.
+        next: Mode,
+        /// A slip came to rest on the threshold and goes on the same way: a
+        /// `stick` of zero length precedes the `slip±` event.
+        stop_first: bool,
+    },
+    /// The interruption rule fired.
+    Interrupt {
+        /// State at the interruption.
+        x: [f64; 4],
+        /// Why.
+        why: String,
+    },
+}
+
+/// The switch when switching function `which` of `mode` fires at state `x`
+/// (drive ζ0 = `z0`, time `tau` for messages). Stick functions: 0 = release
+/// forwards (F = +ρs), 1 = backwards; slip functions: 0 = rest (ζ2' = 0),
+/// 1 = interruption. Shared by every integrator.
+pub fn switch(
+    model: &Model,
+    mode: Mode,
+    which: usize,
+    x: &[f64; 4],
+    z0: f64,
+    tau: f64,
+) -> Switched {
+    match mode {
+        Mode::Stick { z2 } => {
+            let dir = if which == 0 { 1.0 } else { -1.0 };
+            let kind = if dir > 0.0 {
+                EventKind::SlipPlus
+            } else {
+                EventKind::SlipMinus
+            };
+            Switched::To {
+                x: [x[0], x[1], z2, 0.0],
+                kind,
+                next: Mode::Slip { dir },
+                stop_first: false,
+            }
+        }
+        Mode::Slip { .. } if which == 1 => {
+            let g = model.law.sliding(x[3].abs());
+            let why = if g <= 0.0 {
+                format!("sliding friction would turn negative at tau = {tau:.6}")
+            } else {
+                format!(
+                    "sliding friction fell below {}*rho_s at tau = {tau:.6}",
+                    model.stop_below.unwrap_or(0.0)
+                )
+            };
+            Switched::Interrupt { x: *x, why }
+        }
+        Mode::Slip { dir: old } => {
+            let x = [x[0], x[1], x[2], 0.0];
+            let (kind, next, stop_first) = match after_slip(model, &x, z0) {
+                Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }, false),
+                Mode::Slip { dir } if dir != old => {
+                    let k = if dir > 0.0 {
+                        EventKind::ReversePlus
+                    } else {
+                        EventKind::ReverseMinus
+                    };
+                    (k, Mode::Slip { dir }, false)
+                }
+                Mode::Slip { dir } => {
+                    let k = if dir > 0.0 {
+                        EventKind::SlipPlus
+                    } else {
+                        EventKind::SlipMinus
+                    };
+                    (k, Mode::Slip { dir }, true)
+                }
+            };
+            Switched::To {
+                x,
+                kind,
+                next,
+                stop_first,
+            }
+        }
+    }
+}
+
 /// The contact mode after a slip has come to rest (ζ2' = 0) with the drive
 /// at ζ0 = `z0`; see the module doc for the derivation.
 pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
@@ -675,7 +782,7 @@ fn slip_jet((x, dx, ddx): ([f64; 4], [f64; 4], [f64; 4])) -> Jet<4> {
 /// ζ2') exactly. (Within a slip with friction ζ2' cannot change sign, a
 /// zero of ζ2' is an event; without friction it can.)
 #[inline]
-fn track_extremum<E: Fn(f64) -> Jet<4>>(
+pub(crate) fn track_extremum<E: Fn(f64) -> Jet<4>>(
     eval: &E,
     st: &mut PeriodStats,
     a: f64,

@@ -37,10 +37,16 @@ pub struct EventFn<const N: usize> {
     pub g0: f64,
 }
 
-impl<const N: usize> EventFn<N> {
+/// A switching function of the state: h, h' and h'' along a trajectory.
+pub trait Switch<const N: usize> {
+    /// h, h', h'' at a jet.
+    fn eval(&self, j: &Jet<N>) -> (f64, f64, f64);
+}
+
+impl<const N: usize> Switch<N> for EventFn<N> {
     /// h, h', h'' at a jet.
     #[inline]
-    pub fn eval(&self, j: &Jet<N>) -> (f64, f64, f64) {
+    fn eval(&self, j: &Jet<N>) -> (f64, f64, f64) {
         let (mut h, mut d, mut dd) = (self.g0, 0.0, 0.0);
         for i in 0..N {
             h += self.g[i] * j.x[i];
@@ -170,16 +176,17 @@ pub struct Hit<const N: usize> {
 /// positive point found by halving. If it is not, the event is at δ = 0 (a
 /// phase of zero length: immediate re-stick, reversal).
 #[allow(clippy::too_many_arguments)]
-pub fn first_event<const N: usize, E, M, S>(
+pub fn first_event<const N: usize, W, E, M, S>(
     eval: &E,
     mut next: M,
-    fns: &[EventFn<N>],
+    fns: &[W],
     end: f64,
     step: f64,
     scale: f64,
     mut on_step: S,
 ) -> (Option<Hit<N>>, Jet<N>)
 where
+    W: Switch<N>,
     E: Fn(f64) -> Jet<N>,
     M: FnMut(f64) -> Jet<N>,
     S: FnMut(f64, &Jet<N>, f64, &Jet<N>),
@@ -287,14 +294,14 @@ where
 }
 
 #[inline]
-fn deriv1<const N: usize>(f: &EventFn<N>, j: &Jet<N>) -> (f64, f64, f64) {
+fn deriv1<const N: usize, W: Switch<N>>(f: &W, j: &Jet<N>) -> (f64, f64, f64) {
     f.eval(j)
 }
 
 /// h' and h'' oriented for a minimum: h' < 0 before, > 0 after, so the root
 /// of −h' is refined with f(a) > 0 ≥ f(b).
 #[inline]
-fn deriv2<const N: usize>(f: &EventFn<N>, j: &Jet<N>) -> (f64, f64, f64) {
+fn deriv2<const N: usize, W: Switch<N>>(f: &W, j: &Jet<N>) -> (f64, f64, f64) {
     let (_, d, dd) = f.eval(j);
     (-d, -dd, 0.0)
 }

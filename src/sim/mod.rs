@@ -13,12 +13,15 @@
 // Index loops mirror the matrix formulas (A·x, V·y) and read clearer here.
 #![allow(clippy::needless_range_loop)]
 
+pub mod dopri;
 pub mod engine;
 pub mod events;
 pub mod linalg;
 pub mod linear;
+pub mod numeric;
 pub mod phase;
 pub mod rk4;
+pub mod schedule;
 pub mod steady;
 
 pub use engine::{Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Sim, Status};

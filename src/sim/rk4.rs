@@ -7,8 +7,8 @@
 //! are the same physics ([`super::engine::after_slip`]). Errors are O(H⁴).
 
 use super::engine::{
-    after_slip, net_force, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd,
-    Status,
+    net_force, switch, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
+    Switched,
 };
 use super::events;
 use super::SimError;
@@ -205,55 +205,42 @@ impl Rk4 {
                 x = self.step(mode, s, &x, d);
                 s += d;
                 let tau = n as f64 * t + s;
-                let (kind, next) = match mode {
-                    Mode::Stick { z2 } => {
-                        x[2] = z2;
-                        x[3] = 0.0;
-                        if which == 0 {
-                            (EventKind::SlipPlus, Mode::Slip { dir: 1.0 })
-                        } else {
-                            (EventKind::SlipMinus, Mode::Slip { dir: -1.0 })
+                let (kind, next) =
+                    match switch(&self.model, mode, which, &x, (self.eta * s).cos(), tau) {
+                        Switched::Interrupt { x: xi, why } => {
+                            obs.event(&Event {
+                                tau,
+                                kind: EventKind::Interrupt,
+                                x: xi,
+                            });
+                            return RunEnd {
+                                status: Status::Interrupted(why),
+                                periods: n,
+                                tau,
+                                x: xi,
+                                mode,
+                                events: events + 1,
+                                stick_time,
+                            };
                         }
-                    }
-                    Mode::Slip { .. } if which == 1 => {
-                        obs.event(&Event {
-                            tau,
-                            kind: EventKind::Interrupt,
-                            x,
-                        });
-                        return RunEnd {
-                            status: Status::Interrupted(format!(
-                                "sliding friction below the limit at tau = {tau}"
-                            )),
-                            periods: n,
-                            tau,
-                            x,
-                            mode,
-                            events: events + 1,
-                            stick_time,
-                        };
-                    }
-                    Mode::Slip { dir: old } => {
-                        x[3] = 0.0;
-                        match after_slip(&self.model, &x, (self.eta * s).cos()) {
-                            Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }),
-                            Mode::Slip { dir } if dir > 0.0 && old < 0.0 => {
-                                (EventKind::ReversePlus, Mode::Slip { dir })
+                        Switched::To {
+                            x: xn,
+                            kind,
+                            next,
+                            stop_first,
+                        } => {
+                            x = xn;
+                            if stop_first {
+                                obs.event(&Event {
+                                    tau,
+                                    kind: EventKind::Stick,
+                                    x,
+                                });
+                                events += 1;
                             }
-                            Mode::Slip { dir } if dir < 0.0 && old > 0.0 => {
-                                (EventKind::ReverseMinus, Mode::Slip { dir })
-                            }
-                            Mode::Slip { dir } => (
-                                if dir > 0.0 {
-                                    EventKind::SlipPlus
-                                } else {
-                                    EventKind::SlipMinus
-                                },
-                                Mode::Slip { dir },
-                            ),
+                            (kind, next)
                         }
-                    }
-                };
+                    };
                 st.min = [st.min[0].min(x[0]), st.min[1].min(x[2])];
                 st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
                 obs.event(&Event { tau, kind, x });

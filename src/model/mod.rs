@@ -16,6 +16,9 @@
 //!
 //! ζ0(τ) is the base motion divided by A: `cos(ητ)` for the paper's drive.
 
+mod drive;
+
+pub use drive::{Drive, Schedule, Segment};
 use std::fmt;
 
 /// A parameter that describes no physical absorber.
