@@ -13,6 +13,10 @@ lint:
 bench:
     cargo bench --bench engine
 
+# The main job on the bundled data (for now: a steady simulation).
+main:
+    cargo run --release -- simulate --rho-s 0.375 --eta 0.6 --steady
+
 # CI as it runs on a fresh clone.
 ci:
     bash .ci/run

@@ -136,10 +136,17 @@ fn unwritable_output_fails_cleanly() {
 #[test]
 fn stribeck_runs_on_the_numerical_engine() {
     let out = bin()
-        .args(["simulate", "--rho-s", "0.5", "--rho-d", "0.3", "--v-s", "0.05", "--eta", "0.6", "--steady", "--json"])
+        .args([
+            "simulate", "--rho-s", "0.5", "--rho-d", "0.3", "--v-s", "0.05", "--eta", "0.6",
+            "--steady", "--json",
+        ])
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["method"], "dopri");
     assert_eq!(v["law"], "stribeck");

@@ -14,6 +14,7 @@ struct Check {
     stuck_samples: u64,
     worst_excess: f64,
     nan: bool,
+    wrong_departure: bool,
     mode: Mode,
 }
 
@@ -27,6 +28,14 @@ impl Observer for Check {
         };
         if ev.kind == EventKind::Stick {
             self.check_force(&ev.x);
+        }
+        // Breakaway: M2 departs in the direction of the net non-friction
+        // force F on it (physics; the paper's eq. 5 text has the sign of −F).
+        let f = net_force(&self.model, &ev.x);
+        match ev.kind {
+            EventKind::SlipPlus => self.wrong_departure |= f <= 0.0,
+            EventKind::SlipMinus => self.wrong_departure |= f >= 0.0,
+            _ => {}
         }
         self.events.push(*ev);
     }
@@ -78,11 +87,13 @@ proptest! {
             stuck_samples: 0,
             worst_excess: f64::NEG_INFINITY,
             nan: false,
+            wrong_departure: false,
             // The engine's start: frictionless runs slide from the outset.
             mode: if rs == 0.0 { Mode::Slip { dir: 1.0 } } else { Mode::Stick { z2: 0.0 } },
         };
         let end = sim.run(Init::rest(), 12, &mut c);
         prop_assert!(!c.nan, "NaN in the trajectory");
+        prop_assert!(!c.wrong_departure, "M2 departed against the net force");
         prop_assert!(end.x.iter().all(|v| v.is_finite()));
         // Stick force within ρs up to rounding of the switching location.
         prop_assert!(c.worst_excess <= 1e-12, "stick force exceeds rho_s by {:e}", c.worst_excess);
