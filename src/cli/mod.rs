@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod args;
+mod ingest;
 mod simulate;
 
 pub use args::ModelArgs;
@@ -24,6 +25,8 @@ pub struct Cli {
 pub enum Command {
     /// Simulate the absorber at one forcing frequency (exact event-driven engine).
     Simulate(simulate::SimulateArgs),
+    /// Read a rig log (MCAP, CSV + channel map, Parquet) into one clean run.
+    Ingest(ingest::IngestArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -43,6 +46,7 @@ pub fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
+        Command::Ingest(a) => ingest::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
