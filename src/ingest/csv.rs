@@ -54,7 +54,7 @@ pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, Inges
     let bad = |msg: String| IngestError::invalid(map_path, msg);
     let file: MapFile = toml::from_str(text).map_err(|e| {
         let at = e.span().map_or(String::new(), |span| {
-            let before = &text[..span.start.min(text.len())];
+            let before = text.get(..span.start).unwrap_or(text);
             let line = before.matches('\n').count() + 1;
             let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
             format!(" at line {line}, column {col}")
@@ -131,6 +131,9 @@ fn read_preamble(path: &Path) -> Result<(BTreeMap<String, String>, usize), Inges
             .take(MAX_PREAMBLE_LINE as u64 + 1)
             .read_until(b'\n', &mut buf)
             .map_err(|e| IngestError::io(path, e))?;
+        if lines == 0 && buf.starts_with(b"\xef\xbb\xbf") {
+            buf.drain(..3); // UTF-8 byte-order mark, as some exporters write
+        }
         if n == 0 || buf.first() != Some(&b'#') {
             break;
         }
@@ -158,6 +161,29 @@ fn read_preamble(path: &Path) -> Result<(BTreeMap<String, String>, usize), Inges
         }
     }
     Ok((map, lines))
+}
+
+/// The first line of a file that is not valid UTF-8, if any (to point at
+/// the spot when the table reader refuses the file).
+fn first_non_utf8_line(path: &Path) -> Option<usize> {
+    let file = std::fs::File::open(path).ok()?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut buf = Vec::new();
+    let mut line = 0;
+    loop {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_PREAMBLE_LINE as u64)
+            .read_until(b'\n', &mut buf)
+            .ok()?;
+        if n == 0 {
+            return None;
+        }
+        line += 1;
+        if std::str::from_utf8(&buf).is_err() {
+            return Some(line);
+        }
+    }
 }
 
 /// Reads a DAQ CSV export with its channel map (`map`, or the default).
@@ -193,7 +219,11 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         .with_raise_if_empty(true)
         .try_into_reader_with_file_path(Some(path.to_path_buf()))
         .and_then(|r| r.finish())
-        .map_err(|e| IngestError::invalid(path, format!("unreadable CSV table: {e}")))?;
+        .map_err(|e| {
+            let at = first_non_utf8_line(path)
+                .map_or(String::new(), |l| format!(" (line {l} is not UTF-8 text)"));
+            IngestError::invalid(path, format!("unreadable CSV table: {e}{at}"))
+        })?;
     if df.height() == 0 {
         return Err(IngestError::invalid(
             path,
@@ -415,6 +445,40 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         assert!(x1.v[7].is_nan());
         assert!((x1.v[8] - 0.008).abs() < 1e-15);
         assert!((raw.channels[0].dt_s - 0.001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn accepts_bom_and_crlf() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = String::from("\u{feff}");
+        body.push_str(PREAMBLE);
+        body.push_str("t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        for i in 0..20 {
+            body.push_str(&format!("{:.3},1,2,3,4\n", i as f64 * 0.001));
+        }
+        let csv = write_csv(dir.path(), &body.replace('\n', "\r\n"));
+        let raw = read(&csv, None).expect("reads");
+        assert_eq!(raw.rig.m1_kg, 8.0);
+        let v2 = raw
+            .channels
+            .iter()
+            .find(|c| c.quantity == Quantity::V2)
+            .expect("v2");
+        assert!(v2.v.iter().all(|v| (v - 0.004).abs() < 1e-15));
+    }
+
+    #[test]
+    fn points_at_a_line_that_is_not_utf8() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = PREAMBLE.as_bytes().to_vec();
+        body.extend_from_slice(
+            b"t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n0,1,2,3,4\n0.001,1,\xff\xfe,3,4\n",
+        );
+        let csv = dir.path().join("log.csv");
+        std::fs::write(&csv, body).expect("write");
+        std::fs::write(dir.path().join("log.map.toml"), MAP).expect("map");
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("log.csv") && e.contains("line 13"), "{e}");
     }
 
     #[test]

@@ -466,3 +466,363 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
         v: acc.values,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::{read as ingest, GapKind, IngestOptions, Quantity};
+    use mcap::records::{MessageHeader, Metadata};
+    use mcap::{Compression, WriteOptions};
+    use std::collections::BTreeMap;
+    use std::path::{Path, PathBuf};
+
+    const T0: u64 = 1_700_000_000_000_000_000;
+
+    /// A small synthetic rig log, edited per test, then written to disk.
+    struct Fixture {
+        rig: Vec<BTreeMap<String, String>>,
+        /// (topic, message encoding, channel metadata)
+        channels: Vec<(String, String, BTreeMap<String, String>)>,
+        /// (channel index, log time, payload)
+        messages: Vec<(usize, u64, Vec<u8>)>,
+        compression: Option<Compression>,
+        summary: bool,
+    }
+
+    fn meta(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
+        pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    }
+
+    fn buffer(t0: u64, dt: u64, values: &[Option<f64>]) -> Vec<u8> {
+        serde_json::json!({"t0_ns": t0, "dt_ns": dt, "value": values})
+            .to_string()
+            .into_bytes()
+    }
+
+    impl Fixture {
+        /// x0, x1, x2, v2 at 1 kHz: two 10-sample buffers each, value = t (s).
+        fn good() -> Self {
+            let rig = meta(&[
+                ("format", "stickslip-rig-log/1"),
+                ("test", "characteristic"),
+                ("m1_kg", "8"),
+                ("m2_kg", "2"),
+                ("k1_n_per_m", "600"),
+                ("k2_n_per_m", "700"),
+                ("d_n_s_per_m", "0.1"),
+                ("drive_amplitude_m", "0.002"),
+                ("normal_force_n", "3"),
+                ("drive_frequency_hz", "1.5"),
+            ]);
+            let mut f = Fixture {
+                rig: vec![rig],
+                channels: Vec::new(),
+                messages: Vec::new(),
+                compression: Some(Compression::Zstd),
+                summary: true,
+            };
+            for q in [Quantity::X0, Quantity::X1, Quantity::X2, Quantity::V2] {
+                f.channels.push((
+                    q.topic().into(),
+                    "json".into(),
+                    meta(&[("sample_rate_hz", "1000"), ("unit", q.unit())]),
+                ));
+            }
+            for c in 0..4 {
+                for b in 0..2u64 {
+                    let t0 = T0 + b * 10_000_000 + c as u64 * 100_000;
+                    let vals: Vec<Option<f64>> = (0..10)
+                        .map(|i| Some((t0 - T0 + i * 1_000_000) as f64 * 1e-9))
+                        .collect();
+                    f.messages.push((c, t0, buffer(t0, 1_000_000, &vals)));
+                }
+            }
+            f
+        }
+
+        fn write(&self, dir: &Path, name: &str) -> PathBuf {
+            let path = dir.join(name);
+            let file = std::io::BufWriter::new(std::fs::File::create(&path).expect("create"));
+            let mut w = WriteOptions::new()
+                .compression(self.compression)
+                .emit_summary_records(self.summary)
+                .emit_summary_offsets(self.summary)
+                .create(file)
+                .expect("writer");
+            let schema = w.add_schema("buffer", "jsonschema", b"{}").expect("schema");
+            let ids: Vec<u16> = self
+                .channels
+                .iter()
+                .map(|(topic, enc, md)| w.add_channel(schema, topic, enc, md).expect("channel"))
+                .collect();
+            for (i, (c, log_time, data)) in self.messages.iter().enumerate() {
+                let header = MessageHeader {
+                    channel_id: ids[*c],
+                    sequence: i as u32,
+                    log_time: *log_time,
+                    publish_time: *log_time,
+                };
+                w.write_to_known_channel(&header, data).expect("message");
+            }
+            for r in &self.rig {
+                w.write_metadata(&Metadata {
+                    name: "rig".into(),
+                    metadata: r.clone(),
+                })
+                .expect("metadata");
+            }
+            w.finish().expect("finish");
+            path
+        }
+
+        fn read(&self) -> Result<super::super::Run, String> {
+            let dir = tempfile::tempdir().expect("tempdir");
+            let p = self.write(dir.path(), "fixture.mcap");
+            ingest(&p, &IngestOptions::default()).map_err(|e| e.to_string())
+        }
+    }
+
+    #[test]
+    fn reads_every_compression_with_and_without_summary() {
+        let reference = Fixture::good().read().expect("zstd");
+        assert_eq!(reference.channels.len(), 4);
+        assert_eq!(reference.channel(Quantity::X1).expect("x1").t.len(), 20);
+        assert!(!reference.has_acceleration);
+        assert!(reference
+            .warnings
+            .iter()
+            .any(|w| w.contains("accelerometer")));
+        assert!(reference.gaps.is_empty(), "{:?}", reference.gaps);
+        for compression in [None, Some(Compression::Lz4), Some(Compression::Zstd)] {
+            for summary in [true, false] {
+                let mut f = Fixture::good();
+                f.compression = compression;
+                f.summary = summary;
+                let run = f.read().expect("reads");
+                for q in [Quantity::X0, Quantity::X1, Quantity::X2, Quantity::V2] {
+                    let (a, b) = (run.channel(q).expect("q"), reference.channel(q).expect("q"));
+                    assert_eq!(a.t, b.t);
+                    assert_eq!(a.v, b.v);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn times_are_from_log_start_and_grid_interpolates() {
+        let run = Fixture::good().read().expect("reads");
+        // x0 starts the log; x1 starts 0.1 ms later.
+        assert_eq!(run.channel(Quantity::X0).expect("x0").t[0], 0.0);
+        assert!((run.channel(Quantity::X1).expect("x1").t[0] - 1e-4).abs() < 1e-12);
+        let r = &run.resampled;
+        assert_eq!(r.rate_hz, 1000.0);
+        // value = time since T0, so on the grid x1(t) = t wherever defined.
+        for (t, x) in r.t.iter().zip(&r.x1) {
+            if x.is_finite() {
+                assert!((x - t).abs() < 1e-12, "{t}: {x}");
+            }
+        }
+        assert!(
+            r.x1[0].is_nan(),
+            "no extrapolation before x1's first sample"
+        );
+        assert!(r.x1[1].is_finite());
+    }
+
+    #[test]
+    fn units_are_converted_to_si() {
+        let mut f = Fixture::good();
+        f.channels[1].2.insert("unit".into(), "mm".into());
+        let run = f.read().expect("reads");
+        let x1 = run.channel(Quantity::X1).expect("x1");
+        assert!((x1.v[5] - x1.t[5] * 1e-3).abs() < 1e-15);
+        f.channels[1].2.insert("unit".into(), "furlong".into());
+        let e = f.read().unwrap_err();
+        assert!(
+            e.contains("/mass1/position") && e.contains("furlong"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn non_finite_tokens_are_refused_clearly() {
+        for token in ["NaN", "Infinity", "-Infinity"] {
+            let mut f = Fixture::good();
+            let text = format!(
+                r#"{{"t0_ns":{},"dt_ns":1000000,"value":[1.0,{token}]}}"#,
+                T0 + 50_000_000
+            );
+            f.messages.push((2, T0 + 50_000_000, text.into_bytes()));
+            let e = f.read().unwrap_err();
+            assert!(
+                e.contains("NaN/Infinity") && e.contains("/mass2/position"),
+                "{e}"
+            );
+        }
+        let mut f = Fixture::good();
+        let text = format!(
+            r#"{{"t0_ns":{},"dt_ns":1000000,"value":[1e999]}}"#,
+            T0 + 50_000_000
+        );
+        f.messages.push((2, T0 + 50_000_000, text.into_bytes()));
+        let e = f.read().unwrap_err();
+        assert!(
+            e.contains("/mass2/position") && e.contains("log time"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn dropouts_lost_buffers_and_unknown_topics() {
+        let mut f = Fixture::good();
+        // x2: a null in the first buffer, and its second buffer lost (moved later).
+        f.messages[4].2 = buffer(
+            T0 + 200_000,
+            1_000_000,
+            &[
+                Some(0.0),
+                None,
+                Some(0.002),
+                Some(0.003),
+                Some(0.004),
+                Some(0.005),
+                Some(0.006),
+                Some(0.007),
+                Some(0.008),
+                Some(0.009),
+            ],
+        );
+        let late = T0 + 40_000_000 + 200_000;
+        f.messages[5] = (2, late, buffer(late, 1_000_000, &[Some(1.0); 10]));
+        f.channels
+            .push(("/daq/temperature".into(), "cdr".into(), BTreeMap::new()));
+        f.messages.push((4, T0, b"\x00\x01 not json".to_vec()));
+        let run = f.read().expect("reads");
+        let x2 = run.channel(Quantity::X2).expect("x2");
+        assert_eq!(x2.dropouts, 1);
+        assert!(run.warnings.iter().any(|w| w.contains("/daq/temperature")));
+        let gaps: Vec<_> = run.gaps.iter().filter(|g| g.channel == "x2").collect();
+        assert_eq!(gaps.len(), 1, "{gaps:?}");
+        assert_eq!(gaps[0].kind, GapKind::Missing);
+        assert!((gaps[0].start_s - 0.0092).abs() < 1e-9, "{gaps:?}");
+        assert!((gaps[0].end_s - 0.0402).abs() < 1e-9, "{gaps:?}");
+        // The single null is bridged on the grid; the lost buffer is not.
+        let r = &run.resampled;
+        let at = |t: f64| r.x2[(t * 1000.0).round() as usize];
+        // Grid 1 ms lies between samples at 0.2 ms (0.0) and 2.2 ms (0.002).
+        assert!((at(0.001) - 0.0008).abs() < 1e-12, "{}", at(0.001));
+        assert!(at(0.025).is_nan());
+    }
+
+    #[test]
+    fn structural_problems_are_named() {
+        type Edit = Box<dyn Fn(&mut Fixture)>;
+        let cases: Vec<(Edit, &str)> = vec![
+            (
+                Box::new(|f| f.rig.push(f.rig[0].clone())),
+                "more than one `rig`",
+            ),
+            (Box::new(|f| f.rig.clear()), "no `rig` metadata"),
+            (Box::new(|f| f.channels[3].1 = "cdr".into()), "encoding"),
+            (
+                Box::new(|f| {
+                    f.messages.retain(|m| m.0 != 2);
+                }),
+                "/mass2/position",
+            ),
+            (
+                Box::new(|f| {
+                    f.messages.retain(|m| m.0 != 2);
+                    f.channels[2].0 = "/mass2/position_old".into();
+                }),
+                "required channel x2",
+            ),
+            (
+                Box::new(|f| {
+                    let t = T0 + 30_000_000;
+                    f.messages.push((0, t, buffer(t, 0, &[Some(1.0)])));
+                }),
+                "dt_ns is 0",
+            ),
+            (
+                Box::new(|f| {
+                    // A clock jump of a day: refused, not a 86-million-row grid.
+                    let t = T0 + 86_400 * 1_000_000_000;
+                    f.messages.push((1, t, buffer(t, 1_000_000, &[Some(1.0)])));
+                }),
+                "time stamps inconsistent",
+            ),
+            (
+                Box::new(|f| {
+                    let t = T0 + 5_000_000;
+                    f.messages.push((1, t, buffer(t, 1_000_000, &[Some(1.0)])));
+                }),
+                "non-monotonic time on channel /mass1/position",
+            ),
+            (
+                Box::new(|f| {
+                    f.channels
+                        .push(("/drive/setpoint".into(), "json".into(), BTreeMap::new()));
+                    let sp = format!(r#"{{"t_ns":{T0},"frequency_hz":-1.0,"amplitude_m":0.002}}"#);
+                    f.messages.push((4, T0, sp.into_bytes()));
+                }),
+                "frequency_hz",
+            ),
+            (Box::new(|f| f.messages.clear()), "zero messages"),
+        ];
+        for (edit, needle) in cases {
+            let mut f = Fixture::good();
+            edit(&mut f);
+            let e = f.read().unwrap_err();
+            assert!(
+                e.contains("fixture.mcap") && e.contains(needle),
+                "{needle}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn setpoints_are_kept_in_order() {
+        let mut f = Fixture::good();
+        f.channels
+            .push(("/drive/setpoint".into(), "json".into(), BTreeMap::new()));
+        for (k, hz) in [(0u64, 1.0), (10, 1.5)] {
+            let t = T0 + k * 1_000_000;
+            let sp = format!(r#"{{"t_ns":{t},"frequency_hz":{hz},"amplitude_m":0.002}}"#);
+            f.messages.push((4, t, sp.into_bytes()));
+        }
+        let run = f.read().expect("reads");
+        assert_eq!(run.setpoints.len(), 2);
+        assert_eq!(run.setpoints[1].frequency_hz, 1.5);
+        assert!((run.setpoints[1].t_s - 0.01).abs() < 1e-12);
+        let sp = run.resampled.setpoint_hz.as_ref().expect("column");
+        assert_eq!(sp[5], 1.0);
+        assert_eq!(sp[15], 1.5);
+    }
+
+    #[test]
+    fn corrupted_bytes_never_panic() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let good = Fixture::good().write(dir.path(), "good.mcap");
+        let bytes = std::fs::read(&good).expect("read");
+        let p = dir.path().join("bad.mcap");
+        // Deterministic corruption: every position, a few byte values.
+        for i in (0..bytes.len()).step_by(7) {
+            for v in [0x00u8, 0xff, 0x7f] {
+                let mut b = bytes.clone();
+                b[i] = v;
+                std::fs::write(&p, &b).expect("write");
+                let _ = ingest(&p, &IngestOptions::default());
+            }
+        }
+        for cut in (0..bytes.len()).step_by(11) {
+            std::fs::write(&p, &bytes[..cut]).expect("write");
+            assert!(
+                ingest(&p, &IngestOptions::default()).is_err(),
+                "cut at {cut}"
+            );
+        }
+    }
+}
