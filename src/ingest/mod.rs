@@ -271,11 +271,15 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     if meta.len() == 0 {
         return Err(IngestError::invalid(path, "file is empty"));
     }
-    let raw = match format {
+    let mut raw = match format {
         LogFormat::Mcap => mcap::read(path)?,
         LogFormat::Csv => csv::read(path, opts.map.as_deref())?,
         LogFormat::Parquet => parquet::read(path)?,
     };
+    if opts.map.is_some() && format != LogFormat::Csv {
+        raw.warnings
+            .push("--map applies to CSV logs only; ignored".to_string());
+    }
     run::build(path, raw)
 }
 

@@ -350,11 +350,29 @@ impl RigMeta {
         self.drive_amplitude_m * self.k2_n_per_m
     }
 
+    /// An extra key read as a number (e.g. `sweep_rate_hz_per_s` of a
+    /// continuous sweep); `None` if absent or not a finite number.
+    pub fn extra_number(&self, key: &str) -> Option<f64> {
+        self.extra
+            .get(key)
+            .and_then(|v| v.trim().parse::<f64>().ok())
+            .filter(|v| v.is_finite())
+    }
+
     /// The rig metadata as a JSON object: numbers as numbers, text as text.
+    /// Extra keys whose name ends in a unit suffix (`_hz`, `_s`, `_m`, `_n`,
+    /// `_kg`, `_per_m`, `_per_s`) and that hold a finite number become
+    /// numbers; every other extra value stays text (a serial "0042" must not
+    /// lose its zeros).
     pub fn to_json(&self) -> serde_json::Value {
+        const UNIT_SUFFIXES: [&str; 7] = ["_hz", "_s", "_m", "_n", "_kg", "_per_m", "_per_s"];
         let mut obj = serde_json::Map::new();
         for (k, v) in &self.extra {
-            obj.insert(k.clone(), serde_json::Value::String(v.clone()));
+            let value = match self.extra_number(k) {
+                Some(x) if UNIT_SUFFIXES.iter().any(|s| k.ends_with(s)) => serde_json::json!(x),
+                _ => serde_json::Value::String(v.clone()),
+            };
+            obj.insert(k.clone(), value);
         }
         let num = |v: f64| serde_json::json!(v);
         obj.insert("format".into(), self.format.clone().into());
@@ -436,6 +454,23 @@ mod tests {
         );
         assert_eq!(r.notes.as_deref(), Some("<b>x</b>, \"y\""));
         assert_eq!(r.drive_frequency_hz, Some(1.72));
+    }
+
+    #[test]
+    fn json_has_numbers_as_numbers() {
+        let mut m = rig_a();
+        m.insert("sweep_rate_hz_per_s".into(), "0.0104167".into());
+        m.insert("serial".into(), "0042".into());
+        let r = RigMeta::from_map(&m).expect("valid");
+        let j = r.to_json();
+        assert_eq!(j["m2_kg"], 2.0875);
+        assert_eq!(j["drive_frequency_hz"], 1.72);
+        assert_eq!(j["sweep_rate_hz_per_s"], 0.0104167);
+        assert_eq!(r.extra_number("sweep_rate_hz_per_s"), Some(0.0104167));
+        assert_eq!(j["serial"], "0042");
+        assert_eq!(j["daq_firmware"], "4.2.1");
+        assert_eq!(j["test"], "characteristic");
+        assert!(j["sweep_kind"].is_null());
     }
 
     #[test]
