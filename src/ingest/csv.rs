@@ -118,12 +118,41 @@ fn default_map_path(path: &Path) -> PathBuf {
     path.with_file_name(format!("{stem}.map.toml"))
 }
 
-/// Reads the `#key,value` preamble: the metadata map and its line count.
-fn read_preamble(path: &Path) -> Result<(BTreeMap<String, String>, usize), IngestError> {
+/// What precedes the data rows of a DAQ export.
+struct Head {
+    /// The `#key,value` metadata.
+    meta: BTreeMap<String, String>,
+    /// Number of preamble lines.
+    lines: usize,
+    /// The header line (column names), if the file has one.
+    header: Option<String>,
+}
+
+/// The field separator of a header line: `,` if it has any, else `;`, else
+/// a tab (European DAQ exports write `;` with decimal commas).
+fn detect_separator(header: &str) -> u8 {
+    for sep in [b',', b';', b'\t'] {
+        if header.as_bytes().contains(&sep) {
+            return sep;
+        }
+    }
+    b','
+}
+
+/// Splits a line into fields (naively: quotes only stripped, not parsed).
+fn naive_fields(line: &str, sep: u8) -> Vec<String> {
+    line.split(sep as char)
+        .map(|f| f.trim().trim_matches('"').trim().to_string())
+        .collect()
+}
+
+/// Reads the `#key,value` preamble and the header line.
+fn read_preamble(path: &Path) -> Result<Head, IngestError> {
     let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
     let mut reader = std::io::BufReader::new(file);
     let mut map = BTreeMap::new();
     let mut lines = 0;
+    let mut header = None;
     let mut buf = Vec::new();
     loop {
         buf.clear();
@@ -134,7 +163,14 @@ fn read_preamble(path: &Path) -> Result<(BTreeMap<String, String>, usize), Inges
         if lines == 0 && buf.starts_with(b"\xef\xbb\xbf") {
             buf.drain(..3); // UTF-8 byte-order mark, as some exporters write
         }
-        if n == 0 || buf.first() != Some(&b'#') {
+        if n == 0 {
+            break;
+        }
+        if buf.first() != Some(&b'#') {
+            if n <= MAX_PREAMBLE_LINE {
+                let text = String::from_utf8_lossy(&buf);
+                header = Some(text.trim_end_matches(['\n', '\r']).to_string());
+            }
             break;
         }
         if n > MAX_PREAMBLE_LINE {
@@ -149,8 +185,9 @@ fn read_preamble(path: &Path) -> Result<(BTreeMap<String, String>, usize), Inges
         })?;
         let line = line.trim_end_matches(['\n', '\r']);
         let body = line.trim_start_matches('#').trim_start();
-        // `key,value`: the value is everything after the first comma.
-        if let Some((k, v)) = body.split_once(',') {
+        // `key,value`: the value is everything after the first separator
+        // (`,`, or `;`/tab in exports that use those).
+        if let Some((k, v)) = body.split_once([',', ';', '\t']) {
             let k = k.trim();
             if !k.is_empty() && map.insert(k.to_string(), v.trim().to_string()).is_some() {
                 return Err(IngestError::invalid(
@@ -160,7 +197,34 @@ fn read_preamble(path: &Path) -> Result<(BTreeMap<String, String>, usize), Inges
             }
         }
     }
-    Ok((map, lines))
+    Ok(Head {
+        meta: map,
+        lines,
+        header,
+    })
+}
+
+/// The first data line with more fields than the header (naive count), to
+/// point at the spot when the table reader refuses ragged rows.
+fn first_ragged_line(path: &Path, skip: usize, sep: u8, fields: usize) -> Option<usize> {
+    let file = std::fs::File::open(path).ok()?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut buf = Vec::new();
+    let mut line = 0;
+    loop {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_PREAMBLE_LINE as u64)
+            .read_until(b'\n', &mut buf)
+            .ok()?;
+        if n == 0 {
+            return None;
+        }
+        line += 1;
+        if line > skip + 1 && buf.iter().filter(|&&b| b == sep).count() + 1 > fields {
+            return Some(line);
+        }
+    }
 }
 
 /// The first line of a file that is not valid UTF-8, if any (to point at
@@ -203,7 +267,11 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         Err(e) => return Err(IngestError::io(&map_path, e)),
     };
     let cmap = parse_map(&map_path, &map_text)?;
-    let (meta, preamble) = read_preamble(path)?;
+    let Head {
+        meta,
+        lines: preamble,
+        header,
+    } = read_preamble(path)?;
     if meta.is_empty() {
         return Err(IngestError::invalid(
             path,
@@ -211,8 +279,32 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         ));
     }
     let rig = RigMeta::from_map(&meta).map_err(|e| IngestError::rig(path, e))?;
+    let header = header.ok_or_else(|| {
+        IngestError::invalid(
+            path,
+            "no data: the CSV has no header line after its preamble",
+        )
+    })?;
+    let sep = detect_separator(&header);
+    let names = naive_fields(&header, sep);
+    let specs = std::iter::once(&cmap.time)
+        .chain(cmap.channels.iter().map(|(_, s)| s))
+        .chain(cmap.setpoint_hz.iter());
+    for spec in specs {
+        let count = names.iter().filter(|n| **n == spec.name).count();
+        if count > 1 {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "column {:?} appears {count} times in the header: which one is meant?",
+                    spec.name
+                ),
+            ));
+        }
+    }
 
     let df = CsvReadOptions::default()
+        .map_parse_options(|o| o.with_separator(sep))
         .with_has_header(true)
         .with_skip_lines(preamble)
         .with_infer_schema_length(Some(0)) // every column as text: we parse numbers
@@ -220,8 +312,13 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         .try_into_reader_with_file_path(Some(path.to_path_buf()))
         .and_then(|r| r.finish())
         .map_err(|e| {
-            let at = first_non_utf8_line(path)
-                .map_or(String::new(), |l| format!(" (line {l} is not UTF-8 text)"));
+            let at = match first_non_utf8_line(path) {
+                Some(l) => format!(" (line {l} is not UTF-8 text)"),
+                None => first_ragged_line(path, preamble, sep, names.len())
+                    .map_or(String::new(), |l| {
+                        format!(" (line {l} has more fields than the header)")
+                    }),
+            };
             IngestError::invalid(path, format!("unreadable CSV table: {e}{at}"))
         })?;
     if df.height() == 0 {
@@ -237,9 +334,14 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             IngestError::invalid(
                 path,
                 format!(
-                    "column {:?} (mapped to {what} by {}) is not in the CSV header",
+                    "column {:?} (mapped to {what} by {}) is not in the CSV header ({})",
                     spec.name,
-                    map_path.display()
+                    map_path.display(),
+                    names
+                        .iter()
+                        .map(|n| format!("{n:?}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ),
             )
         })?;
@@ -254,7 +356,12 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
                 continue;
             }
             let line = first_data_line + i;
-            let v: f64 = cell.parse().map_err(|_| {
+            let parsed = match cell.parse::<f64>() {
+                // A `;`- or tab-separated export may write decimal commas.
+                Err(_) if sep != b',' && cell.contains(',') => cell.replace(',', ".").parse(),
+                other => other,
+            };
+            let v: f64 = parsed.map_err(|_| {
                 IngestError::invalid(
                     path,
                     format!(
@@ -465,6 +572,44 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             .find(|c| c.quantity == Quantity::V2)
             .expect("v2");
         assert!(v2.v.iter().all(|v| (v - 0.004).abs() < 1e-15));
+    }
+
+    #[test]
+    fn accepts_semicolons_with_decimal_commas() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = PREAMBLE
+            .replace(',', ";")
+            .replace("#notes;a; b #c", "#notes;a, b #c");
+        body.push_str("t [s];drive [mm];x1 [mm];x2 [mm];v2 [mm/s]\n");
+        for i in 0..20 {
+            body.push_str(&format!(
+                "{};1,5;2;3;4\n",
+                format!("{:.3}", i as f64 * 0.001).replace('.', ",")
+            ));
+        }
+        let csv = write_csv(dir.path(), &body);
+        let raw = read(&csv, None).expect("reads");
+        assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
+        let x0 = raw
+            .channels
+            .iter()
+            .find(|c| c.quantity == Quantity::X0)
+            .expect("x0");
+        assert!(x0.v.iter().all(|v| (v - 0.0015).abs() < 1e-15));
+        assert!((raw.channels[0].dt_s - 0.001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn refuses_ambiguous_and_ragged_tables() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        let csv = write_csv(dir.path(), &format!("{head}0,1,2,2,3,4\n"));
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("\"x1 [mm]\" appears 2 times"), "{e}");
+        let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,2,3,4,5,6\n"));
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("line 13"), "{e}");
     }
 
     #[test]
