@@ -12,6 +12,9 @@ pub enum Error {
     /// The simulation could not be carried out as asked.
     #[error(transparent)]
     Sim(#[from] crate::sim::SimError),
+    /// A rig log could not be ingested.
+    #[error(transparent)]
+    Ingest(#[from] crate::ingest::IngestError),
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

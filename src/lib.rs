@@ -15,6 +15,7 @@
 //!                                  validate: Score ◀── PredictedFrc ── report
 //! ```
 //!
+//! * [`ingest`]: rig logs (MCAP, CSV + channel map, Parquet) into one clean `Run`.
 //! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
 //! * [`sim`]: the exact event-driven engine, the paper's RK4 and closed forms.
 //! * [`cli`]: the thin command-line layer over the library.
@@ -24,6 +25,7 @@
 
 pub mod cli;
 pub mod error;
+pub mod ingest;
 pub mod io;
 pub mod model;
 pub mod sim;

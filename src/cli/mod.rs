@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod args;
+mod ingest;
 mod simulate;
 
 pub use args::ModelArgs;
@@ -28,6 +29,8 @@ pub struct Cli {
 pub enum Command {
     /// Simulate the absorber at one forcing frequency (exact event-driven engine).
     Simulate(simulate::SimulateArgs),
+    /// Read a rig log (MCAP, CSV + channel map, Parquet) into one clean run.
+    Ingest(ingest::IngestArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -47,6 +50,7 @@ pub fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
+        Command::Ingest(a) => ingest::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

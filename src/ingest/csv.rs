@@ -1,0 +1,668 @@
+//! DAQ CSV exports: a `#key,value` preamble (the rig metadata), one header
+//! row, one row per sample on a common time base, and a TOML channel map that
+//! says which column holds which quantity (with scale to SI and time shift).
+//!
+//! The preamble is parsed here; polars reads the table (every column as text,
+//! so that a malformed number can be reported with its line and column).
+
+use super::rig::RigMeta;
+use super::run::{median_interval, Setpoint};
+use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use polars::prelude::*;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+
+/// Longest preamble line accepted (guards against a binary file read as text).
+const MAX_PREAMBLE_LINE: usize = 1 << 20;
+
+/// One column entry of a channel map.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct ColumnSpec {
+    /// Column name in the CSV header.
+    pub name: String,
+    /// Factor to SI (default 1).
+    #[serde(default = "one")]
+    pub scale: f64,
+    /// The row's value was taken at row time + shift_s (default 0).
+    #[serde(default)]
+    pub shift_s: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MapFile {
+    columns: BTreeMap<String, ColumnSpec>,
+}
+
+/// A parsed and checked channel map.
+#[derive(Debug, Clone)]
+pub(crate) struct ChannelMap {
+    pub time: ColumnSpec,
+    pub channels: Vec<(Quantity, ColumnSpec)>,
+    pub setpoint_hz: Option<ColumnSpec>,
+}
+
+/// Parses a channel map (TOML text); `map_path` names it in errors.
+pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, IngestError> {
+    let bad = |msg: String| IngestError::invalid(map_path, msg);
+    let file: MapFile = toml::from_str(text).map_err(|e| {
+        let at = e.span().map_or(String::new(), |span| {
+            let before = text.get(..span.start).unwrap_or(text);
+            let line = before.matches('\n').count() + 1;
+            let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+            format!(" at line {line}, column {col}")
+        });
+        bad(format!(
+            "not a valid channel map{at}: {}",
+            e.message().trim()
+        ))
+    })?;
+    let mut time = None;
+    let mut setpoint_hz = None;
+    let mut channels = Vec::new();
+    for (key, spec) in file.columns {
+        if !(spec.scale.is_finite() && spec.scale != 0.0) {
+            return Err(bad(format!(
+                "column entry `{key}`: scale {} must be finite and non-zero",
+                spec.scale
+            )));
+        }
+        if !spec.shift_s.is_finite() {
+            return Err(bad(format!("column entry `{key}`: shift_s must be finite")));
+        }
+        match key.as_str() {
+            "time" => time = Some(spec),
+            "setpoint_hz" => setpoint_hz = Some(spec),
+            other => match Quantity::from_name(other) {
+                Some(q) => channels.push((q, spec)),
+                None => {
+                    return Err(bad(format!(
+                        "unknown quantity `{other}` in [columns] (expected time, x0, x1, x2, v2, a2, normal_force, setpoint_hz)"
+                    )))
+                }
+            },
+        }
+    }
+    let time = time.ok_or_else(|| bad("[columns] lacks the required entry `time`".into()))?;
+    if time.scale <= 0.0 {
+        return Err(bad("column entry `time`: scale must be positive".into()));
+    }
+    for q in Quantity::ALL.into_iter().filter(|q| q.required()) {
+        if !channels.iter().any(|(p, _)| *p == q) {
+            return Err(bad(format!(
+                "[columns] lacks the required entry `{}`",
+                q.name()
+            )));
+        }
+    }
+    Ok(ChannelMap {
+        time,
+        channels,
+        setpoint_hz,
+    })
+}
+
+/// The default map of `NAME.csv`: `NAME.map.toml` beside it.
+fn default_map_path(path: &Path) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!("{stem}.map.toml"))
+}
+
+/// What precedes the data rows of a DAQ export.
+struct Head {
+    /// The `#key,value` metadata.
+    meta: BTreeMap<String, String>,
+    /// Number of preamble lines.
+    lines: usize,
+    /// The header line (column names), if the file has one.
+    header: Option<String>,
+}
+
+/// The field separator of a header line: `,` if it has any, else `;`, else
+/// a tab (European DAQ exports write `;` with decimal commas).
+fn detect_separator(header: &str) -> u8 {
+    for sep in [b',', b';', b'\t'] {
+        if header.as_bytes().contains(&sep) {
+            return sep;
+        }
+    }
+    b','
+}
+
+/// Splits a line into fields (naively: quotes only stripped, not parsed).
+fn naive_fields(line: &str, sep: u8) -> Vec<String> {
+    line.split(sep as char)
+        .map(|f| f.trim().trim_matches('"').trim().to_string())
+        .collect()
+}
+
+/// Reads the `#key,value` preamble and the header line.
+fn read_preamble(path: &Path) -> Result<Head, IngestError> {
+    let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut map = BTreeMap::new();
+    let mut lines = 0;
+    let mut header = None;
+    let mut buf = Vec::new();
+    loop {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_PREAMBLE_LINE as u64 + 1)
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| IngestError::io(path, e))?;
+        if lines == 0 && buf.starts_with(b"\xef\xbb\xbf") {
+            buf.drain(..3); // UTF-8 byte-order mark, as some exporters write
+        }
+        if n == 0 {
+            break;
+        }
+        if buf.first() != Some(&b'#') {
+            if n <= MAX_PREAMBLE_LINE {
+                let text = String::from_utf8_lossy(&buf);
+                header = Some(text.trim_end_matches(['\n', '\r']).to_string());
+            }
+            break;
+        }
+        if n > MAX_PREAMBLE_LINE {
+            return Err(IngestError::invalid(
+                path,
+                format!("line {}: preamble line too long", lines + 1),
+            ));
+        }
+        lines += 1;
+        let line = std::str::from_utf8(&buf).map_err(|_| {
+            IngestError::invalid(path, format!("line {lines}: preamble is not UTF-8 text"))
+        })?;
+        let line = line.trim_end_matches(['\n', '\r']);
+        let body = line.trim_start_matches('#').trim_start();
+        // `key,value`: the value is everything after the first separator
+        // (`,`, or `;`/tab in exports that use those).
+        if let Some((k, v)) = body.split_once([',', ';', '\t']) {
+            let k = k.trim();
+            if !k.is_empty() && map.insert(k.to_string(), v.trim().to_string()).is_some() {
+                return Err(IngestError::invalid(
+                    path,
+                    format!("line {lines}: preamble key `{k}` appears twice"),
+                ));
+            }
+        }
+    }
+    Ok(Head {
+        meta: map,
+        lines,
+        header,
+    })
+}
+
+/// The first data line with more fields than the header (naive count), to
+/// point at the spot when the table reader refuses ragged rows.
+fn first_ragged_line(path: &Path, skip: usize, sep: u8, fields: usize) -> Option<usize> {
+    let file = std::fs::File::open(path).ok()?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut buf = Vec::new();
+    let mut line = 0;
+    loop {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_PREAMBLE_LINE as u64)
+            .read_until(b'\n', &mut buf)
+            .ok()?;
+        if n == 0 {
+            return None;
+        }
+        line += 1;
+        if line > skip + 1 && buf.iter().filter(|&&b| b == sep).count() + 1 > fields {
+            return Some(line);
+        }
+    }
+}
+
+/// The first line of a file that is not valid UTF-8, if any (to point at
+/// the spot when the table reader refuses the file).
+fn first_non_utf8_line(path: &Path) -> Option<usize> {
+    let file = std::fs::File::open(path).ok()?;
+    let mut reader = std::io::BufReader::new(file);
+    let mut buf = Vec::new();
+    let mut line = 0;
+    loop {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_PREAMBLE_LINE as u64)
+            .read_until(b'\n', &mut buf)
+            .ok()?;
+        if n == 0 {
+            return None;
+        }
+        line += 1;
+        if std::str::from_utf8(&buf).is_err() {
+            return Some(line);
+        }
+    }
+}
+
+/// Reads a DAQ CSV export with its channel map (`map`, or the default).
+pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
+    let map_path = map.map_or_else(|| default_map_path(path), Path::to_path_buf);
+    let map_text = match std::fs::read_to_string(&map_path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && map.is_none() => {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "no channel map: {} not found (give one with --map)",
+                    map_path.display()
+                ),
+            ))
+        }
+        Err(e) => return Err(IngestError::io(&map_path, e)),
+    };
+    let cmap = parse_map(&map_path, &map_text)?;
+    let Head {
+        meta,
+        lines: preamble,
+        header,
+    } = read_preamble(path)?;
+    if meta.is_empty() {
+        return Err(IngestError::invalid(
+            path,
+            "no rig metadata: the CSV has no `#key,value` preamble",
+        ));
+    }
+    let rig = RigMeta::from_map(&meta).map_err(|e| IngestError::rig(path, e))?;
+    let header = header.ok_or_else(|| {
+        IngestError::invalid(
+            path,
+            "no data: the CSV has no header line after its preamble",
+        )
+    })?;
+    let sep = detect_separator(&header);
+    let names = naive_fields(&header, sep);
+    let specs = std::iter::once(&cmap.time)
+        .chain(cmap.channels.iter().map(|(_, s)| s))
+        .chain(cmap.setpoint_hz.iter());
+    for spec in specs {
+        let count = names.iter().filter(|n| **n == spec.name).count();
+        if count > 1 {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "column {:?} appears {count} times in the header: which one is meant?",
+                    spec.name
+                ),
+            ));
+        }
+    }
+
+    let df = CsvReadOptions::default()
+        .map_parse_options(|o| o.with_separator(sep))
+        .with_has_header(true)
+        .with_skip_lines(preamble)
+        .with_infer_schema_length(Some(0)) // every column as text: we parse numbers
+        .with_raise_if_empty(true)
+        .try_into_reader_with_file_path(Some(path.to_path_buf()))
+        .and_then(|r| r.finish())
+        .map_err(|e| {
+            let at = match first_non_utf8_line(path) {
+                Some(l) => format!(" (line {l} is not UTF-8 text)"),
+                None => first_ragged_line(path, preamble, sep, names.len())
+                    .map_or(String::new(), |l| {
+                        format!(" (line {l} has more fields than the header)")
+                    }),
+            };
+            IngestError::invalid(path, format!("unreadable CSV table: {e}{at}"))
+        })?;
+    if df.height() == 0 {
+        return Err(IngestError::invalid(
+            path,
+            "no data: the CSV has no data rows",
+        ));
+    }
+    // File line of data row i (0-based): preamble, header, then one line per row.
+    let first_data_line = preamble + 2;
+    let column = |spec: &ColumnSpec, what: &str| -> Result<Vec<f64>, IngestError> {
+        let col = df.column(&spec.name).map_err(|_| {
+            IngestError::invalid(
+                path,
+                format!(
+                    "column {:?} (mapped to {what} by {}) is not in the CSV header ({})",
+                    spec.name,
+                    map_path.display(),
+                    names
+                        .iter()
+                        .map(|n| format!("{n:?}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        })?;
+        let strs = col
+            .str()
+            .map_err(|e| IngestError::invalid(path, format!("column {:?}: {e}", spec.name)))?;
+        let mut out = Vec::with_capacity(strs.len());
+        for (i, cell) in strs.iter().enumerate() {
+            let cell = cell.map(str::trim).unwrap_or("");
+            if cell.is_empty() {
+                out.push(f64::NAN);
+                continue;
+            }
+            let line = first_data_line + i;
+            let parsed = match cell.parse::<f64>() {
+                // A `;`- or tab-separated export may write decimal commas.
+                Err(_) if sep != b',' && cell.contains(',') => cell.replace(',', ".").parse(),
+                other => other,
+            };
+            let v: f64 = parsed.map_err(|_| {
+                IngestError::invalid(
+                    path,
+                    format!(
+                        "line {line} (data row {}), column {:?}: {cell:?} is not a number",
+                        i + 1,
+                        spec.name
+                    ),
+                )
+            })?;
+            if !v.is_finite() {
+                return Err(IngestError::invalid(
+                    path,
+                    format!(
+                        "line {line} (data row {}), column {:?}: {cell:?} is not a finite number",
+                        i + 1,
+                        spec.name
+                    ),
+                ));
+            }
+            out.push(v * spec.scale);
+        }
+        Ok(out)
+    };
+
+    let time = column(&cmap.time, "time")?;
+    if let Some(i) = time.iter().position(|t| t.is_nan()) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "line {}, column {:?}: empty time cell",
+                first_data_line + i,
+                cmap.time.name
+            ),
+        ));
+    }
+    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "non-monotonic time: line {}, column {:?}: {} s does not follow {} s",
+                first_data_line + i + 1,
+                cmap.time.name,
+                time[i + 1],
+                time[i]
+            ),
+        ));
+    }
+    let dt_s = if time.len() >= 2 {
+        median_interval(&time).unwrap_or(f64::NAN)
+    } else {
+        return Err(IngestError::invalid(
+            path,
+            "too little data: the CSV has a single data row",
+        ));
+    };
+    let t0 = time[0] + cmap.time.shift_s;
+    let mut channels = Vec::new();
+    for (q, spec) in &cmap.channels {
+        let v = column(spec, q.name())?;
+        let t = time
+            .iter()
+            .map(|t| t + cmap.time.shift_s + spec.shift_s - t0)
+            .collect();
+        channels.push(RawChannel {
+            quantity: *q,
+            source: spec.name.clone(),
+            dt_s,
+            t,
+            v,
+        });
+    }
+    let mut setpoints = Vec::new();
+    if let Some(spec) = &cmap.setpoint_hz {
+        let v = column(spec, "setpoint_hz")?;
+        let mut last = f64::NAN;
+        for (t, f) in time.iter().zip(v) {
+            if f.is_finite() && f != last {
+                if f < 0.0 {
+                    return Err(IngestError::invalid(
+                        path,
+                        format!("column {:?}: negative setpoint frequency {f}", spec.name),
+                    ));
+                }
+                setpoints.push(Setpoint {
+                    t_s: t + cmap.time.shift_s + spec.shift_s - t0,
+                    frequency_hz: f,
+                    amplitude_m: None,
+                });
+                last = f;
+            }
+        }
+    }
+    Ok(RawLog {
+        format: LogFormat::Csv,
+        rig,
+        channels,
+        origin: Some(0.0),
+        setpoints,
+        warnings: Vec::new(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MAP: &str = r#"
+[columns]
+time = { name = "t [s]" }
+x0   = { name = "drive [mm]", scale = 0.001, shift_s = -0.004 }
+x1   = { name = "x1 [mm]", scale = 0.001 }
+x2   = { name = "x2 [mm]", scale = 0.001 }
+v2   = { name = "v2 [mm/s]", scale = 0.001 }
+"#;
+
+    #[test]
+    fn parses_a_map() {
+        let m = parse_map(Path::new("m.toml"), MAP).expect("valid map");
+        assert_eq!(m.time.name, "t [s]");
+        let x0 = m
+            .channels
+            .iter()
+            .find(|(q, _)| *q == Quantity::X0)
+            .expect("x0");
+        assert_eq!(x0.1.scale, 0.001);
+        assert_eq!(x0.1.shift_s, -0.004);
+        assert!(m.setpoint_hz.is_none());
+    }
+
+    #[test]
+    fn refuses_bad_maps() {
+        let p = Path::new("bad.map.toml");
+        for (text, needle) in [
+            ("[columns\ntime = 1", "not a valid channel map"),
+            (
+                &MAP.replace("x2   = { name = \"x2 [mm]\", scale = 0.001 }\n", ""),
+                "`x2`",
+            ),
+            (&MAP.replace("time =", "tiem ="), "tiem"),
+            (
+                &MAP.replace("scale = 0.001 }\nx2", "scale = 0.0 }\nx2"),
+                "scale",
+            ),
+            (&MAP.replace("name = \"t [s]\"", "nmae = \"t [s]\""), "nmae"),
+        ] {
+            let e = parse_map(p, text).unwrap_err().to_string();
+            assert!(e.contains("bad.map.toml") && e.contains(needle), "{e}");
+        }
+    }
+
+    fn write_csv(dir: &Path, body: &str) -> PathBuf {
+        let csv = dir.join("log.csv");
+        std::fs::write(&csv, body).expect("write csv");
+        std::fs::write(dir.join("log.map.toml"), MAP).expect("write map");
+        csv
+    }
+
+    const PREAMBLE: &str = "#format,stickslip-rig-log/1\n#test,characteristic\n#m1_kg,8\n#m2_kg,2\n#k1_n_per_m,600\n#k2_n_per_m,700\n#d_n_s_per_m,0.1\n#drive_amplitude_m,0.002\n#normal_force_n,3\n#notes,a, b #c\n";
+
+    #[test]
+    fn reads_preamble_shift_and_dropouts() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = String::from(PREAMBLE);
+        body.push_str("t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        for i in 0..50 {
+            let x1 = if i == 7 {
+                String::new()
+            } else {
+                format!("{}", i)
+            };
+            body.push_str(&format!("{:.3},{i},{x1},2,3\n", i as f64 * 0.001));
+        }
+        let csv = write_csv(dir.path(), &body);
+        let raw = read(&csv, None).expect("reads");
+        assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
+        let x0 = raw
+            .channels
+            .iter()
+            .find(|c| c.quantity == Quantity::X0)
+            .expect("x0");
+        let x1 = raw
+            .channels
+            .iter()
+            .find(|c| c.quantity == Quantity::X1)
+            .expect("x1");
+        // x0 was taken 4 ms before its row: 4 ms earlier than x1 of the same row.
+        assert!((x1.t[10] - x0.t[10] - 0.004).abs() < 1e-12);
+        assert!(x1.v[7].is_nan());
+        assert!((x1.v[8] - 0.008).abs() < 1e-15);
+        assert!((raw.channels[0].dt_s - 0.001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn accepts_bom_and_crlf() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = String::from("\u{feff}");
+        body.push_str(PREAMBLE);
+        body.push_str("t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        for i in 0..20 {
+            body.push_str(&format!("{:.3},1,2,3,4\n", i as f64 * 0.001));
+        }
+        let csv = write_csv(dir.path(), &body.replace('\n', "\r\n"));
+        let raw = read(&csv, None).expect("reads");
+        assert_eq!(raw.rig.m1_kg, 8.0);
+        let v2 = raw
+            .channels
+            .iter()
+            .find(|c| c.quantity == Quantity::V2)
+            .expect("v2");
+        assert!(v2.v.iter().all(|v| (v - 0.004).abs() < 1e-15));
+    }
+
+    #[test]
+    fn accepts_semicolons_with_decimal_commas() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = PREAMBLE
+            .replace(',', ";")
+            .replace("#notes;a; b #c", "#notes;a, b #c");
+        body.push_str("t [s];drive [mm];x1 [mm];x2 [mm];v2 [mm/s]\n");
+        for i in 0..20 {
+            body.push_str(&format!(
+                "{};1,5;2;3;4\n",
+                format!("{:.3}", i as f64 * 0.001).replace('.', ",")
+            ));
+        }
+        let csv = write_csv(dir.path(), &body);
+        let raw = read(&csv, None).expect("reads");
+        assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
+        let x0 = raw
+            .channels
+            .iter()
+            .find(|c| c.quantity == Quantity::X0)
+            .expect("x0");
+        assert!(x0.v.iter().all(|v| (v - 0.0015).abs() < 1e-15));
+        assert!((raw.channels[0].dt_s - 0.001).abs() < 1e-12);
+    }
+
+    #[test]
+    fn refuses_ambiguous_and_ragged_tables() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        let csv = write_csv(dir.path(), &format!("{head}0,1,2,2,3,4\n"));
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("\"x1 [mm]\" appears 2 times"), "{e}");
+        let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,2,3,4,5,6\n"));
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("line 13"), "{e}");
+    }
+
+    #[test]
+    fn points_at_a_line_that_is_not_utf8() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = PREAMBLE.as_bytes().to_vec();
+        body.extend_from_slice(
+            b"t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n0,1,2,3,4\n0.001,1,\xff\xfe,3,4\n",
+        );
+        let csv = dir.path().join("log.csv");
+        std::fs::write(&csv, body).expect("write");
+        std::fs::write(dir.path().join("log.map.toml"), MAP).expect("map");
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("log.csv") && e.contains("line 13"), "{e}");
+    }
+
+    #[test]
+    fn names_line_and_column_of_garbage() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = String::from(PREAMBLE);
+        body.push_str("t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        for i in 0..20 {
+            let x2 = if i == 12 {
+                "1.2.7e".into()
+            } else {
+                format!("{i}")
+            };
+            body.push_str(&format!("{:.3},1,2,{x2},3\n", i as f64 * 0.001));
+        }
+        let csv = write_csv(dir.path(), &body);
+        let e = read(&csv, None).unwrap_err().to_string();
+        // 10 preamble lines, a header, then data row 13 is line 24.
+        assert!(
+            e.contains("line 24") && e.contains("x2 [mm]") && e.contains("1.2.7e"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn refuses_nan_tokens_backwards_time_and_missing_map() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
+        let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,NaN,3,4\n"));
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("NaN") && e.contains("x1 [mm]"), "{e}");
+        let csv = write_csv(
+            dir.path(),
+            &format!("{head}0,1,2,3,4\n0.002,1,2,3,4\n0.001,1,2,3,4\n"),
+        );
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("non-monotonic time"), "{e}");
+        std::fs::remove_file(dir.path().join("log.map.toml")).expect("rm");
+        let e = read(&csv, None).unwrap_err().to_string();
+        assert!(e.contains("log.csv") && e.contains("log.map.toml"), "{e}");
+    }
+}

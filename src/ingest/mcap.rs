@@ -1,0 +1,828 @@
+//! MCAP rig logs: one linear, streaming pass over the file's records (chunks
+//! decompressed one at a time; zstd, lz4 or none), so files without a summary
+//! section read the same as indexed ones and memory stays bounded by the
+//! largest chunk plus the decoded samples.
+
+use super::rig::RigMeta;
+use super::run::Setpoint;
+use super::{unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use mcap::records::Record;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use serde::Deserialize;
+use std::collections::{BTreeMap, HashMap};
+use std::io::Read;
+use std::path::Path;
+
+/// Largest record or (de)compressed chunk accepted. A DAQ writes chunks of a
+/// few MiB at most; a larger length field is corruption and must not make us
+/// allocate it.
+const RECORD_LIMIT: usize = 64 << 20;
+
+/// The setpoint topic.
+const SETPOINT_TOPIC: &str = "/drive/setpoint";
+
+/// A DAQ buffer message.
+#[derive(Deserialize)]
+struct BufferMsg {
+    t0_ns: u64,
+    dt_ns: u64,
+    value: Vec<Option<f64>>,
+}
+
+/// A setpoint message.
+#[derive(Deserialize)]
+struct SetpointMsg {
+    t_ns: u64,
+    frequency_hz: f64,
+    amplitude_m: Option<f64>,
+}
+
+/// What a channel id carries.
+#[derive(Debug, Clone)]
+enum Role {
+    Sensor(Quantity),
+    Setpoint,
+    Ignored,
+}
+
+#[derive(Debug, Clone)]
+struct ChannelInfo {
+    topic: String,
+    role: Role,
+    /// Factor from the channel's unit to SI.
+    scale: f64,
+    rate_hz: Option<f64>,
+}
+
+/// Samples of one sensor channel, buffer by buffer.
+#[derive(Debug, Default)]
+struct Acc {
+    topic: String,
+    /// (t0_ns, dt_ns, index of its first value in `values`).
+    buffers: Vec<(u64, u64, usize)>,
+    values: Vec<f64>,
+    rate_hz: Option<f64>,
+}
+
+fn mcap_error(path: &Path, e: mcap::McapError) -> IngestError {
+    use mcap::McapError as E;
+    let msg = match e {
+        E::BadMagic => "not an MCAP file (bad magic bytes)".to_string(),
+        E::UnexpectedEof => {
+            "truncated MCAP: the file ends in the middle of a record (no footer)".to_string()
+        }
+        E::UnexpectedEoc => "corrupt MCAP: a chunk ends in the middle of a record".to_string(),
+        E::BadChunkCrc { .. } | E::BadDataCrc { .. } | E::BadSummaryCrc { .. } => {
+            format!("corrupt MCAP: {e}")
+        }
+        E::RecordTooLarge { .. } | E::ChunkTooLarge(_) | E::ChunkBufferTooLarge(_) => {
+            format!("corrupt MCAP (implausible record length): {e}")
+        }
+        other => format!("corrupt MCAP: {other}"),
+    };
+    IngestError::invalid(path, msg)
+}
+
+/// Reads an MCAP rig log.
+pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
+    let mut file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let options = LinearReaderOptions::default()
+        .with_record_length_limit(RECORD_LIMIT)
+        .with_prevalidate_chunk_crcs(true);
+    let mut reader = LinearReader::new_with_options(options);
+
+    let mut channels: HashMap<u16, ChannelInfo> = HashMap::new();
+    let mut rig: Option<BTreeMap<String, String>> = None;
+    let mut accs: BTreeMap<Quantity, Acc> = BTreeMap::new();
+    let mut setpoints: Vec<(u64, f64, Option<f64>)> = Vec::new();
+    let mut warnings: Vec<String> = Vec::new();
+    let mut n_messages: u64 = 0;
+
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| mcap_error(path, e))? {
+            LinearReadEvent::ReadRequest(need) => {
+                let buf = reader.insert(need);
+                let n = loop {
+                    match file.read(buf) {
+                        Ok(n) => break n,
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => return Err(IngestError::io(path, e)),
+                    }
+                };
+                reader.notify_read(n);
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                let record = mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))?;
+                match record {
+                    Record::Channel(ch) => {
+                        let info = channel_info(path, &ch, &mut warnings)?;
+                        if let Some(old) = channels.get(&ch.id) {
+                            if old.topic != info.topic {
+                                return Err(IngestError::invalid(
+                                    path,
+                                    format!(
+                                        "corrupt MCAP: channel id {} is both {} and {}",
+                                        ch.id, old.topic, info.topic
+                                    ),
+                                ));
+                            }
+                            continue; // the summary section repeats channels
+                        }
+                        if let Role::Sensor(q) = info.role {
+                            if let Some(other) = channels
+                                .values()
+                                .find(|c| matches!(c.role, Role::Sensor(p) if p == q))
+                            {
+                                return Err(IngestError::invalid(
+                                    path,
+                                    format!(
+                                        "two channels carry {} ({} and {})",
+                                        q.name(),
+                                        other.topic,
+                                        info.topic
+                                    ),
+                                ));
+                            }
+                            accs.insert(
+                                q,
+                                Acc {
+                                    topic: info.topic.clone(),
+                                    rate_hz: info.rate_hz,
+                                    ..Acc::default()
+                                },
+                            );
+                        }
+                        channels.insert(ch.id, info);
+                    }
+                    Record::Metadata(m) if m.name == "rig" => {
+                        if rig.is_some() {
+                            return Err(IngestError::invalid(
+                                path,
+                                "more than one `rig` metadata record",
+                            ));
+                        }
+                        rig = Some(m.metadata);
+                    }
+                    Record::Message { header, data } => {
+                        n_messages += 1;
+                        let Some(info) = channels.get(&header.channel_id) else {
+                            return Err(IngestError::invalid(
+                                path,
+                                format!(
+                                    "corrupt MCAP: message at log time {} ns refers to unknown channel id {}",
+                                    header.log_time, header.channel_id
+                                ),
+                            ));
+                        };
+                        let where_ = || {
+                            format!(
+                                "message on {} at log time {} ns",
+                                info.topic, header.log_time
+                            )
+                        };
+                        match info.role {
+                            Role::Ignored => {}
+                            Role::Setpoint => {
+                                let m: SetpointMsg = decode(path, &data, &where_)?;
+                                if !(m.frequency_hz.is_finite() && m.frequency_hz >= 0.0) {
+                                    return Err(IngestError::invalid(
+                                        path,
+                                        format!(
+                                            "{}: frequency_hz {} is not a valid frequency",
+                                            where_(),
+                                            m.frequency_hz
+                                        ),
+                                    ));
+                                }
+                                if let Some(a) = m.amplitude_m {
+                                    if !a.is_finite() || a < 0.0 {
+                                        return Err(IngestError::invalid(
+                                            path,
+                                            format!(
+                                                "{}: amplitude_m {a} is not a valid amplitude",
+                                                where_()
+                                            ),
+                                        ));
+                                    }
+                                }
+                                setpoints.push((m.t_ns, m.frequency_hz, m.amplitude_m));
+                            }
+                            Role::Sensor(q) => {
+                                let m: BufferMsg = decode(path, &data, &where_)?;
+                                let scale = info.scale;
+                                let acc = accs.entry(q).or_default();
+                                push_buffer(path, acc, m, scale, &where_)?;
+                            }
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+
+    let Some(rig_map) = rig else {
+        return Err(IngestError::invalid(
+            path,
+            "no `rig` metadata record: the log does not describe its rig",
+        ));
+    };
+    let rig = RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))?;
+    if n_messages == 0 {
+        return Err(IngestError::invalid(
+            path,
+            "no data: the log holds zero messages",
+        ));
+    }
+    let origin = accs
+        .values()
+        .filter_map(|a| a.buffers.first().map(|b| b.0))
+        .min()
+        .ok_or_else(|| IngestError::invalid(path, "no data: the log holds no sensor samples"))?;
+
+    let mut raw_channels = Vec::new();
+    for (q, acc) in accs {
+        if acc.values.is_empty() {
+            if q.required() {
+                return Err(IngestError::invalid(
+                    path,
+                    format!(
+                        "no data: channel {} ({}) has no messages",
+                        acc.topic,
+                        q.name()
+                    ),
+                ));
+            }
+            warnings.push(format!(
+                "channel {} ({}) has no messages",
+                acc.topic,
+                q.name()
+            ));
+            continue;
+        }
+        raw_channels.push(expand(q, acc, origin, &mut warnings));
+    }
+    let setpoints = setpoints
+        .into_iter()
+        .map(|(t_ns, frequency_hz, amplitude_m)| Setpoint {
+            t_s: ns_diff_s(t_ns, origin),
+            frequency_hz,
+            amplitude_m,
+        })
+        .collect();
+    Ok(RawLog {
+        format: LogFormat::Mcap,
+        rig,
+        channels: raw_channels,
+        origin: None,
+        setpoints,
+        warnings,
+    })
+}
+
+/// Classifies a channel record and reads its metadata.
+fn channel_info(
+    path: &Path,
+    ch: &mcap::records::Channel,
+    warnings: &mut Vec<String>,
+) -> Result<ChannelInfo, IngestError> {
+    let topic = ch.topic.clone();
+    let role = if topic == SETPOINT_TOPIC {
+        Role::Setpoint
+    } else if let Some(q) = Quantity::from_topic(&topic) {
+        Role::Sensor(q)
+    } else {
+        warnings.push(format!("ignored unknown topic {topic}"));
+        Role::Ignored
+    };
+    if !matches!(role, Role::Ignored) && ch.message_encoding != "json" {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "channel {topic}: message encoding {:?} is not supported (expected json)",
+                ch.message_encoding
+            ),
+        ));
+    }
+    let mut scale = 1.0;
+    if let Role::Sensor(q) = role {
+        match ch.metadata.get("unit") {
+            Some(unit) => {
+                scale = unit_factor(q, unit).ok_or_else(|| {
+                    IngestError::invalid(
+                        path,
+                        format!(
+                            "channel {topic}: unit {unit:?} is not a unit of {} (expected {})",
+                            q.name(),
+                            q.unit()
+                        ),
+                    )
+                })?;
+            }
+            None => warnings.push(format!(
+                "channel {topic} states no unit; {} assumed",
+                q.unit()
+            )),
+        }
+    }
+    let rate_hz = match ch.metadata.get("sample_rate_hz") {
+        Some(_) if !matches!(role, Role::Sensor(_)) => None,
+        Some(r) => match r.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
+            _ => {
+                return Err(IngestError::invalid(
+                    path,
+                    format!("channel {topic}: sample_rate_hz {r:?} is not a positive number"),
+                ))
+            }
+        },
+        None => None,
+    };
+    Ok(ChannelInfo {
+        topic,
+        role,
+        scale,
+        rate_hz,
+    })
+}
+
+/// Decodes a JSON payload, naming the message on failure.
+fn decode<T: for<'de> Deserialize<'de>>(
+    path: &Path,
+    data: &[u8],
+    where_: &dyn Fn() -> String,
+) -> Result<T, IngestError> {
+    serde_json::from_slice(data).map_err(|e| {
+        let non_finite = [b"NaN".as_slice(), b"Infinity".as_slice()]
+            .iter()
+            .any(|tok| data.windows(tok.len()).any(|w| w == *tok));
+        let what = if non_finite {
+            "payload holds a NaN/Infinity token (not JSON; dropouts must be null)".to_string()
+        } else {
+            format!("payload is not a valid message ({e})")
+        };
+        IngestError::invalid(path, format!("{}: {what}", where_()))
+    })
+}
+
+/// Appends one DAQ buffer, checking that time moves forward.
+fn push_buffer(
+    path: &Path,
+    acc: &mut Acc,
+    m: BufferMsg,
+    scale: f64,
+    where_: &dyn Fn() -> String,
+) -> Result<(), IngestError> {
+    if m.dt_ns == 0 {
+        return Err(IngestError::invalid(
+            path,
+            format!("{}: dt_ns is 0", where_()),
+        ));
+    }
+    if m.value.is_empty() {
+        return Ok(());
+    }
+    let n = m.value.len() as u128;
+    let end = m.t0_ns as u128 + (n - 1) * m.dt_ns as u128;
+    if end > u64::MAX as u128 {
+        return Err(IngestError::invalid(
+            path,
+            format!("{}: buffer runs past the end of the clock", where_()),
+        ));
+    }
+    if let Some(&(t0, dt, start)) = acc.buffers.last() {
+        let prev_n = (acc.values.len() - start) as u128;
+        let prev_last = t0 as u128 + (prev_n - 1) * dt as u128;
+        if (m.t0_ns as u128) <= prev_last {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "non-monotonic time on channel {}: buffer t0_ns {} is {:.6} s before the previous sample ({})",
+                    acc.topic,
+                    m.t0_ns,
+                    (prev_last - m.t0_ns as u128) as f64 * 1e-9,
+                    where_()
+                ),
+            ));
+        }
+    }
+    acc.buffers.push((m.t0_ns, m.dt_ns, acc.values.len()));
+    acc.values.extend(
+        m.value
+            .into_iter()
+            .map(|v| v.map_or(f64::NAN, |x| x * scale)),
+    );
+    Ok(())
+}
+
+/// Seconds from `origin` to `t` (both ns), exact in integers first.
+fn ns_diff_s(t: u64, origin: u64) -> f64 {
+    (t as i128 - origin as i128) as f64 * 1e-9
+}
+
+/// Expands a channel's buffers into per-sample times from `origin`.
+fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> RawChannel {
+    let mut t = Vec::with_capacity(acc.values.len());
+    let mut dts: Vec<u64> = Vec::with_capacity(acc.buffers.len());
+    for (k, &(t0, dt, start)) in acc.buffers.iter().enumerate() {
+        let end = acc
+            .buffers
+            .get(k + 1)
+            .map_or(acc.values.len(), |next| next.2);
+        for i in 0..(end - start) {
+            let ns = t0 as i128 - origin as i128 + i as i128 * dt as i128;
+            t.push(ns as f64 * 1e-9);
+        }
+        dts.push(dt);
+    }
+    dts.sort_unstable();
+    let dt_ns = dts[dts.len() / 2];
+    let dt_s = dt_ns as f64 * 1e-9;
+    if dts.first() != dts.last() {
+        warnings.push(format!(
+            "channel {}: buffers use different sample intervals ({}..{} ns); {} ns taken as nominal",
+            acc.topic,
+            dts.first().copied().unwrap_or(0),
+            dts.last().copied().unwrap_or(0),
+            dt_ns
+        ));
+    }
+    if let Some(r) = acc.rate_hz {
+        if ((1.0 / dt_s) / r - 1.0).abs() > 0.01 {
+            warnings.push(format!(
+                "channel {}: sample_rate_hz {} disagrees with dt_ns {} ({} Hz); dt_ns used",
+                acc.topic,
+                r,
+                dt_ns,
+                1.0 / dt_s
+            ));
+        }
+    }
+    RawChannel {
+        quantity: q,
+        source: acc.topic,
+        dt_s,
+        t,
+        v: acc.values,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{read as ingest, GapKind, IngestOptions, Quantity};
+    use mcap::records::{MessageHeader, Metadata};
+    use mcap::{Compression, WriteOptions};
+    use std::collections::BTreeMap;
+    use std::path::{Path, PathBuf};
+
+    const T0: u64 = 1_700_000_000_000_000_000;
+
+    /// A small synthetic rig log, edited per test, then written to disk.
+    struct Fixture {
+        rig: Vec<BTreeMap<String, String>>,
+        /// (topic, message encoding, channel metadata)
+        channels: Vec<(String, String, BTreeMap<String, String>)>,
+        /// (channel index, log time, payload)
+        messages: Vec<(usize, u64, Vec<u8>)>,
+        compression: Option<Compression>,
+        summary: bool,
+    }
+
+    fn meta(pairs: &[(&str, &str)]) -> BTreeMap<String, String> {
+        pairs
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    }
+
+    fn buffer(t0: u64, dt: u64, values: &[Option<f64>]) -> Vec<u8> {
+        serde_json::json!({"t0_ns": t0, "dt_ns": dt, "value": values})
+            .to_string()
+            .into_bytes()
+    }
+
+    impl Fixture {
+        /// x0, x1, x2, v2 at 1 kHz: two 10-sample buffers each, value = t (s).
+        fn good() -> Self {
+            let rig = meta(&[
+                ("format", "stickslip-rig-log/1"),
+                ("test", "characteristic"),
+                ("m1_kg", "8"),
+                ("m2_kg", "2"),
+                ("k1_n_per_m", "600"),
+                ("k2_n_per_m", "700"),
+                ("d_n_s_per_m", "0.1"),
+                ("drive_amplitude_m", "0.002"),
+                ("normal_force_n", "3"),
+                ("drive_frequency_hz", "1.5"),
+            ]);
+            let mut f = Fixture {
+                rig: vec![rig],
+                channels: Vec::new(),
+                messages: Vec::new(),
+                compression: Some(Compression::Zstd),
+                summary: true,
+            };
+            for q in [Quantity::X0, Quantity::X1, Quantity::X2, Quantity::V2] {
+                f.channels.push((
+                    q.topic().into(),
+                    "json".into(),
+                    meta(&[("sample_rate_hz", "1000"), ("unit", q.unit())]),
+                ));
+            }
+            for c in 0..4 {
+                for b in 0..2u64 {
+                    let t0 = T0 + b * 10_000_000 + c as u64 * 100_000;
+                    let vals: Vec<Option<f64>> = (0..10)
+                        .map(|i| Some((t0 - T0 + i * 1_000_000) as f64 * 1e-9))
+                        .collect();
+                    f.messages.push((c, t0, buffer(t0, 1_000_000, &vals)));
+                }
+            }
+            f
+        }
+
+        fn write(&self, dir: &Path, name: &str) -> PathBuf {
+            let path = dir.join(name);
+            let file = std::io::BufWriter::new(std::fs::File::create(&path).expect("create"));
+            let mut w = WriteOptions::new()
+                .compression(self.compression)
+                .emit_summary_records(self.summary)
+                .emit_summary_offsets(self.summary)
+                .create(file)
+                .expect("writer");
+            let schema = w.add_schema("buffer", "jsonschema", b"{}").expect("schema");
+            let ids: Vec<u16> = self
+                .channels
+                .iter()
+                .map(|(topic, enc, md)| w.add_channel(schema, topic, enc, md).expect("channel"))
+                .collect();
+            for (i, (c, log_time, data)) in self.messages.iter().enumerate() {
+                let header = MessageHeader {
+                    channel_id: ids[*c],
+                    sequence: i as u32,
+                    log_time: *log_time,
+                    publish_time: *log_time,
+                };
+                w.write_to_known_channel(&header, data).expect("message");
+            }
+            for r in &self.rig {
+                w.write_metadata(&Metadata {
+                    name: "rig".into(),
+                    metadata: r.clone(),
+                })
+                .expect("metadata");
+            }
+            w.finish().expect("finish");
+            path
+        }
+
+        fn read(&self) -> Result<super::super::Run, String> {
+            let dir = tempfile::tempdir().expect("tempdir");
+            let p = self.write(dir.path(), "fixture.mcap");
+            ingest(&p, &IngestOptions::default()).map_err(|e| e.to_string())
+        }
+    }
+
+    #[test]
+    fn reads_every_compression_with_and_without_summary() {
+        let reference = Fixture::good().read().expect("zstd");
+        assert_eq!(reference.channels.len(), 4);
+        assert_eq!(reference.channel(Quantity::X1).expect("x1").t.len(), 20);
+        assert!(!reference.has_acceleration);
+        assert!(reference
+            .warnings
+            .iter()
+            .any(|w| w.contains("accelerometer")));
+        assert!(reference.gaps.is_empty(), "{:?}", reference.gaps);
+        for compression in [None, Some(Compression::Lz4), Some(Compression::Zstd)] {
+            for summary in [true, false] {
+                let mut f = Fixture::good();
+                f.compression = compression;
+                f.summary = summary;
+                let run = f.read().expect("reads");
+                for q in [Quantity::X0, Quantity::X1, Quantity::X2, Quantity::V2] {
+                    let (a, b) = (run.channel(q).expect("q"), reference.channel(q).expect("q"));
+                    assert_eq!(a.t, b.t);
+                    assert_eq!(a.v, b.v);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn times_are_from_log_start_and_grid_interpolates() {
+        let run = Fixture::good().read().expect("reads");
+        // x0 starts the log; x1 starts 0.1 ms later.
+        assert_eq!(run.channel(Quantity::X0).expect("x0").t[0], 0.0);
+        assert!((run.channel(Quantity::X1).expect("x1").t[0] - 1e-4).abs() < 1e-12);
+        let r = &run.resampled;
+        assert_eq!(r.rate_hz, 1000.0);
+        // value = time since T0, so on the grid x1(t) = t wherever defined.
+        for (t, x) in r.t.iter().zip(&r.x1) {
+            if x.is_finite() {
+                assert!((x - t).abs() < 1e-12, "{t}: {x}");
+            }
+        }
+        assert!(
+            r.x1[0].is_nan(),
+            "no extrapolation before x1's first sample"
+        );
+        assert!(r.x1[1].is_finite());
+    }
+
+    #[test]
+    fn units_are_converted_to_si() {
+        let mut f = Fixture::good();
+        f.channels[1].2.insert("unit".into(), "mm".into());
+        let run = f.read().expect("reads");
+        let x1 = run.channel(Quantity::X1).expect("x1");
+        assert!((x1.v[5] - x1.t[5] * 1e-3).abs() < 1e-15);
+        f.channels[1].2.insert("unit".into(), "furlong".into());
+        let e = f.read().unwrap_err();
+        assert!(
+            e.contains("/mass1/position") && e.contains("furlong"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn non_finite_tokens_are_refused_clearly() {
+        for token in ["NaN", "Infinity", "-Infinity"] {
+            let mut f = Fixture::good();
+            let text = format!(
+                r#"{{"t0_ns":{},"dt_ns":1000000,"value":[1.0,{token}]}}"#,
+                T0 + 50_000_000
+            );
+            f.messages.push((2, T0 + 50_000_000, text.into_bytes()));
+            let e = f.read().unwrap_err();
+            assert!(
+                e.contains("NaN/Infinity") && e.contains("/mass2/position"),
+                "{e}"
+            );
+        }
+        let mut f = Fixture::good();
+        let text = format!(
+            r#"{{"t0_ns":{},"dt_ns":1000000,"value":[1e999]}}"#,
+            T0 + 50_000_000
+        );
+        f.messages.push((2, T0 + 50_000_000, text.into_bytes()));
+        let e = f.read().unwrap_err();
+        assert!(
+            e.contains("/mass2/position") && e.contains("log time"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn dropouts_lost_buffers_and_unknown_topics() {
+        let mut f = Fixture::good();
+        // x2: a null in the first buffer, and its second buffer lost (moved later).
+        f.messages[4].2 = buffer(
+            T0 + 200_000,
+            1_000_000,
+            &[
+                Some(0.0),
+                None,
+                Some(0.002),
+                Some(0.003),
+                Some(0.004),
+                Some(0.005),
+                Some(0.006),
+                Some(0.007),
+                Some(0.008),
+                Some(0.009),
+            ],
+        );
+        let late = T0 + 40_000_000 + 200_000;
+        f.messages[5] = (2, late, buffer(late, 1_000_000, &[Some(1.0); 10]));
+        f.channels
+            .push(("/daq/temperature".into(), "cdr".into(), BTreeMap::new()));
+        f.messages.push((4, T0, b"\x00\x01 not json".to_vec()));
+        let run = f.read().expect("reads");
+        let x2 = run.channel(Quantity::X2).expect("x2");
+        assert_eq!(x2.dropouts, 1);
+        assert!(run.warnings.iter().any(|w| w.contains("/daq/temperature")));
+        let gaps: Vec<_> = run.gaps.iter().filter(|g| g.channel == "x2").collect();
+        assert_eq!(gaps.len(), 1, "{gaps:?}");
+        assert_eq!(gaps[0].kind, GapKind::Missing);
+        assert!((gaps[0].start_s - 0.0092).abs() < 1e-9, "{gaps:?}");
+        assert!((gaps[0].end_s - 0.0402).abs() < 1e-9, "{gaps:?}");
+        // The single null is bridged on the grid; the lost buffer is not.
+        let r = &run.resampled;
+        let at = |t: f64| r.x2[(t * 1000.0).round() as usize];
+        // Grid 1 ms lies between samples at 0.2 ms (0.0) and 2.2 ms (0.002).
+        assert!((at(0.001) - 0.0008).abs() < 1e-12, "{}", at(0.001));
+        assert!(at(0.025).is_nan());
+    }
+
+    #[test]
+    fn structural_problems_are_named() {
+        type Edit = Box<dyn Fn(&mut Fixture)>;
+        let cases: Vec<(Edit, &str)> = vec![
+            (
+                Box::new(|f| f.rig.push(f.rig[0].clone())),
+                "more than one `rig`",
+            ),
+            (Box::new(|f| f.rig.clear()), "no `rig` metadata"),
+            (Box::new(|f| f.channels[3].1 = "cdr".into()), "encoding"),
+            (
+                Box::new(|f| {
+                    f.messages.retain(|m| m.0 != 2);
+                }),
+                "/mass2/position",
+            ),
+            (
+                Box::new(|f| {
+                    f.messages.retain(|m| m.0 != 2);
+                    f.channels[2].0 = "/mass2/position_old".into();
+                }),
+                "required channel x2",
+            ),
+            (
+                Box::new(|f| {
+                    let t = T0 + 30_000_000;
+                    f.messages.push((0, t, buffer(t, 0, &[Some(1.0)])));
+                }),
+                "dt_ns is 0",
+            ),
+            (
+                Box::new(|f| {
+                    // A clock jump of a day: refused, not a 86-million-row grid.
+                    let t = T0 + 86_400 * 1_000_000_000;
+                    f.messages.push((1, t, buffer(t, 1_000_000, &[Some(1.0)])));
+                }),
+                "time stamps inconsistent",
+            ),
+            (
+                Box::new(|f| {
+                    let t = T0 + 5_000_000;
+                    f.messages.push((1, t, buffer(t, 1_000_000, &[Some(1.0)])));
+                }),
+                "non-monotonic time on channel /mass1/position",
+            ),
+            (
+                Box::new(|f| {
+                    f.channels
+                        .push(("/drive/setpoint".into(), "json".into(), BTreeMap::new()));
+                    let sp = format!(r#"{{"t_ns":{T0},"frequency_hz":-1.0,"amplitude_m":0.002}}"#);
+                    f.messages.push((4, T0, sp.into_bytes()));
+                }),
+                "frequency_hz",
+            ),
+            (Box::new(|f| f.messages.clear()), "zero messages"),
+        ];
+        for (edit, needle) in cases {
+            let mut f = Fixture::good();
+            edit(&mut f);
+            let e = f.read().unwrap_err();
+            assert!(
+                e.contains("fixture.mcap") && e.contains(needle),
+                "{needle}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn setpoints_are_kept_in_order() {
+        let mut f = Fixture::good();
+        f.channels
+            .push(("/drive/setpoint".into(), "json".into(), BTreeMap::new()));
+        for (k, hz) in [(0u64, 1.0), (10, 1.5)] {
+            let t = T0 + k * 1_000_000;
+            let sp = format!(r#"{{"t_ns":{t},"frequency_hz":{hz},"amplitude_m":0.002}}"#);
+            f.messages.push((4, t, sp.into_bytes()));
+        }
+        let run = f.read().expect("reads");
+        assert_eq!(run.setpoints.len(), 2);
+        assert_eq!(run.setpoints[1].frequency_hz, 1.5);
+        assert!((run.setpoints[1].t_s - 0.01).abs() < 1e-12);
+        let sp = run.resampled.setpoint_hz.as_ref().expect("column");
+        assert_eq!(sp[5], 1.0);
+        assert_eq!(sp[15], 1.5);
+    }
+
+    #[test]
+    fn corrupted_bytes_never_panic() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let good = Fixture::good().write(dir.path(), "good.mcap");
+        let bytes = std::fs::read(&good).expect("read");
+        let p = dir.path().join("bad.mcap");
+        // Deterministic corruption: every position, a few byte values.
+        for i in (0..bytes.len()).step_by(7) {
+            for v in [0x00u8, 0xff, 0x7f] {
+                let mut b = bytes.clone();
+                b[i] = v;
+                std::fs::write(&p, &b).expect("write");
+                let _ = ingest(&p, &IngestOptions::default());
+            }
+        }
+        for cut in (0..bytes.len()).step_by(11) {
+            std::fs::write(&p, &bytes[..cut]).expect("write");
+            assert!(
+                ingest(&p, &IngestOptions::default()).is_err(),
+                "cut at {cut}"
+            );
+        }
+    }
+}

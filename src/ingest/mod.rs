@@ -1,0 +1,367 @@
+//! # Ingest: rig log → one clean [`Run`]
+//!
+//! This stage owns everything between a file on disk and the typed, checked
+//! run that the later stages work on: reading the three log formats of
+//! `../shared/rig-log-format.md` (MCAP, DAQ CSV + channel map, Parquet),
+//! parsing and checking the `rig` metadata ([`RigMeta`]), converting every
+//! channel to SI and to seconds from the log start, detecting gaps and
+//! dropouts, and laying all channels on one common time base.
+//!
+//! One door: [`read`]. Everything it refuses comes back as an [`IngestError`]
+//! whose message starts with the file concerned.
+//!
+//! Submodules: `mcap` (streaming MCAP reader), `csv` (DAQ export + TOML
+//! channel map), `parquet` (tables, also the writer of canonical runs),
+//! [`rig`] (metadata), `run` (gaps and the common time base).
+
+mod csv;
+mod mcap;
+mod parquet;
+pub mod rig;
+mod run;
+
+use std::path::{Path, PathBuf};
+
+pub use parquet::write_parquet;
+pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
+pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
+
+/// Options of [`read`].
+#[derive(Debug, Clone, Default)]
+pub struct IngestOptions {
+    /// Channel map of a CSV log (default: `NAME.map.toml` beside `NAME.csv`).
+    pub map: Option<PathBuf>,
+}
+
+/// The log formats [`read`] understands, chosen by file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogFormat {
+    /// `.mcap`: the rig's own recording.
+    Mcap,
+    /// `.csv`: a DAQ export with a channel map.
+    Csv,
+    /// `.parquet`: a table on a common time base.
+    Parquet,
+}
+
+impl LogFormat {
+    /// The format's name.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            LogFormat::Mcap => "mcap",
+            LogFormat::Csv => "csv",
+            LogFormat::Parquet => "parquet",
+        }
+    }
+}
+
+/// A physical quantity the rig records (one channel each).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Quantity {
+    /// x0: shaker pin displacement (m).
+    X0,
+    /// x1: main mass displacement (m).
+    X1,
+    /// x2: absorber mass displacement (m).
+    X2,
+    /// x2': absorber mass velocity (m/s).
+    V2,
+    /// x2'': absorber mass acceleration (m/s²); may be absent.
+    A2,
+    /// Normal force at the friction member (N).
+    NormalForce,
+}
+
+impl Quantity {
+    /// All quantities, in canonical column order.
+    pub const ALL: [Quantity; 6] = [
+        Quantity::X0,
+        Quantity::X1,
+        Quantity::X2,
+        Quantity::V2,
+        Quantity::A2,
+        Quantity::NormalForce,
+    ];
+
+    /// Canonical name (column of the canonical run, key of a channel map).
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::X0 => "x0",
+            Quantity::X1 => "x1",
+            Quantity::X2 => "x2",
+            Quantity::V2 => "v2",
+            Quantity::A2 => "a2",
+            Quantity::NormalForce => "normal_force",
+        }
+    }
+
+    /// The MCAP topic that carries it.
+    pub fn topic(self) -> &'static str {
+        match self {
+            Quantity::X0 => "/drive/position",
+            Quantity::X1 => "/mass1/position",
+            Quantity::X2 => "/mass2/position",
+            Quantity::V2 => "/mass2/velocity",
+            Quantity::A2 => "/mass2/acceleration",
+            Quantity::NormalForce => "/friction/normal_force",
+        }
+    }
+
+    /// Its SI unit.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Quantity::X0 | Quantity::X1 | Quantity::X2 => "m",
+            Quantity::V2 => "m/s",
+            Quantity::A2 => "m/s^2",
+            Quantity::NormalForce => "N",
+        }
+    }
+
+    /// Whether a log without it is refused (x0, x1, x2, v2).
+    pub fn required(self) -> bool {
+        matches!(
+            self,
+            Quantity::X0 | Quantity::X1 | Quantity::X2 | Quantity::V2
+        )
+    }
+
+    /// Whether it is a position channel (these set the common time base).
+    pub fn is_position(self) -> bool {
+        matches!(self, Quantity::X0 | Quantity::X1 | Quantity::X2)
+    }
+
+    /// The quantity of a canonical name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|q| q.name() == name)
+    }
+
+    /// The quantity carried by an MCAP topic.
+    pub fn from_topic(topic: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|q| q.topic() == topic)
+    }
+}
+
+/// Why a log could not be ingested. Every message starts with the file.
+#[derive(Debug, thiserror::Error)]
+pub enum IngestError {
+    /// The file could not be opened or read.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file concerned.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The `rig` metadata is missing something or holds a bad value.
+    #[error("{}: {source}", path.display())]
+    Rig {
+        /// The log.
+        path: PathBuf,
+        /// What is wrong with the record.
+        source: RigError,
+    },
+    /// Anything else wrong with the content.
+    #[error("{}: {msg}", path.display())]
+    Invalid {
+        /// The file concerned.
+        path: PathBuf,
+        /// What is wrong.
+        msg: String,
+    },
+}
+
+impl IngestError {
+    /// An [`IngestError::Invalid`] for `path`.
+    /// The message is folded onto one line (errors of other crates, e.g.
+    /// TOML's, can span several).
+    pub(crate) fn invalid(path: &Path, msg: impl Into<String>) -> Self {
+        let msg: String = msg.into();
+        let msg = if msg.contains('\n') {
+            msg.lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect::<Vec<_>>()
+                .join(" ")
+        } else {
+            msg
+        };
+        IngestError::Invalid {
+            path: path.to_path_buf(),
+            msg,
+        }
+    }
+
+    /// An [`IngestError::Io`] for `path`.
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        IngestError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// An [`IngestError::Rig`] for `path`.
+    pub(crate) fn rig(path: &Path, source: RigError) -> Self {
+        IngestError::Rig {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+}
+
+/// One channel as a format reader delivers it, before gap analysis.
+#[derive(Debug, Clone)]
+pub(crate) struct RawChannel {
+    pub quantity: Quantity,
+    /// Topic or column name it came from.
+    pub source: String,
+    /// Nominal sample interval (s).
+    pub dt_s: f64,
+    /// Sample times (s) on the reader's clock (any origin).
+    pub t: Vec<f64>,
+    /// Values in SI, NaN for a dropout.
+    pub v: Vec<f64>,
+}
+
+/// What a format reader delivers.
+#[derive(Debug, Clone)]
+pub(crate) struct RawLog {
+    pub format: LogFormat,
+    pub rig: RigMeta,
+    pub channels: Vec<RawChannel>,
+    /// The log start on the reader's clock (tables: the first row's time);
+    /// `None`: the earliest sample of any channel.
+    pub origin: Option<f64>,
+    /// Setpoints, times on the same clock as the channels.
+    pub setpoints: Vec<Setpoint>,
+    pub warnings: Vec<String>,
+}
+
+/// Reads a rig log (`.mcap`, `.csv` with its channel map, or `.parquet`)
+/// into one clean [`Run`].
+///
+/// The format is chosen by the file extension. A CSV's channel map is
+/// `opts.map`, or `NAME.map.toml` beside `NAME.csv`.
+pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let format = match ext.as_str() {
+        "mcap" => LogFormat::Mcap,
+        "csv" => LogFormat::Csv,
+        "parquet" | "pq" => LogFormat::Parquet,
+        _ => {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "unknown log type {:?}: expected a .mcap, .csv or .parquet file",
+                    if ext.is_empty() {
+                        "(no extension)"
+                    } else {
+                        &ext
+                    }
+                ),
+            ))
+        }
+    };
+    let meta = std::fs::metadata(path).map_err(|e| IngestError::io(path, e))?;
+    if meta.is_dir() {
+        return Err(IngestError::invalid(path, "is a directory, not a log file"));
+    }
+    if meta.len() == 0 {
+        return Err(IngestError::invalid(path, "file is empty"));
+    }
+    let mut raw = match format {
+        LogFormat::Mcap => mcap::read(path)?,
+        LogFormat::Csv => csv::read(path, opts.map.as_deref())?,
+        LogFormat::Parquet => parquet::read(path)?,
+    };
+    if opts.map.is_some() && format != LogFormat::Csv {
+        raw.warnings
+            .push("--map applies to CSV logs only; ignored".to_string());
+    }
+    run::build(path, raw)
+}
+
+/// Converts a value in `unit` to the SI unit of `q`: the factor to multiply
+/// by, or `None` if the unit is not one of `q`'s dimension.
+pub(crate) fn unit_factor(q: Quantity, unit: &str) -> Option<f64> {
+    let u: String = unit
+        .trim()
+        .chars()
+        .filter(|c| !c.is_whitespace())
+        .collect::<String>()
+        .replace('²', "^2")
+        .replace("**", "^")
+        .replace("s2", "s^2")
+        .replace(['µ', 'μ'], "u");
+    let u = u.as_str();
+    match q {
+        Quantity::X0 | Quantity::X1 | Quantity::X2 => match u {
+            "m" => Some(1.0),
+            "mm" => Some(1e-3),
+            "um" => Some(1e-6),
+            _ => None,
+        },
+        Quantity::V2 => match u {
+            "m/s" => Some(1.0),
+            "mm/s" => Some(1e-3),
+            "um/s" => Some(1e-6),
+            _ => None,
+        },
+        Quantity::A2 => match u {
+            "m/s^2" => Some(1.0),
+            "mm/s^2" => Some(1e-3),
+            _ => None,
+        },
+        Quantity::NormalForce => match u {
+            "N" => Some(1.0),
+            "kN" => Some(1e3),
+            "mN" => Some(1e-3),
+            _ => None,
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantities_round_trip_names_and_topics() {
+        for q in Quantity::ALL {
+            assert_eq!(Quantity::from_name(q.name()), Some(q));
+            assert_eq!(Quantity::from_topic(q.topic()), Some(q));
+            assert_eq!(unit_factor(q, q.unit()), Some(1.0));
+        }
+        assert_eq!(Quantity::from_topic("/drive/setpoint"), None);
+    }
+
+    #[test]
+    fn unit_factors() {
+        assert_eq!(unit_factor(Quantity::X1, "mm"), Some(1e-3));
+        assert_eq!(unit_factor(Quantity::A2, "m/s²"), Some(1.0));
+        assert_eq!(unit_factor(Quantity::X1, "m/s"), None);
+        assert_eq!(unit_factor(Quantity::NormalForce, "furlong"), None);
+    }
+
+    #[test]
+    fn unknown_extension_and_empty_file_are_refused() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let odd = dir.path().join("log.txt");
+        std::fs::write(&odd, b"hello").expect("write");
+        let e = read(&odd, &IngestOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("log.txt") && e.contains("unknown log type"),
+            "{e}"
+        );
+        for name in ["empty.mcap", "empty.csv", "empty.parquet"] {
+            let p = dir.path().join(name);
+            std::fs::write(&p, b"").expect("write");
+            let e = read(&p, &IngestOptions::default()).unwrap_err().to_string();
+            assert!(e.contains(name) && e.contains("empty"), "{e}");
+        }
+    }
+}

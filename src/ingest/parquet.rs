@@ -1,0 +1,216 @@
+//! Parquet tables: columns `t`, `x0`, `x1`, `x2`, `v2` and optionally `a2`,
+//! `normal_force`, `setpoint_hz` (SI, common time base, null = dropout), with
+//! the `rig` metadata as the file's key-value metadata. The same layout is
+//! what [`write_parquet`] writes for a canonical [`Run`].
+
+use super::rig::RigMeta;
+use super::run::{median_interval, Run, Setpoint};
+use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use polars::prelude::*;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Key-value metadata keys written by Arrow/Parquet tools, not rig metadata.
+fn is_tool_key(key: &str) -> bool {
+    key.starts_with("ARROW:") || key == "pandas" || key.starts_with("polars")
+}
+
+fn pq_err(path: &Path, what: &str, e: PolarsError) -> IngestError {
+    IngestError::invalid(path, format!("{what}: {e}"))
+}
+
+/// Reads a Parquet rig table.
+pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
+    let mut magic = [0u8; 4];
+    {
+        use std::io::Read;
+        let mut f = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+        let n = f.read(&mut magic).map_err(|e| IngestError::io(path, e))?;
+        if n < 4 || &magic != b"PAR1" {
+            return Err(IngestError::invalid(
+                path,
+                "not a Parquet file (bad magic bytes)",
+            ));
+        }
+    }
+    let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let mut reader = ParquetReader::new(file);
+    let meta = reader.get_metadata().map_err(|e| {
+        pq_err(
+            path,
+            "unreadable Parquet footer (truncated or corrupt file?)",
+            e,
+        )
+    })?;
+    let mut rig_map = BTreeMap::new();
+    if let Some(kvs) = meta.key_value_metadata() {
+        for kv in kvs {
+            if is_tool_key(&kv.key) {
+                continue;
+            }
+            if let Some(v) = &kv.value {
+                rig_map.insert(kv.key.clone(), v.clone());
+            }
+        }
+    }
+    if rig_map.is_empty() {
+        return Err(IngestError::invalid(
+            path,
+            "no rig metadata: the Parquet file has no key-value metadata",
+        ));
+    }
+    let rig = RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))?;
+    let schema = reader
+        .schema()
+        .map_err(|e| pq_err(path, "unreadable Parquet schema", e))?;
+    let names: Vec<String> = schema.iter_names().map(|n| n.to_string()).collect();
+    for q in ["t", "x0", "x1", "x2", "v2"] {
+        if !names.iter().any(|n| n == q) {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "missing required column `{q}` (columns: {})",
+                    names.join(", ")
+                ),
+            ));
+        }
+    }
+    let wanted: Vec<String> = [
+        "t",
+        "x0",
+        "x1",
+        "x2",
+        "v2",
+        "a2",
+        "normal_force",
+        "setpoint_hz",
+    ]
+    .into_iter()
+    .filter(|c| names.iter().any(|n| n == c))
+    .map(String::from)
+    .collect();
+    let df = reader
+        .with_columns(Some(wanted))
+        .finish()
+        .map_err(|e| pq_err(path, "unreadable Parquet data", e))?;
+    let column = |name: &str| -> Result<Option<Vec<f64>>, IngestError> {
+        let Ok(col) = df.column(name) else {
+            return Ok(None);
+        };
+        if !col.dtype().is_primitive_numeric() {
+            return Err(IngestError::invalid(
+                path,
+                format!("column `{name}` holds {} values, not numbers", col.dtype()),
+            ));
+        }
+        let cast = col
+            .cast(&DataType::Float64)
+            .map_err(|e| pq_err(path, &format!("column `{name}`"), e))?;
+        let ca = cast
+            .f64()
+            .map_err(|e| pq_err(path, &format!("column `{name}`"), e))?;
+        let mut out = Vec::with_capacity(ca.len());
+        for (i, v) in ca.iter().enumerate() {
+            match v {
+                None => out.push(f64::NAN),
+                Some(x) if x.is_infinite() => {
+                    return Err(IngestError::invalid(
+                        path,
+                        format!("column `{name}`, row {i}: infinite value"),
+                    ))
+                }
+                Some(x) => out.push(x), // NaN is read as a dropout, like null
+            }
+        }
+        Ok(Some(out))
+    };
+    let time = column("t")?.unwrap_or_default();
+    if df.height() == 0 {
+        return Err(IngestError::invalid(path, "no data: the table has no rows"));
+    }
+    if let Some(i) = time.iter().position(|t| !t.is_finite()) {
+        return Err(IngestError::invalid(
+            path,
+            format!("column `t`, row {i}: no time"),
+        ));
+    }
+    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "non-monotonic time: column `t`, row {}: {} s does not follow {} s",
+                i + 1,
+                time[i + 1],
+                time[i]
+            ),
+        ));
+    }
+    let dt_s = median_interval(&time)
+        .ok_or_else(|| IngestError::invalid(path, "too little data: the table has a single row"))?;
+    let mut channels = Vec::new();
+    for q in Quantity::ALL {
+        if let Some(v) = column(q.name())? {
+            channels.push(RawChannel {
+                quantity: q,
+                source: q.name().to_string(),
+                dt_s,
+                t: time.clone(),
+                v,
+            });
+        }
+    }
+    let mut setpoints = Vec::new();
+    if let Some(v) = column("setpoint_hz")? {
+        let mut last = f64::NAN;
+        for (t, f) in time.iter().zip(v) {
+            if f.is_finite() && f != last {
+                setpoints.push(Setpoint {
+                    t_s: *t,
+                    frequency_hz: f,
+                    amplitude_m: None,
+                });
+                last = f;
+            }
+        }
+    }
+    Ok(RawLog {
+        format: LogFormat::Parquet,
+        rig,
+        channels,
+        origin: Some(time[0]),
+        setpoints,
+        warnings: Vec::new(),
+    })
+}
+
+/// Writes the canonical table of `run` (columns `t`, `x0`, `x1`, `x2`,
+/// `v2` and, where present, `a2`, `normal_force`, `setpoint_hz`; NaN written
+/// as null) with the rig metadata as key-value metadata, atomically.
+pub fn write_parquet(run: &Run, target: &Path) -> crate::Result<()> {
+    let r = &run.resampled;
+    let to_col = |name: &str, v: &[f64]| {
+        let opt: Vec<Option<f64>> = v.iter().map(|x| x.is_finite().then_some(*x)).collect();
+        Column::new(name.into(), opt)
+    };
+    let mut cols = vec![Column::new("t".into(), r.t.clone())];
+    for q in Quantity::ALL {
+        if let Some(v) = r.column(q) {
+            cols.push(to_col(q.name(), v));
+        }
+    }
+    if let Some(v) = &r.setpoint_hz {
+        cols.push(to_col("setpoint_hz", v));
+    }
+    let fail = |e: PolarsError| crate::Error::Input {
+        path: target.to_path_buf(),
+        msg: format!("cannot write Parquet: {e}"),
+    };
+    let mut df = DataFrame::new(r.len(), cols).map_err(fail)?;
+    let kv: Vec<(String, String)> = run.rig.to_map().into_iter().collect();
+    let mut out = crate::io::AtomicFile::create(target)?;
+    ParquetWriter::new(out.writer())
+        .with_key_value_metadata(Some(KeyValueMetadata::from_static(kv)))
+        .finish(&mut df)
+        .map_err(fail)?;
+    out.commit()
+}

@@ -1,0 +1,642 @@
+//! The common time base: gap analysis per channel and resampling of every
+//! channel onto one uniform grid.
+//!
+//! Rules (the same for every format):
+//!
+//! * Times are seconds from the log start: the earliest sample of any channel
+//!   (MCAP), or the first row (tables; a column with a negative `shift_s`
+//!   then has samples before 0).
+//! * Within a channel, time must increase strictly; otherwise the log is refused.
+//! * A *missing* stretch is where consecutive samples are more than 1.5
+//!   nominal intervals apart (a lost DAQ buffer), or where a channel starts
+//!   (ends) more than 1.5 intervals after (before) the log does. Every one
+//!   is recorded as a [`Gap`] of kind [`GapKind::Missing`], whatever its length.
+//! * A *dropout* is a run of null samples. Runs of more than
+//!   [`MAX_BRIDGE_SAMPLES`] samples are recorded as gaps of kind
+//!   [`GapKind::Dropout`]; shorter runs are only counted.
+//! * Resampling interpolates linearly between two consecutive valid samples
+//!   only if at most [`MAX_BRIDGE_SAMPLES`] samples are missing between them
+//!   (nulls or lost time alike); everywhere else the grid holds NaN. No
+//!   extrapolation beyond a channel's first or last valid sample.
+//! * The grid runs from 0 at the rate of the fastest position channel up to
+//!   the last position sample.
+
+use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
+use std::path::{Path, PathBuf};
+
+/// The longest run of missing samples that resampling bridges by linear
+/// interpolation. At the slowest position rate of the rig (250 Hz) this is
+/// 20 ms, far below a drive period (≥ 0.25 s at 4 Hz), so the interpolation
+/// error stays at the level of a sample-to-sample change.
+pub const MAX_BRIDGE_SAMPLES: usize = 5;
+
+/// More grid rows than this many times the fastest position channel's sample
+/// count mean inconsistent time stamps (guards against huge allocations).
+const MAX_GRID_INFLATION: usize = 10;
+
+/// What kind of hole a [`Gap`] is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GapKind {
+    /// Samples absent from the log (a lost DAQ buffer, a late start, an early end).
+    Missing,
+    /// A run of more than [`MAX_BRIDGE_SAMPLES`] null samples.
+    Dropout,
+}
+
+impl GapKind {
+    /// The name used in JSON output.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            GapKind::Missing => "missing",
+            GapKind::Dropout => "dropout",
+        }
+    }
+}
+
+/// A stretch of one channel without data. `start_s`/`end_s` are the last
+/// valid sample before and the first valid sample after the hole (at the log
+/// edges: the log start or end).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gap {
+    /// Canonical channel name (`x1`, ...).
+    pub channel: String,
+    /// Start of the hole (s from log start).
+    pub start_s: f64,
+    /// End of the hole (s from log start).
+    pub end_s: f64,
+    /// What kind of hole.
+    pub kind: GapKind,
+}
+
+/// A drive setpoint (sweeps).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Setpoint {
+    /// When it took effect (s from log start).
+    pub t_s: f64,
+    /// Commanded drive frequency (Hz).
+    pub frequency_hz: f64,
+    /// Commanded drive amplitude (m), where the log says.
+    pub amplitude_m: Option<f64>,
+}
+
+/// One channel as recorded: original samples in SI.
+#[derive(Debug, Clone)]
+pub struct Channel {
+    /// Which quantity.
+    pub quantity: Quantity,
+    /// Topic or column it came from.
+    pub source: String,
+    /// Nominal sample rate (Hz).
+    pub rate_hz: f64,
+    /// Sample times (s from log start), strictly increasing.
+    pub t: Vec<f64>,
+    /// Values (SI), NaN where the sensor dropped out.
+    pub v: Vec<f64>,
+    /// Number of null (dropout) samples.
+    pub dropouts: usize,
+}
+
+impl Channel {
+    /// Canonical name.
+    pub fn name(&self) -> &'static str {
+        self.quantity.name()
+    }
+    /// SI unit.
+    pub fn unit(&self) -> &'static str {
+        self.quantity.unit()
+    }
+}
+
+/// All channels on one uniform time base (NaN where there is no data).
+#[derive(Debug, Clone)]
+pub struct Resampled {
+    /// Grid rate (Hz).
+    pub rate_hz: f64,
+    /// Grid times (s from log start): `i / rate_hz`.
+    pub t: Vec<f64>,
+    /// Drive displacement x0 (m).
+    pub x0: Vec<f64>,
+    /// Main mass displacement x1 (m).
+    pub x1: Vec<f64>,
+    /// Absorber mass displacement x2 (m).
+    pub x2: Vec<f64>,
+    /// Absorber mass velocity (m/s).
+    pub v2: Vec<f64>,
+    /// Absorber mass acceleration (m/s²), if recorded.
+    pub a2: Option<Vec<f64>>,
+    /// Normal force (N), if recorded.
+    pub normal_force: Option<Vec<f64>>,
+    /// Commanded frequency (Hz) in force at each row, if the log has setpoints.
+    pub setpoint_hz: Option<Vec<f64>>,
+}
+
+impl Resampled {
+    /// The column of a quantity, if present.
+    pub fn column(&self, q: Quantity) -> Option<&[f64]> {
+        match q {
+            Quantity::X0 => Some(&self.x0),
+            Quantity::X1 => Some(&self.x1),
+            Quantity::X2 => Some(&self.x2),
+            Quantity::V2 => Some(&self.v2),
+            Quantity::A2 => self.a2.as_deref(),
+            Quantity::NormalForce => self.normal_force.as_deref(),
+        }
+    }
+
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.t.len()
+    }
+
+    /// Whether the grid has no rows.
+    pub fn is_empty(&self) -> bool {
+        self.t.is_empty()
+    }
+
+    /// Time covered by the rows: rows / rate (s).
+    pub fn duration_s(&self) -> f64 {
+        self.t.len() as f64 / self.rate_hz
+    }
+}
+
+/// One clean run: the rig, every channel as recorded, the common time base,
+/// gaps, setpoints and warnings.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// The log it came from.
+    pub source: PathBuf,
+    /// The log's format.
+    pub format: LogFormat,
+    /// Rig metadata (SI).
+    pub rig: RigMeta,
+    /// Channels as recorded, in [`Quantity::ALL`] order.
+    pub channels: Vec<Channel>,
+    /// Whether an accelerometer channel was recorded.
+    pub has_acceleration: bool,
+    /// Drive setpoints, in time order.
+    pub setpoints: Vec<Setpoint>,
+    /// The common time base.
+    pub resampled: Resampled,
+    /// Every stretch without data, by channel then time.
+    pub gaps: Vec<Gap>,
+    /// Things the user should know that did not stop the ingest.
+    pub warnings: Vec<String>,
+}
+
+impl Run {
+    /// The recorded channel of a quantity.
+    pub fn channel(&self, q: Quantity) -> Option<&Channel> {
+        self.channels.iter().find(|c| c.quantity == q)
+    }
+
+    /// Rows of the canonical run.
+    pub fn samples(&self) -> usize {
+        self.resampled.len()
+    }
+
+    /// Duration of the canonical run (s).
+    pub fn duration_s(&self) -> f64 {
+        self.resampled.duration_s()
+    }
+}
+
+/// Median of a slice (None if empty).
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    Some(v[v.len() / 2])
+}
+
+/// Builds the [`Run`] from what a format reader delivered.
+pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
+    let RawLog {
+        format,
+        rig,
+        mut channels,
+        origin,
+        mut setpoints,
+        mut warnings,
+    } = raw;
+    channels.sort_by_key(|c| c.quantity);
+    for w in channels.windows(2) {
+        if w[0].quantity == w[1].quantity {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "two channels carry {} ({} and {})",
+                    w[0].quantity.name(),
+                    w[0].source,
+                    w[1].source
+                ),
+            ));
+        }
+    }
+    // Per-channel checks: data present, time finite and increasing, sane rate.
+    let mut kept = Vec::with_capacity(channels.len());
+    for c in channels {
+        let label = channel_label(&c);
+        if c.t.len() != c.v.len() {
+            return Err(IngestError::invalid(
+                path,
+                format!("{label}: times and values differ in length"),
+            ));
+        }
+        if !(c.dt_s.is_finite() && c.dt_s > 0.0) {
+            return Err(IngestError::invalid(
+                path,
+                format!("{label}: no valid sample interval"),
+            ));
+        }
+        if let Some(i) = c.t.iter().position(|t| !t.is_finite()) {
+            return Err(IngestError::invalid(
+                path,
+                format!("{label}: sample {i} has no valid time"),
+            ));
+        }
+        if let Some(i) = c.t.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "non-monotonic time on channel {label}: sample {} at {:.6} s does not follow {:.6} s",
+                    i + 1,
+                    c.t[i + 1],
+                    c.t[i]
+                ),
+            ));
+        }
+        if let Some(i) = c.v.iter().position(|v| v.is_infinite()) {
+            return Err(IngestError::invalid(
+                path,
+                format!("{label}: sample {i} is infinite"),
+            ));
+        }
+        let valid = c.v.iter().filter(|v| v.is_finite()).count();
+        if valid == 0 {
+            if c.quantity.required() {
+                return Err(IngestError::invalid(
+                    path,
+                    format!("no data: channel {label} has no valid sample"),
+                ));
+            }
+            warnings.push(format!(
+                "channel {label} has no valid sample; treated as absent"
+            ));
+            continue;
+        }
+        kept.push(c);
+    }
+    let channels = kept;
+    for q in Quantity::ALL {
+        if channels.iter().any(|c| c.quantity == q) {
+            continue;
+        }
+        if q.required() {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "no data for required channel {} ({})",
+                    q.name(),
+                    match format {
+                        LogFormat::Mcap => q.topic(),
+                        _ => q.name(),
+                    }
+                ),
+            ));
+        }
+        match q {
+            Quantity::A2 => warnings.push(
+                "no accelerometer channel (a2): acceleration must be derived from velocity"
+                    .to_string(),
+            ),
+            _ => warnings.push(format!("no {} channel", q.name())),
+        }
+    }
+
+    // Log start and end over all channels.
+    let origin = origin.unwrap_or_else(|| {
+        channels
+            .iter()
+            .filter_map(|c| c.t.first().copied())
+            .fold(f64::INFINITY, f64::min)
+    });
+    let log_end = channels
+        .iter()
+        .filter_map(|c| c.t.last().copied())
+        .fold(f64::NEG_INFINITY, f64::max)
+        - origin;
+
+    let mut out_channels = Vec::with_capacity(channels.len());
+    let mut gaps = Vec::new();
+    for c in channels {
+        let t: Vec<f64> = c.t.iter().map(|t| t - origin).collect();
+        let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
+        find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
+        out_channels.push(Channel {
+            quantity: c.quantity,
+            source: c.source,
+            rate_hz: 1.0 / c.dt_s,
+            t,
+            v: c.v,
+            dropouts,
+        });
+    }
+    for s in &mut setpoints {
+        s.t_s -= origin;
+    }
+    setpoints.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+
+    // The grid: rate of the fastest position channel, up to the last position sample.
+    let positions = || out_channels.iter().filter(|c| c.quantity.is_position());
+    let rate_hz = positions().map(|c| c.rate_hz).fold(0.0, f64::max);
+    let pos_end = positions()
+        .filter_map(|c| c.t.last().copied())
+        .fold(0.0, f64::max);
+    let most_samples = positions().map(|c| c.t.len()).max().unwrap_or(0);
+    let rows_f = (pos_end * rate_hz + 1e-6).floor() + 1.0;
+    if !rows_f.is_finite() || rows_f > (MAX_GRID_INFLATION * most_samples.max(1000)) as f64 {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "time stamps inconsistent: the position channels span {pos_end:.3} s but hold only {most_samples} samples at {rate_hz} Hz"
+            ),
+        ));
+    }
+    let rows = rows_f as usize;
+    let grid: Vec<f64> = (0..rows).map(|i| i as f64 / rate_hz).collect();
+    let resample = |q: Quantity| -> Option<Vec<f64>> {
+        out_channels
+            .iter()
+            .find(|c| c.quantity == q)
+            .map(|c| interpolate(&c.t, &c.v, 1.0 / c.rate_hz, &grid))
+    };
+    let col = |q: Quantity| resample(q).unwrap_or_else(|| vec![f64::NAN; rows]);
+    let setpoint_hz = if setpoints.is_empty() {
+        None
+    } else {
+        Some(step_function(&setpoints, &grid))
+    };
+    let resampled = Resampled {
+        rate_hz,
+        x0: col(Quantity::X0),
+        x1: col(Quantity::X1),
+        x2: col(Quantity::X2),
+        v2: col(Quantity::V2),
+        a2: resample(Quantity::A2),
+        normal_force: resample(Quantity::NormalForce),
+        setpoint_hz,
+        t: grid,
+    };
+    let has_acceleration = resampled.a2.is_some();
+    for c in &out_channels {
+        let bad = c.dropouts;
+        if bad * 20 > c.v.len() {
+            warnings.push(format!(
+                "channel {} is null in {bad} of {} samples",
+                c.name(),
+                c.v.len()
+            ));
+        }
+    }
+    Ok(Run {
+        source: path.to_path_buf(),
+        format,
+        rig,
+        channels: out_channels,
+        has_acceleration,
+        setpoints,
+        resampled,
+        gaps,
+        warnings,
+    })
+}
+
+fn channel_label(c: &RawChannel) -> String {
+    if c.source == c.quantity.name() {
+        c.source.clone()
+    } else {
+        format!("{} ({})", c.source, c.quantity.name())
+    }
+}
+
+/// Number of samples missing between two samples `span` apart.
+fn missing_between(span: f64, dt: f64) -> usize {
+    let n = (span / dt).round() - 1.0;
+    if n <= 0.0 {
+        0
+    } else if n >= usize::MAX as f64 {
+        usize::MAX
+    } else {
+        n as usize
+    }
+}
+
+/// Appends the gaps of one channel (times from log start) to `gaps`.
+fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mut Vec<Gap>) {
+    let name = q.name();
+    let mut push = |start_s: f64, end_s: f64, kind: GapKind| {
+        gaps.push(Gap {
+            channel: name.to_string(),
+            start_s,
+            end_s,
+            kind,
+        })
+    };
+    let valid: Vec<usize> = (0..v.len()).filter(|&i| v[i].is_finite()).collect();
+    let (Some(&first), Some(&last)) = (valid.first(), valid.last()) else {
+        return;
+    };
+    let late = |a: f64, b: f64| b - a > 1.5 * dt;
+    // Leading edge.
+    if late(0.0, t[0]) {
+        push(0.0, t[first], GapKind::Missing);
+    } else if first > MAX_BRIDGE_SAMPLES {
+        push(0.0_f64.max(t[0]), t[first], GapKind::Dropout);
+    }
+    // Interior: between consecutive valid samples.
+    for w in valid.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if b == a + 1 {
+            if late(t[a], t[b]) {
+                push(t[a], t[b], GapKind::Missing);
+            }
+            continue;
+        }
+        let lost_time = (a..b).any(|i| late(t[i], t[i + 1]));
+        if lost_time {
+            push(t[a], t[b], GapKind::Missing);
+        } else if b - a - 1 > MAX_BRIDGE_SAMPLES {
+            push(t[a], t[b], GapKind::Dropout);
+        }
+    }
+    // Trailing edge.
+    let n = t.len();
+    if late(t[n - 1], log_end) {
+        push(t[last], log_end, GapKind::Missing);
+    } else if n - 1 - last > MAX_BRIDGE_SAMPLES {
+        push(t[last], t[n - 1], GapKind::Dropout);
+    }
+}
+
+/// Linear interpolation of (t, v) onto `grid`, bridging holes of at most
+/// [`MAX_BRIDGE_SAMPLES`] missing samples only; NaN elsewhere.
+pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f64> {
+    let valid: Vec<usize> = (0..v.len()).filter(|&i| v[i].is_finite()).collect();
+    let mut out = vec![f64::NAN; grid.len()];
+    if valid.is_empty() {
+        return out;
+    }
+    // Grid points this close to a sample take its value (float noise only).
+    let eps = dt * 1e-6;
+    let mut j = 0; // index into `valid`: valid[j] is the last valid sample <= g
+    for (k, &g) in grid.iter().enumerate() {
+        let first = valid[0];
+        if g < t[first] - eps {
+            continue;
+        }
+        while j + 1 < valid.len() && t[valid[j + 1]] <= g + eps {
+            j += 1;
+        }
+        let a = valid[j];
+        if (g - t[a]).abs() <= eps {
+            out[k] = v[a];
+            continue;
+        }
+        if j + 1 >= valid.len() {
+            continue; // past the last valid sample
+        }
+        let b = valid[j + 1];
+        if missing_between(t[b] - t[a], dt) > MAX_BRIDGE_SAMPLES {
+            continue;
+        }
+        let w = (g - t[a]) / (t[b] - t[a]);
+        out[k] = v[a] + w * (v[b] - v[a]);
+    }
+    out
+}
+
+/// The setpoint frequency in force at each grid time (NaN before the first).
+fn step_function(setpoints: &[Setpoint], grid: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(grid.len());
+    let mut j = 0;
+    for &g in grid {
+        while j < setpoints.len() && setpoints[j].t_s <= g {
+            j += 1;
+        }
+        out.push(if j == 0 {
+            f64::NAN
+        } else {
+            setpoints[j - 1].frequency_hz
+        });
+    }
+    out
+}
+
+/// Nominal sample interval from sample times: the median spacing, with the
+/// rate rounded to 9 significant digits (time columns written in decimal
+/// carry float noise that would otherwise show as 1000.0000000001 Hz).
+pub(crate) fn median_interval(t: &[f64]) -> Option<f64> {
+    let dt = median(t.windows(2).map(|w| w[1] - w[0]).collect())?;
+    if !(dt.is_finite() && dt > 0.0) {
+        return None;
+    }
+    let rate = 1.0 / dt;
+    let scale = 10f64.powi(8 - rate.log10().floor() as i32);
+    let rounded = (rate * scale).round() / scale;
+    Some(if rounded > 0.0 { 1.0 / rounded } else { dt })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interpolation_bridges_short_holes_only() {
+        let dt = 0.01;
+        let t: Vec<f64> = (0..40).map(|i| i as f64 * dt).collect();
+        let mut v: Vec<f64> = t.iter().map(|t| 2.0 * t + 1.0).collect();
+        for x in &mut v[5..5 + MAX_BRIDGE_SAMPLES] {
+            *x = f64::NAN; // short dropout: bridged
+        }
+        for x in &mut v[20..20 + MAX_BRIDGE_SAMPLES + 1] {
+            *x = f64::NAN; // one sample too long: not bridged
+        }
+        let grid: Vec<f64> = (0..79).map(|i| i as f64 * dt / 2.0).collect();
+        let out = interpolate(&t, &v, dt, &grid);
+        for (g, o) in grid.iter().zip(&out) {
+            let inside_long = *g > 19.0 * dt + 1e-9 && *g < 26.0 * dt - 1e-9;
+            if inside_long {
+                assert!(o.is_nan(), "bridged a long hole at {g}");
+            } else {
+                assert!((o - (2.0 * g + 1.0)).abs() < 1e-12, "at {g}: {o}");
+            }
+        }
+    }
+
+    #[test]
+    fn interpolation_never_extrapolates_and_skips_lost_time() {
+        let dt = 0.001;
+        let mut t: Vec<f64> = (0..10).map(|i| 0.0005 + i as f64 * dt).collect();
+        t.extend((0..10).map(|i| 0.1005 + i as f64 * dt)); // lost buffer
+        let v: Vec<f64> = t.iter().map(|t| t * 10.0).collect();
+        let grid: Vec<f64> = (0..111).map(|i| i as f64 * dt).collect();
+        let out = interpolate(&t, &v, dt, &grid);
+        assert!(out[0].is_nan(), "extrapolated before the first sample");
+        assert!((out[1] - 0.01).abs() < 1e-12);
+        assert!(out[50].is_nan(), "bridged a lost buffer");
+        assert!((out[105] - 1.05).abs() < 1e-12);
+        assert!(out[110].is_nan(), "extrapolated past the last sample");
+    }
+
+    #[test]
+    fn gaps_of_lost_buffers_and_long_dropouts() {
+        let dt = 0.001;
+        let mut t: Vec<f64> = (0..100).map(|i| i as f64 * dt).collect();
+        t.extend((200..300).map(|i| i as f64 * dt)); // lost 100 samples
+        let mut v = vec![1.0; t.len()];
+        v[10] = f64::NAN; // short dropout: no gap
+        for x in &mut v[150..160] {
+            *x = f64::NAN; // long dropout: a gap
+        }
+        let mut gaps = Vec::new();
+        find_gaps(Quantity::X1, &t, &v, dt, 0.299, &mut gaps);
+        assert_eq!(gaps.len(), 2, "{gaps:?}");
+        assert_eq!(gaps[0].kind, GapKind::Missing);
+        assert!((gaps[0].start_s - 0.099).abs() < 1e-12 && (gaps[0].end_s - 0.2).abs() < 1e-12);
+        assert_eq!(gaps[1].kind, GapKind::Dropout);
+        assert!((gaps[1].start_s - 0.249).abs() < 1e-12 && (gaps[1].end_s - 0.26).abs() < 1e-12);
+    }
+
+    #[test]
+    fn gaps_at_the_edges() {
+        let dt = 0.001;
+        let t: Vec<f64> = (100..200).map(|i| i as f64 * dt).collect();
+        let v = vec![0.0; t.len()];
+        let mut gaps = Vec::new();
+        find_gaps(Quantity::X2, &t, &v, dt, 0.3, &mut gaps);
+        assert_eq!(gaps.len(), 2, "{gaps:?}");
+        assert!(gaps.iter().all(|g| g.kind == GapKind::Missing));
+        assert_eq!(gaps[0].start_s, 0.0);
+        assert!((gaps[1].end_s - 0.3).abs() < 1e-12);
+    }
+
+    #[test]
+    fn step_function_holds_last_setpoint() {
+        let sp = [
+            Setpoint {
+                t_s: 0.0,
+                frequency_hz: 1.0,
+                amplitude_m: None,
+            },
+            Setpoint {
+                t_s: 1.0,
+                frequency_hz: 2.0,
+                amplitude_m: None,
+            },
+        ];
+        let out = step_function(&sp, &[-0.5, 0.0, 0.5, 1.0, 3.0]);
+        assert!(out[0].is_nan());
+        assert_eq!(&out[1..], &[1.0, 1.0, 2.0, 2.0]);
+    }
+}
