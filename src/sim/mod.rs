@@ -23,6 +23,7 @@ pub mod phase;
 pub mod rk4;
 pub mod schedule;
 pub mod steady;
+pub mod sweep;
 
 pub use engine::{Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Sim, Status};
 pub use steady::{simulate, SimOptions, Summary};
