@@ -575,6 +575,35 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
     }
 
     #[test]
+    fn setpoint_column_becomes_setpoints() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let mut body = String::from(PREAMBLE);
+        body.push_str("t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s],f_set\n");
+        for i in 0..30 {
+            let f = if i < 3 {
+                String::new()
+            } else if i < 12 {
+                "1.5".into()
+            } else {
+                "2".into()
+            };
+            body.push_str(&format!("{:.3},1,2,3,4,{f}\n", i as f64 * 0.01));
+        }
+        let csv = write_csv(dir.path(), &body);
+        let map = format!("{MAP}setpoint_hz = {{ name = \"f_set\" }}\n");
+        std::fs::write(dir.path().join("log.map.toml"), map).expect("map");
+        let raw = read(&csv, None).expect("reads");
+        let sp: Vec<(f64, f64)> = raw
+            .setpoints
+            .iter()
+            .map(|s| (s.t_s, s.frequency_hz))
+            .collect();
+        assert_eq!(sp.len(), 2, "{sp:?}");
+        assert!((sp[0].0 - 0.03).abs() < 1e-12 && sp[0].1 == 1.5);
+        assert!((sp[1].0 - 0.12).abs() < 1e-12 && sp[1].1 == 2.0);
+    }
+
+    #[test]
     fn accepts_semicolons_with_decimal_commas() {
         let dir = tempfile::tempdir().expect("tempdir");
         let mut body = PREAMBLE

@@ -189,6 +189,11 @@ impl Run {
         self.channels.iter().find(|c| c.quantity == q)
     }
 
+    /// The gaps of one channel, in time order.
+    pub fn gaps_of(&self, q: Quantity) -> impl Iterator<Item = &Gap> {
+        self.gaps.iter().filter(move |g| g.channel == q.name())
+    }
+
     /// Rows of the canonical run.
     pub fn samples(&self) -> usize {
         self.resampled.len()
