@@ -429,12 +429,12 @@ fn stribeck_tends_to_static_dynamic_as_vs_shrinks() {
 /// missed, giving A1 = 0.853 instead of 0.878 for the H1 case.)
 #[test]
 fn amplitudes_match_dense_sampling() {
-    struct Samples(Vec<[f64; 4]>);
+    struct Samples(Vec<[f64; 4]>, stickslip::sim::PeriodGrid);
     impl Observer for Samples {
-        fn samples_per_period(&self) -> Option<u32> {
-            Some(20_000)
+        fn next_sample(&mut self) -> Option<f64> {
+            Some(self.1.next())
         }
-        fn sample(&mut self, _t: f64, x: &[f64; 4]) {
+        fn sample(&mut self, _t: f64, x: &[f64; 4], _dx: &[f64; 4]) {
             self.0.push(*x);
         }
     }
@@ -476,7 +476,12 @@ fn amplitudes_match_dense_sampling() {
                 }
             }
         };
-        let mut smp = Samples(Vec::new());
+        let grid = stickslip::sim::PeriodGrid {
+            t: sim.period(),
+            per_period: 20_000,
+            j: 0,
+        };
+        let mut smp = Samples(Vec::new(), grid);
         sim.run(
             Init {
                 x: s.final_state,

@@ -6,7 +6,7 @@
 use proptest::prelude::*;
 use stickslip::model::{Absorber, Law, Model};
 use stickslip::sim::engine::net_force;
-use stickslip::sim::{Event, EventKind, Init, Mode, Observer, Sim, Status};
+use stickslip::sim::{Event, EventKind, Init, Mode, Observer, PeriodGrid, Sim, Status};
 
 struct Check {
     model: Model,
@@ -14,6 +14,7 @@ struct Check {
     stuck_samples: u64,
     worst_excess: f64,
     nan: bool,
+    grid: PeriodGrid,
     wrong_departure: bool,
     mode: Mode,
 }
@@ -39,10 +40,10 @@ impl Observer for Check {
         }
         self.events.push(*ev);
     }
-    fn samples_per_period(&self) -> Option<u32> {
-        Some(16)
+    fn next_sample(&mut self) -> Option<f64> {
+        Some(self.grid.next())
     }
-    fn sample(&mut self, _tau: f64, x: &[f64; 4]) {
+    fn sample(&mut self, _tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
         self.nan |= x.iter().any(|v| !v.is_finite());
         if let Mode::Stick { .. } = self.mode {
             self.stuck_samples += 1;
@@ -87,6 +88,7 @@ proptest! {
             stuck_samples: 0,
             worst_excess: f64::NEG_INFINITY,
             nan: false,
+            grid: PeriodGrid { t: 2.0 * std::f64::consts::PI / eta, per_period: 16, j: 0 },
             wrong_departure: false,
             // The engine's start: frictionless runs slide from the outset.
             mode: if rs == 0.0 { Mode::Slip { dir: 1.0 } } else { Mode::Stick { z2: 0.0 } },

@@ -5,7 +5,7 @@
 use super::ModelArgs;
 use crate::io::AtomicFile;
 use crate::sim::rk4::Rk4;
-use crate::sim::{self, Event, Flow, Mode, Observer, PeriodStats, Sim, SimOptions};
+use crate::sim::{self, Event, Flow, Mode, Observer, PeriodGrid, PeriodStats, Sim, SimOptions};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::io::Write;
@@ -70,7 +70,7 @@ pub struct SimulateArgs {
 /// Streams events and samples into CSV files.
 struct Files {
     events: Option<AtomicFile>,
-    traj: Option<(AtomicFile, u32)>,
+    traj: Option<(AtomicFile, PeriodGrid)>,
     err: Option<crate::Error>,
 }
 
@@ -108,10 +108,10 @@ impl Observer for Files {
             ),
         );
     }
-    fn samples_per_period(&self) -> Option<u32> {
-        self.traj.as_ref().map(|t| t.1)
+    fn next_sample(&mut self) -> Option<f64> {
+        self.traj.as_mut().map(|t| t.1.next())
     }
-    fn sample(&mut self, tau: f64, x: &[f64; 4]) {
+    fn sample(&mut self, tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
         self.write(
             false,
             format_args!("{},{},{},{},{}\n", tau, x[0], x[1], x[2], x[3]),
@@ -148,7 +148,12 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
     if let Some(p) = &args.trajectory {
         let mut f = AtomicFile::create(p)?;
         writeln!(f.writer(), "tau,zeta1,dzeta1,zeta2,dzeta2").map_err(|e| f.io_err(e))?;
-        files.traj = Some((f, args.samples_per_period));
+        let grid = PeriodGrid {
+            t: 2.0 * std::f64::consts::PI / args.eta,
+            per_period: args.samples_per_period,
+            j: 0,
+        };
+        files.traj = Some((f, grid));
     }
     let opts = SimOptions {
         periods: args.periods,

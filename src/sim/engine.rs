@@ -143,12 +143,15 @@ pub trait Observer {
     fn period(&mut self, _n: u64, _x: &[f64; 4], _mode: Mode, _stats: &PeriodStats) -> Flow {
         Flow::Continue
     }
-    /// Samples per forcing period for [`Observer::sample`] (None: no samples).
-    fn samples_per_period(&self) -> Option<u32> {
+    /// The next time τ (from the run's start) at which a trajectory sample
+    /// is wanted; asked once at the start and after each delivered sample
+    /// (None: no more samples). Times must not decrease.
+    fn next_sample(&mut self) -> Option<f64> {
         None
     }
-    /// A trajectory sample.
-    fn sample(&mut self, _tau: f64, _x: &[f64; 4]) {}
+    /// A trajectory sample: the exact state and its time derivative
+    /// (ζ1', ζ1'', ζ2', ζ2'') at τ.
+    fn sample(&mut self, _tau: f64, _x: &[f64; 4], _dx: &[f64; 4]) {}
     /// Whether ζ1's extremes must be located exactly (for amplitudes).
     fn wants_extremes(&self) -> bool {
         true
@@ -158,6 +161,29 @@ pub trait Observer {
 impl Observer for () {
     fn wants_extremes(&self) -> bool {
         false
+    }
+}
+
+/// Sample times on a grid of `per_period` samples per forcing period `t`
+/// (τ = j·t/per_period, j = 0, 1, …): the usual trajectory output.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PeriodGrid {
+    /// Forcing period.
+    pub t: f64,
+    /// Samples per period.
+    pub per_period: u32,
+    /// Index of the next sample.
+    pub j: u64,
+}
+
+impl PeriodGrid {
+    /// The next grid time (and advances).
+    pub fn next(&mut self) -> f64 {
+        let per = u64::from(self.per_period);
+        let tau = (self.j / per) as f64 * self.t
+            + (self.j % per) as f64 * self.t / f64::from(self.per_period);
+        self.j += 1;
+        tau
     }
 }
 
@@ -383,7 +409,7 @@ impl Sim {
             x[3] = 0.0;
         }
         let extremes = obs.wants_extremes();
-        let spp = obs.samples_per_period();
+        let mut pending = obs.next_sample();
         let t = self.period;
         let mut n: u64 = 0;
         let mut s = 0.0;
@@ -392,11 +418,6 @@ impl Sim {
         let mut stick_time = 0.0;
         let mut stats = PeriodStats::new(&x);
         let mut instant = 0u32;
-        let mut next_sample = 0u32;
-        if spp.is_some() {
-            obs.sample(0.0, &x);
-            next_sample = 1;
-        }
         let end = |n: u64, s: f64, x: [f64; 4], mode, status, events, stick_time| RunEnd {
             status,
             periods: n,
@@ -410,21 +431,16 @@ impl Sim {
             let in_tail = n == periods;
             let left = if in_tail { tail - s } else { t - s };
             let tau0 = n as f64 * t;
-            // Samples on the grid k·T/spp of this period (the boundary
-            // sample is emitted at the period's end).
-            let mut sampler = |a: f64, b: f64, f: &dyn Fn(f64) -> [f64; 4], obs: &mut O| {
-                if let Some(spp) = spp {
-                    let h = t / spp as f64;
-                    while next_sample < spp {
-                        let ts = next_sample as f64 * h;
-                        if ts > s + b {
-                            break;
-                        }
-                        if ts >= s + a {
-                            obs.sample(tau0 + ts, &f(ts - s));
-                        }
-                        next_sample += 1;
+            // Requested samples inside each step [a, b] of the phase.
+            let mut sampler = |a: f64, b: f64, f: &dyn Fn(f64) -> Jet<4>, obs: &mut O| {
+                while let Some(ts) = pending {
+                    let rel = ts - (tau0 + s);
+                    if rel > b {
+                        break;
                     }
+                    let j = f(rel.max(a));
+                    obs.sample(ts, &j.x, &j.dx);
+                    pending = obs.next_sample();
                 }
             };
             let (hit, x_end) = match mode {
@@ -452,7 +468,7 @@ impl Sim {
                             if extremes {
                                 track_extremum(&eval, &mut stats, a, ja, b, jb);
                             }
-                            sampler(a, b, &|d| eval(d).x, obs);
+                            sampler(a, b, &eval, obs);
                         },
                     );
                     (hit, jb)
@@ -480,7 +496,7 @@ impl Sim {
                             if extremes {
                                 track_extremum(&eval, &mut stats, a, ja, b, jb);
                             }
-                            sampler(a, b, &|d| eval(d).x, obs);
+                            sampler(a, b, &eval, obs);
                         },
                     );
                     (hit, jb)
@@ -506,10 +522,6 @@ impl Sim {
                     s = 0.0;
                     instant = 0;
                     period_events = 0;
-                    next_sample = 1;
-                    if spp.is_some() {
-                        obs.sample(n as f64 * t, &x);
-                    }
                     let flow = obs.period(n, &x, mode, &stats);
                     stats = PeriodStats::new(&x);
                     if flow == Flow::Stop {
@@ -601,7 +613,32 @@ impl Sim {
                 }
             }
         }
+        // A sample requested exactly at the end (up to rounding).
+        let tau_end = n as f64 * t + s;
+        while let Some(ts) = pending {
+            if ts > tau_end * (1.0 + 8.0 * f64::EPSILON) {
+                break;
+            }
+            let dx = self.rate(&x, mode, s, u);
+            obs.sample(ts, &x, &dx);
+            pending = obs.next_sample();
+        }
         end(n, s, x, mode, Status::Completed, events, stick_time)
+    }
+
+    /// Time derivative of the state in `mode` at period offset s.
+    fn rate(&self, x: &[f64; 4], mode: Mode, s: f64, u: C64) -> [f64; 4] {
+        match mode {
+            Mode::Stick { z2 } => {
+                let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
+                let (_, d, _) = self.stick.jet(&p, 0.0);
+                [d[0], d[1], 0.0, 0.0]
+            }
+            Mode::Slip { dir } => {
+                let p = self.slip.start(*x, s, u, self.slip_c(dir));
+                self.slip.jet(&p, 0.0).1
+            }
+        }
     }
 
     fn stick_events(&self, z2: f64) -> [EventFn<4>; 2] {

@@ -25,7 +25,9 @@ pub mod schedule;
 pub mod steady;
 pub mod sweep;
 
-pub use engine::{Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Sim, Status};
+pub use engine::{
+    Event, EventKind, Flow, Init, Mode, Observer, PeriodGrid, PeriodStats, RunEnd, Sim, Status,
+};
 pub use steady::{simulate, SimOptions, Summary};
 
 /// A simulation that cannot be carried out as asked.

@@ -213,8 +213,7 @@ impl NumericSim {
 
     /// Integrates from `init` over `duration`. With a harmonic drive the
     /// observer's period callbacks come every forcing period; trajectory
-    /// samples come `samples_per_period` times per period (per 2π/fastest
-    /// drive frequency otherwise).
+    /// samples come at the times the observer asks for.
     pub fn run<O: Observer>(&self, init: Init, duration: f64, obs: &mut O) -> RunEnd {
         let period = match self.drive {
             Drive::Harmonic { eta, .. } => Some(2.0 * std::f64::consts::PI / eta),
@@ -233,10 +232,7 @@ impl NumericSim {
             x[3] = 0.0;
         }
         let extremes = obs.wants_extremes();
-        let sample_dt = obs.samples_per_period().map(|spp| {
-            period.unwrap_or(2.0 * std::f64::consts::PI / self.drive.fastest()) / spp as f64
-        });
-        let mut next_sample = 0u64;
+        let mut pending = obs.next_sample();
         let (mut t, mut n, mut events, mut stick_time) = (0.0f64, 0u64, 0u64, 0.0);
         let mut stats = PeriodStats::new_at(&x);
         let mut h = self.ode.h_max * 0.1;
@@ -260,11 +256,13 @@ impl NumericSim {
             if boundary - t <= 4.0 * f64::EPSILON * boundary.abs().max(1.0) {
                 t = boundary;
                 stats.add(x[0], x[2]);
-                if let Some(dt) = sample_dt {
-                    while (next_sample as f64) * dt <= t * (1.0 + 4.0 * f64::EPSILON) {
-                        obs.sample(next_sample as f64 * dt, &x);
-                        next_sample += 1;
+                while let Some(ts) = pending {
+                    if ts > t * (1.0 + 8.0 * f64::EPSILON) {
+                        break;
                     }
+                    let j = self.jet(mode, t, x);
+                    obs.sample(ts, &x, &j.dx);
+                    pending = obs.next_sample();
                 }
                 if period_end.is_some() {
                     n += 1;
@@ -320,14 +318,13 @@ impl NumericSim {
                     if extremes {
                         track_extremum(&eval, &mut stats, a, ja, b, jb);
                     }
-                    if let Some(dt) = sample_dt {
-                        while (next_sample as f64) * dt <= t0 + b {
-                            let ts = next_sample as f64 * dt;
-                            if ts >= t0 + a {
-                                obs.sample(ts, &eval(ts - t0).x);
-                            }
-                            next_sample += 1;
+                    while let Some(ts) = pending {
+                        if ts > t0 + b {
+                            break;
                         }
+                        let j = eval((ts - t0).max(a));
+                        obs.sample(ts, &j.x, &j.dx);
+                        pending = obs.next_sample();
                     }
                 },
             );

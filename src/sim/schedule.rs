@@ -24,11 +24,11 @@ impl<O: Observer> Observer for Offset<'_, O> {
     fn period(&mut self, n: u64, x: &[f64; 4], mode: Mode, stats: &PeriodStats) -> Flow {
         self.inner.period(n, x, mode, stats)
     }
-    fn samples_per_period(&self) -> Option<u32> {
-        self.inner.samples_per_period()
+    fn next_sample(&mut self) -> Option<f64> {
+        self.inner.next_sample().map(|t| t - self.t0)
     }
-    fn sample(&mut self, tau: f64, x: &[f64; 4]) {
-        self.inner.sample(tau + self.t0, x);
+    fn sample(&mut self, tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
+        self.inner.sample(tau + self.t0, x, dx);
     }
     fn wants_extremes(&self) -> bool {
         self.inner.wants_extremes()

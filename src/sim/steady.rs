@@ -162,11 +162,14 @@ impl<O: Observer> Observer for Tracker<'_, O> {
     fn event(&mut self, ev: &Event) {
         self.inner.event(ev);
     }
-    fn samples_per_period(&self) -> Option<u32> {
-        self.inner.samples_per_period()
+    fn next_sample(&mut self) -> Option<f64> {
+        self.inner.next_sample()
     }
-    fn sample(&mut self, tau: f64, x: &[f64; 4]) {
-        self.inner.sample(tau, x);
+    fn sample(&mut self, tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
+        self.inner.sample(tau, x, dx);
+    }
+    fn wants_extremes(&self) -> bool {
+        true
     }
     fn period(&mut self, n: u64, x: &[f64; 4], mode: Mode, stats: &PeriodStats) -> Flow {
         let idx = ((n - 1) % RING as u64) as usize;

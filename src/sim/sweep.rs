@@ -111,7 +111,14 @@ impl Observer for Last {
     }
 }
 
-fn point_from(eta: f64, st: &PeriodStats, p: u32, t: f64, periods: u64, method: &'static str) -> Point {
+fn point_from(
+    eta: f64,
+    st: &PeriodStats,
+    p: u32,
+    t: f64,
+    periods: u64,
+    method: &'static str,
+) -> Point {
     Point {
         eta,
         amplitude1: Some(0.5 * (st.max[0] - st.min[0])),
@@ -159,7 +166,12 @@ fn permanently_stuck(model: &Model, eta: f64, x: &[f64; 4], z2: f64) -> bool {
 
 /// The steady state at η from `init`; returns the point and the state on the
 /// section to continue from.
-pub fn steady_state(model: &Model, eta: f64, init: Init, cfg: &SteadyConfig) -> Result<(Point, Init), SimError> {
+pub fn steady_state(
+    model: &Model,
+    eta: f64,
+    init: Init,
+    cfg: &SteadyConfig,
+) -> Result<(Point, Init), SimError> {
     let ab = &model.absorber;
     let t = 2.0 * std::f64::consts::PI / eta;
     // 1. Closed forms.
@@ -177,10 +189,20 @@ pub fn steady_state(model: &Model, eta: f64, init: Init, cfg: &SteadyConfig) -> 
             periods: 0,
             method: "closed-form",
         };
-        return Ok((p, Init { x, mode: Mode::Slip { dir: 1.0 } }));
+        return Ok((
+            p,
+            Init {
+                x,
+                mode: Mode::Slip { dir: 1.0 },
+            },
+        ));
     }
     if model.law.is_always_stuck() {
-        let z2 = if init.x[2].is_finite() { init.x[2] } else { 0.0 };
+        let z2 = if init.x[2].is_finite() {
+            init.x[2]
+        } else {
+            0.0
+        };
         let (a1, _) = linear::stuck_amplitudes(ab, eta);
         let p = Point {
             eta,
@@ -193,7 +215,13 @@ pub fn steady_state(model: &Model, eta: f64, init: Init, cfg: &SteadyConfig) -> 
             periods: 0,
             method: "closed-form",
         };
-        return Ok((p, Init { x: linear::stuck_state(ab, eta, z2), mode: Mode::Stick { z2 } }));
+        return Ok((
+            p,
+            Init {
+                x: linear::stuck_state(ab, eta, z2),
+                mode: Mode::Stick { z2 },
+            },
+        ));
     }
     let sim = Sim::new(model, eta)?;
     let mut used = 0u64;
@@ -207,7 +235,13 @@ pub fn steady_state(model: &Model, eta: f64, init: Init, cfg: &SteadyConfig) -> 
     }
     if let Some(p) = tr.steady {
         let st = tr.window(p as u64).expect("periods seen");
-        return Ok((point_from(eta, &st, p, t, used, "marching"), Init { x: end.x, mode: end.mode }));
+        return Ok((
+            point_from(eta, &st, p, t, used, "marching"),
+            Init {
+                x: end.x,
+                mode: end.mode,
+            },
+        ));
     }
     let mut x = end.x;
     let mut mode = end.mode;
@@ -226,7 +260,13 @@ pub fn steady_state(model: &Model, eta: f64, init: Init, cfg: &SteadyConfig) -> 
                 periods: used,
                 method: "stick-proof",
             };
-            return Ok((p, Init { x: linear::stuck_state(ab, eta, z2), mode }));
+            return Ok((
+                p,
+                Init {
+                    x: linear::stuck_state(ab, eta, z2),
+                    mode,
+                },
+            ));
         }
     }
     // 4. Newton shooting on the period-1 Poincaré map.
@@ -238,7 +278,10 @@ pub fn steady_state(model: &Model, eta: f64, init: Init, cfg: &SteadyConfig) -> 
             used += 1;
             if matches!(e.status, Status::Completed) {
                 if let Some(st) = last.stats {
-                    return Ok((point_from(eta, &st, 1, t, used, "shooting"), Init { x: xs, mode: ms }));
+                    return Ok((
+                        point_from(eta, &st, 1, t, used, "shooting"),
+                        Init { x: xs, mode: ms },
+                    ));
                 }
             }
         } else {
@@ -295,12 +338,22 @@ fn failed(status: &Status, eta: f64, periods: u64) -> Option<Point> {
 /// Newton's method on P(x) − x for the period-1 section state. Stuck states
 /// vary (ζ1, ζ1', ζ2) with ζ2' = 0; slipping states all four components.
 /// Returns the fixed point, its mode and the periods used.
-fn shoot(sim: &Sim, model: &Model, x0: [f64; 4], mode0: Mode, tol: f64) -> Option<([f64; 4], Mode, u64)> {
+fn shoot(
+    sim: &Sim,
+    model: &Model,
+    x0: [f64; 4],
+    mode0: Mode,
+    tol: f64,
+) -> Option<([f64; 4], Mode, u64)> {
     let stuck = matches!(mode0, Mode::Stick { .. });
     let dim = if stuck { 3 } else { 4 };
     let same_kind = |m: Mode| matches!(m, Mode::Stick { .. }) == stuck;
     let map = |x: &[f64; 4]| {
-        let mode = if stuck { Mode::Stick { z2: x[2] } } else { mode0 };
+        let mode = if stuck {
+            Mode::Stick { z2: x[2] }
+        } else {
+            mode0
+        };
         let e = sim.run(Init { x: *x, mode }, 1, &mut ());
         match e.status {
             Status::Completed => Some((e.x, e.mode)),
@@ -337,7 +390,11 @@ fn shoot(sim: &Sim, model: &Model, x0: [f64; 4], mode0: Mode, tol: f64) -> Optio
             // Converged: accept only a stable orbit.
             let ev = j.eigenvalues().ok()?;
             let rho = ev.iter().map(|z| z.norm()).fold(0.0, f64::max);
-            return if rho < 1.0 - 1e-9 { Some((x, if stuck { Mode::Stick { z2: x[2] } } else { pm }, used)) } else { None };
+            return if rho < 1.0 - 1e-9 {
+                Some((x, if stuck { Mode::Stick { z2: x[2] } } else { pm }, used))
+            } else {
+                None
+            };
         }
         let mut a = j.clone();
         for i in 0..dim {
@@ -377,7 +434,12 @@ fn mode_dir(m: Mode) -> f64 {
 /// One frequency-response curve: the model at each η in order of the
 /// direction (`etas` ascending; `Down` runs them descending but returns them
 /// ascending).
-pub fn curve(model: &Model, etas: &[f64], direction: Direction, cfg: &SteadyConfig) -> Result<Vec<Point>, SimError> {
+pub fn curve(
+    model: &Model,
+    etas: &[f64],
+    direction: Direction,
+    cfg: &SteadyConfig,
+) -> Result<Vec<Point>, SimError> {
     let mut order: Vec<usize> = (0..etas.len()).collect();
     if direction == Direction::Down {
         order.reverse();
@@ -385,12 +447,19 @@ pub fn curve(model: &Model, etas: &[f64], direction: Direction, cfg: &SteadyConf
     let mut out: Vec<Option<Point>> = vec![None; etas.len()];
     let mut state = Init::rest();
     for i in order {
-        let start = if direction == Direction::Rest { Init::rest() } else { state };
+        let start = if direction == Direction::Rest {
+            Init::rest()
+        } else {
+            state
+        };
         let (p, next) = steady_state(model, etas[i], start, cfg)?;
         state = next;
         out[i] = Some(p);
     }
-    Ok(out.into_iter().map(|p| p.expect("every eta computed")).collect())
+    Ok(out
+        .into_iter()
+        .map(|p| p.expect("every eta computed"))
+        .collect())
 }
 
 /// `n` equally spaced η in [lo, hi].
@@ -398,7 +467,9 @@ pub fn eta_grid(lo: f64, hi: f64, n: usize) -> Vec<f64> {
     match n {
         0 => vec![],
         1 => vec![lo],
-        _ => (0..n).map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64).collect(),
+        _ => (0..n)
+            .map(|i| lo + (hi - lo) * i as f64 / (n - 1) as f64)
+            .collect(),
     }
 }
 
@@ -478,7 +549,11 @@ pub fn family(
                 Some(p) => {
                     let (v, _) = steady_state(&spec.model, etas[p], Init::rest(), cfg)?;
                     tick(1);
-                    Ok(vec![Row { curve: c, point: p, value: v }])
+                    Ok(vec![Row {
+                        curve: c,
+                        point: p,
+                        value: v,
+                    }])
                 }
                 None => {
                     let pts = curve(&spec.model, etas, spec.direction, cfg)?;
@@ -486,7 +561,11 @@ pub fn family(
                     Ok(pts
                         .into_iter()
                         .enumerate()
-                        .map(|(p, v)| Row { curve: c, point: p, value: v })
+                        .map(|(p, v)| Row {
+                            curve: c,
+                            point: p,
+                            value: v,
+                        })
                         .collect())
                 }
             }
@@ -524,7 +603,12 @@ mod tests {
         let (b, _) = steady_state(&m, 0.6, Init::rest(), &march).unwrap();
         assert!(a.steady && b.steady);
         let (a1, b1) = (a.amplitude1.unwrap(), b.amplitude1.unwrap());
-        assert!((a1 - b1).abs() < 1e-7 * b1, "{a1} vs {b1} ({} vs {})", a.method, b.method);
+        assert!(
+            (a1 - b1).abs() < 1e-7 * b1,
+            "{a1} vs {b1} ({} vs {})",
+            a.method,
+            b.method
+        );
     }
 
     /// The limits in closed form and the proven permanent stick.
@@ -532,15 +616,23 @@ mod tests {
     fn limits_and_stick_proof() {
         let ab = Absorber::default();
         for eta in [0.3, 0.7071, 1.2] {
-            let (p, _) = steady_state(&coulomb(0.0), eta, Init::rest(), &SteadyConfig::default()).unwrap();
+            let (p, _) =
+                steady_state(&coulomb(0.0), eta, Init::rest(), &SteadyConfig::default()).unwrap();
             let (a1, a2) = linear::free_amplitudes(&ab, 0.0, eta);
             assert_eq!((p.amplitude1.unwrap(), p.amplitude2.unwrap()), (a1, a2));
-            let (p, _) = steady_state(&coulomb(f64::INFINITY), eta, Init::rest(), &SteadyConfig::default()).unwrap();
+            let (p, _) = steady_state(
+                &coulomb(f64::INFINITY),
+                eta,
+                Init::rest(),
+                &SteadyConfig::default(),
+            )
+            .unwrap();
             assert_eq!(p.amplitude1.unwrap(), linear::stuck_amplitudes(&ab, eta).0);
         }
         // ρs = 5 at η = 1.2 (stuck orbit's largest contact force ≈ 1.4 ≪ 5):
         // the proof applies after the transient, with the 1-DOF amplitude.
-        let (p, _) = steady_state(&coulomb(5.0), 1.2, Init::rest(), &SteadyConfig::default()).unwrap();
+        let (p, _) =
+            steady_state(&coulomb(5.0), 1.2, Init::rest(), &SteadyConfig::default()).unwrap();
         assert_eq!(p.method, "stick-proof");
         assert!((p.amplitude1.unwrap() - linear::stuck_amplitudes(&ab, 1.2).0).abs() < 1e-15);
     }
@@ -550,9 +642,18 @@ mod tests {
     fn shards_reassemble_exactly() {
         let etas = eta_grid(0.3, 1.3, 9);
         let specs = [
-            CurveSpec { model: coulomb(0.2), direction: Direction::Up },
-            CurveSpec { model: coulomb(0.4), direction: Direction::Down },
-            CurveSpec { model: coulomb(0.3), direction: Direction::Rest },
+            CurveSpec {
+                model: coulomb(0.2),
+                direction: Direction::Up,
+            },
+            CurveSpec {
+                model: coulomb(0.4),
+                direction: Direction::Down,
+            },
+            CurveSpec {
+                model: coulomb(0.3),
+                direction: Direction::Rest,
+            },
         ];
         let cfg = SteadyConfig::default();
         let all = family(&specs, &etas, &cfg, Shard::ALL, &|_| {}).unwrap();
