@@ -28,6 +28,7 @@ pub mod error;
 pub mod ingest;
 pub mod io;
 pub mod model;
+pub mod report;
 pub mod sim;
 
 pub use error::{Error, Result};

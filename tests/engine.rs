@@ -432,7 +432,7 @@ fn amplitudes_match_dense_sampling() {
     struct Samples(Vec<[f64; 4]>, stickslip::sim::PeriodGrid);
     impl Observer for Samples {
         fn next_sample(&mut self) -> Option<f64> {
-            Some(self.1.next())
+            Some(self.1.advance())
         }
         fn sample(&mut self, _t: f64, x: &[f64; 4], _dx: &[f64; 4]) {
             self.0.push(*x);

@@ -41,7 +41,7 @@ impl Observer for Check {
         self.events.push(*ev);
     }
     fn next_sample(&mut self) -> Option<f64> {
-        Some(self.grid.next())
+        Some(self.grid.advance())
     }
     fn sample(&mut self, _tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
         self.nan |= x.iter().any(|v| !v.is_finite());

@@ -3,9 +3,9 @@
 use crate::model::{Absorber, Law, Model};
 use clap::Args;
 
-/// The dimensionless model options of `simulate` and `sweep`.
+/// The model options shared by `simulate` and `sweep` (all but ρs, ρd).
 #[derive(Debug, Clone, Args)]
-pub struct ModelArgs {
+pub struct ShapeArgs {
     /// Mass ratio m = M1/M2.
     #[arg(long, default_value_t = 4.0, allow_hyphen_values = true)]
     pub m: f64,
@@ -15,39 +15,34 @@ pub struct ModelArgs {
     /// Viscous damping D = d/sqrt(K2 M2).
     #[arg(long, default_value_t = 0.005, allow_hyphen_values = true)]
     pub damping: f64,
-    /// Static threshold rho_s (0: no friction; inf: always stuck).
-    #[arg(long = "rho-s", default_value_t = 0.0, allow_hyphen_values = true)]
-    pub rho_s: f64,
-    /// Dynamic level rho_d (default: equal to rho_s).
-    #[arg(long = "rho-d", allow_hyphen_values = true)]
-    pub rho_d: Option<f64>,
     /// Slope D* of the characteristic.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub slope: f64,
     /// Stribeck velocity v_s: makes the law ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
-    #[arg(long = "v-s")]
+    #[arg(long = "v-s", allow_hyphen_values = true)]
     pub v_s: Option<f64>,
     /// Interrupt when the sliding friction falls below F·rho_s.
-    #[arg(long = "stop-below")]
+    #[arg(long = "stop-below", allow_hyphen_values = true)]
     pub stop_below: Option<f64>,
 }
 
-impl ModelArgs {
-    /// The validated model.
-    pub fn model(&self) -> crate::Result<Model> {
-        let rho_d = match self.rho_d {
+impl ShapeArgs {
+    /// The validated model with static threshold `rho_s` and dynamic level
+    /// `rho_d` (default: ρs, or 0 when ρs = ∞).
+    pub fn model(&self, rho_s: f64, rho_d: Option<f64>) -> crate::Result<Model> {
+        let rho_d = match rho_d {
             Some(v) => v,
-            None if self.rho_s.is_finite() => self.rho_s,
+            None if rho_s.is_finite() => rho_s,
             None => 0.0,
         };
         let law = match self.v_s {
             None => Law::Linear {
-                rho_s: self.rho_s,
+                rho_s,
                 rho_d,
                 slope: self.slope,
             },
             Some(v_s) => Law::Stribeck {
-                rho_s: self.rho_s,
+                rho_s,
                 rho_d,
                 slope: self.slope,
                 v_s,
@@ -64,5 +59,26 @@ impl ModelArgs {
         };
         model.validate()?;
         Ok(model)
+    }
+}
+
+/// The dimensionless model options of `simulate`.
+#[derive(Debug, Clone, Args)]
+pub struct ModelArgs {
+    /// Absorber and law shape.
+    #[command(flatten)]
+    pub shape: ShapeArgs,
+    /// Static threshold rho_s (0: no friction; inf: always stuck).
+    #[arg(long = "rho-s", default_value_t = 0.0, allow_hyphen_values = true)]
+    pub rho_s: f64,
+    /// Dynamic level rho_d (default: equal to rho_s).
+    #[arg(long = "rho-d", allow_hyphen_values = true)]
+    pub rho_d: Option<f64>,
+}
+
+impl ModelArgs {
+    /// The validated model.
+    pub fn model(&self) -> crate::Result<Model> {
+        self.shape.model(self.rho_s, self.rho_d)
     }
 }

@@ -7,7 +7,9 @@ use std::process::ExitCode;
 
 mod args;
 mod ingest;
+mod merge;
 mod simulate;
+pub mod sweep;
 
 pub use args::ModelArgs;
 
@@ -31,6 +33,10 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Read a rig log (MCAP, CSV + channel map, Parquet) into one clean run.
     Ingest(ingest::IngestArgs),
+    /// Frequency-response curves and families (paper Figs. 3-5).
+    Sweep(sweep::SweepArgs),
+    /// Merge the partial tables of a sharded sweep.
+    Merge(merge::MergeArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -51,6 +57,8 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Ingest(a) => ingest::run(a),
+        Command::Sweep(a) => sweep::run(a),
+        Command::Merge(a) => merge::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -63,5 +71,9 @@ pub fn main() -> ExitCode {
 
 /// Prints one JSON object on stdout (non-finite numbers become `null`).
 pub(crate) fn print_json(value: &serde_json::Value) {
-    println!("{value}");
+    use std::io::Write;
+    // A closed stdout (e.g. `| head`) is not an error of the job.
+    let mut out = std::io::stdout().lock();
+    let _ = writeln!(out, "{value}");
+    let _ = out.flush();
 }

@@ -109,7 +109,7 @@ impl Observer for Files {
         );
     }
     fn next_sample(&mut self) -> Option<f64> {
-        self.traj.as_mut().map(|t| t.1.next())
+        self.traj.as_mut().map(|t| t.1.advance())
     }
     fn sample(&mut self, tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
         self.write(

@@ -177,8 +177,8 @@ pub struct PeriodGrid {
 }
 
 impl PeriodGrid {
-    /// The next grid time (and advances).
-    pub fn next(&mut self) -> f64 {
+    /// The next grid time (and moves past it).
+    pub fn advance(&mut self) -> f64 {
         let per = u64::from(self.per_period);
         let tau = (self.j / per) as f64 * self.t
             + (self.j % per) as f64 * self.t / f64::from(self.per_period);

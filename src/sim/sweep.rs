@@ -615,7 +615,7 @@ mod tests {
     #[test]
     fn limits_and_stick_proof() {
         let ab = Absorber::default();
-        for eta in [0.3, 0.7071, 1.2] {
+        for eta in [0.3, 0.7, 1.2] {
             let (p, _) =
                 steady_state(&coulomb(0.0), eta, Init::rest(), &SteadyConfig::default()).unwrap();
             let (a1, a2) = linear::free_amplitudes(&ab, 0.0, eta);

@@ -1,0 +1,349 @@
+//! `stickslip sweep`: frequency-response curves and families (paper
+//! Figs. 3–5), in parallel, with tables, figures and sharding for large
+//! studies.
+
+use super::args::ShapeArgs;
+use crate::report::plot::{self, FrcCurve, FrcFigure};
+use crate::report::table::{self, FrcRow};
+use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
+use crate::sim::SimError;
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+/// Continuation policy on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum DirectionArg {
+    /// Increasing η, each from the previous steady state.
+    Up,
+    /// Decreasing η.
+    Down,
+    /// One curve each way.
+    Both,
+}
+
+/// The paper's Fig. 3 family (the default `--rho-s`).
+pub const FIG3_RHO_S: &str = "0,0.05,0.1,0.2,0.3,0.33,0.35,0.375,0.4,0.6,1,2,5";
+
+/// Arguments of `stickslip sweep`.
+#[derive(Debug, Args)]
+pub struct SweepArgs {
+    /// Absorber and law shape.
+    #[command(flatten)]
+    pub shape: ShapeArgs,
+    /// Static thresholds, comma-separated: one curve each (`inf`: stuck).
+    #[arg(long = "rho-s", default_value = FIG3_RHO_S, allow_hyphen_values = true)]
+    pub rho_s: String,
+    /// Dynamic level for every curve (default: ρs, or ratio·ρs).
+    #[arg(
+        long = "rho-d",
+        allow_hyphen_values = true,
+        conflicts_with = "rho_d_ratio"
+    )]
+    pub rho_d: Option<f64>,
+    /// ρd = R·ρs for every curve (the paper's Fig. 5 uses 0.5).
+    #[arg(long = "rho-d-ratio", allow_hyphen_values = true)]
+    pub rho_d_ratio: Option<f64>,
+    /// Smallest η.
+    #[arg(long = "eta-min", default_value_t = 0.2, allow_hyphen_values = true)]
+    pub eta_min: f64,
+    /// Largest η.
+    #[arg(long = "eta-max", default_value_t = 1.6, allow_hyphen_values = true)]
+    pub eta_max: f64,
+    /// Number of η points.
+    #[arg(long, default_value_t = 141)]
+    pub points: usize,
+    /// Continuation direction.
+    #[arg(long, value_enum, default_value_t = DirectionArg::Up, conflicts_with = "from_rest")]
+    pub direction: DirectionArg,
+    /// Start every η from rest instead of continuing.
+    #[arg(long)]
+    pub from_rest: bool,
+    /// Period budget of the time-marching fallback per point.
+    #[arg(long, default_value_t = 20_000)]
+    pub max_periods: u64,
+    /// Compute slice K of N of the family (1-based K), for job arrays.
+    #[arg(long)]
+    pub shard: Option<String>,
+    /// Write the table (.parquet or .csv).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Draw the family (.svg or .png).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Title of the figure.
+    #[arg(long)]
+    pub title: Option<String>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn bad(msg: String) -> crate::Error {
+    SimError::Unsupported(msg).into()
+}
+
+/// Parses `K/N` (1 ≤ K ≤ N).
+pub fn parse_shard(s: &str) -> crate::Result<Shard> {
+    let parts: Vec<&str> = s.split('/').collect();
+    let nums: Option<(usize, usize)> = match parts.as_slice() {
+        [a, b] => a.trim().parse().ok().zip(b.trim().parse().ok()),
+        _ => None,
+    };
+    match nums {
+        Some((k, n)) if n >= 1 && (1..=n).contains(&k) => Ok(Shard {
+            index: k - 1,
+            count: n,
+        }),
+        _ => Err(bad(format!(
+            "--shard must be K/N with 1 <= K <= N, got `{s}`"
+        ))),
+    }
+}
+
+fn parse_list(s: &str) -> crate::Result<Vec<f64>> {
+    s.split(',')
+        .map(|t| {
+            let t = t.trim();
+            match t {
+                "inf" | "infinity" | "Inf" => Ok(f64::INFINITY),
+                _ => t
+                    .parse::<f64>()
+                    .map_err(|_| bad(format!("--rho-s: `{t}` is not a number"))),
+            }
+        })
+        .collect()
+}
+
+/// Runs `sweep`.
+pub fn run(args: SweepArgs) -> crate::Result<()> {
+    let rhos = parse_list(&args.rho_s)?;
+    if !(args.eta_min.is_finite()
+        && args.eta_min > 0.0
+        && args.eta_max.is_finite()
+        && args.eta_max >= args.eta_min)
+    {
+        return Err(bad("need 0 < --eta-min <= --eta-max".into()));
+    }
+    if args.points == 0 {
+        return Err(bad("--points must be >= 1".into()));
+    }
+    let shard = match &args.shard {
+        Some(s) => parse_shard(s)?,
+        None => Shard::ALL,
+    };
+    let directions: Vec<Direction> = if args.from_rest {
+        vec![Direction::Rest]
+    } else {
+        match args.direction {
+            DirectionArg::Up => vec![Direction::Up],
+            DirectionArg::Down => vec![Direction::Down],
+            DirectionArg::Both => vec![Direction::Up, Direction::Down],
+        }
+    };
+    let mut specs = Vec::new();
+    for &rs in &rhos {
+        let rd = match (args.rho_d, args.rho_d_ratio) {
+            (Some(v), _) => Some(v),
+            (None, Some(r)) if rs.is_finite() => Some(r * rs),
+            _ => None,
+        };
+        let model = args.shape.model(rs, rd)?;
+        if model.law.affine().is_none() {
+            return Err(bad(
+                "sweep needs an affine law (coulomb, decreasing, static-dynamic) for now".into(),
+            ));
+        }
+        for &d in &directions {
+            specs.push(CurveSpec {
+                model,
+                direction: d,
+            });
+        }
+    }
+    let etas = sweep::eta_grid(args.eta_min, args.eta_max, args.points);
+    let cfg = SteadyConfig {
+        max_periods: args.max_periods,
+        ..SteadyConfig::default()
+    };
+    let total: u64 = specs.len() as u64 * etas.len() as u64 / shard.count as u64;
+    let bar = if !args.json && std::io::stderr().is_terminal() {
+        let b = indicatif::ProgressBar::new(total.max(1));
+        if let Ok(style) = indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} steady states, {elapsed} elapsed, eta {eta}",
+        ) {
+            b.set_style(style);
+        }
+        Some(b)
+    } else {
+        None
+    };
+    let start = std::time::Instant::now();
+    let rows = sweep::family(&specs, &etas, &cfg, shard, &|n| {
+        if let Some(b) = &bar {
+            b.inc(n);
+        }
+    })?;
+    if let Some(b) = &bar {
+        b.finish_and_clear();
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let table: Vec<FrcRow> = rows
+        .iter()
+        .map(|r| {
+            let s = &specs[r.curve];
+            let law = &s.model.law;
+            let v = &r.value;
+            FrcRow {
+                curve: r.curve as u32,
+                point: r.point as u32,
+                m: s.model.absorber.m,
+                k: s.model.absorber.k,
+                damping: s.model.absorber.damping,
+                rho_s: law.rho_s(),
+                rho_d: law.rho_d(),
+                slope: law.slope(),
+                v_s: match law {
+                    crate::model::Law::Stribeck { v_s, .. } => Some(*v_s),
+                    _ => None,
+                },
+                stop_below: s.model.stop_below,
+                direction: s.direction.as_str().to_string(),
+                eta: v.eta,
+                amplitude1: v.amplitude1,
+                amplitude2: v.amplitude2,
+                steady: v.steady,
+                period_multiple: v.period_multiple,
+                stick_fraction: v.stick_fraction,
+                interrupted: v.interrupted,
+                method: v.method.to_string(),
+                periods: v.periods,
+            }
+        })
+        .collect();
+    if let Some(p) = &args.out {
+        table::write_frc(&table, p)?;
+    }
+    if let Some(p) = &args.plot {
+        let title = args.title.clone().unwrap_or_else(|| default_title(&specs));
+        plot::frc(&figure(&table, title), p)?;
+    }
+    if args.json {
+        super::print_json(&json!({
+            "curves": curves_json(&table),
+            "seconds": seconds,
+            "points": table.len(),
+            "shard": args.shard,
+        }));
+    } else {
+        let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
+        let interrupted = table.iter().filter(|r| r.interrupted).count();
+        eprintln!(
+            "{} curves, {} steady states in {:.2} s ({} not settled, {} interrupted)",
+            specs.len(),
+            table.len(),
+            seconds,
+            not_steady,
+            interrupted
+        );
+    }
+    Ok(())
+}
+
+fn default_title(specs: &[CurveSpec]) -> String {
+    match specs.first() {
+        Some(s) => {
+            let l = &s.model.law;
+            let mut t = format!("Frequency response, {} friction", l.name());
+            if l.slope() != 0.0 {
+                t += &format!(", D* = {}", l.slope());
+            }
+            t
+        }
+        None => "Frequency response".into(),
+    }
+}
+
+/// Groups table rows into curves (by `curve` index, rows in η order).
+pub fn group(table: &[FrcRow]) -> Vec<Vec<&FrcRow>> {
+    let mut out: Vec<Vec<&FrcRow>> = Vec::new();
+    for r in table {
+        match out.last_mut() {
+            Some(c) if c[0].curve == r.curve => c.push(r),
+            _ => out.push(vec![r]),
+        }
+    }
+    out
+}
+
+/// The `curves` JSON of the interface from table rows.
+pub fn curves_json(table: &[FrcRow]) -> serde_json::Value {
+    let curves: Vec<serde_json::Value> = group(table)
+        .into_iter()
+        .map(|c| {
+            let h = c[0];
+            json!({
+                "rho_s": h.rho_s,
+                "rho_d": h.rho_d,
+                "slope": h.slope,
+                "direction": h.direction,
+                "eta": c.iter().map(|r| r.eta).collect::<Vec<_>>(),
+                "amplitude1": c.iter().map(|r| r.amplitude1).collect::<Vec<_>>(),
+                "amplitude2": c.iter().map(|r| r.amplitude2).collect::<Vec<_>>(),
+                "steady": c.iter().map(|r| r.steady).collect::<Vec<_>>(),
+                "period_multiple": c.iter().map(|r| r.period_multiple).collect::<Vec<_>>(),
+                "stick_fraction": c.iter().map(|r| r.stick_fraction).collect::<Vec<_>>(),
+                "interrupted": c.iter().map(|r| r.interrupted).collect::<Vec<_>>(),
+            })
+        })
+        .collect();
+    serde_json::Value::Array(curves)
+}
+
+/// The figure of a table's family.
+pub fn figure(table: &[FrcRow], title: String) -> FrcFigure {
+    let groups = group(table);
+    let absorber = table
+        .first()
+        .map(|r| crate::model::Absorber {
+            m: r.m,
+            k: r.k,
+            damping: r.damping,
+        })
+        .unwrap_or_default();
+    let lo = table.iter().map(|r| r.eta).fold(f64::INFINITY, f64::min);
+    let hi = table
+        .iter()
+        .map(|r| r.eta)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let curves = groups
+        .into_iter()
+        .map(|c| {
+            let h = c[0];
+            let mut label = format!("ρs = {}", h.rho_s);
+            if h.rho_d != h.rho_s && h.rho_s.is_finite() {
+                label += &format!(", ρd = {}", h.rho_d);
+            }
+            if h.direction != "up" {
+                label += &format!(" ({})", h.direction);
+            }
+            FrcCurve {
+                label,
+                eta: c.iter().map(|r| r.eta).collect(),
+                a1: c.iter().map(|r| r.amplitude1).collect(),
+                a2: c.iter().map(|r| r.amplitude2).collect(),
+            }
+        })
+        .collect();
+    FrcFigure {
+        title,
+        absorber,
+        curves,
+        eta_range: if lo < hi {
+            (lo, hi)
+        } else {
+            (lo * 0.9, lo * 1.1)
+        },
+    }
+}

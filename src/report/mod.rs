@@ -1,0 +1,5 @@
+//! The report stage: figures (plotters, SVG or PNG by extension) and,
+//! later, the HTML reports. Every output is written atomically.
+
+pub mod plot;
+pub mod table;

@@ -1,0 +1,275 @@
+//! Figures drawn like the paper's: frequency-response families (Figs. 3–5)
+//! with both amplitudes, the two linear limit curves (no friction; rigid
+//! stick) and the natural frequencies η0, η1, η2 marked.
+//!
+//! SVG or PNG by the file extension; PNG text uses the bundled DejaVu Sans
+//! (`fonts/`, Bitstream Vera licence), so figures render the same on any
+//! machine without system fonts.
+
+use crate::error::{Error, Result};
+use crate::model::Absorber;
+use crate::sim::linear;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::Once;
+
+static FONT: Once = Once::new();
+
+fn register_font() {
+    FONT.call_once(|| {
+        let bytes: &'static [u8] = include_bytes!("fonts/DejaVuSans.ttf");
+        // The bundled font is valid; a failure would only lose text.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, bytes);
+    });
+}
+
+/// One curve of a frequency-response family.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrcCurve {
+    /// Legend text.
+    pub label: String,
+    /// η values (ascending).
+    pub eta: Vec<f64>,
+    /// A1/A (None: no amplitude, e.g. interrupted).
+    pub a1: Vec<Option<f64>>,
+    /// A2/A.
+    pub a2: Vec<Option<f64>>,
+}
+
+/// A frequency-response figure.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrcFigure {
+    /// Title.
+    pub title: String,
+    /// The absorber (limit curves and natural frequencies).
+    pub absorber: Absorber,
+    /// The curves.
+    pub curves: Vec<FrcCurve>,
+    /// η range of the axes.
+    pub eta_range: (f64, f64),
+}
+
+fn plot_err(path: &Path, e: impl std::fmt::Display) -> Error {
+    Error::Input {
+        path: path.to_path_buf(),
+        msg: format!("cannot draw the figure: {e}"),
+    }
+}
+
+/// Draws the figure to `path` (`.svg` or `.png`), atomically.
+pub fn frc(fig: &FrcFigure, path: &Path) -> Result<()> {
+    register_font();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let size = (1000, 900);
+    match ext.as_str() {
+        "svg" => {
+            let mut s = String::new();
+            {
+                let root = SVGBackend::with_string(&mut s, size).into_drawing_area();
+                draw_frc(fig, &root).map_err(|e| plot_err(path, e))?;
+                root.present().map_err(|e| plot_err(path, e))?;
+            }
+            crate::io::write_atomic(path, s.as_bytes())
+        }
+        "png" => {
+            let tmp = tmp_beside(path, "png");
+            {
+                let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+                let r =
+                    draw_frc(fig, &root).and_then(|_| root.present().map_err(|e| e.to_string()));
+                if let Err(e) = r {
+                    let _ = std::fs::remove_file(&tmp);
+                    return Err(plot_err(path, e));
+                }
+            }
+            std::fs::rename(&tmp, path).map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })
+        }
+        _ => Err(Error::Input {
+            path: path.to_path_buf(),
+            msg: "figure must be .svg or .png".into(),
+        }),
+    }
+}
+
+/// A temporary file name beside `path` keeping the extension (image
+/// encoders pick the format from it).
+fn tmp_beside(path: &Path, ext: &str) -> std::path::PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    dir.join(format!(".{name}.{}.tmp.{ext}", std::process::id()))
+}
+
+/// Colours for up to 16 curves (the paper's families have 7–13).
+fn colour(i: usize, n: usize) -> RGBColor {
+    let t = if n <= 1 {
+        0.0
+    } else {
+        i as f64 / (n - 1) as f64
+    };
+    // A perceptually ordered ramp: blue → green → orange → red.
+    let stops = [
+        (31, 119, 180),
+        (44, 160, 44),
+        (255, 127, 14),
+        (214, 39, 40),
+        (148, 103, 189),
+    ];
+    let x = t * (stops.len() - 1) as f64;
+    let k = (x.floor() as usize).min(stops.len() - 2);
+    let f = x - k as f64;
+    let lerp = |a: u8, b: u8| (a as f64 + (b as f64 - a as f64) * f).round() as u8;
+    RGBColor(
+        lerp(stops[k].0, stops[k + 1].0),
+        lerp(stops[k].1, stops[k + 1].1),
+        lerp(stops[k].2, stops[k + 1].2),
+    )
+}
+
+fn draw_frc<DB: DrawingBackend>(
+    fig: &FrcFigure,
+    root: &DrawingArea<DB, Shift>,
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root.titled(&fig.title, ("sans-serif", 26)).map_err(e)?;
+    let panels = root.split_evenly((2, 1));
+    let (lo, hi) = fig.eta_range;
+    let ab = &fig.absorber;
+    let (eta1, eta2) = ab.eta_linear();
+    let eta0 = ab.eta_stuck();
+    let grid: Vec<f64> = (0..=800)
+        .map(|i| lo + (hi - lo) * i as f64 / 800.0)
+        .collect();
+    for (panel, which) in panels.iter().zip([0usize, 1]) {
+        let data_max = fig
+            .curves
+            .iter()
+            .flat_map(|c| if which == 0 { c.a1.iter() } else { c.a2.iter() })
+            .flatten()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max);
+        // Resonance peaks of the lightly damped limits reach ~70: cap the
+        // axis so the friction curves stay readable (peaks are clipped).
+        let ymax = (data_max * 1.15).clamp(1.0, 15.0);
+        let ylabel = if which == 0 { "A1/A" } else { "A2/A" };
+        let mut chart = ChartBuilder::on(panel)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(lo..hi, 0.0..ymax)
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc("η")
+            .y_desc(ylabel)
+            .label_style(("sans-serif", 16))
+            .axis_desc_style(("sans-serif", 18))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(e)?;
+        // The two limits: no friction (ρs = 0) and rigid stick (ρs = ∞).
+        let grey = RGBColor(120, 120, 120);
+        let free: Vec<(f64, f64)> = grid
+            .iter()
+            .map(|&x| {
+                let (a1, a2) = linear::free_amplitudes(ab, 0.0, x);
+                (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
+            })
+            .collect();
+        chart
+            .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
+            .map_err(e)?
+            .label("no friction")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
+        if which == 0 {
+            let stuck: Vec<(f64, f64)> = grid
+                .iter()
+                .map(|&x| (x, linear::stuck_amplitudes(ab, x).0.min(ymax * 2.0)))
+                .collect();
+            let dark = RGBColor(60, 60, 60);
+            chart
+                .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))
+                .map_err(e)?
+                .label("rigid stick")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
+        }
+        // η0, η1, η2.
+        for (name, v) in [("η1", eta1), ("η0", eta0), ("η2", eta2)] {
+            if v > lo && v < hi {
+                chart
+                    .draw_series(DashedLineSeries::new(
+                        vec![(v, 0.0), (v, ymax)],
+                        3,
+                        3,
+                        RGBColor(170, 170, 170).stroke_width(1),
+                    ))
+                    .map_err(e)?;
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        name.to_string(),
+                        (v, ymax * 0.97),
+                        ("sans-serif", 15),
+                    )))
+                    .map_err(e)?;
+            }
+        }
+        let n = fig.curves.len();
+        for (i, c) in fig.curves.iter().enumerate() {
+            let col = colour(i, n);
+            let ys = if which == 0 { &c.a1 } else { &c.a2 };
+            // Break the line where a point has no amplitude.
+            let mut seg: Vec<(f64, f64)> = Vec::new();
+            let mut first = true;
+            let mut flush = |seg: &mut Vec<(f64, f64)>,
+                             chart: &mut ChartContext<'_, DB, _>|
+             -> std::result::Result<(), String> {
+                if seg.is_empty() {
+                    return Ok(());
+                }
+                let s = chart
+                    .draw_series(LineSeries::new(std::mem::take(seg), col.stroke_width(2)))
+                    .map_err(e)?;
+                if first {
+                    s.label(c.label.clone()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                    });
+                    first = false;
+                }
+                Ok(())
+            };
+            for (x, y) in c.eta.iter().zip(ys) {
+                match y {
+                    Some(v) if v.is_finite() => seg.push((*x, *v)),
+                    _ => flush(&mut seg, &mut chart)?,
+                }
+            }
+            flush(&mut seg, &mut chart)?;
+        }
+        if which == 0 {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(RGBColor(200, 200, 200))
+                .label_font(("sans-serif", 14))
+                .draw()
+                .map_err(e)?;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,273 @@
+//! Frequency-response tables (`sweep --out`, `merge`): one row per steady
+//! state, written as Parquet or CSV (polars, by extension, atomically) and
+//! read back for merging the partial tables of a sharded study.
+//!
+//! Columns: `curve`, `point` (indices in the family, for merging), `m`, `k`,
+//! `damping`, `rho_s`, `rho_d`, `slope`, `v_s`, `stop_below`, `direction`,
+//! `eta`, `amplitude1`, `amplitude2`, `steady`, `period_multiple`,
+//! `stick_fraction`, `interrupted`, `method`, `periods`.
+
+use crate::error::{Error, Result};
+use polars::prelude::*;
+use std::path::Path;
+
+/// One row of a frequency-response table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrcRow {
+    /// Curve index in the family.
+    pub curve: u32,
+    /// η index on the grid.
+    pub point: u32,
+    /// m.
+    pub m: f64,
+    /// k.
+    pub k: f64,
+    /// D.
+    pub damping: f64,
+    /// ρs.
+    pub rho_s: f64,
+    /// ρd.
+    pub rho_d: f64,
+    /// D*.
+    pub slope: f64,
+    /// Stribeck velocity, if the law has one.
+    pub v_s: Option<f64>,
+    /// Interruption level factor, if set.
+    pub stop_below: Option<f64>,
+    /// `up`, `down` or `rest`.
+    pub direction: String,
+    /// η.
+    pub eta: f64,
+    /// A1/A.
+    pub amplitude1: Option<f64>,
+    /// A2/A.
+    pub amplitude2: Option<f64>,
+    /// Periodic response found.
+    pub steady: bool,
+    /// n of a period-n response.
+    pub period_multiple: Option<u32>,
+    /// Stick fraction.
+    pub stick_fraction: f64,
+    /// Interrupted by the paper's rule.
+    pub interrupted: bool,
+    /// How the point was settled.
+    pub method: String,
+    /// Forcing periods integrated.
+    pub periods: u64,
+}
+
+fn fail(path: &Path, what: &str, e: impl std::fmt::Display) -> Error {
+    Error::Input {
+        path: path.to_path_buf(),
+        msg: format!("{what}: {e}"),
+    }
+}
+
+/// Writes the rows to `path` (`.parquet` or `.csv`), atomically.
+pub fn write_frc(rows: &[FrcRow], path: &Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    if ext != "parquet" && ext != "csv" {
+        return Err(fail(path, "table", "must be .parquet or .csv"));
+    }
+    let f = |g: fn(&FrcRow) -> f64| rows.iter().map(g).collect::<Vec<f64>>();
+    let o = |g: fn(&FrcRow) -> Option<f64>| rows.iter().map(g).collect::<Vec<Option<f64>>>();
+    let cols = vec![
+        Column::new(
+            "curve".into(),
+            rows.iter().map(|r| r.curve).collect::<Vec<u32>>(),
+        ),
+        Column::new(
+            "point".into(),
+            rows.iter().map(|r| r.point).collect::<Vec<u32>>(),
+        ),
+        Column::new("m".into(), f(|r| r.m)),
+        Column::new("k".into(), f(|r| r.k)),
+        Column::new("damping".into(), f(|r| r.damping)),
+        Column::new("rho_s".into(), f(|r| r.rho_s)),
+        Column::new("rho_d".into(), f(|r| r.rho_d)),
+        Column::new("slope".into(), f(|r| r.slope)),
+        Column::new("v_s".into(), o(|r| r.v_s)),
+        Column::new("stop_below".into(), o(|r| r.stop_below)),
+        Column::new(
+            "direction".into(),
+            rows.iter()
+                .map(|r| r.direction.as_str())
+                .collect::<Vec<&str>>(),
+        ),
+        Column::new("eta".into(), f(|r| r.eta)),
+        Column::new("amplitude1".into(), o(|r| r.amplitude1)),
+        Column::new("amplitude2".into(), o(|r| r.amplitude2)),
+        Column::new(
+            "steady".into(),
+            rows.iter().map(|r| r.steady).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "period_multiple".into(),
+            rows.iter()
+                .map(|r| r.period_multiple)
+                .collect::<Vec<Option<u32>>>(),
+        ),
+        Column::new("stick_fraction".into(), f(|r| r.stick_fraction)),
+        Column::new(
+            "interrupted".into(),
+            rows.iter().map(|r| r.interrupted).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "method".into(),
+            rows.iter()
+                .map(|r| r.method.as_str())
+                .collect::<Vec<&str>>(),
+        ),
+        Column::new(
+            "periods".into(),
+            rows.iter().map(|r| r.periods).collect::<Vec<u64>>(),
+        ),
+    ];
+    let mut df =
+        DataFrame::new(rows.len(), cols).map_err(|e| fail(path, "cannot build the table", e))?;
+    let mut out = crate::io::AtomicFile::create(path)?;
+    if ext == "parquet" {
+        ParquetWriter::new(out.writer())
+            .finish(&mut df)
+            .map_err(|e| fail(path, "cannot write Parquet", e))?;
+    } else {
+        CsvWriter::new(out.writer())
+            .finish(&mut df)
+            .map_err(|e| fail(path, "cannot write CSV", e))?;
+    }
+    out.commit()
+}
+
+/// Reads a table written by [`write_frc`].
+pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let df = match ext.as_str() {
+        "parquet" => {
+            let file = std::fs::File::open(path).map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            ParquetReader::new(file)
+                .finish()
+                .map_err(|e| fail(path, "cannot read Parquet", e))?
+        }
+        "csv" => CsvReadOptions::default()
+            .with_has_header(true)
+            .with_infer_schema_length(None)
+            .try_into_reader_with_file_path(Some(path.to_path_buf()))
+            .and_then(|r| r.finish())
+            .map_err(|e| fail(path, "cannot read CSV", e))?,
+        _ => return Err(fail(path, "table", "must be .parquet or .csv")),
+    };
+    let n = df.height();
+    let get = |name: &str, dt: DataType| -> Result<Series> {
+        let c = df.column(name).map_err(|_| {
+            fail(
+                path,
+                "not a stickslip sweep table",
+                format!("no column `{name}`"),
+            )
+        })?;
+        c.as_materialized_series()
+            .cast(&dt)
+            .map_err(|e| fail(path, &format!("column `{name}`"), e))
+    };
+    let fcol = |name: &str| -> Result<Vec<Option<f64>>> {
+        Ok(get(name, DataType::Float64)?
+            .f64()
+            .map_err(|e| fail(path, name, e))?
+            .iter()
+            .collect())
+    };
+    let ucol = |name: &str| -> Result<Vec<Option<u64>>> {
+        Ok(get(name, DataType::UInt64)?
+            .u64()
+            .map_err(|e| fail(path, name, e))?
+            .iter()
+            .collect())
+    };
+    let bcol = |name: &str| -> Result<Vec<Option<bool>>> {
+        Ok(get(name, DataType::Boolean)?
+            .bool()
+            .map_err(|e| fail(path, name, e))?
+            .iter()
+            .collect())
+    };
+    let scol = |name: &str| -> Result<Vec<Option<String>>> {
+        Ok(get(name, DataType::String)?
+            .str()
+            .map_err(|e| fail(path, name, e))?
+            .iter()
+            .map(|s| s.map(str::to_string))
+            .collect())
+    };
+    let need = |v: Option<f64>, name: &str, i: usize| {
+        v.ok_or_else(|| {
+            fail(
+                path,
+                &format!("row {}", i + 1),
+                format!("`{name}` is empty"),
+            )
+        })
+    };
+    let (curve, point, periods) = (ucol("curve")?, ucol("point")?, ucol("periods")?);
+    let (m, k, d, rs, rd, sl, vs, sb) = (
+        fcol("m")?,
+        fcol("k")?,
+        fcol("damping")?,
+        fcol("rho_s")?,
+        fcol("rho_d")?,
+        fcol("slope")?,
+        fcol("v_s")?,
+        fcol("stop_below")?,
+    );
+    let (dir, eta, a1, a2, st, pm, sf, it, me) = (
+        scol("direction")?,
+        fcol("eta")?,
+        fcol("amplitude1")?,
+        fcol("amplitude2")?,
+        bcol("steady")?,
+        ucol("period_multiple")?,
+        fcol("stick_fraction")?,
+        bcol("interrupted")?,
+        scol("method")?,
+    );
+    let mut rows = Vec::with_capacity(n);
+    for i in 0..n {
+        let idx = |v: Option<u64>, name: &str| {
+            v.and_then(|x| u32::try_from(x).ok())
+                .ok_or_else(|| fail(path, &format!("row {}", i + 1), format!("bad `{name}`")))
+        };
+        rows.push(FrcRow {
+            curve: idx(curve[i], "curve")?,
+            point: idx(point[i], "point")?,
+            m: need(m[i], "m", i)?,
+            k: need(k[i], "k", i)?,
+            damping: need(d[i], "damping", i)?,
+            rho_s: need(rs[i], "rho_s", i)?,
+            rho_d: need(rd[i], "rho_d", i)?,
+            slope: need(sl[i], "slope", i)?,
+            v_s: vs[i],
+            stop_below: sb[i],
+            direction: dir[i].clone().unwrap_or_default(),
+            eta: need(eta[i], "eta", i)?,
+            amplitude1: a1[i],
+            amplitude2: a2[i],
+            steady: st[i].unwrap_or(false),
+            period_multiple: pm[i].and_then(|x| u32::try_from(x).ok()),
+            stick_fraction: need(sf[i], "stick_fraction", i)?,
+            interrupted: it[i].unwrap_or(false),
+            method: me[i].clone().unwrap_or_default(),
+            periods: periods[i].unwrap_or(0),
+        });
+    }
+    Ok(rows)
+}
