@@ -15,7 +15,7 @@ pub struct ShapeArgs {
     /// Viscous damping D = d/sqrt(K2 M2).
     #[arg(long, default_value_t = 0.005, allow_hyphen_values = true)]
     pub damping: f64,
-    /// Slope D* of the characteristic.
+    /// Slope D* of the characteristic (ignored where rho_s = 0: no friction).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub slope: f64,
     /// Stribeck velocity v_s: makes the law ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
@@ -30,23 +30,23 @@ impl ShapeArgs {
     /// The validated model with static threshold `rho_s` and dynamic level
     /// `rho_d` (default: ρs, or 0 when ρs = ∞).
     pub fn model(&self, rho_s: f64, rho_d: Option<f64>) -> crate::Result<Model> {
+        // ρs = 0 means no friction device: no slope, no dynamic level.
+        let slope = if rho_s == 0.0 { 0.0 } else { self.slope };
         let rho_d = match rho_d {
+            _ if rho_s == 0.0 => 0.0,
             Some(v) => v,
             None if rho_s.is_finite() => rho_s,
             None => 0.0,
         };
         let law = match self.v_s {
-            None => Law::Linear {
+            None => Law::Linear { rho_s, rho_d, slope },
+            Some(v_s) if rho_s > 0.0 => Law::Stribeck {
                 rho_s,
                 rho_d,
-                slope: self.slope,
-            },
-            Some(v_s) => Law::Stribeck {
-                rho_s,
-                rho_d,
-                slope: self.slope,
+                slope,
                 v_s,
             },
+            Some(_) => Law::Linear { rho_s, rho_d, slope },
         };
         let model = Model {
             absorber: Absorber {
