@@ -20,3 +20,10 @@ main:
 # CI as it runs on a fresh clone.
 ci:
     bash .ci/run
+
+# Regenerate the paper's Figs. 3-5 (Coulomb; decreasing D* = -0.04 interrupted
+# below rho_s/2; rho_d = rho_s/2) into reports/.
+figures:
+    cargo run --release -- sweep --plot reports/fig3.svg --out reports/fig3.parquet --title "Fig. 3: Coulomb friction"
+    cargo run --release -- sweep --slope -0.04 --stop-below 0.5 --plot reports/fig4.svg --out reports/fig4.parquet --title "Fig. 4: decreasing characteristic D* = -0.04 (interrupted below rho_s/2)"
+    cargo run --release -- sweep --rho-d-ratio 0.5 --plot reports/fig5.svg --out reports/fig5.parquet --title "Fig. 5: rho_d = rho_s/2"

@@ -28,6 +28,10 @@ fn steady_period(c: &mut Criterion) {
     c.bench_function("steady period, coulomb 0.375, eta 0.6", |b| {
         b.iter(|| sim.run(black_box(init), 1, &mut ()))
     });
+    // Per period in a run of 100 periods (divide the time by 100).
+    c.bench_function("100 steady periods, coulomb 0.375, eta 0.6", |b| {
+        b.iter(|| sim.run(black_box(init), 100, &mut ()))
+    });
     c.bench_function("steady period + exact extremes", |b| {
         b.iter(|| sim.run(black_box(init), 1, &mut Amplitudes))
     });

@@ -96,7 +96,8 @@ fn small_amplitudes_at_every_eta_for_some_rho_s() {
     let m = coulomb(1.0);
     let (a, _) = max_a1(&run(&m, 0.2, 1.6, 141, Direction::Up));
     let (b, _) = max_a1(&run(&m, 0.43, 0.445, 16, Direction::Up));
-    let stuck_peak = linear::stuck_amplitudes(&Absorber::default(), Absorber::default().eta_stuck()).0;
+    let stuck_peak =
+        linear::stuck_amplitudes(&Absorber::default(), Absorber::default().eta_stuck()).0;
     assert!(a < 1.5 && b < 1.5, "max A1 {a}, near eta1 {b}");
     assert!(stuck_peak > 50.0);
 }
@@ -109,7 +110,12 @@ fn small_amplitudes_at_every_eta_for_some_rho_s() {
 #[test]
 fn eta0_peak_at_large_rho_s() {
     let eta0 = Absorber::default().eta_stuck();
-    let at = |c: &[Point], e: f64| c.iter().min_by(|a, b| (a.eta - e).abs().total_cmp(&(b.eta - e).abs())).and_then(|p| p.amplitude1).unwrap();
+    let at = |c: &[Point], e: f64| {
+        c.iter()
+            .min_by(|a, b| (a.eta - e).abs().total_cmp(&(b.eta - e).abs()))
+            .and_then(|p| p.amplitude1)
+            .unwrap()
+    };
     let mut peaks = Vec::new();
     for rs in [2.0, 5.0] {
         let c = run(&coulomb(rs), 0.2, 1.6, 141, Direction::Up);
@@ -127,7 +133,16 @@ fn eta0_peak_at_large_rho_s() {
 /// η1 peak is gone at ρs = 0.7 with Coulomb but not with ρd = ρs/2.
 #[test]
 fn fig5_static_above_dynamic_shifts_suppression_up() {
-    let half = |rs: f64| model(Law::Linear { rho_s: rs, rho_d: 0.5 * rs, slope: 0.0 }, None);
+    let half = |rs: f64| {
+        model(
+            Law::Linear {
+                rho_s: rs,
+                rho_d: 0.5 * rs,
+                slope: 0.0,
+            },
+            None,
+        )
+    };
     let (c2, _) = max_a1(&run(&coulomb(0.3), 1.05, 1.25, 21, Direction::Up));
     let (h2, _) = max_a1(&run(&half(0.3), 1.05, 1.25, 21, Direction::Up));
     assert!(h2 > 3.0 * c2, "eta2 peak: half {h2} vs coulomb {c2}");
@@ -143,10 +158,22 @@ fn fig5_static_above_dynamic_shifts_suppression_up() {
 /// η2 peak is below 0.5 as with Coulomb.
 #[test]
 fn fig4_decreasing_law_interrupts_at_peaks() {
-    let dec = |rs: f64| model(Law::Linear { rho_s: rs, rho_d: rs, slope: -0.04 }, Some(0.5));
+    let dec = |rs: f64| {
+        model(
+            Law::Linear {
+                rho_s: rs,
+                rho_d: rs,
+                slope: -0.04,
+            },
+            Some(0.5),
+        )
+    };
     for rs in [0.05, 0.1] {
         let c = run(&dec(rs), 0.4, 0.48, 9, Direction::Up);
-        assert!(c.iter().any(|p| p.interrupted), "rho_s {rs}: no interruption near eta1");
+        assert!(
+            c.iter().any(|p| p.interrupted),
+            "rho_s {rs}: no interruption near eta1"
+        );
         assert!(c.iter().all(|p| p.interrupted == p.amplitude1.is_none()));
     }
     let (pk, _) = max_a1(&run(&dec(0.3), 1.05, 1.25, 21, Direction::Up));
@@ -158,7 +185,14 @@ fn fig4_decreasing_law_interrupts_at_peaks() {
 /// rest) A1/A = 0.386, continued downwards 0.500; both periodic.
 #[test]
 fn policies_find_different_stable_states() {
-    let m = model(Law::Linear { rho_s: 0.6, rho_d: 0.3, slope: 0.0 }, None);
+    let m = model(
+        Law::Linear {
+            rho_s: 0.6,
+            rho_d: 0.3,
+            slope: 0.0,
+        },
+        None,
+    );
     let etas = eta_grid(0.3, 1.3, 51);
     let i = etas.iter().position(|e| (e - 1.0).abs() < 1e-12).unwrap();
     let up = curve(&m, &etas, Direction::Up, &SteadyConfig::default()).unwrap()[i];

@@ -39,14 +39,22 @@ impl ShapeArgs {
             None => 0.0,
         };
         let law = match self.v_s {
-            None => Law::Linear { rho_s, rho_d, slope },
+            None => Law::Linear {
+                rho_s,
+                rho_d,
+                slope,
+            },
             Some(v_s) if rho_s > 0.0 => Law::Stribeck {
                 rho_s,
                 rho_d,
                 slope,
                 v_s,
             },
-            Some(_) => Law::Linear { rho_s, rho_d, slope },
+            Some(_) => Law::Linear {
+                rho_s,
+                rho_d,
+                slope,
+            },
         };
         let model = Model {
             absorber: Absorber {

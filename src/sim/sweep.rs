@@ -666,3 +666,39 @@ mod tests {
         assert_eq!(all.len(), 27);
     }
 }
+
+#[cfg(test)]
+mod determinism {
+    use super::*;
+    use crate::model::{Absorber, Law};
+
+    /// The same family on 1 and on 3 worker threads: identical rows.
+    #[test]
+    fn results_do_not_depend_on_thread_count() {
+        let etas = eta_grid(0.3, 1.3, 11);
+        let specs: Vec<CurveSpec> = [0.1, 0.4, 1.0]
+            .iter()
+            .flat_map(|&rs| {
+                let model = Model {
+                    absorber: Absorber::default(),
+                    law: Law::Linear {
+                        rho_s: rs,
+                        rho_d: 0.5 * rs,
+                        slope: 0.0,
+                    },
+                    stop_below: None,
+                };
+                [Direction::Up, Direction::Rest].map(|direction| CurveSpec { model, direction })
+            })
+            .collect();
+        let cfg = SteadyConfig::default();
+        let on = |n: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .unwrap()
+                .install(|| family(&specs, &etas, &cfg, Shard::ALL, &|_| {}).unwrap())
+        };
+        assert_eq!(on(1), on(3));
+    }
+}
