@@ -152,3 +152,32 @@ fn stribeck_runs_on_the_numerical_engine() {
     assert_eq!(v["law"], "stribeck");
     assert_eq!(v["steady"], true);
 }
+
+/// `stickslip bench --quick --json`: work-precision rows with the interface
+/// keys; the exact engine at a tight root tolerance is the most accurate.
+#[test]
+fn bench_quick_rows() {
+    let out = bin().args(["bench", "--quick", "--json"]).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = v["rows"].as_array().unwrap();
+    for m in ["exact", "rk4", "dopri5"] {
+        assert!(rows.iter().any(|r| r["method"] == m), "no {m} row");
+    }
+    for r in rows {
+        for k in ["method", "setting", "seconds", "error"] {
+            assert!(r.get(k).is_some());
+        }
+    }
+    let tight = rows
+        .iter()
+        .find(|r| r["setting"] == "root tol 1e-12")
+        .unwrap();
+    // Against its own machine-precision run, through a different event
+    // resolution: agreement to about the tolerance.
+    assert!(tight["error"].as_f64().unwrap() < 1e-9);
+}

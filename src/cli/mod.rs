@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod args;
+mod bench;
 mod ingest;
 mod merge;
 mod simulate;
@@ -37,6 +38,8 @@ pub enum Command {
     Sweep(sweep::SweepArgs),
     /// Merge the partial tables of a sharded sweep.
     Merge(merge::MergeArgs),
+    /// Work-precision benchmark of the integrators.
+    Bench(bench::BenchArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -59,6 +62,7 @@ pub fn main() -> ExitCode {
         Command::Ingest(a) => ingest::run(a),
         Command::Sweep(a) => sweep::run(a),
         Command::Merge(a) => merge::run(a),
+        Command::Bench(a) => bench::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

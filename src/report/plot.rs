@@ -273,3 +273,92 @@ fn draw_frc<DB: DrawingBackend>(
     }
     Ok(())
 }
+
+/// A work-precision figure: error against run time, log–log, one series per
+/// method (points labelled by their setting in the table, not the figure).
+pub fn work_precision(rows: &[crate::sim::workprec::WpRow], path: &Path) -> Result<()> {
+    register_font();
+    let mut s = String::new();
+    {
+        let root = SVGBackend::with_string(&mut s, (900, 650)).into_drawing_area();
+        draw_wp(rows, &root).map_err(|e| plot_err(path, e))?;
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    crate::io::write_atomic(path, s.as_bytes())
+}
+
+fn draw_wp<DB: DrawingBackend>(
+    rows: &[crate::sim::workprec::WpRow],
+    root: &DrawingArea<DB, Shift>,
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let pts: Vec<(&str, f64, f64)> = rows
+        .iter()
+        .filter_map(|r| {
+            r.error
+                .map(|err| (r.method.as_str(), r.seconds, err.max(1e-17)))
+        })
+        .collect();
+    let (tmin, tmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.1), b.max(p.1))
+    });
+    let (emin, emax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+        (a.min(p.2), b.max(p.2))
+    });
+    if pts.is_empty() {
+        return Err("no rows with an error to plot".into());
+    }
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            "Work-precision: worst relative error against run time",
+            ("sans-serif", 22),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (tmin * 0.7..tmax * 1.4).log_scale(),
+            (emin * 0.3..emax * 3.0).log_scale(),
+        )
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("run time over all scenarios [s]")
+        .y_desc("worst relative error")
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .draw()
+        .map_err(e)?;
+    let methods: Vec<&str> = {
+        let mut m: Vec<&str> = pts.iter().map(|p| p.0).collect();
+        m.dedup();
+        m
+    };
+    for (i, m) in methods.iter().enumerate() {
+        let col = colour(i, methods.len());
+        let mut series: Vec<(f64, f64)> = pts
+            .iter()
+            .filter(|p| p.0 == *m)
+            .map(|p| (p.1, p.2))
+            .collect();
+        series.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(series.clone(), col.stroke_width(2)))
+            .map_err(e)?
+            .label(m.to_string())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+        chart
+            .draw_series(series.into_iter().map(|p| Circle::new(p, 4, col.filled())))
+            .map_err(e)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(200, 200, 200))
+        .label_font(("sans-serif", 15))
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}

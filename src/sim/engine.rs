@@ -257,6 +257,9 @@ pub struct Sim {
     rho_d: f64,
     /// Speed at which the slip friction reaches the interruption level.
     v_interrupt: Option<f64>,
+    /// Event times are refined to `resolution · ε`-ish relative to the
+    /// period (1: machine precision).
+    resolution: f64,
 }
 
 impl Sim {
@@ -301,7 +304,16 @@ impl Sim {
             rho_s: model.law.rho_s(),
             rho_d,
             v_interrupt,
+            resolution: 1.0,
         })
+    }
+
+    /// Loosens the event-time resolution to about `tol` relative to the
+    /// forcing period (default: machine precision). For work-precision
+    /// studies only.
+    pub fn with_root_tolerance(mut self, tol: f64) -> Self {
+        self.resolution = (tol / (2.0 * f64::EPSILON)).max(1.0);
+        self
     }
 
     /// The model.
@@ -463,7 +475,7 @@ impl Sim {
                         &fns[..nf],
                         left,
                         self.stick.step,
-                        t,
+                        self.resolution * t,
                         |a, ja, b, jb| {
                             if extremes {
                                 track_extremum(&eval, &mut stats, a, ja, b, jb);
@@ -491,7 +503,7 @@ impl Sim {
                         &fns[..nf],
                         left,
                         self.slip.step,
-                        t,
+                        self.resolution * t,
                         |a, ja, b, jb| {
                             if extremes {
                                 track_extremum(&eval, &mut stats, a, ja, b, jb);

@@ -24,6 +24,7 @@ pub mod rk4;
 pub mod schedule;
 pub mod steady;
 pub mod sweep;
+pub mod workprec;
 
 pub use engine::{
     Event, EventKind, Flow, Init, Mode, Observer, PeriodGrid, PeriodStats, RunEnd, Sim, Status,

@@ -1,0 +1,57 @@
+//! `stickslip bench`: the work-precision benchmark (see
+//! [`crate::sim::workprec`]); the full run also writes `reports/bench.svg`.
+
+use crate::sim::workprec;
+use clap::Args;
+use serde_json::json;
+use std::path::PathBuf;
+
+/// Arguments of `stickslip bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Fewer scenarios and settings (finishes in well under 30 s).
+    #[arg(long)]
+    pub quick: bool,
+    /// Work-precision figure of the full run.
+    #[arg(long, default_value = "reports/bench.svg")]
+    pub plot: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `bench`.
+pub fn run(args: BenchArgs) -> crate::Result<()> {
+    let rows = workprec::study(args.quick);
+    if !args.quick {
+        if let Some(dir) = args.plot.parent() {
+            if !dir.as_os_str().is_empty() && !dir.exists() {
+                std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io {
+                    path: dir.to_path_buf(),
+                    source,
+                })?;
+            }
+        }
+        crate::report::plot::work_precision(&rows, &args.plot)?;
+    }
+    if args.json {
+        let r: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| json!({"method": r.method, "setting": r.setting, "seconds": r.seconds, "error": r.error}))
+            .collect();
+        super::print_json(&json!({ "rows": r }));
+    } else {
+        eprintln!(
+            "{:<12} {:<28} {:>10} {:>12}",
+            "method", "setting", "seconds", "error"
+        );
+        for r in &rows {
+            let e = r.error.map_or("-".to_string(), |e| format!("{e:.2e}"));
+            eprintln!(
+                "{:<12} {:<28} {:>10.4} {:>12}",
+                r.method, r.setting, r.seconds, e
+            );
+        }
+    }
+    Ok(())
+}
