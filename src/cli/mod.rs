@@ -6,6 +6,8 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod args;
+mod characteristic;
+mod fit;
 mod ingest;
 mod simulate;
 
@@ -31,6 +33,10 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Read a rig log (MCAP, CSV + channel map, Parquet) into one clean run.
     Ingest(ingest::IngestArgs),
+    /// Contact force and stick/slip table of a characteristic log (paper eq. 7).
+    Characteristic(characteristic::CharacteristicArgs),
+    /// Fit the friction law of characteristic logs, with 95 % intervals.
+    Fit(fit::FitArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -51,6 +57,12 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Ingest(a) => ingest::run(a),
+        Command::Characteristic(a) => characteristic::run(a),
+        Command::Fit(a) => match fit::run(a) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::from(1),
+            Err(e) => Err(e),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

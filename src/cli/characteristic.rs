@@ -1,0 +1,103 @@
+//! `stickslip characteristic`: the contact force R(t) of a characteristic log
+//! (paper eq. 7) with ẋ2 and the stick flag, as a CSV table.
+
+use crate::identify::{self, Gains};
+use crate::ingest::{self, IngestOptions};
+use crate::io::AtomicFile;
+use clap::Args;
+use serde_json::json;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Arguments of `stickslip characteristic`.
+#[derive(Debug, Args)]
+pub struct CharacteristicArgs {
+    /// The characteristic log.
+    pub log: PathBuf,
+    /// Write the table (CSV: t_s, r_n, v2_m_per_s, stick, rho, v2_dimless).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Write the figure (SVG).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `characteristic`.
+pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
+    if let Some(p) = &args.plot {
+        return Err(crate::Error::Input {
+            path: p.clone(),
+            msg: "--plot is not implemented yet (no plotting backend in this build); use --out and plot the table".into(),
+        });
+    }
+    let run = ingest::read(&args.log, &IngestOptions::default())?;
+    let ch = identify::characteristic(&run, &Gains::default())?;
+    let c = &ch.contact;
+    let fs = c.drive.amplitude_m * run.rig.k2_n_per_m;
+    let vs = c.drive.amplitude_m * run.rig.omega_ref();
+    if let Some(out) = &args.out {
+        let mut f = AtomicFile::create(out)?;
+        let mut text = String::from("t_s,r_n,v2_m_per_s,stick,rho,v2_dimless\n");
+        for i in 0..c.t.len() {
+            let (r, v) = (
+                c.r[i],
+                if ch.segmentation.stick[i] {
+                    0.0
+                } else {
+                    c.v2[i]
+                },
+            );
+            let cell = |x: f64| {
+                if x.is_finite() {
+                    format!("{x:.9e}")
+                } else {
+                    String::new()
+                }
+            };
+            text.push_str(&format!(
+                "{},{},{},{},{},{}\n",
+                c.t[i],
+                cell(r),
+                cell(v),
+                u8::from(ch.segmentation.stick[i]),
+                cell(r / fs),
+                cell(v / vs)
+            ));
+        }
+        f.writer()
+            .write_all(text.as_bytes())
+            .map_err(|e| f.io_err(e))?;
+        f.commit()?;
+    }
+    let seg = &ch.segmentation;
+    if args.json {
+        super::print_json(&json!({
+            "log": args.log.display().to_string(),
+            "samples": c.t.len(),
+            "drive_amplitude_m": super::fit::num(c.drive.amplitude_m),
+            "drive_frequency_hz": super::fit::num(c.drive.frequency_hz),
+            "acceleration_source": c.acceleration_source,
+            "sticks": seg.sticks.len(),
+            "breakaways": seg.breakaways.len(),
+            "reversals": seg.reversals.len(),
+            "stuck": seg.stuck(),
+            "never_sticks": seg.never_sticks(),
+            "velocity_noise_m_per_s": super::fit::num(seg.noise_v_raw),
+            "out": args.out.as_ref().map(|p| p.display().to_string()),
+            "warnings": c.warnings,
+        }));
+    } else {
+        eprintln!(
+            "{}: {} samples, {} sticks, {} reversals, acceleration from {}",
+            args.log.display(),
+            c.t.len(),
+            seg.sticks.len(),
+            seg.reversals.len(),
+            c.acceleration_source
+        );
+    }
+    Ok(())
+}
