@@ -14,7 +14,8 @@ use std::path::PathBuf;
 pub struct CharacteristicArgs {
     /// The characteristic log.
     pub log: PathBuf,
-    /// Write the table (CSV: t_s, r_n, v2_m_per_s, stick, rho, v2_dimless).
+    /// Write the table (CSV: t_s, r_n, v2_m_per_s, stick, rho, v2_dimless);
+    /// R has the estimated force bias removed.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Write the figure (SVG).
@@ -36,6 +37,25 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
     let run = ingest::read(&args.log, &IngestOptions::default())?;
     let ch = identify::characteristic(&run, &Gains::default())?;
     let c = &ch.contact;
+    // The force bias (unknown position offsets) as the fit estimates it.
+    let fit = identify::fit::fit(
+        c,
+        &ch.segmentation,
+        &identify::FitOptions {
+            bootstrap: 0,
+            ..Default::default()
+        },
+    )
+    .ok();
+    let mut warnings = c.warnings.clone();
+    let bias = match fit.as_ref().map(|f| f.bias_n) {
+        Some(b) if b.is_finite() => b,
+        _ => {
+            warnings
+                .push("force bias unknown (M2 never slid): R includes the sensors' offsets".into());
+            0.0
+        }
+    };
     let fs = c.drive.amplitude_m * run.rig.k2_n_per_m;
     let vs = c.drive.amplitude_m * run.rig.omega_ref();
     if let Some(out) = &args.out {
@@ -43,7 +63,7 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
         let mut text = String::from("t_s,r_n,v2_m_per_s,stick,rho,v2_dimless\n");
         for i in 0..c.t.len() {
             let (r, v) = (
-                c.r[i],
+                c.r[i] - bias,
                 if ch.segmentation.stick[i] {
                     0.0
                 } else {
@@ -87,7 +107,8 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
             "never_sticks": seg.never_sticks(),
             "velocity_noise_m_per_s": super::fit::num(seg.noise_v_raw),
             "out": args.out.as_ref().map(|p| p.display().to_string()),
-            "warnings": c.warnings,
+            "bias_n": super::fit::num(bias),
+            "warnings": warnings,
         }));
     } else {
         eprintln!(

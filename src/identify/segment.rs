@@ -319,6 +319,14 @@ pub fn segment(
             });
         }
     }
+    // The samples from a breakaway to the end of its stick (still inside
+    // the hysteresis band) are sliding already.
+    for bk in &breakaways {
+        let from = (bk.at.ceil().max(0.0) as usize).max(bk.stick.0);
+        for x in stick.iter_mut().take(bk.stick.1).skip(from) {
+            *x = false;
+        }
+    }
     // Reversals: passages from beyond +hi to beyond −hi (or back) outside
     // sticks, located at the last zero crossing of v_s in between; a noisy
     // passage through zero counts once.
