@@ -79,6 +79,12 @@ pub struct Contact {
     pub t: Vec<f64>,
     /// Grid spacing (s).
     pub dt: f64,
+    /// Spring rate K2 (N/m).
+    pub k2_n_per_m: f64,
+    /// Position of M1 as used (m).
+    pub x1: Vec<f64>,
+    /// Position of M2 as used (m).
+    pub x2: Vec<f64>,
     /// Velocity of M2 after offset and lag correction (m/s).
     pub v2: Vec<f64>,
     /// Smoothed velocity of M2 (m/s).
@@ -337,7 +343,10 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
     // Time offset of v2 against the derivative of x2.
     let mut v2 = v2_raw.clone();
     let mut v2_lag_s = 0.0;
-    if let Some((lag, se)) = estimate_lag(&v2_raw, &dx2, dt, 0.01) {
+    // Compared smoothed: interpolating white noise at a fractional shift
+    // lowers its variance, which would bias the lag toward half samples.
+    let v2_raw_s = savgol(&v2_raw, dt, half, 3, 0);
+    if let Some((lag, se)) = estimate_lag(&v2_raw_s, &dx2, dt, 0.01) {
         if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt {
             v2 = shift(&v2_raw, dt, lag);
             v2_lag_s = lag;
@@ -366,7 +375,8 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
                 *x -= a_off;
             }
             a2_offset = a_off;
-            let (a_sh, lag) = match estimate_lag(&a_raw, &dv2, dt, 0.01) {
+            let a_s = savgol(&a_raw, dt, half, 3, 0);
+            let (a_sh, lag) = match estimate_lag(&a_s, &dv2, dt, 0.01) {
                 Some((lag, se)) if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt => {
                     if lag.abs() > 2.0 * dt {
                         warnings.push(format!(
@@ -414,6 +424,9 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
     Some(Contact {
         t: rs.t.clone(),
         dt,
+        k2_n_per_m: k2,
+        x1,
+        x2,
         v2,
         v2_smooth,
         a2,

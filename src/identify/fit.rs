@@ -162,22 +162,45 @@ struct Sample {
     r: f64,
     s: f64,
     u: f64,
+    /// K2·x1 and K2·x2, centred (N): regressors of the position sensors'
+    /// relative gain errors.
+    k1: f64,
+    k2: f64,
     period: usize,
 }
 
 /// One breakaway: direction·passive force (bias included) and its period.
 struct Brk {
     f: f64,
+    k1: f64,
+    k2: f64,
     dir: f64,
     period: usize,
 }
 
-fn basis(kind: LawKind, s: f64, u: f64, vs: f64) -> Vec<f64> {
-    match kind {
+/// Regressors of a slip sample: bias, the law's terms, then K2·x1 and K2·x2.
+///
+/// The last two absorb the position sensors' gain errors: a gain error ε
+/// on x_i adds K2·ε·x_i to the computed force, a shape that neither the
+/// bias nor the law can take, so the slip data identify it ("what the
+/// physics gives for free"); only a common scale of both remains, and that
+/// stays in the calibration budget.
+fn basis(kind: LawKind, smp: &Sample, vs: f64) -> Vec<f64> {
+    let (s, u) = (smp.s, smp.u);
+    let mut x = match kind {
         LawKind::Coulomb | LawKind::StaticDynamic => vec![1.0, s],
         LawKind::Decreasing => vec![1.0, s, s * u],
         LawKind::Stribeck => vec![1.0, s, s * (-(u / vs).powi(2)).exp(), s * u],
-    }
+    };
+    x.push(smp.k1);
+    x.push(smp.k2);
+    x
+}
+
+/// Bias plus gain-error correction of a model at positions (k1, k2).
+fn offset_at(coef: &[f64], k1: f64, k2: f64) -> f64 {
+    let p = coef.len();
+    coef[0] + coef[p - 2] * k1 + coef[p - 1] * k2
 }
 
 /// Robust (Huber IRLS) fit of one slip model; returns coefficients, final
@@ -187,14 +210,14 @@ fn irls(samples: &[Sample], kind: LawKind, vs: f64) -> Option<(Vec<f64>, Vec<f64
     let mut coef = Vec::new();
     let mut res = vec![0.0; samples.len()];
     for _ in 0..8 {
-        let p = basis(kind, 1.0, 0.0, vs).len();
+        let p = basis(kind, &samples[0], vs).len();
         let mut ne = Normal::new(p);
         for (smp, wi) in samples.iter().zip(&w) {
-            ne.add(&basis(kind, smp.s, smp.u, vs), smp.r, *wi);
+            ne.add(&basis(kind, smp, vs), smp.r, *wi);
         }
         coef = ne.solve()?;
         for (k, smp) in samples.iter().enumerate() {
-            let x = basis(kind, smp.s, smp.u, vs);
+            let x = basis(kind, smp, vs);
             res[k] = smp.r - x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();
         }
         let sigma = mad_sigma(&res).max(1e-12);
@@ -288,6 +311,14 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
             near[i] = near[i].min(l - i);
         }
     }
+    // Centres of K2·x1, K2·x2 over the log (the gain-error regressors).
+    let k2c = |x: &[f64]| -> f64 {
+        let fin: Vec<f64> = x.iter().copied().filter(|v| v.is_finite()).collect();
+        fin.iter().sum::<f64>() / fin.len().max(1) as f64
+    };
+    let (m1, m2) = (k2c(&c.x1), k2c(&c.x2));
+    let kk = c.k2_n_per_m;
+    let kx = |i: usize| -> (f64, f64) { (kk * (c.x1[i] - m1), kk * (c.x2[i] - m2)) };
     let mut samples = Vec::new();
     let mut idx = Vec::new();
     for i in 0..n {
@@ -296,10 +327,16 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         {
             continue;
         }
+        let (k1, k2) = kx(i);
+        if !(k1.is_finite() && k2.is_finite()) {
+            continue;
+        }
         samples.push(Sample {
             r,
             s: v.signum(),
             u: v.abs(),
+            k1,
+            k2,
             period: period_of(i as f64),
         });
         idx.push(i);
@@ -363,9 +400,16 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         if end <= start + 3 {
             continue;
         }
+        let at = (b.at.round().max(0.0) as usize).min(n - 1);
+        let (k1, k2) = kx(at);
+        if !(k1.is_finite() && k2.is_finite()) {
+            continue;
+        }
         if let Some((p, _)) = line_at(&c.passive, start, end.min(n - 1), b.at) {
             brks.push(Brk {
                 f: b.direction * p,
+                k1,
+                k2,
                 dir: b.direction,
                 period: period_of(b.at),
             });
@@ -381,7 +425,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
             .iter()
             .zip(w)
             .map(|(smp, wi)| {
-                let x = basis(kind, smp.s, smp.u, vs);
+                let x = basis(kind, smp, vs);
                 wi * (smp.r - x.iter().zip(coef).map(|(a, b)| a * b).sum::<f64>()).powi(2)
             })
             .sum()
@@ -390,7 +434,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         samples
             .iter()
             .map(|smp| {
-                let x = basis(kind, smp.s, smp.u, vs);
+                let x = basis(kind, smp, vs);
                 (smp.r - x.iter().zip(coef).map(|(a, b)| a * b).sum::<f64>()).powi(2)
             })
             .sum()
@@ -400,9 +444,9 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
     if want_stribeck && umax > 4.0 * umin {
         let cost = |lv: f64| {
             let vs = lv.exp();
-            let mut ne = Normal::new(4);
+            let mut ne = Normal::new(basis(LawKind::Stribeck, &samples[0], vs).len());
             for smp in &samples {
-                ne.add(&basis(LawKind::Stribeck, smp.s, smp.u, vs), smp.r, 1.0);
+                ne.add(&basis(LawKind::Stribeck, smp, vs), smp.r, 1.0);
             }
             match ne.solve() {
                 Some(c) => plain_rss(&c, LawKind::Stribeck, vs),
@@ -472,11 +516,15 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
 
     // Rs and criterion of each candidate.
     let rs_of = |cand: &Cand, brks: &[Brk]| -> f64 {
-        let b = cand.coef[0];
         match cand.kind {
             LawKind::StaticDynamic => {
                 // Median: robust to a mislocated breakaway or a spike.
-                median(&brks.iter().map(|k| k.f - k.dir * b).collect::<Vec<_>>())
+                median(
+                    &brks
+                        .iter()
+                        .map(|k| k.f - k.dir * offset_at(&cand.coef, k.k1, k.k2))
+                        .collect::<Vec<_>>(),
+                )
             }
             LawKind::Stribeck => cand.coef[1] + cand.coef[2],
             _ => cand.coef[1],
@@ -495,8 +543,10 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         );
         if !never_sticks && !brks.is_empty() {
             let rs = rs_of(cand, &brks);
-            let b = cand.coef[0];
-            let rss_b: f64 = brks.iter().map(|k| (k.f - k.dir * b - rs).powi(2)).sum();
+            let rss_b: f64 = brks
+                .iter()
+                .map(|k| (k.f - k.dir * offset_at(&cand.coef, k.k1, k.k2) - rs).powi(2))
+                .sum();
             let kb = usize::from(cand.kind == LawKind::StaticDynamic);
             let m = brks.len();
             crit += bic(rss_b, m, m as f64, kb);
@@ -607,7 +657,8 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
             };
             let sig =
                 (dp * sig_t).abs() + mad_sigma(&c.passive[a..=b]) / ((b - a + 1) as f64).sqrt();
-            let bound = rv.direction * (p - bias) + 2.0 * sig;
+            let (k1, k2) = kx(i.min(n - 1));
+            let bound = rv.direction * (p - offset_at(&chosen.coef, k1, k2)) + 2.0 * sig;
             if bound.is_finite() {
                 best = best.min(bound);
             }
@@ -628,15 +679,11 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         let p = chosen.coef.len();
         let mut per: Vec<Normal> = (0..n_periods).map(|_| Normal::new(p)).collect();
         for (smp, wi) in samples.iter().zip(&chosen.w) {
-            per[smp.period.min(n_periods - 1)].add(
-                &basis(chosen.kind, smp.s, smp.u, chosen.vs),
-                smp.r,
-                *wi,
-            );
+            per[smp.period.min(n_periods - 1)].add(&basis(chosen.kind, smp, chosen.vs), smp.r, *wi);
         }
-        let mut per_brk: Vec<Vec<(f64, f64)>> = vec![Vec::new(); n_periods];
+        let mut per_brk: Vec<Vec<&Brk>> = vec![Vec::new(); n_periods];
         for k in &brks {
-            per_brk[k.period.min(n_periods - 1)].push((k.f, k.dir));
+            per_brk[k.period.min(n_periods - 1)].push(k);
         }
         let used: Vec<usize> = (0..n_periods)
             .filter(|&i| per[i].n > 0 || !per_brk[i].is_empty())
@@ -645,7 +692,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         let (mut rs_b, mut rd_b, mut a_b) = (Vec::new(), Vec::new(), Vec::new());
         for _ in 0..opts.bootstrap {
             let mut ne = Normal::new(p);
-            let mut fd: Vec<(f64, f64)> = Vec::new();
+            let mut fd: Vec<&Brk> = Vec::new();
             for _ in 0..used.len() {
                 let q = used[rng.below(used.len())];
                 ne.add_all(&per[q]);
@@ -660,7 +707,10 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
                     if fd.is_empty() {
                         continue;
                     }
-                    let v: Vec<f64> = fd.iter().map(|(f, d)| f - d * cf[0]).collect();
+                    let v: Vec<f64> = fd
+                        .iter()
+                        .map(|k| k.f - k.dir * offset_at(&cf, k.k1, k.k2))
+                        .collect();
                     (median(&v), 0.0)
                 }
                 LawKind::Stribeck => (cf[1] + cf[2], cf[3]),
@@ -677,7 +727,10 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         stat.rs = if never_sticks { None } else { pct(&rs_b) };
     }
 
-    let breakaway_forces_n = brks.iter().map(|k| k.f - k.dir * bias).collect();
+    let breakaway_forces_n = brks
+        .iter()
+        .map(|k| k.f - k.dir * offset_at(&chosen.coef, k.k1, k.k2))
+        .collect();
     if !never_sticks && brks.is_empty() {
         warnings.push("no stick → slip transition could be located".into());
     }
