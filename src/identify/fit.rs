@@ -185,16 +185,24 @@ struct Brk {
 /// bias nor the law can take, so the slip data identify it ("what the
 /// physics gives for free"); only a common scale of both remains, and that
 /// stays in the calibration budget.
-fn basis(kind: LawKind, smp: &Sample, vs: f64) -> Vec<f64> {
+fn basis(kind: LawKind, smp: &Sample, vs: f64) -> Row {
     let (s, u) = (smp.s, smp.u);
-    let mut x = match kind {
-        LawKind::Coulomb | LawKind::StaticDynamic => vec![1.0, s],
-        LawKind::Decreasing => vec![1.0, s, s * u],
-        LawKind::Stribeck => vec![1.0, s, s * (-(u / vs).powi(2)).exp(), s * u],
-    };
-    x.push(smp.k1);
-    x.push(smp.k2);
-    x
+    let (k1, k2) = (smp.k1, smp.k2);
+    match kind {
+        LawKind::Coulomb | LawKind::StaticDynamic => Row([1.0, s, k1, k2, 0.0, 0.0], 4),
+        LawKind::Decreasing => Row([1.0, s, s * u, k1, k2, 0.0], 5),
+        LawKind::Stribeck => Row([1.0, s, s * (-(u / vs).powi(2)).exp(), s * u, k1, k2], 6),
+    }
+}
+
+/// One row of regressors, on the stack (at most six).
+struct Row([f64; 6], usize);
+
+impl std::ops::Deref for Row {
+    type Target = [f64];
+    fn deref(&self) -> &[f64] {
+        &self.0[..self.1]
+    }
 }
 
 /// Bias plus gain-error correction of a model at positions (k1, k2).
@@ -209,6 +217,7 @@ fn irls(samples: &[Sample], kind: LawKind, vs: f64) -> Option<(Vec<f64>, Vec<f64
     let mut w = vec![1.0; samples.len()];
     let mut coef = Vec::new();
     let mut res = vec![0.0; samples.len()];
+    let mut prev: Option<Vec<f64>> = None;
     for _ in 0..8 {
         let p = basis(kind, &samples[0], vs).len();
         let mut ne = Normal::new(p);
@@ -216,12 +225,22 @@ fn irls(samples: &[Sample], kind: LawKind, vs: f64) -> Option<(Vec<f64>, Vec<f64
             ne.add(&basis(kind, smp, vs), smp.r, *wi);
         }
         coef = ne.solve()?;
+        // Converged: the weights would not change the fit any more.
+        let done = prev.as_ref().is_some_and(|q: &Vec<f64>| {
+            q.iter()
+                .zip(&coef)
+                .all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + b.abs()))
+        });
+        prev = Some(coef.clone());
         for (k, smp) in samples.iter().enumerate() {
             let x = basis(kind, smp, vs);
             res[k] = smp.r - x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();
         }
         let sigma = mad_sigma(&res).max(1e-12);
         let c = 1.345 * sigma;
+        if done {
+            break;
+        }
         for (wi, r) in w.iter_mut().zip(&res) {
             *wi = if r.abs() <= c { 1.0 } else { c / r.abs() };
         }

@@ -75,12 +75,14 @@ impl Normal {
         }
     }
 
-    /// Adds one row `x` with target `y` and weight `w`.
+    /// Adds one row `x` with target `y` and weight `w` (upper triangle of
+    /// XᵀWX only; [`Normal::solve`] mirrors it).
     pub fn add(&mut self, x: &[f64], y: f64, w: f64) {
         for i in 0..x.len() {
             let wx = w * x[i];
-            for j in 0..x.len() {
-                self.xtx[i][j] += wx * x[j];
+            let row = &mut self.xtx[i];
+            for j in i..x.len() {
+                row[j] += wx * x[j];
             }
             self.xty[i] += wx * y;
         }
@@ -100,9 +102,21 @@ impl Normal {
         self.n += o.n;
     }
 
+    /// XᵀWX with both triangles.
+    pub fn full(&self) -> Vec<Vec<f64>> {
+        let p = self.xty.len();
+        let mut m = self.xtx.clone();
+        for i in 0..p {
+            for j in 0..i {
+                m[i][j] = m[j][i];
+            }
+        }
+        m
+    }
+
     /// The least-squares solution, if the problem is well posed.
     pub fn solve(&self) -> Option<Vec<f64>> {
-        solve_small(&self.xtx, &self.xty)
+        solve_small(&self.full(), &self.xty)
     }
 }
 
@@ -112,12 +126,15 @@ pub fn median(v: &[f64]) -> f64 {
     if w.is_empty() {
         return f64::NAN;
     }
-    w.sort_by(f64::total_cmp);
     let n = w.len();
+    // Selection, not a full sort: O(n).
+    let (lower, hi, _) = w.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let hi = *hi;
     if n % 2 == 1 {
-        w[n / 2]
+        hi
     } else {
-        0.5 * (w[n / 2 - 1] + w[n / 2])
+        let lo = lower.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        0.5 * (lo + hi)
     }
 }
 
