@@ -376,9 +376,12 @@ fn a_sweep_log_is_refused_with_one_error_line() {
 fn characteristic_writes_the_table() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("char.csv");
+    let plot = dir.path().join("char.svg");
     let res = Command::new(env!("CARGO_BIN_EXE_stickslip"))
         .args(["characteristic", "--json", "--out"])
         .arg(&out)
+        .arg("--plot")
+        .arg(&plot)
         .arg(data("char_N4.mcap"))
         .output()
         .unwrap();
@@ -389,6 +392,9 @@ fn characteristic_writes_the_table() {
     );
     let v: Value = serde_json::from_slice(&res.stdout).unwrap();
     assert_eq!(v["stuck"], false);
+    let svg = std::fs::read_to_string(&plot).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains("fitted law: static-dynamic"));
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
     assert_eq!(
