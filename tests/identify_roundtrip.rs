@@ -275,3 +275,27 @@ fn known_laws_are_recovered_within_tolerance_and_intervals() {
         misses.len()
     );
 }
+
+#[test]
+fn a_log_shorter_than_two_periods_is_refused_not_called_stuck() {
+    let mut run = synth(
+        &Law {
+            rs: 1.25,
+            rd: 1.0,
+            a: 0.0,
+        },
+        true,
+        7,
+    );
+    // 0.9 s at 1.72 Hz: about 1.5 drive periods.
+    let keep = 900;
+    let r = &mut run.resampled;
+    for col in [&mut r.t, &mut r.x0, &mut r.x1, &mut r.x2, &mut r.v2] {
+        col.truncate(keep);
+    }
+    if let Some(a) = r.a2.as_mut() {
+        a.truncate(keep);
+    }
+    let err = identify::fit_log(&run, &IdentifyOptions::default()).unwrap_err();
+    assert!(err.to_string().contains("two drive periods"), "{err}");
+}

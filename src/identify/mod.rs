@@ -65,6 +65,19 @@ pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
     }
     let mut contact = contact::compute(run, gains)
         .ok_or_else(|| bad("the drive channel does not determine a drive sinusoid"))?;
+    // At least two drive periods of usable data: less cannot tell a stuck
+    // mass from a log that is simply too short.
+    let usable = (0..contact.r.len())
+        .filter(|&i| contact.r[i].is_finite() && contact.v2_smooth[i].is_finite())
+        .count() as f64
+        * contact.dt;
+    let period = 1.0 / contact.drive.frequency_hz;
+    if usable < 2.0 * period || !period.is_finite() {
+        return Err(bad(&format!(
+            "only {usable:.3} s of usable data (x1, x2, v2 together); a characteristic needs at least two drive periods ({:.3} s)",
+            2.0 * period
+        )));
+    }
     let seg = segment::segment(
         &contact.v2,
         &contact.v2_smooth,
