@@ -43,6 +43,11 @@ const FREQ: f64 = 1.72;
 
 /// Simulates 20 s of log after 20 s of warm-up from rest; returns the run.
 fn synth(law: &Law, accel: bool, seed: u64) -> Run {
+    synth_noise(law, accel, seed, 1.0)
+}
+
+/// As [`synth`], with the sensor noise scaled by `noise_scale`.
+fn synth_noise(law: &Law, accel: bool, seed: u64, noise_scale: f64) -> Run {
     let dt: f64 = 2e-5;
     let w = 2.0 * std::f64::consts::PI * FREQ;
     let (mut x1, mut v1, mut x2, mut v2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -109,7 +114,7 @@ fn synth(law: &Law, accel: bool, seed: u64) -> Run {
     let mut cols: Vec<Vec<f64>> = (0..5).map(|_| Vec::with_capacity(n)).collect();
     for r in &rec {
         for q in 0..5 {
-            cols[q].push(gains[q] * r[q] + offsets[q] + noise[q] * rng.n());
+            cols[q].push(gains[q] * r[q] + offsets[q] + noise_scale * noise[q] * rng.n());
         }
     }
     let t: Vec<f64> = (0..n).map(|i| i as f64 * 1e-3).collect();
@@ -298,4 +303,77 @@ fn a_log_shorter_than_two_periods_is_refused_not_called_stuck() {
     }
     let err = identify::fit_log(&run, &IdentifyOptions::default()).unwrap_err();
     assert!(err.to_string().contains("two drive periods"), "{err}");
+}
+
+/// Random laws, normal-force levels and noise levels, with and without an
+/// accelerometer: the 95 % intervals should hold the truth in about 95 % of
+/// the parameters. With 12 logs × 3 parameters, a true coverage of 95 %
+/// gives fewer than 32 of 36 hits with probability about 2 % (binomial), so
+/// the bar is 32.
+///
+/// NOT MET yet (measured: 19 of 30 parameters covered, 2 of 12 logs never
+/// stick or slip and are skipped). Every miss is a law-selection miss: a
+/// linear slope of |D*| 0.05–0.09 under 1.5–1.8× the README's sensor noise
+/// is not selected (Coulomb or static-dynamic chosen instead), and the
+/// intervals, conditional on the chosen family, then miss Rd and the slope;
+/// without an accelerometer a noisy breakaway location also biases Rs low.
+/// The position-gain regressors of the slip fit are partly collinear with a
+/// slope, which weakens its detection. Kept as an honest, ignored test.
+#[test]
+#[ignore = "coverage 19/30 measured, target 32/36: law selection misses moderate slopes under high noise"]
+fn random_round_trips_cover_the_truth() {
+    let mut rng = Rng(0xC0FFEE);
+    let ss = (K2 * M2).sqrt();
+    let (mut hits, mut total, mut skipped) = (0, 0, 0);
+    let mut report = Vec::new();
+    for case in 0..12u64 {
+        let family = case % 4;
+        let rd = 0.6 + 1.0 * rng.u();
+        let law = match family {
+            0 => Law {
+                rs: rd * (1.1 + 0.3 * rng.u()),
+                rd,
+                a: 0.0,
+            },
+            1 => Law { rs: rd, rd, a: 0.0 },
+            2 => Law {
+                rs: rd,
+                rd,
+                a: -(1.0 + 4.0 * rng.u()),
+            },
+            _ => Law {
+                rs: rd,
+                rd,
+                a: 1.0 + 3.0 * rng.u(),
+            },
+        };
+        let accel = rng.u() < 0.5;
+        let noise = 0.5 + 1.5 * rng.u();
+        let run = synth_noise(&law, accel, 1000 + case, noise);
+        let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
+        if fit.fit.stuck || fit.fit.never_sticks {
+            skipped += 1;
+            continue;
+        }
+        for (name, iv, x) in [
+            ("Rs", fit.rs_interval_n, law.rs),
+            ("Rd", fit.rd_interval_n, law.rd),
+            ("a", fit.slope_interval_n_s_per_m, law.a),
+        ] {
+            total += 1;
+            let ok = matches!(iv, Some((lo, hi)) if lo <= x && x <= hi);
+            if ok {
+                hits += 1;
+            } else {
+                report.push(format!(
+                    "case {case} (family {family}, accel {accel}, noise ×{noise:.2}) {name}: {iv:?} vs {x}; law {} D* {:?} vs {}",
+                    fit.fit.law.kind.as_str(),
+                    fit.dstar(),
+                    law.a / ss
+                ));
+            }
+        }
+    }
+    assert!(skipped <= 2, "{skipped} cases neither stick nor slip");
+    assert!(hits >= 32 * total / 36, "{hits}/{total}: {report:#?}");
 }

@@ -14,9 +14,12 @@
 //! * **Law selection**: Coulomb (Rs = Rd, a = 0), `decreasing` (Rs = Rd,
 //!   a ≠ 0 of either sign), `static-dynamic` (Rs > Rd, a = 0), and the
 //!   Stribeck-type law, by BIC. The slip part uses an honest effective
-//!   sample size n_eff = n / τ_int, τ_int the integrated autocorrelation time
-//!   of the residuals of the richest model (samples within a slip phase are
-//!   strongly correlated); the breakaway part counts transitions.
+//!   sample size n_eff = min(n / τ_int, n / (2h + 1)): τ_int is the integrated
+//!   autocorrelation time of the residuals of the richest model, and no more
+//!   than one observation per smoothing window of 2h + 1 samples (the
+//!   smoothed velocity and a differentiated acceleration share their
+//!   samples); the breakaway part counts transitions. Static-dynamic is only
+//!   a candidate when its breakaway level exceeds the slip level.
 //! * **Stribeck**: `g(v) = Rd + (Rs − Rd)·exp(−(v/v_s)²) + a·v` by variable
 //!   projection: for given v_s the law is linear in (b, Rd, Rs − Rd, a);
 //!   v_s by golden-section search on log v_s.
@@ -525,13 +528,11 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
     }
     let richest = cands.last().expect("non-empty");
     let tau = tau_int(&richest.res, &idx);
-    // Effective sample size: samples within a slip phase are strongly
-    // correlated (the residual's structured part, from model mismatch and
-    // from the systematic sensor errors, repeats phase after phase and no
-    // resampling sees it), so the slip data count at most one observation
-    // per slip phase, and fewer if the residual autocorrelation time says so.
-    let n_phases = (seg.sticks.len() + seg.reversals.len() + 1) as f64;
-    let n_eff = (samples.len() as f64 / tau).min(n_phases);
+    // Effective sample size: the residuals are correlated (τ_int, their
+    // integrated autocorrelation time), and the acceleration and smoothed
+    // velocity share samples over one smoothing window, so the slip data
+    // count at most one observation per window: n_eff = min(n/τ, n/(2h+1)).
+    let n_eff = (samples.len() as f64 / tau).min(samples.len() as f64 / (2 * half + 1) as f64);
 
     // Rs and criterion of each candidate.
     let rs_of = |cand: &Cand, brks: &[Brk]| -> f64 {
@@ -551,6 +552,13 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
     };
     let mut criteria = Vec::new();
     for cand in &cands {
+        // Static > dynamic is the family's definition: a breakaway level at
+        // or below the slip level is not this family.
+        if cand.kind == LawKind::StaticDynamic
+            && rs_of(cand, &brks).partial_cmp(&cand.coef[1]) != Some(std::cmp::Ordering::Greater)
+        {
+            continue;
+        }
         let k_slip = cand.coef.len();
         let rss = rss_of(&cand.coef, &cand.w, cand.kind, cand.vs);
         let wsum: f64 = cand.w.iter().sum();
@@ -574,6 +582,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
     }
     let chosen_kind = match opts.law {
         Some(k) if cands.iter().any(|c| c.kind == k) => k,
+        Some(_) | None if criteria.is_empty() => LawKind::Coulomb,
         Some(k) => {
             warnings.push(format!(
                 "law {} could not be fitted to this log; chose by BIC instead",
