@@ -16,6 +16,7 @@
 //! ```
 //!
 //! * [`ingest`]: rig logs (MCAP, CSV + channel map, Parquet) into one clean `Run`.
+//! * [`identify`]: contact force (eq. 7), stick/slip, friction-law fit with intervals.
 //! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
 //! * [`sim`]: the exact event-driven engine, the paper's RK4 and closed forms.
 //! * [`cli`]: the thin command-line layer over the library.
@@ -25,6 +26,7 @@
 
 pub mod cli;
 pub mod error;
+pub mod identify;
 pub mod ingest;
 pub mod io;
 pub mod model;

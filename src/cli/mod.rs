@@ -7,6 +7,8 @@ use std::process::ExitCode;
 
 mod args;
 mod bench;
+mod characteristic;
+mod fit;
 mod ingest;
 mod merge;
 mod simulate;
@@ -40,6 +42,10 @@ pub enum Command {
     Merge(merge::MergeArgs),
     /// Work-precision benchmark of the integrators.
     Bench(bench::BenchArgs),
+    /// Contact force and stick/slip table of a characteristic log (paper eq. 7).
+    Characteristic(characteristic::CharacteristicArgs),
+    /// Fit the friction law of characteristic logs, with 95 % intervals.
+    Fit(fit::FitArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -63,6 +69,12 @@ pub fn main() -> ExitCode {
         Command::Sweep(a) => sweep::run(a),
         Command::Merge(a) => merge::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Characteristic(a) => characteristic::run(a),
+        Command::Fit(a) => match fit::run(a) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::from(1),
+            Err(e) => Err(e),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,487 @@
+//! The contact force of paper eq. 7, with the damper term the paper drops:
+//!
+//! ```text
+//! R(t) = −( M2·ẍ2 + K2·(x2 − x1) + d·(ẋ2 − ẋ1) )
+//! ```
+//!
+//! (rig-log-format: `M2 x2'' + d (x2' − x1') + K2 (x2 − x1) + R = 0`, R the
+//! friction force on M2). What this module does with the raw channels first:
+//!
+//! * **Drive amplitude**: a least-squares sinusoid (offset, cosine, sine) fitted
+//!   to `x0`, its frequency refined by golden-section search around the
+//!   commanded one; the amplitude is the scale of every ρ.
+//! * **Velocity offset**: the velocity transducer's zero is taken from the
+//!   physics: over every contiguous block, `∫ẋ2 dt = Δx2`, so the offset is
+//!   `(∫v2 dt − Δx2) / T` summed over blocks (independent of the unknown
+//!   position offsets and of where the log cuts the period).
+//! * **Channel time offsets**: `v2` is compared with the smoothed derivative
+//!   of `x2`, and `a2` with the smoothed derivative of `v2`; the lag that
+//!   minimises the squared difference (golden section over ±10 ms, linear
+//!   interpolation) is removed when it is significant (a first-order sensor
+//!   low-pass shows up as such a lag too).
+//! * **Acceleration**: the accelerometer where it has data, else a cubic
+//!   Savitzky–Golay derivative of the velocity (edge-correct at gaps).
+//!
+//! The constant force bias from unknown position offsets (the spring's rest
+//! length in sensor coordinates) is *not* removed here: the fit estimates it
+//! from the symmetry of the slip levels (see `fit`).
+
+use super::smooth::{finite_blocks, savgol};
+use crate::ingest::Run;
+
+/// Multipliers applied to the sensor channels before identification: 1 for
+/// the data as logged; the calibration budget re-runs the identification
+/// with one of them perturbed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Gains {
+    /// Drive position x0.
+    pub x0: f64,
+    /// Main mass position x1.
+    pub x1: f64,
+    /// Absorber mass position x2.
+    pub x2: f64,
+    /// Absorber velocity v2.
+    pub v2: f64,
+    /// Absorber acceleration a2.
+    pub a2: f64,
+}
+
+impl Default for Gains {
+    fn default() -> Self {
+        Self {
+            x0: 1.0,
+            x1: 1.0,
+            x2: 1.0,
+            v2: 1.0,
+            a2: 1.0,
+        }
+    }
+}
+
+/// The sinusoid fitted to the drive channel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriveFit {
+    /// Measured drive amplitude A (m).
+    pub amplitude_m: f64,
+    /// Measured drive frequency (Hz).
+    pub frequency_hz: f64,
+    /// Phase φ of `x0 ≈ c + A·cos(2πf·t − φ)` (rad).
+    pub phase_rad: f64,
+    /// RMS of the fit residual (m).
+    pub residual_rms_m: f64,
+}
+
+/// Contact force and the corrected signals it was computed from, on the
+/// run's common time base (NaN where data are missing).
+#[derive(Debug, Clone)]
+pub struct Contact {
+    /// Grid times (s).
+    pub t: Vec<f64>,
+    /// Grid spacing (s).
+    pub dt: f64,
+    /// Spring rate K2 (N/m).
+    pub k2_n_per_m: f64,
+    /// Position of M1 as used (m).
+    pub x1: Vec<f64>,
+    /// Position of M2 as used (m).
+    pub x2: Vec<f64>,
+    /// Velocity of M2 after offset and lag correction (m/s).
+    pub v2: Vec<f64>,
+    /// Smoothed velocity of M2 (m/s).
+    pub v2_smooth: Vec<f64>,
+    /// Acceleration of M2 used in eq. 7 (m/s²).
+    pub a2: Vec<f64>,
+    /// Velocity of M1 (smoothed derivative of x1, m/s).
+    pub v1: Vec<f64>,
+    /// Passive force `−K2·(x2 − x1) + d·ẋ1` (N, bias included): the contact
+    /// force while M2 sticks (ẋ2 = ẍ2 = 0).
+    pub passive: Vec<f64>,
+    /// Contact force by eq. 7 (N, bias included).
+    pub r: Vec<f64>,
+    /// The drive fit.
+    pub drive: DriveFit,
+    /// Velocity offset removed (m/s).
+    pub v2_offset: f64,
+    /// Accelerometer offset removed (m/s²).
+    pub a2_offset: f64,
+    /// Lag removed from v2 relative to x2 (s; positive: v2 was late).
+    pub v2_lag_s: f64,
+    /// Lag removed from a2 relative to v2 (s), if there is an accelerometer.
+    pub a2_lag_s: Option<f64>,
+    /// Where ẍ2 came from: `accelerometer` or `savitzky-golay`.
+    pub acceleration_source: &'static str,
+    /// Half-width (samples) of the smoothing/differentiating window.
+    pub half_window: usize,
+    /// Things the user should know.
+    pub warnings: Vec<String>,
+}
+
+/// Fits `x ≈ c + a·cos ωt + b·sin ωt` at angular frequency `w`; returns
+/// (c, a, b, residual sum of squares, n).
+fn sine_fit(t: &[f64], x: &[f64], w: f64) -> Option<(f64, f64, f64, f64, usize)> {
+    let mut ne = super::smooth::Normal::new(3);
+    for (ti, xi) in t.iter().zip(x) {
+        if xi.is_finite() {
+            let (s, c) = (w * ti).sin_cos();
+            ne.add(&[1.0, c, s], *xi, 1.0);
+        }
+    }
+    let p = ne.solve()?;
+    let rss = (ne.yty - p.iter().zip(&ne.xty).map(|(a, b)| a * b).sum::<f64>()).max(0.0);
+    Some((p[0], p[1], p[2], rss, ne.n))
+}
+
+/// Golden-section minimisation of `f` on `[a, b]`.
+pub(crate) fn golden(mut a: f64, mut b: f64, iters: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Fits the drive sinusoid; `f0` is the commanded frequency if known.
+pub fn fit_drive(t: &[f64], x0: &[f64], f0: Option<f64>) -> Option<DriveFit> {
+    let f0 = match f0 {
+        Some(f) if f.is_finite() && f > 0.0 => f,
+        _ => estimate_frequency(t, x0)?,
+    };
+    let rss =
+        |f: f64| sine_fit(t, x0, 2.0 * std::f64::consts::PI * f).map_or(f64::INFINITY, |r| r.3);
+    let f = golden(0.98 * f0, 1.02 * f0, 40, rss);
+    let (_, a, b, rss, n) = sine_fit(t, x0, 2.0 * std::f64::consts::PI * f)?;
+    Some(DriveFit {
+        amplitude_m: a.hypot(b),
+        frequency_hz: f,
+        phase_rad: b.atan2(a),
+        residual_rms_m: (rss / n.max(1) as f64).sqrt(),
+    })
+}
+
+/// Frequency from the mean spacing of upward mean crossings.
+fn estimate_frequency(t: &[f64], x: &[f64]) -> Option<f64> {
+    let m = super::smooth::median(x);
+    let mut ups = Vec::new();
+    let mut prev: Option<(f64, f64)> = None;
+    for (ti, xi) in t.iter().zip(x) {
+        if !xi.is_finite() {
+            continue;
+        }
+        if let Some((tp, xp)) = prev {
+            if xp < m && *xi >= m {
+                ups.push(tp + (ti - tp) * (m - xp) / (xi - xp));
+            }
+        }
+        prev = Some((*ti, *xi));
+    }
+    if ups.len() < 2 {
+        return None;
+    }
+    Some((ups.len() - 1) as f64 / (ups[ups.len() - 1] - ups[0]))
+}
+
+/// Shifts a uniformly sampled signal by `lag` seconds: out(t) = y(t + lag)
+/// (linear interpolation; NaN where a neighbour is missing).
+pub(crate) fn shift(y: &[f64], dt: f64, lag: f64) -> Vec<f64> {
+    let s = lag / dt;
+    let k = s.floor();
+    let f = s - k;
+    let k = k as i64;
+    (0..y.len() as i64)
+        .map(|i| {
+            let j = i + k;
+            if j < 0 || j + 1 >= y.len() as i64 {
+                return f64::NAN;
+            }
+            let (a, b) = (y[j as usize], y[j as usize + 1]);
+            if f == 0.0 {
+                a
+            } else {
+                a * (1.0 - f) + b * f
+            }
+        })
+        .collect()
+}
+
+/// The lag (s) of `y` against the reference `r` that minimises
+/// Σ(y(t + lag) − r(t))² over ±`max_lag`, with an approximate standard
+/// error; None if there is too little overlapping data.
+fn estimate_lag(y: &[f64], r: &[f64], dt: f64, max_lag: f64) -> Option<(f64, f64)> {
+    let sse = |lag: f64| {
+        let ys = shift(y, dt, lag);
+        let (mut s, mut n) = (0.0, 0usize);
+        for (a, b) in ys.iter().zip(r) {
+            if a.is_finite() && b.is_finite() {
+                s += (a - b).powi(2);
+                n += 1;
+            }
+        }
+        if n < 100 {
+            f64::INFINITY
+        } else {
+            s / n as f64
+        }
+    };
+    // Coarse scan on the grid (the SSE is not unimodal far from the optimum),
+    // then golden section inside the best cell.
+    let kmax = (max_lag / dt).round() as i64;
+    let (mut best, mut fbest) = (0i64, f64::INFINITY);
+    for k in -kmax..=kmax {
+        let v = sse(k as f64 * dt);
+        if v < fbest {
+            best = k;
+            fbest = v;
+        }
+    }
+    if !fbest.is_finite() {
+        return None;
+    }
+    let lag = golden((best - 1) as f64 * dt, (best + 1) as f64 * dt, 30, sse);
+    // Only meaningful when the aligned signals agree well: the residual must
+    // be small against the reference's own spread (a stuck mass gives two
+    // noise records, whose "lag" means nothing).
+    let fin: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    let mean = fin.iter().sum::<f64>() / fin.len().max(1) as f64;
+    let var_r = fin.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / fin.len().max(1) as f64;
+    if sse(lag).partial_cmp(&(0.25 * var_r)) != Some(std::cmp::Ordering::Less) {
+        return None;
+    }
+    // Standard error from the curvature of the mean squared difference and
+    // the residual level: var(lag) ≈ 2·σ²/(n·SSE''), with n an effective count.
+    let h = 0.25 * dt;
+    let (f0, fp, fm) = (sse(lag), sse(lag + h), sse(lag - h));
+    let curv = (fp + fm - 2.0 * f0) / (h * h);
+    let n = y.iter().filter(|v| v.is_finite()).count() as f64;
+    let se = if curv > 0.0 {
+        (2.0 * f0 / (curv * n / 20.0)).sqrt()
+    } else {
+        f64::INFINITY
+    };
+    Some((lag, se))
+}
+
+/// Offset of a rate sensor `v` from `∫v dt = Δx` over every block where
+/// both are finite (the same rule serves a velocity against its position
+/// and an acceleration against its velocity).
+fn rate_offset(x: &[f64], v: &[f64], dt: f64) -> f64 {
+    let both: Vec<f64> = x
+        .iter()
+        .zip(v)
+        .map(|(a, b)| {
+            if a.is_finite() && b.is_finite() {
+                0.0
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let (mut int_v, mut dx, mut time) = (0.0, 0.0, 0.0);
+    for (s, e) in finite_blocks(&both) {
+        if e - s < 10 {
+            continue;
+        }
+        // Positions are noisy: take Δx from short averages at the block ends.
+        let k = ((e - s) / 20).clamp(1, 10);
+        let x_a: f64 = x[s..s + k].iter().sum::<f64>() / k as f64;
+        let x_b: f64 = x[e - k..e].iter().sum::<f64>() / k as f64;
+        // The averages sit at the centres of the end windows.
+        let ia = s as f64 + (k as f64 - 1.0) / 2.0;
+        let ib = (e - k) as f64 + (k as f64 - 1.0) / 2.0;
+        // Trapezoid of v between the two centres.
+        let (ca, cb) = (ia.ceil() as usize, ib.floor() as usize);
+        let mut s_v = 0.0;
+        for i in ca..cb {
+            s_v += 0.5 * (v[i] + v[i + 1]) * dt;
+        }
+        // Fractional ends (k odd: centres on samples; k even: half steps).
+        s_v += (ca as f64 - ia) * dt * v[ca];
+        s_v += (ib - cb as f64) * dt * v[cb];
+        int_v += s_v;
+        dx += x_b - x_a;
+        time += (ib - ia) * dt;
+    }
+    if time > 0.0 {
+        (int_v - dx) / time
+    } else {
+        0.0
+    }
+}
+
+/// Computes the contact force of `run` with the sensor gains `g` (1 = as
+/// logged).
+pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
+    let rs = &run.resampled;
+    let rig = &run.rig;
+    let dt = 1.0 / rs.rate_hz;
+    let scale = |v: &[f64], k: f64| -> Vec<f64> { v.iter().map(|x| x * k).collect() };
+    let x0 = scale(&rs.x0, g.x0);
+    let x1 = scale(&rs.x1, g.x1);
+    let x2 = scale(&rs.x2, g.x2);
+    let v2_raw = scale(&rs.v2, g.v2);
+    let mut warnings = Vec::new();
+
+    let drive = fit_drive(&rs.t, &x0, rig.drive_frequency_hz)?;
+    // Window: about 1/60 of a drive period (≈ 10 ms at 1.72 Hz), at least 2.
+    let half = ((rs.rate_hz / drive.frequency_hz / 60.0).round() as usize).max(2);
+
+    let dx2 = savgol(&x2, dt, half, 3, 1);
+    // Time offset of v2 against the derivative of x2.
+    let mut v2 = v2_raw.clone();
+    let mut v2_lag_s = 0.0;
+    // Compared smoothed: interpolating white noise at a fractional shift
+    // lowers its variance, which would bias the lag toward half samples.
+    let v2_raw_s = savgol(&v2_raw, dt, half, 3, 0);
+    if let Some((lag, se)) = estimate_lag(&v2_raw_s, &dx2, dt, 0.01) {
+        if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt {
+            v2 = shift(&v2_raw, dt, lag);
+            v2_lag_s = lag;
+            if lag.abs() > 2.0 * dt {
+                warnings.push(format!(
+                    "velocity channel lags the position x2 by {:.2} ms; corrected",
+                    lag * 1e3
+                ));
+            }
+        }
+    }
+    let v2_offset = rate_offset(&x2, &v2, dt);
+    for v in v2.iter_mut() {
+        *v -= v2_offset;
+    }
+    let v2_smooth = savgol(&v2, dt, half, 3, 0);
+    let dv2 = savgol(&v2, dt, half, 3, 1);
+
+    let mut a2_offset = 0.0;
+    let (a2, a2_lag_s, source) = match &rs.a2 {
+        Some(a) if run.has_acceleration => {
+            let mut a_raw = scale(a, g.a2);
+            // Accelerometer zero from the physics: ∫a dt = Δv.
+            let a_off = rate_offset(&v2, &a_raw, dt);
+            for x in a_raw.iter_mut() {
+                *x -= a_off;
+            }
+            a2_offset = a_off;
+            let a_s = savgol(&a_raw, dt, half, 3, 0);
+            let (a_sh, lag) = match estimate_lag(&a_s, &dv2, dt, 0.01) {
+                Some((lag, se)) if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt => {
+                    if lag.abs() > 2.0 * dt {
+                        warnings.push(format!(
+                            "acceleration channel lags the velocity by {:.2} ms; corrected",
+                            lag * 1e3
+                        ));
+                    }
+                    (shift(&a_raw, dt, lag), lag)
+                }
+                _ => (a_raw, 0.0),
+            };
+            // Where the accelerometer has no data, fall back to dv2/dt.
+            let mut filled = 0usize;
+            let merged: Vec<f64> = a_sh
+                .iter()
+                .zip(&dv2)
+                .map(|(a, d)| {
+                    if a.is_finite() {
+                        *a
+                    } else {
+                        if d.is_finite() {
+                            filled += 1;
+                        }
+                        *d
+                    }
+                })
+                .collect();
+            if filled > 0 {
+                warnings.push(format!(
+                    "{filled} samples without accelerometer data use the differentiated velocity"
+                ));
+            }
+            (merged, Some(lag), "accelerometer")
+        }
+        _ => (dv2, None, "savitzky-golay"),
+    };
+    let v1 = savgol(&x1, dt, half, 3, 1);
+    let (m2, k2, d) = (rig.m2_kg, rig.k2_n_per_m, rig.d_n_s_per_m);
+    let passive: Vec<f64> = (0..rs.len())
+        .map(|i| -k2 * (x2[i] - x1[i]) + d * v1[i])
+        .collect();
+    let r: Vec<f64> = (0..rs.len())
+        .map(|i| passive[i] - m2 * a2[i] - d * v2[i])
+        .collect();
+    Some(Contact {
+        t: rs.t.clone(),
+        dt,
+        k2_n_per_m: k2,
+        x1,
+        x2,
+        v2,
+        v2_smooth,
+        a2,
+        v1,
+        passive,
+        r,
+        drive,
+        v2_offset,
+        a2_offset,
+        v2_lag_s,
+        a2_lag_s,
+        acceleration_source: source,
+        half_window: half,
+        warnings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn drive_fit_recovers_amplitude_and_frequency() {
+        let dt = 1e-3;
+        let t: Vec<f64> = (0..20000).map(|i| i as f64 * dt).collect();
+        let mut rng = super::super::smooth::Rng::new(3);
+        let x: Vec<f64> = t
+            .iter()
+            .map(|&t| {
+                1e-5 + 2.53e-3 * (2.0 * std::f64::consts::PI * 1.7213 * t - 0.4).cos()
+                    + 2e-6 * rng.normal()
+            })
+            .collect();
+        let d = fit_drive(&t, &x, Some(1.72)).unwrap();
+        assert!((d.amplitude_m - 2.53e-3).abs() < 2e-7, "{}", d.amplitude_m);
+        assert!((d.frequency_hz - 1.7213).abs() < 1e-5);
+        let d2 = fit_drive(&t, &x, None).unwrap();
+        assert!((d2.amplitude_m - 2.53e-3).abs() < 2e-7);
+    }
+
+    #[test]
+    fn lag_and_velocity_offset_are_recovered() {
+        let dt = 1e-3;
+        let w = 2.0 * std::f64::consts::PI * 1.72;
+        let n = 10000;
+        let x: Vec<f64> = (0..n).map(|i| 0.003 * (w * i as f64 * dt).sin()).collect();
+        // v lags by 0.7 ms and carries an offset of 0.1 mm/s.
+        let v: Vec<f64> = (0..n)
+            .map(|i| 0.003 * w * (w * (i as f64 * dt - 0.0007)).cos() + 1e-4)
+            .collect();
+        let dx = savgol(&x, dt, 10, 3, 1);
+        let (lag, _) = estimate_lag(&v, &dx, dt, 0.01).unwrap();
+        assert!((lag - 0.0007).abs() < 2e-5, "{lag}");
+        let vs = shift(&v, dt, lag);
+        let off = rate_offset(&x, &vs, dt);
+        assert!((off - 1e-4).abs() < 2e-6, "{off}");
+    }
+}

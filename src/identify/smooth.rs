@@ -1,0 +1,370 @@
+//! Numerical helpers of the identify stage: Savitzky–Golay smoothing and
+//! differentiation that is correct at the edges of every contiguous block of
+//! data (gaps are NaN), small dense least squares, robust statistics and a
+//! tiny deterministic random generator for the bootstrap.
+//!
+//! The least-squares problems here have at most five unknowns and are
+//! accumulated as normal equations per drive period (so the bootstrap only
+//! adds small matrices); faer's own documentation says it is not the tool for
+//! such tiny systems, so they are solved here by Gaussian elimination with
+//! partial pivoting.
+
+/// Solves the small dense system `a·x = b` (Gaussian elimination, partial
+/// pivoting). `None` if the matrix is singular to working precision.
+pub fn solve_small(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+    let n = b.len();
+    let mut m: Vec<Vec<f64>> = a.to_vec();
+    let mut x = b.to_vec();
+    let scale = a
+        .iter()
+        .flat_map(|r| r.iter())
+        .fold(0.0f64, |s, v| s.max(v.abs()));
+    if scale.is_nan() || scale <= 0.0 || !scale.is_finite() {
+        return None;
+    }
+    for c in 0..n {
+        let p = (c..n).max_by(|&i, &j| m[i][c].abs().total_cmp(&m[j][c].abs()))?;
+        if m[p][c].abs() <= 1e-13 * scale {
+            return None;
+        }
+        m.swap(c, p);
+        x.swap(c, p);
+        for r in c + 1..n {
+            let f = m[r][c] / m[c][c];
+            if f != 0.0 {
+                for k in c..n {
+                    m[r][k] -= f * m[c][k];
+                }
+                x[r] -= f * x[c];
+            }
+        }
+    }
+    for c in (0..n).rev() {
+        let mut s = x[c];
+        for k in c + 1..n {
+            s -= m[c][k] * x[k];
+        }
+        x[c] = s / m[c][c];
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
+}
+
+/// Normal equations `XᵀWX`, `XᵀWy`, `yᵀWy` of a weighted linear
+/// least-squares problem, accumulated row by row (and summable, which the
+/// period bootstrap uses).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Normal {
+    /// XᵀWX.
+    pub xtx: Vec<Vec<f64>>,
+    /// XᵀWy.
+    pub xty: Vec<f64>,
+    /// yᵀWy.
+    pub yty: f64,
+    /// Number of rows accumulated.
+    pub n: usize,
+}
+
+impl Normal {
+    /// Empty normal equations for `p` unknowns.
+    pub fn new(p: usize) -> Self {
+        Self {
+            xtx: vec![vec![0.0; p]; p],
+            xty: vec![0.0; p],
+            yty: 0.0,
+            n: 0,
+        }
+    }
+
+    /// Adds one row `x` with target `y` and weight `w` (upper triangle of
+    /// XᵀWX only; [`Normal::solve`] mirrors it).
+    pub fn add(&mut self, x: &[f64], y: f64, w: f64) {
+        for i in 0..x.len() {
+            let wx = w * x[i];
+            let row = &mut self.xtx[i];
+            for j in i..x.len() {
+                row[j] += wx * x[j];
+            }
+            self.xty[i] += wx * y;
+        }
+        self.yty += w * y * y;
+        self.n += 1;
+    }
+
+    /// Adds another accumulation (same size).
+    pub fn add_all(&mut self, o: &Normal) {
+        for i in 0..self.xty.len() {
+            for j in 0..self.xty.len() {
+                self.xtx[i][j] += o.xtx[i][j];
+            }
+            self.xty[i] += o.xty[i];
+        }
+        self.yty += o.yty;
+        self.n += o.n;
+    }
+
+    /// XᵀWX with both triangles.
+    pub fn full(&self) -> Vec<Vec<f64>> {
+        let p = self.xty.len();
+        let mut m = self.xtx.clone();
+        for i in 0..p {
+            for j in 0..i {
+                m[i][j] = m[j][i];
+            }
+        }
+        m
+    }
+
+    /// The least-squares solution, if the problem is well posed.
+    pub fn solve(&self) -> Option<Vec<f64>> {
+        solve_small(&self.full(), &self.xty)
+    }
+}
+
+/// Median of the finite values (NaN if none).
+pub fn median(v: &[f64]) -> f64 {
+    let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if w.is_empty() {
+        return f64::NAN;
+    }
+    let n = w.len();
+    // Selection, not a full sort: O(n).
+    let (lower, hi, _) = w.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let hi = *hi;
+    if n % 2 == 1 {
+        hi
+    } else {
+        let lo = lower.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        0.5 * (lo + hi)
+    }
+}
+
+/// Quantile `q` ∈ [0, 1] of the finite values, linear interpolation (NaN if none).
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if w.is_empty() {
+        return f64::NAN;
+    }
+    w.sort_by(f64::total_cmp);
+    let pos = q.clamp(0.0, 1.0) * (w.len() - 1) as f64;
+    let i = pos.floor() as usize;
+    let f = pos - i as f64;
+    if i + 1 < w.len() {
+        w[i] * (1.0 - f) + w[i + 1] * f
+    } else {
+        w[i]
+    }
+}
+
+/// Robust standard deviation: 1.4826 × median absolute deviation.
+pub fn mad_sigma(v: &[f64]) -> f64 {
+    let m = median(v);
+    let d: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
+    1.4826 * median(&d)
+}
+
+/// Savitzky–Golay weights for the `deriv`-th derivative at offset 0 of a
+/// polynomial of degree `degree` fitted to samples at integer offsets
+/// `lo..=hi` (lo ≤ 0 ≤ hi), with sample spacing `dt`.
+pub fn savgol_weights(lo: i64, hi: i64, degree: usize, deriv: usize, dt: f64) -> Option<Vec<f64>> {
+    let p = degree + 1;
+    let n = (hi - lo + 1) as usize;
+    if n < p || deriv > degree {
+        return None;
+    }
+    // Offsets scaled to about [-1, 1] for conditioning.
+    let s = (hi.max(-lo).max(1)) as f64;
+    let z: Vec<f64> = (lo..=hi).map(|j| j as f64 / s).collect();
+    let mut vtv = vec![vec![0.0; p]; p];
+    for &zj in &z {
+        let mut pw = vec![1.0; p];
+        for k in 1..p {
+            pw[k] = pw[k - 1] * zj;
+        }
+        for a in 0..p {
+            for b in 0..p {
+                vtv[a][b] += pw[a] * pw[b];
+            }
+        }
+    }
+    // Row `deriv` of (VᵀV)⁻¹: solve (VᵀV) c = e_deriv (symmetric).
+    let mut e = vec![0.0; p];
+    e[deriv] = 1.0;
+    let c = solve_small(&vtv, &e)?;
+    let fact: f64 = (1..=deriv).map(|k| k as f64).product();
+    let unit = fact / (s * dt).powi(deriv as i32);
+    Some(
+        z.iter()
+            .map(|&zj| {
+                let mut acc = 0.0;
+                let mut pw = 1.0;
+                for ck in c.iter() {
+                    acc += ck * pw;
+                    pw *= zj;
+                }
+                acc * unit
+            })
+            .collect(),
+    )
+}
+
+/// Maximal runs `[start, end)` of finite values.
+pub fn finite_blocks(y: &[f64]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < y.len() {
+        if !y[i].is_finite() {
+            i += 1;
+            continue;
+        }
+        let s = i;
+        while i < y.len() && y[i].is_finite() {
+            i += 1;
+        }
+        out.push((s, i));
+    }
+    out
+}
+
+/// Savitzky–Golay filter (smoothing for `deriv` = 0, differentiation
+/// otherwise) with window `2·half + 1`, applied separately to every
+/// contiguous block of finite samples. Near a block's edge the window is
+/// shifted inside the block (not padded), so the result is the derivative of
+/// the local least-squares polynomial there too. Blocks shorter than
+/// `degree + 2` samples give NaN.
+pub fn savgol(y: &[f64], dt: f64, half: usize, degree: usize, deriv: usize) -> Vec<f64> {
+    let mut out = vec![f64::NAN; y.len()];
+    let h = half as i64;
+    let interior = savgol_weights(-h, h, degree, deriv, dt);
+    for (s, e) in finite_blocks(y) {
+        let n = e - s;
+        if n < degree + 2 {
+            continue;
+        }
+        let w = (2 * half + 1).min(n) as i64;
+        for i in s..e {
+            let ii = i as i64;
+            // Window [a, a + w) inside [s, e), as centred on i as possible.
+            let a = (ii - w / 2).clamp(s as i64, e as i64 - w);
+            let (lo, hi) = (a - ii, a + w - 1 - ii);
+            let weights = if lo == -h && hi == h {
+                interior.clone()
+            } else {
+                savgol_weights(lo, hi, degree.min(w as usize - 1), deriv, dt)
+            };
+            if let Some(wt) = weights {
+                let mut acc = 0.0;
+                for (k, wk) in wt.iter().enumerate() {
+                    acc += wk * y[(a as usize) + k];
+                }
+                out[i] = acc;
+            }
+        }
+    }
+    out
+}
+
+/// SplitMix64: a small deterministic generator for the bootstrap.
+#[derive(Debug, Clone)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from a seed.
+    pub fn new(seed: u64) -> Self {
+        Self(seed)
+    }
+    /// Next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform index in `0..n` (n > 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * n as f64) as usize % n
+    }
+    /// Standard normal deviate (Box–Muller).
+    pub fn normal(&mut self) -> f64 {
+        let u1 = ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+        let u2 = ((self.next_u64() >> 11) as f64) / (1u64 << 53) as f64;
+        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn savgol_differentiates_cubics_exactly_interior_and_edges() {
+        // A cubic is reproduced exactly by a degree-3 local fit, so its
+        // derivative is exact everywhere, edges and both sides of a gap.
+        let dt = 1e-3;
+        let f = |t: f64| 2.0 + 3.0 * t - 40.0 * t * t + 500.0 * t * t * t;
+        let df = |t: f64| 3.0 - 80.0 * t + 1500.0 * t * t;
+        let mut y: Vec<f64> = (0..200).map(|i| f(i as f64 * dt)).collect();
+        for v in y.iter_mut().skip(90).take(7) {
+            *v = f64::NAN;
+        }
+        let d = savgol(&y, dt, 6, 3, 1);
+        for (i, di) in d.iter().enumerate() {
+            if y[i].is_finite() {
+                assert!((di - df(i as f64 * dt)).abs() < 1e-7, "i={i} {di}");
+            } else {
+                assert!(di.is_nan());
+            }
+        }
+        let s = savgol(&y, dt, 6, 3, 0);
+        for i in [0usize, 5, 89, 97, 199] {
+            assert!((s[i] - f(i as f64 * dt)).abs() < 1e-10);
+        }
+    }
+
+    #[test]
+    fn savgol_derivative_beats_finite_difference_on_noise() {
+        let dt = 1e-3;
+        let mut rng = Rng::new(7);
+        let y: Vec<f64> = (0..2000)
+            .map(|i| (i as f64 * dt * 10.0).sin() + 1e-3 * rng.normal())
+            .collect();
+        let d = savgol(&y, dt, 10, 3, 1);
+        let fd: Vec<f64> = y.windows(2).map(|w| (w[1] - w[0]) / dt).collect();
+        let err = |i: usize, v: f64| v - 10.0 * (i as f64 * dt * 10.0).cos();
+        let rms_sg = (d
+            .iter()
+            .enumerate()
+            .map(|(i, v)| err(i, *v).powi(2))
+            .sum::<f64>()
+            / d.len() as f64)
+            .sqrt();
+        let rms_fd = (fd
+            .iter()
+            .enumerate()
+            .map(|(i, v)| err(i, *v).powi(2))
+            .sum::<f64>()
+            / fd.len() as f64)
+            .sqrt();
+        assert!(rms_sg < rms_fd / 10.0, "{rms_sg} vs {rms_fd}");
+    }
+
+    #[test]
+    fn normal_equations_recover_a_line() {
+        let mut ne = Normal::new(2);
+        for i in 0..10 {
+            let x = i as f64;
+            ne.add(&[1.0, x], 1.5 - 0.25 * x, 1.0);
+        }
+        let c = ne.solve().unwrap();
+        assert!((c[0] - 1.5).abs() < 1e-12 && (c[1] + 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn robust_statistics() {
+        assert_eq!(median(&[3.0, 1.0, 2.0, f64::NAN]), 2.0);
+        assert!((quantile(&[0.0, 1.0, 2.0, 3.0, 4.0], 0.25) - 1.0).abs() < 1e-12);
+        let mut rng = Rng::new(1);
+        let v: Vec<f64> = (0..20000).map(|_| 2.0 * rng.normal()).collect();
+        assert!((mad_sigma(&v) - 2.0).abs() < 0.05);
+    }
+}
