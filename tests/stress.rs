@@ -1,6 +1,7 @@
 //! Numerical stress suite: the edges of the parameter space and long-run
 //! invariants. Every run must end with a clear status (completed, steady,
 //! interrupted, chatter), never hang, never produce NaN.
+#![allow(clippy::needless_range_loop)]
 
 use stickslip::model::{Absorber, Law, Model};
 use stickslip::sim::engine::net_force;

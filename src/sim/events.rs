@@ -191,6 +191,19 @@ where
     M: FnMut(f64) -> Jet<N>,
     S: FnMut(f64, &Jet<N>, f64, &Jet<N>),
 {
+    // The refinement's last evaluation is usually at the root it returns:
+    // remember it so the hit's jet is not computed twice.
+    let memo: std::cell::Cell<Option<(f64, Jet<N>)>> = std::cell::Cell::new(None);
+    let eval = |d: f64| -> Jet<N> {
+        if let Some((m, j)) = memo.get() {
+            if m == d {
+                return j;
+            }
+        }
+        let j = eval(d);
+        memo.set(Some((d, j)));
+        j
+    };
     let j0 = eval(0.0);
     let mut a = 0.0;
     let mut ja = j0;
