@@ -18,6 +18,7 @@
 //! * [`ingest`]: rig logs (MCAP, CSV + channel map, Parquet) into one clean `Run`.
 //! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
 //! * [`sim`]: the exact event-driven engine, the paper's RK4 and closed forms.
+//! * [`synth`]: a virtual rig writing logs with known truth from the simulator.
 //! * [`cli`]: the thin command-line layer over the library.
 //!
 //! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
@@ -29,5 +30,6 @@ pub mod ingest;
 pub mod io;
 pub mod model;
 pub mod sim;
+pub mod synth;
 
 pub use error::{Error, Result};

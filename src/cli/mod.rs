@@ -8,6 +8,7 @@ use std::process::ExitCode;
 mod args;
 mod ingest;
 mod simulate;
+mod synth;
 
 pub use args::ModelArgs;
 
@@ -31,6 +32,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Read a rig log (MCAP, CSV + channel map, Parquet) into one clean run.
     Ingest(ingest::IngestArgs),
+    /// Virtual rig: write a rig log (MCAP, CSV + map, Parquet) from the simulator, with truth.json.
+    Synth(synth::SynthArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -51,6 +54,7 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Ingest(a) => ingest::run(a),
+        Command::Synth(a) => synth::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

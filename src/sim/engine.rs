@@ -178,6 +178,7 @@ pub struct PeriodGrid {
 
 impl PeriodGrid {
     /// The next grid time (and advances).
+    #[allow(clippy::should_implement_trait)]
     pub fn next(&mut self) -> f64 {
         let per = u64::from(self.per_period);
         let tau = (self.j / per) as f64 * self.t
