@@ -180,6 +180,29 @@ fn stepped_sweep_round_trips_with_setpoints() {
         assert!(((w.t_ns - synth::LOG_START_NS) as f64 * 1e-9 - t).abs() < 1e-9);
     }
     assert_eq!(log.truth["response"].as_array().expect("steps").len(), 3);
+    // Tables carry the commanded frequency as a column: one setpoint per
+    // change of frequency comes back.
+    for (format, name) in [
+        (LogFormat::Csv, "sweep.csv"),
+        (LogFormat::Parquet, "sweep.parquet"),
+    ] {
+        let mut ct = c.clone();
+        ct.format = format;
+        let log = synth::generate(&ct).expect("generate");
+        let path = dir.path().join(name);
+        synth::write(&log, &path).expect("write");
+        let run = read(&path);
+        assert_round_trip(&log, &run);
+        let got: Vec<(f64, f64)> = run
+            .setpoints
+            .iter()
+            .map(|s| (s.t_s, s.frequency_hz))
+            .collect();
+        assert_eq!(got.len(), 3, "{name}: {got:?}");
+        for ((t, f), (te, fe)) in got.iter().zip([(0.0, 1.2), (4.0, 1.7), (6.5, 2.3)]) {
+            assert!((t - te).abs() < 1e-9 && *f == fe, "{name}: {got:?}");
+        }
+    }
     assert!((log.truth["duration_s"].as_f64().expect("dur") - 9.5).abs() < 1e-12);
 }
 
@@ -464,4 +487,46 @@ fn cli_writes_a_log_that_ingests_and_refuses_bad_options() {
         assert_eq!(e.lines().count(), 1, "{e}");
         assert!(!bad.exists());
     }
+}
+
+/// The continuous chirp runs on the numerical engine: tightening its
+/// tolerance converges the logged trajectory (ideal sensors), and the
+/// commanded frequency is published once per second.
+#[test]
+fn continuous_sweep_converges_with_tolerance() {
+    let run = |rtol: f64| {
+        let mut c = ideal(LogFormat::Mcap, 0.42 * 2.2, 0.34 * 2.2);
+        c.sensors.a2 = None;
+        c.test = TestSpec::Continuous {
+            from_hz: 1.0,
+            to_hz: 2.5,
+            sweep_s: 8.0,
+            hold_before_s: 2.0,
+            hold_after_s: 1.0,
+        };
+        c.rtol = rtol;
+        synth::generate(&c).expect("generate")
+    };
+    let (a, b, c) = (run(1e-7), run(1e-9), run(1e-12));
+    let x1 = |l: &SynthLog| l.channel(Quantity::X1).expect("x1").samples().1;
+    let d = |p: &SynthLog, q: &SynthLog| {
+        x1(p)
+            .iter()
+            .zip(x1(q))
+            .map(|(u, v)| (u - v).abs())
+            .fold(0.0, f64::max)
+    };
+    let amp = 0.0025;
+    let (dab, dbc) = (d(&a, &c), d(&b, &c));
+    assert!(dbc < 1e-6 * amp && dbc < dab, "{dab} {dbc}");
+    // The hold before the chirp is an exact dwell: identical in all three.
+    let t = a.channel(Quantity::X1).expect("x1").samples().0;
+    let n_hold = t.iter().filter(|t| **t < 2.0).count();
+    assert_eq!(x1(&a)[..n_hold], x1(&c)[..n_hold]);
+    assert_eq!(c.setpoints.len(), 11);
+    let f: Vec<f64> = c.setpoints.iter().map(|s| s.frequency_hz).collect();
+    assert_eq!(f[2], 1.0);
+    assert!((f[6] - 1.75).abs() < 1e-12);
+    assert_eq!(f[10], 2.5);
+    assert!(c.rig_record.contains_key("sweep_rate_hz_per_s"));
 }

@@ -192,6 +192,30 @@ fn csv_column(q: Quantity) -> (&'static str, f64) {
     }
 }
 
+/// The commanded frequency at each table row (the last setpoint message at
+/// or before the row), for sweeps; `None` without setpoints.
+fn setpoint_column(log: &SynthLog) -> Option<Vec<Option<f64>>> {
+    let first = log.setpoints.first()?;
+    let dt = log.channels[0].dt_ns;
+    let mut k = 0;
+    let mut f = first.frequency_hz;
+    Some(
+        (0..log.table_rows)
+            .map(|i| {
+                let t = LOG_START_NS + i as u64 * dt;
+                while k < log.setpoints.len() && log.setpoints[k].t_ns <= t {
+                    f = log.setpoints[k].frequency_hz;
+                    k += 1;
+                }
+                Some(f)
+            })
+            .collect(),
+    )
+}
+
+/// CSV column of the commanded frequency.
+const CSV_SETPOINT: &str = "setpoint [Hz]";
+
 fn csv_columns(log: &SynthLog) -> BTreeMap<&'static str, &'static str> {
     let mut m: BTreeMap<&str, &str> = log
         .channels
@@ -199,6 +223,9 @@ fn csv_columns(log: &SynthLog) -> BTreeMap<&'static str, &'static str> {
         .map(|c| (c.quantity.name(), csv_column(c.quantity).0))
         .collect();
     m.insert("time", "t [s]");
+    if !log.setpoints.is_empty() {
+        m.insert("setpoint_hz", CSV_SETPOINT);
+    }
     m
 }
 
@@ -222,6 +249,10 @@ fn write_csv(log: &SynthLog, path: &Path, map_path: &Path) -> Result<()> {
         map_text += &entry;
         map_text += " }\n";
     }
+    let setpoint = setpoint_column(log);
+    if setpoint.is_some() {
+        map_text += &format!("setpoint_hz = {{ name = \"{CSV_SETPOINT}\" }}\n");
+    }
     let mut out = AtomicFile::create(path)?;
     {
         let w = out.writer();
@@ -232,6 +263,7 @@ fn write_csv(log: &SynthLog, path: &Path, map_path: &Path) -> Result<()> {
         }
         let names: Vec<&str> = std::iter::once("t [s]")
             .chain(log.channels.iter().map(|c| csv_column(c.quantity).0))
+            .chain(setpoint.iter().map(|_| CSV_SETPOINT))
             .collect();
         writeln!(w, "{}", names.join(",")).map_err(io)?;
         let dt = log.channels[0].dt_ns;
@@ -244,6 +276,10 @@ fn write_csv(log: &SynthLog, path: &Path, map_path: &Path) -> Result<()> {
                 if let Some(v) = c.buffers[0].values[i] {
                     line += &(v * csv_column(c.quantity).1).to_string();
                 }
+            }
+            if let Some(Some(f)) = setpoint.as_ref().map(|s| s[i]) {
+                line.push(',');
+                line += &f.to_string();
             }
             line.push('\n');
             w.write_all(line.as_bytes()).map_err(io)?;
@@ -269,6 +305,9 @@ fn write_parquet(log: &SynthLog, path: &Path) -> Result<()> {
     let mut cols: Vec<(&str, Vec<Option<f64>>)> = Vec::new();
     for c in &log.channels {
         cols.push((c.quantity.name(), c.buffers[0].values.clone()));
+    }
+    if let Some(s) = setpoint_column(log) {
+        cols.push(("setpoint_hz", s));
     }
     debug_assert!(log
         .channels
