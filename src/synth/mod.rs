@@ -1210,7 +1210,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     let model = cfg.model();
     let duration_s = cfg.test.duration_s();
     let warm = cfg.test.warmup_s();
-    let (drives, schedule, setpoints) = drives_of(cfg, w);
+    let (mut drives, mut schedule, setpoints) = drives_of(cfg, w);
 
     // Sample plans, one RNG stream per channel.
     let sensors = cfg.sensors.channels();
@@ -1239,6 +1239,21 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     let total_tau = (warm + duration_s) * w;
     // A CSV column shifted forward can ask past the end: run a bit longer.
     let run_tau = requests.last().map_or(total_tau, |r| r.tau.max(total_tau));
+    if let Some(s) = schedule.as_mut() {
+        if run_tau > total_tau {
+            // Hold the last frequency for requests past the end.
+            let eta_last = match s.segments.last() {
+                Some(Segment::Dwell { eta, .. }) | Some(Segment::Ramp { eta, .. }) => *eta,
+                None => unreachable!("validated schedule"),
+            };
+            s.segments.push(Segment::Dwell {
+                eta: eta_last,
+                // (past the last request: a span's end sample is not delivered)
+                duration: run_tau - total_tau + 1.0,
+            });
+            drives = Drives(s.drives().map_err(SynthError::Sim)?);
+        }
+    }
 
     let mut col = Collector {
         requests: &requests,
@@ -1275,7 +1290,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
                 _ => unreachable!("a characteristic test drives harmonically"),
             };
             // Extend the single harmonic piece if a request lies past it.
-            let dur = drives.0[0].2 + extra.max(0.0);
+            let dur = drives.0[0].2 + if extra > 0.0 { extra + 1.0 } else { 0.0 };
             if model.law.affine().is_some() {
                 Sim::new(&model, eta).map_err(sim_err)?.run_span(
                     Init::rest(),
@@ -1290,21 +1305,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
                     .run(Init::rest(), dur, &mut col)
             }
         }
-        Some(s) => {
-            let mut s = s.clone();
-            if run_tau > total_tau {
-                // Hold the last frequency for requests past the end.
-                let eta_last = match s.segments.last() {
-                    Some(Segment::Dwell { eta, .. }) | Some(Segment::Ramp { eta, .. }) => *eta,
-                    None => unreachable!("validated schedule"),
-                };
-                s.segments.push(Segment::Dwell {
-                    eta: eta_last,
-                    duration: run_tau - total_tau,
-                });
-            }
-            run_schedule(&model, &s, Init::rest(), opts, &mut col).map_err(sim_err)?
-        }
+        Some(s) => run_schedule(&model, s, Init::rest(), opts, &mut col).map_err(sim_err)?,
     };
     match &end.status {
         Status::Completed => {}
