@@ -49,8 +49,8 @@ fn origin(log: &SynthLog) -> f64 {
 }
 
 /// Every written sample comes back: same count, same times (to 1 ns), and
-/// values bit for bit (MCAP: JSON floats; Parquet: f64 columns) or to the
-/// rounding of the CSV's mm ↔ m conversion.
+/// values bit for bit (MCAP: JSON floats; Parquet: f64 columns) or, for the
+/// CSV's decimal mm text, to a few ulps (far below the quantisation step).
 fn assert_round_trip(log: &SynthLog, run: &Run) {
     let o = origin(log);
     let csv = log.config.format == LogFormat::Csv;

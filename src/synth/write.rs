@@ -267,14 +267,29 @@ fn write_csv(log: &SynthLog, path: &Path, map_path: &Path) -> Result<()> {
             .collect();
         writeln!(w, "{}", names.join(",")).map_err(io)?;
         let dt = log.channels[0].dt_ns;
+        // Quantised channels are written as the DAQ shows them: one digit
+        // more than the quantisation step needs (exact to a few ulps);
+        // others with the shortest representation that reads back exactly.
+        let decimals: Vec<Option<usize>> = log
+            .channels
+            .iter()
+            .map(|c| {
+                let q = c.sensor.quant * csv_column(c.quantity).1;
+                (q > 0.0).then(|| (-q.log10() - 1e-9).ceil().max(0.0) as usize + 1)
+            })
+            .collect();
         let mut line = String::new();
         for i in 0..log.table_rows {
             line.clear();
             line += &((i as u64 * dt) as f64 * 1e-9).to_string();
-            for c in &log.channels {
+            for (ci, c) in log.channels.iter().enumerate() {
                 line.push(',');
                 if let Some(v) = c.buffers[0].values[i] {
-                    line += &(v * csv_column(c.quantity).1).to_string();
+                    let x = v * csv_column(c.quantity).1;
+                    match decimals[ci] {
+                        Some(d) => line += &format!("{x:.d$}"),
+                        None => line += &x.to_string(),
+                    }
                 }
             }
             if let Some(Some(f)) = setpoint.as_ref().map(|s| s[i]) {
