@@ -461,6 +461,42 @@ fn cli_writes_a_log_that_ingests_and_refuses_bad_options() {
     let o = stickslip(&["ingest", out.to_str().expect("utf8"), "--json"]);
     assert!(o.status.success());
 
+    // Sensor models from a JSON file.
+    let sensors = dir.path().join("sensors.json");
+    let mut set = Sensors::ideal();
+    set.x1.gain = 1.25;
+    std::fs::write(&sensors, serde_json::to_string(&set).expect("json")).expect("write");
+    let out2 = dir.path().join("own.mcap");
+    let o = stickslip(&[
+        "synth",
+        "--out",
+        out2.to_str().expect("utf8"),
+        "--sensors",
+        sensors.to_str().expect("utf8"),
+        "--duration-s",
+        "2",
+        "--warmup-s",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let truth: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("truth.json")).expect("truth"))
+            .expect("json");
+    let s = &truth["files"]["own.mcap"]["sensors"];
+    assert_eq!(s["/mass1/position"]["gain"], 1.25);
+    assert_eq!(s["/mass2/position"]["noise"], 0.0);
+    assert_eq!(read(&out2).gaps.len(), 0);
+    std::fs::write(&sensors, b"{\"x0\": 1}").expect("write");
+    let o = stickslip(&[
+        "synth",
+        "--out",
+        out2.to_str().expect("utf8"),
+        "--sensors",
+        sensors.to_str().expect("utf8"),
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("not a sensor set"));
+
     for (args, needle) in [
         (vec!["--normal-force", "-1"], "normal force"),
         (vec!["--law", "static-dynamic", "--mu-d", "0.9"], "Rd"),
