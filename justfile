@@ -12,6 +12,7 @@ lint:
 # Criterion benchmarks of the engine.
 bench:
     cargo bench --bench engine
+    cargo bench --bench ingest
 
 # The main job on the bundled data (for now: a steady simulation).
 main:

@@ -19,6 +19,7 @@
 //! * [`identify`]: contact force (eq. 7), stick/slip, friction-law fit with intervals.
 //! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
 //! * [`sim`]: the exact event-driven engine, the paper's RK4 and closed forms.
+//! * [`synth`]: a virtual rig writing logs with known truth from the simulator.
 //! * [`cli`]: the thin command-line layer over the library.
 //!
 //! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
@@ -32,5 +33,6 @@ pub mod io;
 pub mod model;
 pub mod report;
 pub mod sim;
+pub mod synth;
 
 pub use error::{Error, Result};

@@ -13,6 +13,7 @@ mod ingest;
 mod merge;
 mod simulate;
 pub mod sweep;
+mod synth;
 
 pub use args::ModelArgs;
 
@@ -46,6 +47,8 @@ pub enum Command {
     Characteristic(characteristic::CharacteristicArgs),
     /// Fit the friction law of characteristic logs, with 95 % intervals.
     Fit(fit::FitArgs),
+    /// Virtual rig: write a rig log (MCAP, CSV + map, Parquet) from the simulator, with truth.json.
+    Synth(synth::SynthArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -75,6 +78,7 @@ pub fn main() -> ExitCode {
             Ok(false) => return ExitCode::from(1),
             Err(e) => Err(e),
         },
+        Command::Synth(a) => synth::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

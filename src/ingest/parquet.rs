@@ -188,25 +188,45 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
 /// as null) with the rig metadata as key-value metadata, atomically.
 pub fn write_parquet(run: &Run, target: &Path) -> crate::Result<()> {
     let r = &run.resampled;
-    let to_col = |name: &str, v: &[f64]| {
-        let opt: Vec<Option<f64>> = v.iter().map(|x| x.is_finite().then_some(*x)).collect();
-        Column::new(name.into(), opt)
-    };
-    let mut cols = vec![Column::new("t".into(), r.t.clone())];
+    let to_col =
+        |v: &[f64]| -> Vec<Option<f64>> { v.iter().map(|x| x.is_finite().then_some(*x)).collect() };
+    let mut cols = Vec::new();
     for q in Quantity::ALL {
         if let Some(v) = r.column(q) {
-            cols.push(to_col(q.name(), v));
+            cols.push((q.name(), to_col(v)));
         }
     }
     if let Some(v) = &r.setpoint_hz {
-        cols.push(to_col("setpoint_hz", v));
+        cols.push(("setpoint_hz", to_col(v)));
     }
+    write_table(target, &r.t, &cols, &run.rig.to_map())
+}
+
+/// Writes a rig table atomically: column `t` (s), then the named value
+/// columns (`None` written as null), with `meta` as the file's key-value
+/// metadata (the layout [`read`] and the Parquet ingest expect).
+pub fn write_table(
+    target: &Path,
+    t: &[f64],
+    columns: &[(&str, Vec<Option<f64>>)],
+    meta: &BTreeMap<String, String>,
+) -> crate::Result<()> {
     let fail = |e: PolarsError| crate::Error::Input {
         path: target.to_path_buf(),
         msg: format!("cannot write Parquet: {e}"),
     };
-    let mut df = DataFrame::new(r.len(), cols).map_err(fail)?;
-    let kv: Vec<(String, String)> = run.rig.to_map().into_iter().collect();
+    let mut cols = vec![Column::new("t".into(), t.to_vec())];
+    for (name, v) in columns {
+        if v.len() != t.len() {
+            return Err(crate::Error::Input {
+                path: target.to_path_buf(),
+                msg: format!("column {name} has {} rows, t has {}", v.len(), t.len()),
+            });
+        }
+        cols.push(Column::new((*name).into(), v.clone()));
+    }
+    let mut df = DataFrame::new(t.len(), cols).map_err(fail)?;
+    let kv: Vec<(String, String)> = meta.clone().into_iter().collect();
     let mut out = crate::io::AtomicFile::create(target)?;
     ParquetWriter::new(out.writer())
         .with_key_value_metadata(Some(KeyValueMetadata::from_static(kv)))

@@ -1,0 +1,355 @@
+//! `stickslip synth`: the virtual rig. Turns SI options into a
+//! [`SynthConfig`], runs [`synth::generate`] and writes the log (and
+//! `truth.json` beside it) atomically.
+
+use crate::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
+use clap::{Args, ValueEnum};
+use serde_json::json;
+use std::path::{Path, PathBuf};
+
+/// Output format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum FormatArg {
+    /// MCAP with zstd chunks and a summary section.
+    Mcap,
+    /// MCAP with lz4 chunks.
+    McapLz4,
+    /// MCAP with uncompressed chunks and no summary.
+    McapPlain,
+    /// DAQ CSV (mm, mm/s) with NAME.map.toml.
+    Csv,
+    /// Parquet table (SI).
+    Parquet,
+}
+
+/// The test run by the rig.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TestArg {
+    /// One drive frequency after a warm-up.
+    Characteristic,
+    /// Stepped frequency sweep (dwells, 0.5 s ramps).
+    Stepped,
+    /// Continuous linear chirp.
+    Continuous,
+}
+
+/// Friction law family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LawArg {
+    /// Rd = Rs, no slope.
+    Coulomb,
+    /// Rd = Rs with a negative slope a.
+    Decreasing,
+    /// Rd < Rs, no slope.
+    StaticDynamic,
+    /// Rd + (Rs − Rd) exp(−(v/vs)²) + a v.
+    Stribeck,
+}
+
+/// Arguments of `stickslip synth`.
+#[derive(Debug, Args)]
+pub struct SynthArgs {
+    /// The log to write (.mcap, .csv or .parquet).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Output format (default: from the extension of --out).
+    #[arg(long, value_enum)]
+    pub format: Option<FormatArg>,
+    /// The test.
+    #[arg(long, value_enum, default_value_t = TestArg::Characteristic)]
+    pub test: TestArg,
+    /// Normal force at the friction member (N).
+    #[arg(
+        long = "normal-force",
+        default_value_t = 2.2,
+        allow_hyphen_values = true
+    )]
+    pub normal_force: f64,
+    /// Friction law family.
+    #[arg(long, value_enum, default_value_t = LawArg::StaticDynamic)]
+    pub law: LawArg,
+    /// Static friction coefficient (Rs = mu_s·N unless --rs-n).
+    #[arg(long = "mu-s", default_value_t = 0.42, allow_hyphen_values = true)]
+    pub mu_s: f64,
+    /// Dynamic friction coefficient (Rd = mu_d·N unless --rd-n; static-dynamic, stribeck).
+    #[arg(long = "mu-d", default_value_t = 0.34, allow_hyphen_values = true)]
+    pub mu_d: f64,
+    /// Static friction force Rs (N).
+    #[arg(long = "rs-n", allow_hyphen_values = true)]
+    pub rs_n: Option<f64>,
+    /// Dynamic friction force Rd (N).
+    #[arg(long = "rd-n", allow_hyphen_values = true)]
+    pub rd_n: Option<f64>,
+    /// Slope a of the characteristic (N s/m; decreasing: default −3).
+    #[arg(long = "slope-n-s-per-m", allow_hyphen_values = true)]
+    pub slope: Option<f64>,
+    /// Stribeck velocity vs (m/s; stribeck only).
+    #[arg(long = "stribeck-velocity-m-per-s", default_value_t = 0.005)]
+    pub v_s: f64,
+    /// M1 (kg).
+    #[arg(long = "m1-kg", default_value_t = 8.35)]
+    pub m1: f64,
+    /// M2 (kg).
+    #[arg(long = "m2-kg", default_value_t = 2.0875)]
+    pub m2: f64,
+    /// K1 (N/m).
+    #[arg(long = "k1-n-per-m", default_value_t = 670.0)]
+    pub k1: f64,
+    /// K2 (N/m).
+    #[arg(long = "k2-n-per-m", default_value_t = 670.0)]
+    pub k2: f64,
+    /// Damping d (N s/m; default: D = 0.003).
+    #[arg(long = "d-n-s-per-m")]
+    pub d: Option<f64>,
+    /// Nominal drive amplitude A (m).
+    #[arg(long = "amplitude-m", default_value_t = 0.0025)]
+    pub amplitude: f64,
+    /// True drive amplitude (m; default: the nominal one).
+    #[arg(long = "true-amplitude-m")]
+    pub true_amplitude: Option<f64>,
+    /// Drive frequency of a characteristic test (Hz).
+    #[arg(long = "frequency-hz", default_value_t = 1.72)]
+    pub frequency: f64,
+    /// Unlogged warm-up of a characteristic test (s).
+    #[arg(long = "warmup-s", default_value_t = 40.0)]
+    pub warmup: f64,
+    /// Logged duration of a characteristic test (s).
+    #[arg(long = "duration-s", default_value_t = 20.0)]
+    pub duration: f64,
+    /// Setpoints of a stepped sweep (Hz, comma separated; default 11 from 0.9 to 3.4).
+    #[arg(long = "setpoints-hz", value_delimiter = ',')]
+    pub setpoints: Vec<f64>,
+    /// Dwell per setpoint (s; one value or one per setpoint).
+    #[arg(long = "dwell-s", value_delimiter = ',', default_values_t = vec![15.0])]
+    pub dwell: Vec<f64>,
+    /// Continuous sweep: start frequency (Hz).
+    #[arg(long = "from-hz", default_value_t = 0.9)]
+    pub from_hz: f64,
+    /// Continuous sweep: end frequency (Hz).
+    #[arg(long = "to-hz", default_value_t = 3.4)]
+    pub to_hz: f64,
+    /// Continuous sweep: chirp duration (s).
+    #[arg(long = "sweep-s", default_value_t = 240.0)]
+    pub sweep_s: f64,
+    /// Seed of every random choice.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// No accelerometer channel.
+    #[arg(long)]
+    pub no_accelerometer: bool,
+    /// Ideal sensors: no noise, quantisation, gain/offset errors, filters,
+    /// jitter or losses.
+    #[arg(long)]
+    pub ideal_sensors: bool,
+    /// Sensor models from a JSON file (the `Sensors` structure).
+    #[arg(long)]
+    pub sensors: Option<PathBuf>,
+    /// Row rate of CSV/Parquet tables (Hz).
+    #[arg(long = "table-rate-hz", default_value_t = 1000.0)]
+    pub table_rate: f64,
+    /// CSV: time shift of the drive column (s), written to the map.
+    #[arg(long = "csv-drive-shift-s", allow_hyphen_values = true)]
+    pub csv_drive_shift: Option<f64>,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn input_err(path: &Path, msg: impl Into<String>) -> crate::Error {
+    crate::Error::Input {
+        path: path.to_path_buf(),
+        msg: msg.into(),
+    }
+}
+
+impl SynthArgs {
+    /// The configuration these options describe.
+    pub fn config(&self) -> crate::Result<SynthConfig> {
+        let out = &self.out;
+        let ext = out
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+            .unwrap_or_default();
+        let format = match (self.format, ext.as_str()) {
+            (Some(FormatArg::Mcap), "mcap") | (None, "mcap") => LogFormat::Mcap,
+            (Some(FormatArg::McapLz4), "mcap") => LogFormat::McapLz4,
+            (Some(FormatArg::McapPlain), "mcap") => LogFormat::McapPlain,
+            (Some(FormatArg::Csv), "csv") | (None, "csv") => LogFormat::Csv,
+            (Some(FormatArg::Parquet), "parquet") | (None, "parquet") => LogFormat::Parquet,
+            (None, _) => {
+                return Err(input_err(
+                    out,
+                    "unknown output type: give a .mcap, .csv or .parquet file (or --format)",
+                ))
+            }
+            (Some(f), _) => {
+                return Err(input_err(
+                    out,
+                    format!(
+                        "--format {} needs a .{} file",
+                        f.to_possible_value()
+                            .map_or("?".into(), |v| v.get_name().to_string()),
+                        match f {
+                            FormatArg::Csv => "csv",
+                            FormatArg::Parquet => "parquet",
+                            _ => "mcap",
+                        }
+                    ),
+                ))
+            }
+        };
+        let n = self.normal_force;
+        let rs = self.rs_n.unwrap_or(self.mu_s * n);
+        let rd_given = self.rd_n.unwrap_or(self.mu_d * n);
+        let friction = match self.law {
+            LawArg::Coulomb => FrictionSpec {
+                rs_n: rs,
+                rd_n: rs,
+                slope_n_s_per_m: 0.0,
+                stribeck_velocity_m_per_s: None,
+            },
+            LawArg::Decreasing => FrictionSpec {
+                rs_n: rs,
+                rd_n: rs,
+                slope_n_s_per_m: self.slope.unwrap_or(-3.0),
+                stribeck_velocity_m_per_s: None,
+            },
+            LawArg::StaticDynamic => FrictionSpec {
+                rs_n: rs,
+                rd_n: rd_given,
+                slope_n_s_per_m: self.slope.unwrap_or(0.0),
+                stribeck_velocity_m_per_s: None,
+            },
+            LawArg::Stribeck => FrictionSpec {
+                rs_n: rs,
+                rd_n: rd_given,
+                slope_n_s_per_m: self.slope.unwrap_or(0.0),
+                stribeck_velocity_m_per_s: Some(self.v_s),
+            },
+        };
+        let d = self.d.unwrap_or(0.003 * (self.k2 * self.m2).abs().sqrt());
+        let rig = RigSpec {
+            m1_kg: self.m1,
+            m2_kg: self.m2,
+            k1_n_per_m: self.k1,
+            k2_n_per_m: self.k2,
+            d_n_s_per_m: d,
+            drive_amplitude_nominal_m: self.amplitude,
+            drive_amplitude_true_m: self.true_amplitude.unwrap_or(self.amplitude),
+        };
+        let test = match self.test {
+            TestArg::Characteristic => TestSpec::Characteristic {
+                frequency_hz: self.frequency,
+                warmup_s: self.warmup,
+                duration_s: self.duration,
+            },
+            TestArg::Stepped => {
+                let mut t = TestSpec::stepped(0.9, 3.4, 11, 15.0);
+                if let TestSpec::Stepped {
+                    setpoints_hz,
+                    dwell_s,
+                    ..
+                } = &mut t
+                {
+                    if !self.setpoints.is_empty() {
+                        *setpoints_hz = self.setpoints.clone();
+                    }
+                    *dwell_s = self.dwell.clone();
+                }
+                t
+            }
+            TestArg::Continuous => TestSpec::Continuous {
+                from_hz: self.from_hz,
+                to_hz: self.to_hz,
+                sweep_s: self.sweep_s,
+                hold_before_s: 10.0,
+                hold_after_s: 5.0,
+            },
+        };
+        let mut sensors = match &self.sensors {
+            Some(p) => {
+                let text = std::fs::read_to_string(p).map_err(|source| crate::Error::Io {
+                    path: p.clone(),
+                    source,
+                })?;
+                serde_json::from_str::<Sensors>(&text)
+                    .map_err(|e| input_err(p, format!("not a sensor set: {e}")))?
+            }
+            None if self.ideal_sensors => Sensors::ideal(),
+            None => {
+                let mut s = Sensors::typical(self.seed);
+                if !matches!(self.test, TestArg::Characteristic) {
+                    // Sweeps are long: slower position and velocity channels.
+                    s.x0.rate_hz = 250.0;
+                    for m in [&mut s.x1, &mut s.x2, &mut s.v2] {
+                        m.rate_hz = 500.0;
+                    }
+                }
+                s
+            }
+        };
+        if self.no_accelerometer {
+            sensors.a2 = None;
+        }
+        let mut csv_shift_s = std::collections::BTreeMap::new();
+        if let Some(s) = self.csv_drive_shift {
+            if format != LogFormat::Csv {
+                return Err(input_err(
+                    out,
+                    "--csv-drive-shift-s applies to CSV output only",
+                ));
+            }
+            csv_shift_s.insert("x0".to_string(), s);
+        }
+        let cfg = SynthConfig {
+            rig,
+            friction,
+            normal_force_n: n,
+            test,
+            sensors,
+            seed: self.seed,
+            format,
+            table_rate_hz: self.table_rate,
+            csv_shift_s,
+            rtol: 1e-10,
+        };
+        cfg.validate().map_err(|e| input_err(out, e.to_string()))?;
+        Ok(cfg)
+    }
+}
+
+/// Runs `synth`.
+pub fn run(args: SynthArgs) -> crate::Result<()> {
+    let cfg = args.config()?;
+    let log = synth::generate(&cfg).map_err(|e| input_err(&args.out, e.to_string()))?;
+    let written = synth::write(&log, &args.out)?;
+    let t = &log.truth;
+    if args.json {
+        super::print_json(&json!({
+            "out": written.log.display().to_string(),
+            "map": written.map.as_ref().map(|p| p.display().to_string()),
+            "truth": written.truth.display().to_string(),
+            "format": cfg.format.as_str(),
+            "test": t["test"],
+            "bytes": written.bytes,
+            "duration_s": t["duration_s"],
+            "seed": cfg.seed,
+            "channels": t["channels"],
+            "stick_fraction": t["stick_fraction"],
+            "n_stick_slip_events": t["n_stick_slip_events"],
+            "lost_buffers": log.channels.iter().map(|c| c.lost_buffers).sum::<usize>(),
+            "null_samples": log.channels.iter().map(|c| c.null_samples).sum::<usize>(),
+        }));
+    } else {
+        eprintln!(
+            "wrote {} ({}, {} test, {} s, {} bytes); truth in {}",
+            written.log.display(),
+            cfg.format.as_str(),
+            t["test"].as_str().unwrap_or("?"),
+            cfg.test.duration_s(),
+            written.bytes,
+            written.truth.display()
+        );
+    }
+    Ok(())
+}
