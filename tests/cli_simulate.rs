@@ -181,3 +181,29 @@ fn bench_quick_rows() {
     // resolution: agreement to about the tolerance.
     assert!(tight["error"].as_f64().unwrap() < 1e-9);
 }
+
+/// Undamped forcing at the stuck system's eigenfrequency has no steady
+/// state: said so, with null amplitudes, never a huge number.
+#[test]
+fn undamped_resonance_has_no_steady_state() {
+    let eta0 = (2.0f64 / 4.0).sqrt().to_string();
+    let out = bin()
+        .args([
+            "simulate",
+            "--rho-s",
+            "inf",
+            "--damping",
+            "0",
+            "--eta",
+            &eta0,
+            "--steady",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["status"], "resonance");
+    assert_eq!(v["steady"], false);
+    assert!(v["amplitude1"].is_null());
+}

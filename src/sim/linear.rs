@@ -30,6 +30,13 @@ pub fn stuck_response(ab: &Absorber, eta: f64) -> C {
     ab.k / z
 }
 
+/// Whether a closed-form amplitude describes a bounded steady state: an
+/// undamped system forced at an eigenfrequency has none (the dynamic
+/// stiffness is singular to rounding and the "amplitude" is ~1/ε).
+pub fn bounded(amplitude: f64) -> bool {
+    amplitude.is_finite() && amplitude < 1e9
+}
+
 /// Steady amplitudes (A1/A, A2/A) of the frictionless system.
 pub fn free_amplitudes(ab: &Absorber, slope: f64, eta: f64) -> (f64, f64) {
     let (x1, x2) = free_response(ab, slope, eta);

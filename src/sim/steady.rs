@@ -238,6 +238,23 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
             None
         };
         if let Some((a1, a2, x, sf)) = closed {
+            if !linear::bounded(a1.max(a2)) {
+                return Summary {
+                    eta,
+                    tau_end: 0.0,
+                    final_state: [f64::NAN; 4],
+                    events: 0,
+                    amplitude1: None,
+                    amplitude2: None,
+                    steady: false,
+                    period_multiple: None,
+                    stick_fraction: sf,
+                    interrupted: false,
+                    status: "resonance",
+                    reason: Some("undamped forcing at an eigenfrequency: no steady state (the response grows secularly)".into()),
+                    periods: 0,
+                };
+            }
             return Summary {
                 eta,
                 tau_end: 0.0,

@@ -177,6 +177,9 @@ pub fn steady_state(
     // 1. Closed forms.
     if model.law.is_frictionless() {
         let (a1, a2) = linear::free_amplitudes(ab, model.law.slope(), eta);
+        if !linear::bounded(a1.max(a2)) {
+            return Ok((resonant(eta), Init::rest()));
+        }
         let x = linear::free_state(ab, model.law.slope(), eta);
         let p = Point {
             eta,
@@ -204,6 +207,9 @@ pub fn steady_state(
             0.0
         };
         let (a1, _) = linear::stuck_amplitudes(ab, eta);
+        if !linear::bounded(a1) {
+            return Ok((resonant(eta), Init::rest()));
+        }
         let p = Point {
             eta,
             amplitude1: Some(a1),
@@ -313,6 +319,21 @@ pub fn steady_state(
             pt.stick_fraction = (st.stick_time / (w as f64 * t)).clamp(0.0, 1.0);
             Ok((pt, cont))
         }
+    }
+}
+
+/// An undamped linear limit forced at its eigenfrequency: no steady state.
+fn resonant(eta: f64) -> Point {
+    Point {
+        eta,
+        amplitude1: None,
+        amplitude2: None,
+        steady: false,
+        period_multiple: None,
+        stick_fraction: 0.0,
+        interrupted: false,
+        periods: 0,
+        method: "resonance",
     }
 }
 
