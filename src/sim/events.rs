@@ -142,11 +142,17 @@ pub fn hermite_guess(a: f64, fa: f64, da: f64, b: f64, fb: f64, db: f64) -> f64 
         }
         let d = dp(t);
         let n = t - v / d;
-        t = if d != 0.0 && n > lo && n < hi {
+        let next = if d != 0.0 && n > lo && n < hi {
             n
         } else {
             0.5 * (lo + hi)
         };
+        // A first guess only: the solution itself refines it (Halley).
+        let done = (next - t).abs() < 1e-7;
+        t = next;
+        if done {
+            break;
+        }
     }
     a + t * h
 }
