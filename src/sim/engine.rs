@@ -568,13 +568,13 @@ impl Sim {
                     s += h.delta;
                     let tau = n as f64 * t + s;
                     let (z0, _) = self.stick.drive(u, s);
-                    let (kind, next) = match switch(&self.model, mode, h.which, &h.jet.x, z0, tau) {
-                        Switched::Interrupt { x: xi, why } => {
-                            obs.event(&Event {
-                                tau,
-                                kind: EventKind::Interrupt,
-                                x: xi,
-                            });
+                    match apply(
+                        switch(&self.model, mode, h.which, &h.jet.x, z0, tau),
+                        tau,
+                        obs,
+                        &mut events,
+                    ) {
+                        Applied::Stop { x: xi, why } => {
                             stats.add(xi[0], xi[2]);
                             return end(
                                 n,
@@ -582,31 +582,16 @@ impl Sim {
                                 xi,
                                 mode,
                                 Status::Interrupted(why),
-                                events + 1,
+                                events,
                                 stick_time,
                             );
                         }
-                        Switched::To {
-                            x: xn,
-                            kind,
-                            next,
-                            stop_first,
-                        } => {
+                        Applied::Go { x: xn, mode: next } => {
                             x = xn;
-                            if stop_first {
-                                obs.event(&Event {
-                                    tau,
-                                    kind: EventKind::Stick,
-                                    x,
-                                });
-                                events += 1;
-                            }
-                            (kind, next)
+                            mode = next;
                         }
-                    };
+                    }
                     stats.add(x[0], x[2]);
-                    obs.event(&Event { tau, kind, x });
-                    events += 1;
                     period_events += 1;
                     if period_events > MAX_EVENTS_PER_PERIOD {
                         return end(
@@ -621,7 +606,6 @@ impl Sim {
                             stick_time,
                         );
                     }
-                    mode = next;
                 }
             }
         }
@@ -783,6 +767,54 @@ pub fn switch(
                 next,
                 stop_first,
             }
+        }
+    }
+}
+
+/// A switch applied: the run goes on, or stops at an interruption.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) enum Applied {
+    /// Go on from `x` in `mode`.
+    Go { x: [f64; 4], mode: Mode },
+    /// The interruption rule fired at `x`.
+    Stop { x: [f64; 4], why: String },
+}
+
+/// Reports a switch's events to the observer (counting them) and says how
+/// the run goes on; shared by every integrator.
+pub(crate) fn apply<O: Observer + ?Sized>(
+    sw: Switched,
+    tau: f64,
+    obs: &mut O,
+    events: &mut u64,
+) -> Applied {
+    match sw {
+        Switched::Interrupt { x, why } => {
+            obs.event(&Event {
+                tau,
+                kind: EventKind::Interrupt,
+                x,
+            });
+            *events += 1;
+            Applied::Stop { x, why }
+        }
+        Switched::To {
+            x,
+            kind,
+            next,
+            stop_first,
+        } => {
+            if stop_first {
+                obs.event(&Event {
+                    tau,
+                    kind: EventKind::Stick,
+                    x,
+                });
+                *events += 1;
+            }
+            obs.event(&Event { tau, kind, x });
+            *events += 1;
+            Applied::Go { x, mode: next }
         }
     }
 }

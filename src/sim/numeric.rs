@@ -14,8 +14,7 @@
 
 use super::dopri::Dopri5;
 use super::engine::{
-    switch, track_extremum, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd,
-    Status, Switched,
+    apply, switch, track_extremum, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
 };
 use super::events::{self, EventFn, Jet, Switch};
 use super::{linalg, phase::absorber, SimError};
@@ -359,42 +358,27 @@ impl NumericSim {
                     }
                     t = t0 + hit.delta;
                     let (z0, _, _) = self.drive.eval(t);
-                    match switch(&self.model, mode, hit.which, &hit.jet.x, z0, t) {
-                        Switched::Interrupt { x: xi, why } => {
-                            obs.event(&Event {
-                                tau: t,
-                                kind: EventKind::Interrupt,
-                                x: xi,
-                            });
+                    match apply(
+                        switch(&self.model, mode, hit.which, &hit.jet.x, z0, t),
+                        t,
+                        obs,
+                        &mut events,
+                    ) {
+                        Applied::Stop { x: xi, why } => {
                             return end(
                                 t,
                                 n,
                                 xi,
                                 mode,
                                 Status::Interrupted(why),
-                                events + 1,
+                                events,
                                 stick_time,
                             );
                         }
-                        Switched::To {
-                            x: xn,
-                            kind,
-                            next,
-                            stop_first,
-                        } => {
+                        Applied::Go { x: xn, mode: next } => {
                             x = xn;
-                            if stop_first {
-                                obs.event(&Event {
-                                    tau: t,
-                                    kind: EventKind::Stick,
-                                    x,
-                                });
-                                events += 1;
-                            }
-                            stats.add(x[0], x[2]);
-                            obs.event(&Event { tau: t, kind, x });
-                            events += 1;
                             mode = next;
+                            stats.add(x[0], x[2]);
                             f0 = self.rhs(mode, t, &x);
                             h = h.min(h_next).max(self.ode.h_max * 1e-3);
                         }

@@ -7,8 +7,7 @@
 //! are the same physics ([`super::engine::after_slip`]). Errors are O(H⁴).
 
 use super::engine::{
-    net_force, switch, Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
-    Switched,
+    apply, net_force, switch, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
 };
 use super::events;
 use super::SimError;
@@ -205,47 +204,30 @@ impl Rk4 {
                 x = self.step(mode, s, &x, d);
                 s += d;
                 let tau = n as f64 * t + s;
-                let (kind, next) =
-                    match switch(&self.model, mode, which, &x, (self.eta * s).cos(), tau) {
-                        Switched::Interrupt { x: xi, why } => {
-                            obs.event(&Event {
-                                tau,
-                                kind: EventKind::Interrupt,
-                                x: xi,
-                            });
-                            return RunEnd {
-                                status: Status::Interrupted(why),
-                                periods: n,
-                                tau,
-                                x: xi,
-                                mode,
-                                events: events + 1,
-                                stick_time,
-                            };
-                        }
-                        Switched::To {
-                            x: xn,
-                            kind,
-                            next,
-                            stop_first,
-                        } => {
-                            x = xn;
-                            if stop_first {
-                                obs.event(&Event {
-                                    tau,
-                                    kind: EventKind::Stick,
-                                    x,
-                                });
-                                events += 1;
-                            }
-                            (kind, next)
-                        }
-                    };
+                match apply(
+                    switch(&self.model, mode, which, &x, (self.eta * s).cos(), tau),
+                    tau,
+                    obs,
+                    &mut events,
+                ) {
+                    Applied::Stop { x: xi, why } => {
+                        return RunEnd {
+                            status: Status::Interrupted(why),
+                            periods: n,
+                            tau,
+                            x: xi,
+                            mode,
+                            events,
+                            stick_time,
+                        };
+                    }
+                    Applied::Go { x: xn, mode: next } => {
+                        x = xn;
+                        mode = next;
+                    }
+                }
                 st.min = [st.min[0].min(x[0]), st.min[1].min(x[2])];
                 st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
-                obs.event(&Event { tau, kind, x });
-                events += 1;
-                mode = next;
                 fresh = true;
             }
             if obs.period(n + 1, &x, mode, &st) == Flow::Stop {
