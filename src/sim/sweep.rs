@@ -634,7 +634,6 @@ mod tests {
 
     /// The limits in closed form and the proven permanent stick.
     #[test]
-    #[allow(clippy::approx_constant)] // 0.7071 is a test frequency, not 1/√2
     fn limits_and_stick_proof() {
         let ab = Absorber::default();
         for eta in [0.3, 0.7, 1.2] {
