@@ -360,24 +360,8 @@ impl<const N: usize> LinearPhase<N> {
     /// (from the ODE, exact).
     #[inline]
     pub fn derivs(&self, p: &Started<N>, delta: f64, x: &[f64; N]) -> ([f64; N], [f64; N]) {
-        let (z, dz) = self.drive(p.u, p.s0 + delta);
-        let mut d1 = [0.0; N];
-        for i in 0..N {
-            let mut s = self.b[i] * z + p.c[i];
-            for j in 0..N {
-                s += self.a[i][j] * x[j];
-            }
-            d1[i] = s;
-        }
-        let mut d2 = [0.0; N];
-        for i in 0..N {
-            let mut s = self.b[i] * dz;
-            for j in 0..N {
-                s += self.a[i][j] * d1[j];
-            }
-            d2[i] = s;
-        }
-        (d1, d2)
+        let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
+        self.derivs_e(p, x, e)
     }
 }
 
