@@ -14,9 +14,9 @@ bench:
     cargo bench --bench engine
     cargo bench --bench ingest
 
-# The main job on the bundled data (for now: a steady simulation).
+# The main job on the bundled data (for now: fit every characteristic log).
 main:
-    cargo run --release -- simulate --rho-s 0.375 --eta 0.6 --steady
+    cargo run --release -- fit datasets/char_N*.mcap datasets/law_*.mcap
 
 # CI as it runs on a fresh clone.
 ci:
