@@ -162,3 +162,40 @@ fn long_run_invariants() {
         }
     }
 }
+
+/// Grazing: the stuck orbit's contact force touches ρs tangentially. With
+/// ρs a relative 1e-10 below its peak, |F| exceeds ρs only for a time of
+/// order √(2e-10)/η ≈ 2e-5 per period — invisible to a sign test at step
+/// ends — and M2 must break away; with ρs 1e-10 above the peak it must not.
+#[test]
+fn grazing_contact_force_is_detected() {
+    use stickslip::sim::linear;
+    let ab = Absorber::default();
+    for eta in [0.3, 0.9, 1.3] {
+        let x1 = linear::stuck_response(&ab, eta);
+        let fmax = (x1 * num_complex::Complex::new(1.0, eta * ab.damping)).norm();
+        let x0 = linear::stuck_state(&ab, eta, 0.0);
+        let run = |rs: f64| {
+            let m = model(4.0, 1.0, 0.005, Law::coulomb(rs));
+            let mut w = Watch::default();
+            Sim::new(&m, eta).unwrap().run(
+                Init {
+                    x: x0,
+                    mode: Mode::Stick { z2: 0.0 },
+                },
+                3,
+                &mut w,
+            );
+            w.events
+        };
+        assert!(
+            run(fmax * (1.0 - 1e-10)) > 0,
+            "eta {eta}: grazing breakaway missed"
+        );
+        assert_eq!(
+            run(fmax * (1.0 + 1e-10)),
+            0,
+            "eta {eta}: broke away below the threshold"
+        );
+    }
+}
