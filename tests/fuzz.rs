@@ -151,3 +151,27 @@ fn ingest_survives_mutated_logs() {
     );
     assert!(execs > 0);
 }
+
+/// Every input the fuzzer once crashed on, kept in `tests/fuzz-regressions/`:
+/// now a clean error.
+#[test]
+fn fuzz_regressions_are_clean_errors() {
+    let dir = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fuzz-regressions"
+    ));
+    let mut n = 0;
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        let r = std::panic::catch_unwind(|| {
+            read(&p, &IngestOptions::default()).map(|run| run.samples())
+        });
+        assert!(
+            matches!(r, Ok(Err(_))),
+            "{} did not give a clean error",
+            p.display()
+        );
+        n += 1;
+    }
+    assert!(n >= 1);
+}

@@ -20,7 +20,20 @@ fn pq_err(path: &Path, what: &str, e: PolarsError) -> IngestError {
 }
 
 /// Reads a Parquet rig table.
+/// Reads a Parquet log. The Parquet decoder can panic on corrupt metadata
+/// (found by `tests/fuzz.rs`): such a panic is caught and reported as a
+/// corrupt file, never shown to the user as a crash.
 pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
+    match crate::io::guarded(|| read_inner(path)) {
+        Ok(r) => r,
+        Err(msg) => Err(IngestError::invalid(
+            path,
+            format!("corrupt Parquet file (the decoder failed: {msg})"),
+        )),
+    }
+}
+
+fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
     let mut magic = [0u8; 4];
     {
         use std::io::Read;
