@@ -85,26 +85,26 @@ pub fn write_atomic(target: &Path, bytes: &[u8]) -> Result<()> {
     f.commit()
 }
 
-thread_local! {
-    static QUIET_PANICS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
-}
+/// Number of [`guarded`] regions running (in any thread: a decoder's own
+/// worker threads panic too, and their messages must not reach the user).
+static QUIET_PANICS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
 /// Runs `f`, turning a panic inside it (e.g. in a third-party decoder fed a
-/// corrupt file) into `Err(message)`; the panic message is not printed.
-/// Panics elsewhere still print as usual.
+/// corrupt file) into `Err(message)`; panic messages are not printed while
+/// a guarded region runs. Panics outside still print as usual.
 pub fn guarded<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
     static HOOK: std::sync::Once = std::sync::Once::new();
     HOOK.call_once(|| {
         let prev = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            if !QUIET_PANICS.with(|q| q.get()) {
+            if QUIET_PANICS.load(std::sync::atomic::Ordering::SeqCst) == 0 {
                 prev(info)
             }
         }));
     });
-    QUIET_PANICS.with(|q| q.set(true));
+    QUIET_PANICS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
     let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-    QUIET_PANICS.with(|q| q.set(false));
+    QUIET_PANICS.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
     r.map_err(|e| {
         e.downcast_ref::<&str>()
             .map(|s| s.to_string())
