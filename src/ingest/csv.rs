@@ -204,9 +204,9 @@ fn read_preamble(path: &Path) -> Result<Head, IngestError> {
     })
 }
 
-/// The first data line with more fields than the header (naive count), to
-/// point at the spot when the table reader refuses ragged rows.
-fn first_ragged_line(path: &Path, skip: usize, sep: u8, fields: usize) -> Option<usize> {
+/// The first line (1-based) of a file for which `hit(line_number, bytes)`
+/// holds, reading line by line with the preamble's line-length cap.
+fn first_line_where(path: &Path, mut hit: impl FnMut(usize, &[u8]) -> bool) -> Option<usize> {
     let file = std::fs::File::open(path).ok()?;
     let mut reader = std::io::BufReader::new(file);
     let mut buf = Vec::new();
@@ -221,33 +221,24 @@ fn first_ragged_line(path: &Path, skip: usize, sep: u8, fields: usize) -> Option
             return None;
         }
         line += 1;
-        if line > skip + 1 && buf.iter().filter(|&&b| b == sep).count() + 1 > fields {
+        if hit(line, &buf) {
             return Some(line);
         }
     }
 }
 
+/// The first data line with more fields than the header (naive count), to
+/// point at the spot when the table reader refuses ragged rows.
+fn first_ragged_line(path: &Path, skip: usize, sep: u8, fields: usize) -> Option<usize> {
+    first_line_where(path, |line, buf| {
+        line > skip + 1 && buf.iter().filter(|&&b| b == sep).count() + 1 > fields
+    })
+}
+
 /// The first line of a file that is not valid UTF-8, if any (to point at
 /// the spot when the table reader refuses the file).
 fn first_non_utf8_line(path: &Path) -> Option<usize> {
-    let file = std::fs::File::open(path).ok()?;
-    let mut reader = std::io::BufReader::new(file);
-    let mut buf = Vec::new();
-    let mut line = 0;
-    loop {
-        buf.clear();
-        let n = (&mut reader)
-            .take(MAX_PREAMBLE_LINE as u64)
-            .read_until(b'\n', &mut buf)
-            .ok()?;
-        if n == 0 {
-            return None;
-        }
-        line += 1;
-        if std::str::from_utf8(&buf).is_err() {
-            return Some(line);
-        }
-    }
+    first_line_where(path, |_, buf| std::str::from_utf8(buf).is_err())
 }
 
 /// Reads a DAQ CSV export with its channel map (`map`, or the default).

@@ -187,31 +187,11 @@ impl<const N: usize> LinearPhase<N> {
         (e.re, -self.eta * e.im)
     }
 
-    /// Exact state at offset δ from the phase start.
+    /// Exact state at offset δ from the phase start (the first part of
+    /// [`LinearPhase::jet`]).
     #[inline]
     pub fn state(&self, p: &Started<N>, delta: f64) -> [f64; N] {
-        match &self.repr {
-            Repr::Modal {
-                md,
-                xh,
-                terms,
-                nterms,
-            } => {
-                let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
-                let mut x = [0.0; N];
-                for i in 0..N {
-                    x[i] = p.xc[i] + (xh[i] * e).re;
-                }
-                for &(k, w) in &terms[..*nterms] {
-                    let ey = p.y0[k] * (md.lambda[k] * delta).exp() * w;
-                    for (i, xi) in x.iter_mut().enumerate() {
-                        *xi += md.v[i][k].re * ey.re - md.v[i][k].im * ey.im;
-                    }
-                }
-                x
-            }
-            Repr::Expm => self.state_expm(p, delta),
-        }
+        self.jet(p, delta).0
     }
 
     fn state_expm(&self, p: &Started<N>, delta: f64) -> [f64; N] {
@@ -270,7 +250,8 @@ impl<const N: usize> LinearPhase<N> {
             }
             Repr::Expm => {
                 let x = self.state_expm(p, delta);
-                let (d1, d2) = self.derivs(p, delta, &x);
+                let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
+                let (d1, d2) = self.derivs_e(p, &x, e);
                 (x, d1, d2)
             }
         }
@@ -354,14 +335,6 @@ impl<const N: usize> LinearPhase<N> {
             d2[i] = s;
         }
         (d1, d2)
-    }
-
-    /// Time derivatives x' and x'' at offset δ, given the state x there
-    /// (from the ODE, exact).
-    #[inline]
-    pub fn derivs(&self, p: &Started<N>, delta: f64, x: &[f64; N]) -> ([f64; N], [f64; N]) {
-        let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
-        self.derivs_e(p, x, e)
     }
 }
 
