@@ -140,73 +140,30 @@ fn sticks_for(v_s: &[f64], lo: f64, hi: f64, min_len: usize) -> Vec<(usize, usiz
     merged
 }
 
-/// Hinge fit of the raw velocity over `[a, b)`: the breakaway time (samples).
-fn hinge(v: &[f64], a: usize, b: usize) -> Option<f64> {
+/// Least-squares hinge fit over `[a, b)`: for a breakaway time t_b the
+/// finite data are regressed (no intercept) on the two regressors
+/// `reg(i, t_b)` (None: the sample carries no regressor, its residual is the
+/// value itself); t_b minimises the residual sum of squares, first on the
+/// sample grid, then by golden section within ±1 sample. In samples.
+fn hinge_fit(
+    x: &[f64],
+    a: usize,
+    b: usize,
+    reg: impl Fn(usize, f64) -> Option<(f64, f64)>,
+) -> Option<f64> {
     let sse_at = |tb: f64| -> f64 {
-        // LS of v on (t−tb)+ and (t−tb)+² (no intercept: v = 0 while stuck).
         let (mut s11, mut s12, mut s22, mut s1v, mut s2v, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for (i, x) in v.iter().enumerate().take(b).skip(a) {
-            if !x.is_finite() {
+        for (i, v) in x.iter().enumerate().take(b).skip(a) {
+            if !v.is_finite() {
                 continue;
             }
-            let u = (i as f64 - tb).max(0.0);
-            let (p, q) = (u, u * u);
+            svv += v * v;
+            let Some((p, q)) = reg(i, tb) else { continue };
             s11 += p * p;
             s12 += p * q;
             s22 += q * q;
-            s1v += p * x;
-            s2v += q * x;
-            svv += x * x;
-        }
-        let det = s11 * s22 - s12 * s12;
-        if det <= 1e-12 * (s11 * s22).max(1e-300) {
-            if s11 > 0.0 {
-                return svv - s1v * s1v / s11;
-            }
-            return svv;
-        }
-        let c1 = (s22 * s1v - s12 * s2v) / det;
-        let c2 = (s11 * s2v - s12 * s1v) / det;
-        svv - c1 * s1v - c2 * s2v
-    };
-    let mut best = (a as f64, f64::INFINITY);
-    for i in a..b.saturating_sub(3) {
-        let f = sse_at(i as f64);
-        if f < best.1 {
-            best = (i as f64, f);
-        }
-    }
-    if !best.1.is_finite() {
-        return None;
-    }
-    Some(super::contact::golden(
-        best.0 - 1.0,
-        best.0 + 1.0,
-        25,
-        sse_at,
-    ))
-}
-
-/// Hinge fit of the acceleration over `[a, b)`: a = 0 before t_b,
-/// α + β·(t − t_b) after (a jump α for static > dynamic friction, α ≈ 0 for
-/// a smooth start); the breakaway time in samples.
-fn hinge_acc(acc: &[f64], a: usize, b: usize) -> Option<f64> {
-    let sse_at = |tb: f64| -> f64 {
-        let (mut s11, mut s12, mut s22, mut s1v, mut s2v, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        for (i, x) in acc.iter().enumerate().take(b).skip(a) {
-            svv += x * x;
-            let t = i as f64 - tb;
-            // Fractional step at the sample straddling t_b.
-            let h = (t + 0.5).clamp(0.0, 1.0);
-            if h == 0.0 {
-                continue;
-            }
-            let (p, q) = (h, t.max(0.0));
-            s11 += p * p;
-            s12 += p * q;
-            s22 += q * q;
-            s1v += p * x;
-            s2v += q * x;
+            s1v += p * v;
+            s2v += q * v;
         }
         let det = s11 * s22 - s12 * s12;
         if det <= 1e-12 * (s11 * s22).max(1e-300) {
@@ -236,6 +193,27 @@ fn hinge_acc(acc: &[f64], a: usize, b: usize) -> Option<f64> {
         25,
         sse_at,
     ))
+}
+
+/// Hinge fit of the raw velocity over `[a, b)`: v on (t−t_b)₊ and
+/// (t−t_b)₊² (no intercept: v = 0 while stuck); the breakaway time (samples).
+fn hinge(v: &[f64], a: usize, b: usize) -> Option<f64> {
+    hinge_fit(v, a, b, |i, tb| {
+        let u = (i as f64 - tb).max(0.0);
+        Some((u, u * u))
+    })
+}
+
+/// Hinge fit of the acceleration over `[a, b)`: a = 0 before t_b,
+/// α + β·(t − t_b) after (a jump α for static > dynamic friction, α ≈ 0 for
+/// a smooth start); the breakaway time in samples.
+fn hinge_acc(acc: &[f64], a: usize, b: usize) -> Option<f64> {
+    hinge_fit(acc, a, b, |i, tb| {
+        let t = i as f64 - tb;
+        // Fractional step at the sample straddling t_b.
+        let h = (t + 0.5).clamp(0.0, 1.0);
+        (h != 0.0).then_some((h, t.max(0.0)))
+    })
 }
 
 /// Segments a velocity record.
