@@ -34,5 +34,6 @@ pub mod model;
 pub mod report;
 pub mod sim;
 pub mod synth;
+pub mod validate;
 
 pub use error::{Error, Result};
