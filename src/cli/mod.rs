@@ -11,9 +11,11 @@ mod characteristic;
 mod fit;
 mod ingest;
 mod merge;
+mod run;
 mod simulate;
 pub mod sweep;
 mod synth;
+mod validate;
 
 pub use args::ModelArgs;
 
@@ -49,6 +51,10 @@ pub enum Command {
     Fit(fit::FitArgs),
     /// Virtual rig: write a rig log (MCAP, CSV + map, Parquet) from the simulator, with truth.json.
     Synth(synth::SynthArgs),
+    /// The whole pipeline on an experiment plan (ingest, fit, validate, batch) with one HTML report.
+    Run(run::RunArgs),
+    /// Predict a sweep's frequency response with the law fitted on a characteristic log, and score it.
+    Validate(validate::ValidateArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -79,6 +85,12 @@ pub fn main() -> ExitCode {
             Err(e) => Err(e),
         },
         Command::Synth(a) => synth::run(a),
+        Command::Validate(a) => validate::run(a),
+        Command::Run(a) => match run::run(a) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::from(1),
+            Err(e) => Err(e),
+        },
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -16,7 +16,7 @@ use std::sync::Once;
 
 static FONT: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT.call_once(|| {
         let bytes: &'static [u8] = include_bytes!("fonts/DejaVuSans.ttf");
         // The bundled font is valid; a failure would only lose text.
@@ -50,7 +50,7 @@ pub struct FrcFigure {
     pub eta_range: (f64, f64),
 }
 
-fn plot_err(path: &Path, e: impl std::fmt::Display) -> Error {
+pub(crate) fn plot_err(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::Input {
         path: path.to_path_buf(),
         msg: format!("cannot draw the figure: {e}"),
@@ -114,7 +114,7 @@ fn tmp_beside(path: &Path, ext: &str) -> std::path::PathBuf {
 }
 
 /// Colours for up to 16 curves (the paper's families have 7–13).
-fn colour(i: usize, n: usize) -> RGBColor {
+pub(crate) fn colour(i: usize, n: usize) -> RGBColor {
     let t = if n <= 1 {
         0.0
     } else {

@@ -74,3 +74,16 @@ pub struct MeasuredFrc {
     /// Things the user should know.
     pub warnings: Vec<String>,
 }
+
+/// Options of [`measure`] (placeholder until the `frc` branch lands).
+#[derive(Debug, Clone, Default)]
+pub struct FrcOptions {}
+
+/// Measures the frequency response of a sweep log (placeholder until the
+/// `frc` branch lands: always an error).
+pub fn measure(run: &crate::ingest::Run, _opts: &FrcOptions) -> crate::Result<MeasuredFrc> {
+    Err(crate::Error::Input {
+        path: run.source.clone(),
+        msg: "sweep measurement not implemented yet".into(),
+    })
+}

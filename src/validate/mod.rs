@@ -14,3 +14,77 @@
 pub mod batch;
 pub mod frc;
 pub mod predict;
+
+use crate::identify::LogFit;
+use crate::ingest::{RigMeta, Run};
+use crate::Result;
+use frc::{FrcOptions, MeasuredFrc};
+use predict::{PredictOptions, Prediction};
+
+/// Options of [`validate`].
+#[derive(Debug, Clone, Default)]
+pub struct ValidateOptions {
+    /// Measuring the sweep.
+    pub frc: FrcOptions,
+    /// Predictions and bands.
+    pub predict: PredictOptions,
+}
+
+/// A validated law: the measured response of a sweep and its predictions.
+#[derive(Debug, Clone)]
+pub struct Validation {
+    /// The sweep's rig constants.
+    pub rig: RigMeta,
+    /// The measured response.
+    pub measured: MeasuredFrc,
+    /// Predictions, bands, steady-state call and score.
+    pub prediction: Prediction,
+    /// Things the user should know (rig mismatch, measurement, prediction).
+    pub warnings: Vec<String>,
+}
+
+/// Relative difference above which the rig constants of the characteristic
+/// log and the sweep are reported as different rigs.
+const RIG_MISMATCH: f64 = 0.01;
+
+/// Validates the law fitted on a characteristic log (`fit`, of a rig with
+/// constants `fit_rig`) against a sweep log: measures the sweep's response
+/// and predicts it (steady state and replay, with bands).
+pub fn validate(
+    fit: &LogFit,
+    fit_rig: &RigMeta,
+    sweep: &Run,
+    opts: &ValidateOptions,
+) -> Result<Validation> {
+    let measured = frc::measure(sweep, &opts.frc)?;
+    let rig = sweep.rig.clone();
+    let mut warnings = Vec::new();
+    for (name, a, b) in [
+        ("M1", fit_rig.m1_kg, rig.m1_kg),
+        ("M2", fit_rig.m2_kg, rig.m2_kg),
+        ("K1", fit_rig.k1_n_per_m, rig.k1_n_per_m),
+        ("K2", fit_rig.k2_n_per_m, rig.k2_n_per_m),
+    ] {
+        if (a - b).abs() > RIG_MISMATCH * a.abs().max(b.abs()) {
+            warnings.push(format!(
+                "rig constant {name} differs between the characteristic log ({a}) and the sweep ({b}): are they from the same rig?"
+            ));
+        }
+    }
+    let prediction =
+        predict::predict(fit, &rig, &measured, &opts.predict).map_err(|e| match e {
+            crate::Error::Input { msg, .. } => crate::Error::Input {
+                path: sweep.source.clone(),
+                msg,
+            },
+            other => other,
+        })?;
+    warnings.extend(measured.warnings.iter().cloned());
+    warnings.extend(prediction.warnings.iter().cloned());
+    Ok(Validation {
+        rig,
+        measured,
+        prediction,
+        warnings,
+    })
+}

@@ -1,1 +1,768 @@
-//! (in progress)
+//! Predictions of a measured sweep with a fitted law, their 95 % bands,
+//! the steady-state call per step and the score.
+//!
+//! * **Steady state**: the periodic response of the fitted law at each
+//!   measured η, continued from step to step in the order the sweep ran
+//!   (from rest at the first step), as [`crate::sim::sweep::curve`] does.
+//! * **Replay**: the simulator driven through the sweep as it was run
+//!   (the measured frequency plan: dwells exact, ramps numerical, continuous
+//!   drive phase, from rest), with the amplitude taken over each point's own
+//!   measurement window. It predicts unsettled steps too.
+//! * **Bands**: the fit's uncertainty is propagated by re-running both
+//!   predictions for `samples` laws drawn from the fit's 95 % intervals
+//!   (see [`draw_laws`]); the band is the 2.5–97.5 % range of the resulting
+//!   amplitudes at each point (the central prediction included). Runs in
+//!   parallel; the draws come from a fixed seed and are collected in order,
+//!   so the bands do not depend on the thread count.
+//! * **Steady-state call**: a step counts as having reached its steady
+//!   state when the replay's amplitude over its window is within
+//!   [`PredictOptions::steady_tolerance`] of the steady-state prediction
+//!   (both amplitudes) *and* the data's own trend does not say otherwise.
+//!   The replay is the model's view of the transient, the trend the data's.
+//!
+//! Every ρ here is made dimensionless with the *sweep's* measured drive
+//! amplitude: a law fitted on a characteristic log is kept in newtons and
+//! re-scaled ([`Scales`]).
+
+use super::frc::{MeasuredFrc, SweepKind};
+use crate::identify::{LawKind, LogFit, SiLaw};
+use crate::ingest::RigMeta;
+use crate::model::{Absorber, Law, Model, Schedule, Segment};
+use crate::sim::engine::{Init, Observer};
+use crate::sim::numeric::NumericOptions;
+use crate::sim::schedule::{run_schedule, SegmentObserver};
+use crate::sim::sweep::{curve, Direction, SteadyConfig};
+use crate::{Error, Result};
+use rayon::prelude::*;
+use std::f64::consts::PI;
+
+/// The scales that make an SI law dimensionless for one log.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scales {
+    /// A·K2 (N): ρ = R/(A·K2).
+    pub force_n: f64,
+    /// √(K2·M2) (N·s/m): D* = a/√(K2·M2).
+    pub slope_n_s_per_m: f64,
+    /// A·√(K2/M2) (m/s): the unit of a dimensionless velocity.
+    pub velocity_m_per_s: f64,
+}
+
+impl Scales {
+    /// Scales of a rig driven with amplitude `amplitude_m`.
+    pub fn new(rig: &RigMeta, amplitude_m: f64) -> Self {
+        Self {
+            force_n: amplitude_m * rig.k2_n_per_m,
+            slope_n_s_per_m: (rig.k2_n_per_m * rig.m2_kg).sqrt(),
+            velocity_m_per_s: amplitude_m * rig.omega_ref(),
+        }
+    }
+
+    /// The dimensionless law of an SI law (None if a parameter is unknown).
+    pub fn law(&self, l: &SiLaw) -> Option<Law> {
+        let (rs, rd, a) = (
+            l.rs_n / self.force_n,
+            l.rd_n / self.force_n,
+            l.slope_n_s_per_m / self.slope_n_s_per_m,
+        );
+        if !(rs.is_finite() && rd.is_finite() && a.is_finite()) {
+            return None;
+        }
+        let law = match (l.kind, l.vs_m_per_s) {
+            (LawKind::Stribeck, Some(vs)) => Law::Stribeck {
+                rho_s: rs,
+                rho_d: rd,
+                slope: a,
+                v_s: vs / self.velocity_m_per_s,
+            },
+            _ => Law::Linear {
+                rho_s: rs,
+                rho_d: rd.min(rs),
+                slope: a,
+            },
+        };
+        law.validate().ok().map(|_| law)
+    }
+}
+
+/// The absorber (m, k, D) of a rig.
+pub fn absorber(rig: &RigMeta) -> Absorber {
+    Absorber {
+        m: rig.mass_ratio(),
+        k: rig.stiffness_ratio(),
+        damping: rig.damping_ratio(),
+    }
+}
+
+/// Options of the predictions.
+#[derive(Debug, Clone)]
+pub struct PredictOptions {
+    /// Laws drawn from the fit's intervals for the bands (0: no bands).
+    pub samples: usize,
+    /// Seed of the draws.
+    pub seed: u64,
+    /// Steady-state solver settings.
+    pub steady: SteadyConfig,
+    /// Integrator tolerances of the replay's ramps (and Stribeck laws).
+    pub numeric: NumericOptions,
+    /// Relative distance of the replay from the steady state below which a
+    /// step counts as settled (0.03: the rig's own convention in the data
+    /// set's documentation, "within 3 % of the steady state").
+    pub steady_tolerance: f64,
+    /// Trajectory samples per drive period for the replay's amplitudes
+    /// (extremes are refined between samples by cubic Hermite
+    /// interpolation of the exact state and its derivative).
+    pub samples_per_period: u32,
+}
+
+impl Default for PredictOptions {
+    fn default() -> Self {
+        Self {
+            samples: 40,
+            seed: 0x0ba5_e11e,
+            steady: SteadyConfig::default(),
+            numeric: NumericOptions {
+                rtol: 1e-8,
+                atol: 1e-10,
+            },
+            steady_tolerance: 0.03,
+            samples_per_period: 48,
+        }
+    }
+}
+
+/// A predicted response at the measured points with its 95 % band
+/// (`None` where the model interrupts or does not settle).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Predicted {
+    /// η of each point.
+    pub eta: Vec<f64>,
+    /// A1/A.
+    pub amplitude1: Vec<Option<f64>>,
+    /// A2/A.
+    pub amplitude2: Vec<Option<f64>>,
+    /// Band of A1/A: low.
+    pub amplitude1_low: Vec<Option<f64>>,
+    /// Band of A1/A: high.
+    pub amplitude1_high: Vec<Option<f64>>,
+    /// Band of A2/A: low.
+    pub amplitude2_low: Vec<Option<f64>>,
+    /// Band of A2/A: high.
+    pub amplitude2_high: Vec<Option<f64>>,
+}
+
+/// Scores of the predictions against the measured response (steady-state
+/// scores over the steps that reached their steady state; replay scores
+/// over every step; nrms = RMS / measured peak).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Score {
+    /// RMS of predicted − measured A1/A (steady, settled steps).
+    pub rms_amplitude1: Option<f64>,
+    /// RMS of A2/A.
+    pub rms_amplitude2: Option<f64>,
+    /// RMS over the measured peak A1/A.
+    pub nrms_amplitude1: Option<f64>,
+    /// RMS over the measured peak A2/A.
+    pub nrms_amplitude2: Option<f64>,
+    /// η of the predicted A1 peak minus η of the measured one (settled
+    /// steps).
+    pub peak_eta_error: Option<f64>,
+    /// nrms of the replay's A1/A over every point.
+    pub replay_nrms_amplitude1: Option<f64>,
+    /// nrms of the replay's A2/A.
+    pub replay_nrms_amplitude2: Option<f64>,
+    /// Fraction of points whose measured A1/A lies inside the replay band.
+    pub replay_coverage_amplitude1: Option<f64>,
+    /// The same for A2/A.
+    pub replay_coverage_amplitude2: Option<f64>,
+    /// Median relative half-width of the replay's A1 band.
+    pub band_median_rel_halfwidth1: Option<f64>,
+    /// Points scored in the steady-state scores.
+    pub steady_points: usize,
+}
+
+/// Predictions of one sweep with one fitted law.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prediction {
+    /// The dimensionless law used (with the sweep's drive amplitude).
+    pub law: Law,
+    /// The absorber of the sweep's rig.
+    pub absorber: Absorber,
+    /// Steady-state prediction.
+    pub steady: Predicted,
+    /// Replay of the sweep as it was run.
+    pub replay: Predicted,
+    /// The tool's call per point: had it reached its steady state?
+    pub steady_reached: Vec<Option<bool>>,
+    /// The replay's own call: replay within tolerance of the steady state.
+    pub replay_settled: Vec<Option<bool>>,
+    /// Scores.
+    pub score: Score,
+    /// Laws drawn for the bands.
+    pub draws: usize,
+    /// Things the user should know.
+    pub warnings: Vec<String>,
+}
+
+/// A small deterministic generator (SplitMix64) for the draws.
+struct Rng(u64);
+
+impl Rng {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+    fn uniform(&mut self) -> f64 {
+        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
+    /// Standard normal (Box–Muller).
+    fn normal(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
+    }
+}
+
+/// A draw from a split normal with the interval as its 2.5/97.5 % points.
+fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
+    let z = rng.normal();
+    match iv {
+        Some((lo, hi)) if lo.is_finite() && hi.is_finite() => {
+            let s = if z < 0.0 { est - lo } else { hi - est };
+            est + z * s.max(0.0) / 1.96
+        }
+        _ => est,
+    }
+}
+
+/// The central law of a fit (SI) and `n` laws drawn from its uncertainty.
+///
+/// Each parameter is drawn from a split normal whose 2.5 % and 97.5 %
+/// points are the fit's interval ends (the intervals hold the bootstrap
+/// and the calibration budget); parameters are drawn independently (Rs
+/// comes from the breakaways, Rd and the slope from the slip samples).
+/// Where ρs is only bounded (a never-sticking log), Rs is uniform between
+/// its bounds and the central law takes Rs = Rd (the lower bound). The
+/// family's constraints are kept: Coulomb and `decreasing` laws keep
+/// Rs = Rd; a static-dynamic draw keeps Rd ≤ Rs.
+///
+/// A stuck log has no sliding level: an error (nothing to predict with).
+pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>)> {
+    let f = &fit.fit;
+    if f.stuck {
+        return Err(Error::Input {
+            path: std::path::PathBuf::new(),
+            msg: "the characteristic log never slid: only a lower bound on the static friction is known, no sliding level to predict with".into(),
+        });
+    }
+    let mut central = f.law;
+    if f.never_sticks {
+        central.rs_n = central.rd_n;
+    }
+    let tied = matches!(central.kind, LawKind::Coulomb | LawKind::Decreasing);
+    let mut rng = Rng(seed);
+    let mut out = Vec::with_capacity(n);
+    for _ in 0..n {
+        let mut l = central;
+        l.rd_n = split_normal(&mut rng, central.rd_n, fit.rd_interval_n).max(0.0);
+        l.slope_n_s_per_m = if central.slope_n_s_per_m == 0.0 && central.kind != LawKind::Decreasing
+        {
+            0.0
+        } else {
+            split_normal(
+                &mut rng,
+                central.slope_n_s_per_m,
+                fit.slope_interval_n_s_per_m,
+            )
+        };
+        if f.never_sticks {
+            let (lo, hi) = fit.rs_interval_n.unwrap_or((l.rd_n, l.rd_n));
+            l.rs_n = (lo + (hi - lo) * rng.uniform()).max(l.rd_n);
+        } else if tied {
+            l.rs_n = l.rd_n;
+        } else {
+            l.rs_n = split_normal(&mut rng, central.rs_n, fit.rs_interval_n).max(l.rd_n);
+        }
+        out.push(l);
+    }
+    Ok((central, out))
+}
+
+/// The measured frequency plan as a dimensionless [`Schedule`] (τ = ω_ref·t,
+/// ζ0 = x0/A). The rig's x0 = A·sin φ is the engine's cos(φ − π/2).
+pub fn schedule(frc: &MeasuredFrc) -> Result<Schedule> {
+    let w = frc.omega_ref_rad_s;
+    let eta = |f: f64| 2.0 * PI * f / w;
+    let mut segments = Vec::with_capacity(frc.plan.len());
+    for (i, s) in frc.plan.iter().enumerate() {
+        let dur = (s.end_s - s.start_s) * w;
+        if dur.is_nan() || dur <= 0.0 {
+            continue;
+        }
+        let seg = if s.f_start_hz == s.f_end_hz || i == 0 {
+            Segment::Dwell {
+                eta: eta(0.5 * (s.f_start_hz + s.f_end_hz)),
+                duration: dur,
+            }
+        } else {
+            Segment::Ramp {
+                eta: eta(s.f_end_hz),
+                duration: dur,
+            }
+        };
+        segments.push(seg);
+    }
+    if segments.is_empty() {
+        return Err(Error::Input {
+            path: std::path::PathBuf::new(),
+            msg: "the sweep's frequency plan is empty".into(),
+        });
+    }
+    Ok(Schedule {
+        segments,
+        phase: frc.drive_phase_rad - 0.5 * PI,
+        amplitude: 1.0,
+    })
+}
+
+/// Records (max − min)/2 of ζ1 and ζ2 over a list of windows (τ), sampling
+/// the exact trajectory and refining each interior extremum with the cubic
+/// Hermite interpolant of the two bracketing samples.
+struct Windows {
+    /// (τ start, τ end, sample spacing) per window, in time order.
+    windows: Vec<(f64, f64, f64)>,
+    /// Current window and sample index.
+    w: usize,
+    j: u64,
+    /// Per window: [min1, max1, min2, max2].
+    ext: Vec<[f64; 4]>,
+    prev: Option<(f64, [f64; 4], [f64; 4])>,
+}
+
+impl Windows {
+    fn new(windows: Vec<(f64, f64, f64)>) -> Self {
+        let n = windows.len();
+        Self {
+            windows,
+            w: 0,
+            j: 0,
+            ext: vec![
+                [
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY
+                ];
+                n
+            ],
+            prev: None,
+        }
+    }
+
+    fn amplitudes(&self) -> Vec<Option<(f64, f64)>> {
+        self.ext
+            .iter()
+            .map(|e| {
+                let (a1, a2) = (0.5 * (e[1] - e[0]), 0.5 * (e[3] - e[2]));
+                (a1.is_finite() && a2.is_finite()).then_some((a1, a2))
+            })
+            .collect()
+    }
+}
+
+/// Extremes of the cubic Hermite interpolant on [t0, t1] (interior roots
+/// of its derivative).
+fn hermite_extremes(t0: f64, y0: f64, d0: f64, t1: f64, y1: f64, d1: f64) -> [Option<f64>; 2] {
+    let h = t1 - t0;
+    // p(s) = y0 h00 + h d0 h10 + y1 h01 + h d1 h11, s ∈ [0, 1];
+    // p'(s)/… = a s² + b s + c with
+    let (m0, m1) = (h * d0, h * d1);
+    let a = 6.0 * (y0 - y1) + 3.0 * (m0 + m1);
+    let b = -6.0 * (y0 - y1) - 4.0 * m0 - 2.0 * m1;
+    let c = m0;
+    let eval = |s: f64| {
+        let (s2, s3) = (s * s, s * s * s);
+        y0 * (2.0 * s3 - 3.0 * s2 + 1.0)
+            + m0 * (s3 - 2.0 * s2 + s)
+            + y1 * (-2.0 * s3 + 3.0 * s2)
+            + m1 * (s3 - s2)
+    };
+    let mut out = [None, None];
+    let mut push = |s: f64, k: usize| {
+        if s > 0.0 && s < 1.0 {
+            out[k] = Some(eval(s));
+        }
+    };
+    if a.abs() < 1e-14 * (b.abs() + c.abs()).max(1e-300) {
+        if b != 0.0 {
+            push(-c / b, 0);
+        }
+    } else {
+        let disc = b * b - 4.0 * a * c;
+        if disc >= 0.0 {
+            let q = -0.5 * (b + b.signum() * disc.sqrt());
+            push(q / a, 0);
+            if q != 0.0 {
+                push(c / q, 1);
+            }
+        }
+    }
+    out
+}
+
+impl Observer for Windows {
+    fn next_sample(&mut self) -> Option<f64> {
+        let (t0, t1, h) = *self.windows.get(self.w)?;
+        let t = t0 + self.j as f64 * h;
+        Some(t.min(t1))
+    }
+    fn sample(&mut self, tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
+        let Some(&(_, t1, _)) = self.windows.get(self.w) else {
+            return;
+        };
+        let e = &mut self.ext[self.w];
+        let ys = [(x[0], dx[0]), (x[2], dx[2])];
+        for (k, &(y, _)) in ys.iter().enumerate() {
+            e[2 * k] = e[2 * k].min(y);
+            e[2 * k + 1] = e[2 * k + 1].max(y);
+        }
+        if let Some((tp, xp, dxp)) = self.prev {
+            for (k, &(y, d)) in ys.iter().enumerate() {
+                let i = 2 * k;
+                for v in hermite_extremes(tp, xp[i], dxp[i], tau, y, d)
+                    .into_iter()
+                    .flatten()
+                {
+                    e[2 * k] = e[2 * k].min(v);
+                    e[2 * k + 1] = e[2 * k + 1].max(v);
+                }
+            }
+        }
+        if tau >= t1 {
+            self.w += 1;
+            self.j = 0;
+            self.prev = None;
+        } else {
+            self.j += 1;
+            self.prev = Some((tau, *x, *dx));
+        }
+    }
+    fn wants_extremes(&self) -> bool {
+        false
+    }
+}
+
+impl SegmentObserver for Windows {}
+
+/// Amplitudes (A1/A, A2/A) per point; None where the model gives none.
+type Amps = Vec<Option<(f64, f64)>>;
+
+/// Replays the sweep with one law: amplitudes over each point's window.
+fn replay_one(
+    model: &Model,
+    sched: &Schedule,
+    windows: &[(f64, f64, f64)],
+    opts: &PredictOptions,
+) -> Vec<Option<(f64, f64)>> {
+    let mut obs = Windows::new(windows.to_vec());
+    match run_schedule(model, sched, Init::rest(), opts.numeric, &mut obs) {
+        // An interruption ends the run: the windows after it stay empty.
+        Ok(_) => obs.amplitudes(),
+        Err(_) => vec![None; windows.len()],
+    }
+}
+
+fn steady_one(model: &Model, etas: &[f64], opts: &PredictOptions) -> Vec<Option<(f64, f64)>> {
+    match curve(model, etas, Direction::Up, &opts.steady) {
+        Ok(points) => points
+            .into_iter()
+            .map(|p| match (p.amplitude1, p.amplitude2) {
+                (Some(a1), Some(a2)) if p.steady => Some((a1, a2)),
+                _ => None,
+            })
+            .collect(),
+        Err(_) => vec![None; etas.len()],
+    }
+}
+
+/// Linear-interpolated percentile of sorted values.
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    let x = p * (sorted.len() - 1) as f64;
+    let (i, f) = (x.floor() as usize, x - x.floor());
+    if i + 1 < sorted.len() {
+        sorted[i] * (1.0 - f) + sorted[i + 1] * f
+    } else {
+        sorted[i]
+    }
+}
+
+/// Central values and the 2.5–97.5 % band (over the central run and the
+/// draws) per point. A band needs at least half of the draws.
+fn banded(
+    etas: &[f64],
+    central: &[Option<(f64, f64)>],
+    draws: &[Vec<Option<(f64, f64)>>],
+) -> Predicted {
+    let mut p = Predicted {
+        eta: etas.to_vec(),
+        ..Predicted::default()
+    };
+    for i in 0..etas.len() {
+        let c = central[i];
+        p.amplitude1.push(c.map(|v| v.0));
+        p.amplitude2.push(c.map(|v| v.1));
+        let mut v1: Vec<f64> = Vec::with_capacity(draws.len() + 1);
+        let mut v2: Vec<f64> = Vec::with_capacity(draws.len() + 1);
+        for (a1, a2) in std::iter::once(c)
+            .chain(draws.iter().map(|d| d[i]))
+            .flatten()
+        {
+            v1.push(a1);
+            v2.push(a2);
+        }
+        if draws.is_empty() || v1.len() * 2 < draws.len() + 1 {
+            p.amplitude1_low.push(None);
+            p.amplitude1_high.push(None);
+            p.amplitude2_low.push(None);
+            p.amplitude2_high.push(None);
+            continue;
+        }
+        v1.sort_by(f64::total_cmp);
+        v2.sort_by(f64::total_cmp);
+        p.amplitude1_low.push(Some(percentile(&v1, 0.025)));
+        p.amplitude1_high.push(Some(percentile(&v1, 0.975)));
+        p.amplitude2_low.push(Some(percentile(&v2, 0.025)));
+        p.amplitude2_high.push(Some(percentile(&v2, 0.975)));
+    }
+    p
+}
+
+fn rms(pairs: &[(f64, f64)]) -> Option<f64> {
+    (!pairs.is_empty()).then(|| {
+        (pairs.iter().map(|(p, m)| (p - m).powi(2)).sum::<f64>() / pairs.len() as f64).sqrt()
+    })
+}
+
+/// Predicts the measured sweep `frc` (of a rig with constants `rig`) with
+/// the law fitted in `fit`, with bands, the steady-state call and scores.
+pub fn predict(
+    fit: &LogFit,
+    rig: &RigMeta,
+    frc: &MeasuredFrc,
+    opts: &PredictOptions,
+) -> Result<Prediction> {
+    if frc.points.is_empty() {
+        return Err(Error::Input {
+            path: std::path::PathBuf::new(),
+            msg: "the sweep has no measured points".into(),
+        });
+    }
+    let scales = Scales::new(rig, frc.drive_amplitude_m);
+    let absorber = absorber(rig);
+    let (central, draws) = draw_laws(fit, opts.samples, opts.seed)?;
+    let mut warnings = Vec::new();
+    let to_model = |l: &SiLaw| {
+        scales.law(l).map(|law| Model {
+            absorber,
+            law,
+            stop_below: None,
+        })
+    };
+    let Some(model) = to_model(&central) else {
+        return Err(Error::Input {
+            path: std::path::PathBuf::new(),
+            msg: "the fitted law is not a valid friction law at the sweep's drive amplitude".into(),
+        });
+    };
+    let models: Vec<Model> = draws.iter().filter_map(to_model).collect();
+    if models.len() < draws.len() {
+        warnings.push(format!(
+            "{} of {} drawn laws were invalid and skipped",
+            draws.len() - models.len(),
+            draws.len()
+        ));
+    }
+    let etas: Vec<f64> = frc.points.iter().map(|p| p.eta).collect();
+    let sched = schedule(frc)?;
+    let w = frc.omega_ref_rad_s;
+    let per = opts.samples_per_period.max(8) as f64;
+    let windows: Vec<(f64, f64, f64)> = frc
+        .points
+        .iter()
+        .map(|p| {
+            let h = 2.0 * PI / p.eta / per;
+            (p.window_s.0 * w, p.window_s.1 * w, h)
+        })
+        .collect();
+
+    // Central run and draws, in parallel; collected in order.
+    let all: Vec<&Model> = std::iter::once(&model).chain(models.iter()).collect();
+    let runs: Vec<(Amps, Amps)> = all
+        .par_iter()
+        .map(|m| {
+            (
+                steady_one(m, &etas, opts),
+                replay_one(m, &sched, &windows, opts),
+            )
+        })
+        .collect();
+    let (c_steady, c_replay) = &runs[0];
+    let d_steady: Vec<_> = runs[1..].iter().map(|r| r.0.clone()).collect();
+    let d_replay: Vec<_> = runs[1..].iter().map(|r| r.1.clone()).collect();
+    let steady = banded(&etas, c_steady, &d_steady);
+    let replay = banded(&etas, c_replay, &d_replay);
+
+    // The steady-state call.
+    let tol = opts.steady_tolerance;
+    let mut replay_settled = Vec::with_capacity(etas.len());
+    let mut steady_reached = Vec::with_capacity(etas.len());
+    for (i, p) in frc.points.iter().enumerate() {
+        let r = match (c_replay[i], c_steady[i]) {
+            (Some((r1, r2)), Some((s1, s2))) => {
+                let close = |r: f64, s: f64| (r - s).abs() <= tol * s.abs().max(1e-9);
+                Some(close(r1, s1) && close(r2, s2))
+            }
+            _ => None,
+        };
+        replay_settled.push(r);
+        let call = match (r, p.settled) {
+            (Some(false), _) | (_, Some(false)) => Some(false),
+            (Some(true), _) => Some(true),
+            (None, data) => data,
+        };
+        steady_reached.push(if frc.kind == SweepKind::Continuous {
+            r
+        } else {
+            call
+        });
+    }
+
+    let score = score(frc, &steady, &replay, &steady_reached);
+    if score.steady_points == 0 {
+        warnings.push("no step reached its steady state: the steady-state scores are null".into());
+    }
+    Ok(Prediction {
+        law: model.law,
+        absorber,
+        steady,
+        replay,
+        steady_reached,
+        replay_settled,
+        score,
+        draws: models.len(),
+        warnings,
+    })
+}
+
+/// The scores (see [`Score`]).
+pub fn score(
+    frc: &MeasuredFrc,
+    steady: &Predicted,
+    replay: &Predicted,
+    steady_reached: &[Option<bool>],
+) -> Score {
+    let m1: Vec<f64> = frc.points.iter().map(|p| p.amplitude1).collect();
+    let m2: Vec<f64> = frc.points.iter().map(|p| p.amplitude2).collect();
+    let settled: Vec<usize> = (0..m1.len())
+        .filter(|&i| steady_reached[i] == Some(true))
+        .collect();
+    let pairs = |pred: &[Option<f64>], meas: &[f64], idx: &mut dyn Iterator<Item = usize>| {
+        idx.filter_map(|i| pred[i].map(|p| (p, meas[i])))
+            .collect::<Vec<_>>()
+    };
+    let peak = |meas: &[f64], idx: &[usize]| {
+        idx.iter()
+            .map(|&i| meas[i])
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    let s1 = pairs(&steady.amplitude1, &m1, &mut settled.iter().copied());
+    let s2 = pairs(&steady.amplitude2, &m2, &mut settled.iter().copied());
+    let all: Vec<usize> = (0..m1.len()).collect();
+    let r1 = pairs(&replay.amplitude1, &m1, &mut all.iter().copied());
+    let r2 = pairs(&replay.amplitude2, &m2, &mut all.iter().copied());
+    let nrms = |r: Option<f64>, pk: f64| r.filter(|_| pk > 0.0).map(|r| r / pk);
+    let (pk1s, pk2s) = (peak(&m1, &settled), peak(&m2, &settled));
+    let (pk1, pk2) = (peak(&m1, &all), peak(&m2, &all));
+    let argmax = |v: &mut dyn Iterator<Item = (usize, f64)>| {
+        v.fold(None, |b: Option<(usize, f64)>, (i, x)| match b {
+            Some((_, bx)) if bx >= x => b,
+            _ => Some((i, x)),
+        })
+        .map(|(i, _)| i)
+    };
+    let pm = argmax(&mut settled.iter().map(|&i| (i, m1[i])));
+    let pp = argmax(
+        &mut settled
+            .iter()
+            .filter_map(|&i| steady.amplitude1[i].map(|a| (i, a))),
+    );
+    let eta = |i: usize| frc.points[i].eta;
+    let coverage = |lo: &[Option<f64>], hi: &[Option<f64>], meas: &[f64]| {
+        let n = meas.len();
+        (n > 0).then(|| {
+            (0..n)
+                .filter(|&i| matches!((lo[i], hi[i]), (Some(l), Some(h)) if meas[i] >= l && meas[i] <= h))
+                .count() as f64
+                / n as f64
+        })
+    };
+    let mut half: Vec<f64> = (0..m1.len())
+        .filter_map(|i| {
+            match (
+                replay.amplitude1_low[i],
+                replay.amplitude1_high[i],
+                replay.amplitude1[i],
+            ) {
+                (Some(l), Some(h), Some(c)) if c > 0.0 => Some(0.5 * (h - l) / c),
+                _ => None,
+            }
+        })
+        .collect();
+    half.sort_by(f64::total_cmp);
+    Score {
+        rms_amplitude1: rms(&s1),
+        rms_amplitude2: rms(&s2),
+        nrms_amplitude1: nrms(rms(&s1), pk1s),
+        nrms_amplitude2: nrms(rms(&s2), pk2s),
+        peak_eta_error: match (pp, pm) {
+            (Some(a), Some(b)) => Some(eta(a) - eta(b)),
+            _ => None,
+        },
+        replay_nrms_amplitude1: nrms(rms(&r1), pk1),
+        replay_nrms_amplitude2: nrms(rms(&r2), pk2),
+        replay_coverage_amplitude1: coverage(&replay.amplitude1_low, &replay.amplitude1_high, &m1),
+        replay_coverage_amplitude2: coverage(&replay.amplitude2_low, &replay.amplitude2_high, &m2),
+        band_median_rel_halfwidth1: (!half.is_empty()).then(|| percentile(&half, 0.5)),
+        steady_points: settled.len(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Hermite extremum of samples of a cosine is its true maximum to
+    /// the interpolation error O(h⁴).
+    #[test]
+    fn hermite_extremum_of_a_cosine() {
+        let (t0, t1) = (-0.1, 0.15);
+        let e = hermite_extremes(t0, t0.cos(), -t0.sin(), t1, t1.cos(), -t1.sin());
+        let v = e.into_iter().flatten().fold(f64::NEG_INFINITY, f64::max);
+        assert!((v - 1.0).abs() < 1e-5, "{v}");
+        // No interior extremum on a monotone piece.
+        let (t0, t1) = (0.2, 0.4);
+        let e = hermite_extremes(t0, t0.cos(), -t0.sin(), t1, t1.cos(), -t1.sin());
+        assert!(e.iter().all(|x| x.is_none()), "{e:?}");
+    }
+
+    /// Percentiles interpolate linearly between order statistics.
+    #[test]
+    fn percentiles() {
+        let v = [1.0, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(percentile(&v, 0.5), 3.0);
+        assert_eq!(percentile(&v, 0.0), 1.0);
+        assert_eq!(percentile(&v, 1.0), 5.0);
+        assert!((percentile(&v, 0.025) - 1.1).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,246 @@
+//! `stickslip validate`: fit the law of a characteristic log, predict a
+//! sweep log's frequency response with it (steady state and replay, with
+//! 95 % bands), score it, and optionally write an HTML report.
+
+use crate::identify::{self, IdentifyOptions, LogFit};
+use crate::ingest::{self, IngestOptions, Run};
+use crate::report::{html, validation_plot, views};
+use crate::validate::{self, ValidateOptions, Validation};
+use clap::Args;
+use serde_json::{json, Value};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Arguments of `stickslip validate`.
+#[derive(Debug, Args)]
+pub struct ValidateArgs {
+    /// Characteristic log whose fitted law is validated.
+    #[arg(long)]
+    pub characteristic: PathBuf,
+    /// Sweep log (stepped or continuous) to predict.
+    #[arg(long)]
+    pub sweep: PathBuf,
+    /// Write an HTML report (index.html and SVG figures) into this directory.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write the JSON result to this file (atomically).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Laws drawn from the fit's uncertainty for the 95 % bands (0: none).
+    #[arg(long, default_value_t = 40)]
+    pub samples: usize,
+    /// Relative gain uncertainty of each sensor in the calibration budget.
+    #[arg(long, default_value_t = 0.01)]
+    pub gain_uncertainty: f64,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn list(v: &[Option<f64>]) -> Value {
+    Value::Array(
+        v.iter()
+            .map(|x| x.map_or(Value::Null, super::fit::num))
+            .collect(),
+    )
+}
+
+fn predicted_json(p: &validate::predict::Predicted) -> Value {
+    json!({
+        "eta": p.eta.iter().map(|&x| super::fit::num(x)).collect::<Vec<_>>(),
+        "amplitude1": list(&p.amplitude1),
+        "amplitude2": list(&p.amplitude2),
+        "amplitude1_low": list(&p.amplitude1_low),
+        "amplitude1_high": list(&p.amplitude1_high),
+        "amplitude2_low": list(&p.amplitude2_low),
+        "amplitude2_high": list(&p.amplitude2_high),
+    })
+}
+
+/// The JSON object of one validation (interface keys plus details).
+pub(crate) fn validation_json(
+    char_log: &Path,
+    sweep_log: &Path,
+    f: &LogFit,
+    v: &Validation,
+) -> Value {
+    let m = &v.measured;
+    let p = &v.prediction;
+    let s = &p.score;
+    let opt = |x: Option<f64>| x.map_or(Value::Null, super::fit::num);
+    let bools = |b: &[Option<bool>]| {
+        b.iter()
+            .map(|x| x.map_or(Value::Null, Value::Bool))
+            .collect::<Vec<_>>()
+    };
+    json!({
+        "characteristic": char_log.display().to_string(),
+        "sweep": sweep_log.display().to_string(),
+        "fit": super::fit::entry(char_log, f),
+        "sweep_kind": match m.kind { validate::frc::SweepKind::Stepped => "stepped", validate::frc::SweepKind::Continuous => "continuous" },
+        "direction": m.direction.as_str(),
+        "drive_amplitude_m": super::fit::num(m.drive_amplitude_m),
+        "law_at_sweep": {
+            "law": p.law.name(),
+            "rho_s": super::fit::num(p.law.rho_s()),
+            "rho_d": super::fit::num(p.law.rho_d()),
+            "slope": super::fit::num(p.law.slope()),
+        },
+        "measured": {
+            "eta": m.points.iter().map(|q| super::fit::num(q.eta)).collect::<Vec<_>>(),
+            "frequency_hz": m.points.iter().map(|q| super::fit::num(q.frequency_hz)).collect::<Vec<_>>(),
+            "amplitude1": m.points.iter().map(|q| super::fit::num(q.amplitude1)).collect::<Vec<_>>(),
+            "amplitude2": m.points.iter().map(|q| super::fit::num(q.amplitude2)).collect::<Vec<_>>(),
+            "steady_reached": bools(&p.steady_reached),
+            "settled_data": bools(&m.points.iter().map(|q| q.settled).collect::<Vec<_>>()),
+            "rel_change": list(&m.points.iter().map(|q| q.rel_change).collect::<Vec<_>>()),
+            "window_s": m.points.iter().map(|q| json!([q.window_s.0, q.window_s.1])).collect::<Vec<_>>(),
+        },
+        "predicted": predicted_json(&p.steady),
+        "replay": predicted_json(&p.replay),
+        "replay_settled": bools(&p.replay_settled),
+        "score": {
+            "rms_amplitude1": opt(s.rms_amplitude1),
+            "rms_amplitude2": opt(s.rms_amplitude2),
+            "nrms_amplitude1": opt(s.nrms_amplitude1),
+            "nrms_amplitude2": opt(s.nrms_amplitude2),
+            "peak_eta_error": opt(s.peak_eta_error),
+            "replay_nrms_amplitude1": opt(s.replay_nrms_amplitude1),
+            "replay_nrms_amplitude2": opt(s.replay_nrms_amplitude2),
+            "replay_coverage_amplitude1": opt(s.replay_coverage_amplitude1),
+            "replay_coverage_amplitude2": opt(s.replay_coverage_amplitude2),
+            "band_median_rel_halfwidth1": opt(s.band_median_rel_halfwidth1),
+            "steady_points": s.steady_points,
+            "points": m.points.len(),
+        },
+        "draws": p.draws,
+        "warnings": v.warnings,
+    })
+}
+
+/// Reads two logs in parallel.
+pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
+    let (ra, rb) = rayon::join(
+        || ingest::read(a, &IngestOptions::default()),
+        || ingest::read(b, &IngestOptions::default()),
+    );
+    Ok((ra?, rb?))
+}
+
+/// Writes the validation figure and returns its view for the report.
+pub(crate) fn validation_section(
+    dir: &html::ReportDir,
+    char_log: &Path,
+    sweep_log: &Path,
+    f: &LogFit,
+    v: &Validation,
+) -> crate::Result<html::ValidationView> {
+    let name = format!("frc_{}.svg", html::stem(sweep_log));
+    let title = format!(
+        "{} with the law of {}",
+        sweep_log
+            .file_name()
+            .map_or("sweep".into(), |n| n.to_string_lossy()),
+        char_log
+            .file_name()
+            .map_or("log".into(), |n| n.to_string_lossy())
+    );
+    validation_plot::validation_figure(&title, &v.measured, &v.prediction, &dir.file(&name)?)?;
+    Ok(views::validation_view(
+        sweep_log,
+        char_log,
+        f,
+        v,
+        "equation-error",
+        name,
+    ))
+}
+
+/// Runs `validate`.
+pub fn run(args: ValidateArgs) -> crate::Result<()> {
+    if !(args.gain_uncertainty.is_finite() && (0.0..0.5).contains(&args.gain_uncertainty)) {
+        return Err(crate::Error::Input {
+            path: PathBuf::from("--gain-uncertainty"),
+            msg: "must be a finite fraction in [0, 0.5)".into(),
+        });
+    }
+    let t0 = Instant::now();
+    let say = |msg: &str| {
+        if !args.json {
+            eprintln!("{msg}");
+        }
+    };
+    say("reading logs");
+    let (char_run, sweep_run) = read_pair(&args.characteristic, &args.sweep)?;
+    say("fitting the friction law");
+    let opts = IdentifyOptions {
+        gain_uncertainty: args.gain_uncertainty,
+        ..IdentifyOptions::default()
+    };
+    let fit = identify::fit_log(&char_run, &opts)?;
+    say(&format!(
+        "measuring the sweep and predicting it ({} laws for the bands)",
+        args.samples
+    ));
+    let mut vo = ValidateOptions::default();
+    vo.predict.samples = args.samples;
+    let v = validate::validate(&fit, &char_run.rig, &sweep_run, &vo)?;
+    let mut out = validation_json(&args.characteristic, &args.sweep, &fit, &v);
+    out["seconds"] = json!(t0.elapsed().as_secs_f64());
+    if let Some(dir) = &args.report {
+        let inputs = [args.characteristic.clone(), args.sweep.clone()];
+        let rd = html::ReportDir::create(dir, &inputs)?;
+        let section = validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
+        let fv = views::fit_view(
+            &args.characteristic,
+            &fit,
+            char_run.rig.notes.as_deref(),
+            None,
+        );
+        let page = html::Page {
+            title: format!("Validation of {}", args.sweep.display()),
+            version: env!("CARGO_PKG_VERSION").into(),
+            command: std::env::args().collect::<Vec<_>>().join(" "),
+            summary: vec![],
+            warnings: vec![],
+            batch: None,
+            validations: vec![section],
+            fits: vec![fv],
+            inputs: inputs
+                .iter()
+                .map(|p| html::input_file(p))
+                .collect::<crate::Result<_>>()?,
+        };
+        let index = rd.write_page(&page)?;
+        say(&format!("report: {}", index.display()));
+    }
+    if let Some(path) = &args.out {
+        let text = serde_json::to_string_pretty(&out).map_err(|e| crate::Error::Input {
+            path: path.clone(),
+            msg: e.to_string(),
+        })?;
+        crate::io::write_atomic(path, text.as_bytes())?;
+    }
+    if args.json {
+        super::print_json(&out);
+    } else {
+        let s = &v.prediction.score;
+        let pc = |x: Option<f64>| x.map_or("-".into(), |v| format!("{:.1} %", v * 100.0));
+        eprintln!(
+            "{} steps, {} reached steady state; steady nrms A1 {}, A2 {}; replay nrms A1 {}, A2 {}; replay band coverage A1 {}, A2 {} ({:.2} s)",
+            v.measured.points.len(),
+            s.steady_points,
+            pc(s.nrms_amplitude1),
+            pc(s.nrms_amplitude2),
+            pc(s.replay_nrms_amplitude1),
+            pc(s.replay_nrms_amplitude2),
+            pc(s.replay_coverage_amplitude1),
+            pc(s.replay_coverage_amplitude2),
+            t0.elapsed().as_secs_f64()
+        );
+        for w in &v.warnings {
+            eprintln!("warning: {w}");
+        }
+    }
+    Ok(())
+}
