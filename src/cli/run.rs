@@ -192,7 +192,7 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
             &runs[&pair.characteristic],
             &runs[&pair.sweep],
         ) {
-            (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, &cr.rig, sr, &vopts),
+            (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, cr, sr, &vopts),
             (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => Err(crate::Error::Input {
                 path: pair.sweep.clone(),
                 msg: format!("not validated: {e}"),

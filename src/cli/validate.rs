@@ -184,7 +184,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     ));
     let mut vo = ValidateOptions::default();
     vo.predict.samples = args.samples;
-    let v = validate::validate(&fit, &char_run.rig, &sweep_run, &vo)?;
+    let v = validate::validate(&fit, &char_run, &sweep_run, &vo)?;
     let mut out = validation_json(&args.characteristic, &args.sweep, &fit, &v);
     out["seconds"] = json!(t0.elapsed().as_secs_f64());
     if let Some(dir) = &args.report {

@@ -47,15 +47,22 @@ pub struct Validation {
 /// log and the sweep are reported as different rigs.
 const RIG_MISMATCH: f64 = 0.01;
 
-/// Validates the law fitted on a characteristic log (`fit`, of a rig with
-/// constants `fit_rig`) against a sweep log: measures the sweep's response
+/// Validates the law fitted on a characteristic log (`fit` of the log
+/// `characteristic`) against a sweep log: measures the sweep's response
 /// and predicts it (steady state and replay, with bands).
 pub fn validate(
     fit: &LogFit,
-    fit_rig: &RigMeta,
+    characteristic: &Run,
     sweep: &Run,
     opts: &ValidateOptions,
 ) -> Result<Validation> {
+    if fit.fit.stuck {
+        return Err(crate::Error::Input {
+            path: characteristic.source.clone(),
+            msg: "the mass never slid in this characteristic log: only a lower bound on the static friction is known, no sliding level to predict a sweep with".into(),
+        });
+    }
+    let fit_rig = &characteristic.rig;
     let measured = frc::measure(sweep, &opts.frc)?;
     let rig = sweep.rig.clone();
     let mut warnings = Vec::new();

@@ -552,6 +552,19 @@ pub fn predict(
     frc: &MeasuredFrc,
     opts: &PredictOptions,
 ) -> Result<Prediction> {
+    let (central, draws) = draw_laws(fit, opts.samples, opts.seed)?;
+    predict_with(&central, &draws, rig, frc, opts)
+}
+
+/// Predicts the measured sweep `frc` with the SI law `central`, the band
+/// from the laws `draws` (empty: no band).
+pub fn predict_with(
+    central: &SiLaw,
+    draws: &[SiLaw],
+    rig: &RigMeta,
+    frc: &MeasuredFrc,
+    opts: &PredictOptions,
+) -> Result<Prediction> {
     if frc.points.is_empty() {
         return Err(Error::Input {
             path: std::path::PathBuf::new(),
@@ -560,7 +573,6 @@ pub fn predict(
     }
     let scales = Scales::new(rig, frc.drive_amplitude_m);
     let absorber = absorber(rig);
-    let (central, draws) = draw_laws(fit, opts.samples, opts.seed)?;
     let mut warnings = Vec::new();
     let to_model = |l: &SiLaw| {
         scales.law(l).map(|law| Model {
@@ -569,7 +581,7 @@ pub fn predict(
             stop_below: None,
         })
     };
-    let Some(model) = to_model(&central) else {
+    let Some(model) = to_model(central) else {
         return Err(Error::Input {
             path: std::path::PathBuf::new(),
             msg: "the fitted law is not a valid friction law at the sweep's drive amplitude".into(),
