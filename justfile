@@ -14,9 +14,15 @@ bench:
     cargo bench --bench engine
     cargo bench --bench ingest
 
-# The main job on the bundled data (for now: fit every characteristic log).
+# The main job: the whole pipeline on the bundled data set's plan
+# (ingest -> fit -> validate -> batch), report in reports/index.html.
 main:
-    cargo run --release -- fit datasets/char_N*.mcap datasets/law_*.mcap
+    cargo run --release -- run datasets/plan.toml --report reports
+
+# Render the report in headless Chromium (Debian: apt install chromium) and
+# save a screenshot to look at.
+screenshot:
+    chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --window-size=1200,4000 --screenshot=reports/screenshot.png "file://$(pwd)/reports/index.html"
 
 # CI as it runs on a fresh clone.
 ci:
