@@ -58,6 +58,151 @@ fn true_law(t: &Value) -> SiLaw {
     }
 }
 
+/// The measured response of the stepped sweeps matches the truth: within
+/// 2 % (or 0.01 absolute near zero) at every step that had settled
+/// (`steady_state_reached` or `settled_rel_change` < 0.005), within 5 % at
+/// the others; η within 0.1 % of the truth's; the drive amplitude within
+/// 0.5 % of the true one.
+#[test]
+fn stepped_sweeps_are_measured_like_the_truth() {
+    for name in ["sweep_stepped_N4.mcap", "sweep_stepped_N7.2.mcap"] {
+        let t = &truth()["files"][name];
+        let run = ingest::read(&data(name), &IngestOptions::default()).unwrap();
+        let m = frc::measure(&run, &FrcOptions::default()).unwrap();
+        let resp = t["response"].as_array().unwrap();
+        assert_eq!(m.points.len(), resp.len(), "{name}: one point per setpoint");
+        let a_true = f(&t["drive_amplitude_true_m"]);
+        let a_err = m.drive_amplitude_m / a_true - 1.0;
+        eprintln!("{name}: drive amplitude {:+.3} %", a_err * 100.0);
+        assert!(a_err.abs() < 0.005, "{name}: drive amplitude {a_err}");
+        let mut worst = (0.0f64, 0.0f64);
+        for (p, r) in m.points.iter().zip(resp) {
+            let settled = r["steady_state_reached"].as_bool() == Some(true)
+                || f(&r["settled_rel_change"]) < 0.005;
+            let tol = if settled { 0.02 } else { 0.05 };
+            let eta_err = p.eta / f(&r["eta"]) - 1.0;
+            assert!(eta_err.abs() < 1e-3, "{name}: η {} vs {}", p.eta, r["eta"]);
+            for (meas, key) in [(p.amplitude1, "a1"), (p.amplitude2, "a2")] {
+                let tr = f(&r[key]);
+                let err = (meas - tr).abs();
+                let ok = err <= tol * tr || err <= 0.01;
+                eprintln!(
+                    "{name} {:.3} Hz {key}: measured {meas:.4} truth {tr:.4} ({:+.2} %) settled {settled} call {:?} rel {:?}",
+                    p.frequency_hz,
+                    (meas / tr - 1.0) * 100.0,
+                    p.settled,
+                    p.rel_change
+                );
+                assert!(
+                    ok,
+                    "{name} at {} Hz: {key} {meas} vs truth {tr}",
+                    p.frequency_hz
+                );
+                if tr > 0.05 {
+                    let k = usize::from(!settled);
+                    let e = (meas / tr - 1.0).abs();
+                    if k == 0 {
+                        worst.0 = worst.0.max(e)
+                    } else {
+                        worst.1 = worst.1.max(e)
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "{name}: worst relative error settled {:.3} %, unsettled {:.3} %",
+            worst.0 * 100.0,
+            worst.1 * 100.0
+        );
+    }
+}
+
+/// The continuous sweep: the amplitude estimator over the truth's windows
+/// (three drive periods centred on `t_s`) matches the truth's `a1`, `a2`
+/// within 2 % (0.01 absolute near zero); the per-period points' frequencies
+/// follow the truth's, and each per-period amplitude lies within the
+/// truth's amplitude over a window that contains it (a sub-window cannot
+/// exceed it; 0.5 % noise allowance).
+#[test]
+fn continuous_sweep_is_measured_like_the_truth() {
+    let name = "sweep_continuous_N4.mcap";
+    let t = &truth()["files"][name];
+    let run = ingest::read(&data(name), &IngestOptions::default()).unwrap();
+    let m = frc::measure(&run, &FrcOptions::default()).unwrap();
+    let a_true = f(&t["drive_amplitude_true_m"]);
+    let a_err = m.drive_amplitude_m / a_true - 1.0;
+    assert!(a_err.abs() < 0.005, "drive amplitude {a_err}");
+    let resp = t["response"].as_array().unwrap();
+    let (mut worst, mut worst_sub, mut worst_f, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    for r in resp {
+        let (ts, fr) = (f(&r["t_s"]), f(&r["frequency_hz"]));
+        let w = (ts - 1.5 / fr, ts + 1.5 / fr);
+        if w.0 < 0.0 || w.1 > run.duration_s() {
+            continue;
+        }
+        let (a1, a2) = frc::window_amplitudes(&run, w, 1.0 / fr).unwrap();
+        for (meas, key) in [
+            (a1 / m.drive_amplitude_m, "a1"),
+            (a2 / m.drive_amplitude_m, "a2"),
+        ] {
+            let tr = f(&r[key]);
+            let err = (meas - tr).abs();
+            assert!(
+                err <= 0.02 * tr || err <= 0.01,
+                "t {ts} s ({fr} Hz): {key} {meas} vs truth {tr}"
+            );
+            if tr > 0.05 {
+                worst = worst.max(err / tr);
+            }
+        }
+        // Per-period points inside the window.
+        for p in m
+            .points
+            .iter()
+            .filter(|p| p.window_s.0 >= w.0 && p.window_s.1 <= w.1)
+        {
+            // The truth's instantaneous frequency at the period's centre.
+            let tc = 0.5 * (p.window_s.0 + p.window_s.1);
+            let k = resp
+                .partition_point(|e| f(&e["t_s"]) <= tc)
+                .clamp(1, resp.len() - 1);
+            let (e0, e1) = (&resp[k - 1], &resp[k]);
+            let (t0, t1) = (f(&e0["t_s"]), f(&e1["t_s"]));
+            let (f0, f1) = (f(&e0["frequency_hz"]), f(&e1["frequency_hz"]));
+            let ftrue = f0 + (f1 - f0) * (tc - t0) / (t1 - t0);
+            worst_f = worst_f.max((p.frequency_hz / ftrue - 1.0).abs());
+            assert!(
+                (p.frequency_hz / ftrue - 1.0).abs() < 2e-3,
+                "t {tc}: f {} vs {ftrue}",
+                p.frequency_hz
+            );
+            for (meas, key) in [(p.amplitude1, "a1"), (p.amplitude2, "a2")] {
+                let tr = f(&r[key]);
+                assert!(
+                    meas <= tr * 1.005 + 0.005,
+                    "t {ts}: per-period {key} {meas} exceeds the truth over a containing window {tr}"
+                );
+                if tr > 0.05 {
+                    worst_sub = worst_sub.max(meas / tr - 1.0);
+                }
+            }
+        }
+        n += 1;
+    }
+    eprintln!(
+        "{name}: {n} entries, worst relative error {:.3} %, frequency {:.4} %, per-period points at most {:+.3} % above the truth",
+        worst * 100.0,
+        worst_f * 100.0,
+        worst_sub * 100.0
+    );
+    assert!(
+        n + 5 >= resp.len(),
+        "only {n} of {} entries compared",
+        resp.len()
+    );
+    assert!(m.points.len() > 300, "{} drive periods", m.points.len());
+}
+
 /// With the true law and the truth's η and rig constants, the steady-state
 /// prediction is the truth's `steady_a*` to 1e-6, and the replay through
 /// the measured plan matches the rig's amplitudes over the truth's settle

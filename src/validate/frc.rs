@@ -1,7 +1,43 @@
-//! Measured frequency response of a sweep log (types; the measurement is
-//! being written on the `frc` branch).
+//! Measured frequency response of a sweep log (paper §4.2, Fig. 10).
+//!
+//! What this module owns: turning a sweep [`Run`] into the points of a
+//! frequency-response curve (η, A1/A, A2/A per step or per drive period),
+//! the data's own call whether each step settled, and the drive-frequency
+//! plan *as it was run* (for the replay prediction).
+//!
+//! * **Drive**: every frequency, phase and the drive amplitude come from the
+//!   drive channel (least-squares sinusoids on its raw samples, frequency
+//!   refined around the commanded one), not from the metadata. The log's
+//!   drive amplitude is the median over steps (periods) of the per-window
+//!   amplitudes.
+//! * **Stepped sweeps**: the `/drive/setpoint` messages give the steps (a
+//!   repeated frequency, such as a pre-roll, is one hold). Between two holds
+//!   the frequency changes linearly over a ramp whose start and duration are
+//!   *fitted to the drive signal* (phase continuous with the previous hold;
+//!   coarse grid, then Nelder–Mead via argmin), so the plan does not depend
+//!   on a controller convention. Each step's amplitude is taken over its
+//!   last whole drive periods (at least [`FrcOptions::window_s`], at most
+//!   half of the hold); the relative change between the two halves of that
+//!   tail is the data's trend, and a step whose trend exceeds
+//!   [`FrcOptions::settle_tolerance`] has visibly not settled.
+//! * **Continuous sweeps**: the instantaneous frequency at each setpoint
+//!   message (and at the log's ends) is fitted to the drive signal with the
+//!   commanded chirp rate; the plan ramps linearly between these nodes; one
+//!   point per drive period (period boundaries from the plan's phase).
+//! * **Amplitudes** (paper eq. 6, made robust to noise): (max − min)/2 over
+//!   the window of a local-polynomial reconstruction of x1 and x2
+//!   (Savitzky–Golay, degree 4, half-width 1/16 of the drive period), with
+//!   the extremes refined by a parabola through the three samples around
+//!   them — not the raw extremes of noisy samples, which are biased upwards
+//!   by about two noise σ.
 
+use crate::identify::smooth::{median, savgol};
+use crate::ingest::{Quantity, Run, SweepKind as LogSweepKind};
 use crate::sim::sweep::Direction;
+use crate::{Error, Result};
+use argmin::core::{CostFunction, Executor, State};
+use argmin::solver::neldermead::NelderMead;
+use std::f64::consts::PI;
 
 /// Stepped or continuous sweep.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -10,6 +46,16 @@ pub enum SweepKind {
     Stepped,
     /// A slow continuous chirp.
     Continuous,
+}
+
+impl SweepKind {
+    /// Name in JSON and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SweepKind::Stepped => "stepped",
+            SweepKind::Continuous => "continuous",
+        }
+    }
 }
 
 /// One piece of the drive-frequency plan as it was run (SI, seconds from
@@ -48,9 +94,13 @@ pub struct MeasuredPoint {
     pub amplitude1_m: f64,
     /// A2 (m).
     pub amplitude2_m: f64,
-    /// Relative amplitude change between the last two windows of a step.
+    /// Relative amplitude change between the two halves of the window
+    /// (stepped sweeps).
     pub rel_change: Option<f64>,
-    /// The data's own call whether the step settled.
+    /// The data's own call whether the step settled: `Some(false)` when its
+    /// trend says it had not, `Some(true)` when the trend is flat (a slow
+    /// transient on a lightly damped rig can still hide there: the
+    /// prediction's replay makes the final call), `None` if it cannot tell.
     pub settled: Option<bool>,
 }
 
@@ -75,15 +125,847 @@ pub struct MeasuredFrc {
     pub warnings: Vec<String>,
 }
 
-/// Options of [`measure`] (placeholder until the `frc` branch lands).
-#[derive(Debug, Clone, Default)]
-pub struct FrcOptions {}
+/// Options of [`measure`].
+#[derive(Debug, Clone)]
+pub struct FrcOptions {
+    /// Shortest amplitude window at the end of a step (s); whole drive
+    /// periods, at least three, at most half of the hold.
+    pub window_s: f64,
+    /// Relative amplitude change between the two halves of a step's window
+    /// above which the step has visibly not settled.
+    pub settle_tolerance: f64,
+    /// Amplitudes below this fraction of the drive amplitude count as zero
+    /// when relative changes are computed (a stuck mass).
+    pub zero_amplitude: f64,
+    /// Longest ramp between two holds searched for (s).
+    pub max_ramp_s: f64,
+    /// Drive periods per point of a continuous sweep.
+    pub periods_per_point: usize,
+}
 
-/// Measures the frequency response of a sweep log (placeholder until the
-/// `frc` branch lands: always an error).
-pub fn measure(run: &crate::ingest::Run, _opts: &FrcOptions) -> crate::Result<MeasuredFrc> {
-    Err(crate::Error::Input {
+impl Default for FrcOptions {
+    fn default() -> Self {
+        Self {
+            window_s: 4.0,
+            settle_tolerance: 0.005,
+            zero_amplitude: 0.01,
+            max_ramp_s: 3.0,
+            periods_per_point: 1,
+        }
+    }
+}
+
+fn bad(run: &Run, msg: impl Into<String>) -> Error {
+    Error::Input {
         path: run.source.clone(),
-        msg: "sweep measurement not implemented yet".into(),
+        msg: msg.into(),
+    }
+}
+
+/// A sinusoid `offset + amplitude·sin(phase + 2π·f·(t − t_ref))`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Sine {
+    offset: f64,
+    amplitude: f64,
+    frequency_hz: f64,
+    /// Phase at `t_ref`.
+    phase: f64,
+    t_ref: f64,
+    rms: f64,
+}
+
+impl Sine {
+    fn phase_at(&self, t: f64) -> f64 {
+        self.phase + 2.0 * PI * self.frequency_hz * (t - self.t_ref)
+    }
+}
+
+/// Raw (t, v) samples of a channel, finite values only.
+fn raw(run: &Run, q: Quantity) -> Option<(Vec<f64>, Vec<f64>)> {
+    let c = run.channel(q)?;
+    let (t, v): (Vec<f64>, Vec<f64>) =
+        c.t.iter()
+            .zip(&c.v)
+            .filter(|(_, v)| v.is_finite())
+            .map(|(t, v)| (*t, *v))
+            .unzip();
+    (t.len() >= 8).then_some((t, v))
+}
+
+/// Index range of `t` within [a, b).
+fn span(t: &[f64], a: f64, b: f64) -> std::ops::Range<usize> {
+    let i = t.partition_point(|&x| x < a);
+    let j = t.partition_point(|&x| x < b);
+    i..j.max(i)
+}
+
+/// Least-squares `c + a·cos(ω(t − tr)) + b·sin(ω(t − tr))` with a linear
+/// chirp `rate` (Hz/s) in the phase; returns (c, a, b, rss, n).
+fn lsq_sine(t: &[f64], x: &[f64], f: f64, rate: f64, tr: f64) -> Option<(f64, f64, f64, f64)> {
+    let mut m = [[0.0f64; 3]; 3];
+    let mut r = [0.0f64; 3];
+    let mut yy = 0.0;
+    for (&ti, &xi) in t.iter().zip(x) {
+        let s = ti - tr;
+        let ph = 2.0 * PI * (f * s + 0.5 * rate * s * s);
+        let (sn, cs) = ph.sin_cos();
+        let row = [1.0, cs, sn];
+        for p in 0..3 {
+            for q in 0..3 {
+                m[p][q] += row[p] * row[q];
+            }
+            r[p] += row[p] * xi;
+        }
+        yy += xi * xi;
+    }
+    let a: Vec<Vec<f64>> = m.iter().map(|row| row.to_vec()).collect();
+    let p = crate::identify::smooth::solve_small(&a, &r)?;
+    let rss = (yy - p.iter().zip(&r).map(|(a, b)| a * b).sum::<f64>()).max(0.0);
+    Some((p[0], p[1], p[2], rss))
+}
+
+/// Golden-section minimisation on [a, b].
+fn golden(mut a: f64, mut b: f64, iters: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Fits the drive sinusoid on [a, b) around the frequency `f0` (±`rel`),
+/// with chirp rate `rate`; phase referred to `tr`.
+fn fit_sine(
+    t: &[f64],
+    x: &[f64],
+    (a, b): (f64, f64),
+    f0: f64,
+    rel: f64,
+    rate: f64,
+    tr: f64,
+) -> Option<Sine> {
+    let r = span(t, a, b);
+    let (t, x) = (&t[r.clone()], &x[r]);
+    if t.len() < 8 {
+        return None;
+    }
+    let rss = |f: f64| lsq_sine(t, x, f, rate, tr).map_or(f64::INFINITY, |v| v.3);
+    // A coarse scan first (the residual is not unimodal over a wide range).
+    let n = 24;
+    let (lo, hi) = (f0 * (1.0 - rel), f0 * (1.0 + rel));
+    let step = (hi - lo) / n as f64;
+    let best = (0..=n)
+        .map(|k| lo + k as f64 * step)
+        .min_by(|p, q| rss(*p).total_cmp(&rss(*q)))?;
+    let f = golden(best - step, best + step, 50, rss);
+    let (c, ca, sb, rss) = lsq_sine(t, x, f, rate, tr)?;
+    // c + ca·cos θ + sb·sin θ = c + R·sin(θ + atan2(ca, sb)).
+    Some(Sine {
+        offset: c,
+        amplitude: ca.hypot(sb),
+        frequency_hz: f,
+        phase: ca.atan2(sb),
+        t_ref: tr,
+        rms: (rss / t.len() as f64).sqrt(),
+    })
+}
+
+/// The drive phase through a linear ramp from `f_a` (phase `phase_a(t)`
+/// before `t0`) to `f_b` over `dur` seconds.
+fn ramp_phase(prev: &Sine, f_b: f64, t0: f64, dur: f64, t: f64) -> f64 {
+    let f_a = prev.frequency_hz;
+    let p0 = prev.phase_at(t0);
+    if t <= t0 {
+        return prev.phase_at(t);
+    }
+    let s = t - t0;
+    if s <= dur {
+        p0 + 2.0 * PI * (f_a * s + 0.5 * (f_b - f_a) * s * s / dur.max(1e-12))
+    } else {
+        p0 + 2.0 * PI * (0.5 * (f_a + f_b) * dur + f_b * (s - dur))
+    }
+}
+
+/// The squared residual of the drive samples against the ramp model.
+struct RampCost<'a> {
+    t: &'a [f64],
+    x: &'a [f64],
+    prev: Sine,
+    next: Sine,
+    max_ramp: f64,
+}
+
+impl RampCost<'_> {
+    fn eval(&self, t0: f64, dur: f64) -> f64 {
+        if !(0.0..=self.max_ramp).contains(&dur) {
+            return f64::INFINITY;
+        }
+        let mut s = 0.0;
+        for (&ti, &xi) in self.t.iter().zip(self.x) {
+            let (off, amp) = if ti < t0 + dur {
+                (self.prev.offset, self.prev.amplitude)
+            } else {
+                (self.next.offset, self.next.amplitude)
+            };
+            let ph = ramp_phase(&self.prev, self.next.frequency_hz, t0, dur, ti);
+            s += (xi - off - amp * ph.sin()).powi(2);
+        }
+        s
+    }
+}
+
+impl CostFunction for RampCost<'_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
+        Ok(self.eval(p[0], p[1]))
+    }
+}
+
+/// Locates the ramp between two holds: start `t0` and duration, fitted to
+/// the drive samples in `[lo, hi)` (the previous hold's tail through the
+/// next hold's head) with the phase continuous from the previous hold.
+fn locate_ramp(
+    t: &[f64],
+    x: &[f64],
+    prev: Sine,
+    next: Sine,
+    (lo, hi): (f64, f64),
+    max_ramp: f64,
+) -> Option<(f64, f64)> {
+    let r = span(t, lo, hi);
+    let cost = RampCost {
+        t: &t[r.clone()],
+        x: &x[r],
+        prev,
+        next,
+        max_ramp,
+    };
+    if cost.t.len() < 16 {
+        return None;
+    }
+    // Coarse grid (the cost is periodic-ish in the ramp's phase), then
+    // Nelder–Mead from the best cell.
+    let h = 0.05f64.min((hi - lo) / 40.0);
+    let (mut best, mut fbest) = ((lo, 0.0), f64::INFINITY);
+    let nt = ((hi - lo) / h).ceil() as usize;
+    let nd = (max_ramp / h).ceil() as usize;
+    for i in 0..=nt {
+        let t0 = lo + i as f64 * h;
+        for j in 0..=nd {
+            let d = j as f64 * h;
+            if t0 + d > hi {
+                break;
+            }
+            let c = cost.eval(t0, d);
+            if c < fbest {
+                fbest = c;
+                best = (t0, d);
+            }
+        }
+    }
+    let simplex = vec![
+        vec![best.0, best.1],
+        vec![best.0 + 0.5 * h, best.1],
+        vec![best.0, best.1 + 0.5 * h],
+    ];
+    let solver = NelderMead::new(simplex).with_sd_tolerance(1e-10).ok()?;
+    let res = Executor::new(cost, solver)
+        .configure(|s| s.max_iters(200))
+        .run()
+        .ok()?;
+    let p = res.state().get_best_param()?.clone();
+    let (t0, d) = if res.state().get_best_cost() <= fbest {
+        (p[0], p[1].max(0.0))
+    } else {
+        best
+    };
+    Some((t0, d))
+}
+
+/// (max − min)/2 over [a, b] of a signal on a uniform grid, from its local
+/// polynomial reconstruction (degree 4, half-width `half` samples),
+/// extremes refined by a parabola through three samples.
+fn amplitude(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), half: usize) -> Option<f64> {
+    let n = y.len();
+    let idx = |t: f64| ((t - t0) / dt).round();
+    let (ia, ib) = (idx(a), idx(b));
+    if !(ia.is_finite() && ib.is_finite()) || ib < 0.0 || ia >= n as f64 {
+        return None;
+    }
+    let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
+    if ib <= ia + 4 {
+        return None;
+    }
+    // Smooth a slice with a margin so the window sees interior weights.
+    let (sa, sb) = (ia.saturating_sub(half + 1), (ib + half + 2).min(n));
+    let s = savgol(&y[sa..sb], dt, half, 4, 0);
+    let w = &s[ia - sa..=ib - sa];
+    let finite = w.iter().filter(|v| v.is_finite()).count();
+    if finite * 2 < w.len() {
+        return None;
+    }
+    let refine = |k: usize, sign: f64| -> f64 {
+        let v = w[k];
+        if k == 0 || k + 1 >= w.len() {
+            return v;
+        }
+        let (l, r) = (w[k - 1], w[k + 1]);
+        if !(l.is_finite() && r.is_finite()) {
+            return v;
+        }
+        let den = l - 2.0 * v + r;
+        if sign * den >= 0.0 {
+            return v;
+        }
+        let d = 0.5 * (l - r) / den;
+        v - 0.25 * (l - r) * d
+    };
+    let (mut kmin, mut kmax) = (None::<usize>, None::<usize>);
+    for (k, v) in w.iter().enumerate() {
+        if !v.is_finite() {
+            continue;
+        }
+        if kmin.is_none_or(|j| *v < w[j]) {
+            kmin = Some(k);
+        }
+        if kmax.is_none_or(|j| *v > w[j]) {
+            kmax = Some(k);
+        }
+    }
+    let (lo, hi) = (refine(kmin?, 1.0), refine(kmax?, -1.0));
+    Some(0.5 * (hi - lo))
+}
+
+/// The grid signals used for amplitudes.
+struct Grid<'a> {
+    t0: f64,
+    dt: f64,
+    x1: &'a [f64],
+    x2: &'a [f64],
+}
+
+impl Grid<'_> {
+    /// The grid's last time (s).
+    fn end(&self) -> f64 {
+        self.t0 + self.x1.len().saturating_sub(1) as f64 * self.dt
+    }
+
+    /// (A1, A2) in metres over a window, smoothing over 1/16 of `period`.
+    fn amplitudes(&self, window: (f64, f64), period: f64) -> Option<(f64, f64)> {
+        let half = ((period / 16.0 / self.dt).round() as usize).max(3);
+        Some((
+            amplitude(self.x1, self.dt, self.t0, window, half)?,
+            amplitude(self.x2, self.dt, self.t0, window, half)?,
+        ))
+    }
+}
+
+/// A1 and A2 (metres) of a log over an arbitrary window with the same
+/// estimator as [`measure`] (local-polynomial reconstruction over 1/16 of
+/// the drive period `period_s`), e.g. to compare with a reference taken
+/// over other windows. None where x1 or x2 has too few samples there.
+pub fn window_amplitudes(run: &Run, window: (f64, f64), period_s: f64) -> Option<(f64, f64)> {
+    let rs = &run.resampled;
+    let grid = Grid {
+        t0: *rs.t.first()?,
+        dt: 1.0 / rs.rate_hz,
+        x1: &rs.x1,
+        x2: &rs.x2,
+    };
+    grid.amplitudes(window, period_s)
+}
+
+/// Measures the frequency response of a sweep log.
+pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
+    if run.rig.test != crate::ingest::TestKind::Sweep {
+        return Err(bad(
+            run,
+            "not a sweep log (rig test = characteristic): a frequency response needs a sweep",
+        ));
+    }
+    let (td, xd) = raw(run, Quantity::X0)
+        .ok_or_else(|| bad(run, "the drive channel /drive/position has too few samples"))?;
+    let rs = &run.resampled;
+    if rs.t.len() < 16 {
+        return Err(bad(run, "the log is too short for a frequency response"));
+    }
+    let grid = Grid {
+        t0: rs.t[0],
+        dt: 1.0 / rs.rate_hz,
+        x1: &rs.x1,
+        x2: &rs.x2,
+    };
+    let kind = match run.rig.sweep_kind {
+        Some(LogSweepKind::Continuous) => SweepKind::Continuous,
+        Some(LogSweepKind::Stepped) => SweepKind::Stepped,
+        None => {
+            // Not declared: a stepped sweep repeats few frequencies for long.
+            if run.setpoints.len() > 2 * distinct_steps(run).len() {
+                SweepKind::Continuous
+            } else {
+                SweepKind::Stepped
+            }
+        }
+    };
+    let mut m = match kind {
+        SweepKind::Stepped => stepped(run, &td, &xd, &grid, opts)?,
+        SweepKind::Continuous => continuous(run, &td, &xd, &grid, opts)?,
+    };
+    let a = m.drive_amplitude_m;
+    let nominal = run.rig.drive_amplitude_m;
+    if (a / nominal - 1.0).abs() > 0.005 {
+        m.warnings.push(format!(
+            "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
+            a * 1e3,
+            nominal * 1e3,
+            (a / nominal - 1.0) * 100.0
+        ));
+    }
+    for p in &mut m.points {
+        p.amplitude1 = p.amplitude1_m / a;
+        p.amplitude2 = p.amplitude2_m / a;
+    }
+    Ok(m)
+}
+
+/// The steps of a stepped sweep: (start time, commanded frequency); a
+/// repeated frequency continues the previous hold (e.g. a pre-roll), the
+/// step starting at its last message.
+fn distinct_steps(run: &Run) -> Vec<(f64, f64)> {
+    let mut out: Vec<(f64, f64)> = Vec::new();
+    for s in &run.setpoints {
+        if !(s.frequency_hz.is_finite() && s.frequency_hz > 0.0 && s.t_s.is_finite()) {
+            continue;
+        }
+        match out.last_mut() {
+            Some(last) if last.1 == s.frequency_hz => last.0 = s.t_s,
+            _ => out.push((s.t_s, s.frequency_hz)),
+        }
+    }
+    out
+}
+
+fn direction_of(f: &[f64]) -> Direction {
+    match (f.first(), f.last()) {
+        (Some(a), Some(b)) if b < a => Direction::Down,
+        _ => Direction::Up,
+    }
+}
+
+fn stepped(
+    run: &Run,
+    td: &[f64],
+    xd: &[f64],
+    grid: &Grid,
+    opts: &FrcOptions,
+) -> Result<MeasuredFrc> {
+    let steps = distinct_steps(run);
+    if steps.is_empty() {
+        return Err(bad(
+            run,
+            "a stepped sweep needs /drive/setpoint messages (or a setpoint_hz column) to tell its steps",
+        ));
+    }
+    let t_log_end = td[td.len() - 1].max(grid.end());
+    let omega_ref = run.rig.omega_ref();
+    let mut warnings = Vec::new();
+    // Hold i: [its first message, the next step's message).
+    let first_msg = run
+        .setpoints
+        .iter()
+        .map(|s| s.t_s)
+        .fold(f64::INFINITY, f64::min)
+        .min(steps[0].0);
+    let n = steps.len();
+    let bounds: Vec<(f64, f64)> = (0..n)
+        .map(|i| {
+            let a = if i == 0 {
+                first_msg.max(0.0)
+            } else {
+                steps[i].0
+            };
+            let b = if i + 1 < n { steps[i + 1].0 } else { t_log_end };
+            (a, b)
+        })
+        .collect();
+    // Each hold's sinusoid, fitted over the second half of the hold (clear
+    // of the ramp into it).
+    let mut sines: Vec<Option<Sine>> = Vec::with_capacity(n);
+    for (i, &(a, b)) in bounds.iter().enumerate() {
+        let f0 = steps[i].1;
+        let mid = a + 0.5 * (b - a);
+        let s = fit_sine(td, xd, (mid, b), f0, 0.05, 0.0, mid);
+        if s.is_none() {
+            warnings.push(format!(
+                "step {} ({f0} Hz): the drive channel has too few samples to measure it",
+                i + 1
+            ));
+        }
+        sines.push(s);
+    }
+    // Ramps between holds, fitted to the drive signal.
+    let mut ramps: Vec<Option<(f64, f64)>> = vec![None; n];
+    for i in 1..n {
+        let (Some(prev), Some(next)) = (sines[i - 1], sines[i]) else {
+            continue;
+        };
+        let (pa, pb) = bounds[i - 1];
+        let (na, nb) = bounds[i];
+        let lo = (na - 2.0).max(pa + 0.5 * (pb - pa));
+        let hi = (na + opts.max_ramp_s + 2.0).min(na + 0.5 * (nb - na));
+        if hi <= lo {
+            continue;
+        }
+        ramps[i] = locate_ramp(td, xd, prev, next, (lo, hi), opts.max_ramp_s);
+    }
+    // The plan: holds and ramps.
+    let mut plan = Vec::new();
+    let mut t = 0.0f64;
+    let f_of = |i: usize| sines[i].map_or(steps[i].1, |s| s.frequency_hz);
+    for i in 0..n {
+        if i > 0 {
+            let (t0, d) = ramps[i].unwrap_or((bounds[i].0, 0.0));
+            let t0 = t0.max(t);
+            if t0 > t {
+                plan.push(PlanSegment {
+                    start_s: t,
+                    end_s: t0,
+                    f_start_hz: f_of(i - 1),
+                    f_end_hz: f_of(i - 1),
+                });
+            }
+            if d > 0.0 {
+                plan.push(PlanSegment {
+                    start_s: t0,
+                    end_s: t0 + d,
+                    f_start_hz: f_of(i - 1),
+                    f_end_hz: f_of(i),
+                });
+            }
+            t = t0 + d;
+        }
+    }
+    plan.push(PlanSegment {
+        start_s: t,
+        end_s: t_log_end.max(t),
+        f_start_hz: f_of(n - 1),
+        f_end_hz: f_of(n - 1),
+    });
+    // φ(0) from the first hold, carried back to t = 0.
+    let drive_phase_rad = sines[0]
+        .map(|s| s.phase_at(0.0))
+        .ok_or_else(|| bad(run, "the first step's drive signal cannot be measured"))?;
+
+    let mut points = Vec::with_capacity(n);
+    let mut amps = Vec::new();
+    for i in 0..n {
+        let Some(s) = sines[i] else { continue };
+        let f = s.frequency_hz;
+        let period = 1.0 / f;
+        let (a, b) = bounds[i];
+        let hold_start = ramps[i].map_or(a, |(t0, d)| t0 + d).max(a);
+        let avail = b - hold_start;
+        let mut k = (opts.window_s / period).ceil().max(3.0);
+        while k > 1.0 && k * period > 0.5 * avail.max(0.0) && k * period > opts.window_s.min(avail)
+        {
+            k -= 1.0;
+        }
+        let k = k.max(1.0);
+        let window = (b - k * period, b);
+        if window.0 < hold_start - 1e-9 {
+            warnings.push(format!(
+                "step {} ({:.3} Hz): the hold is shorter than one drive period",
+                i + 1,
+                f
+            ));
+            continue;
+        }
+        let Some((a1, a2)) = grid.amplitudes(window, period) else {
+            warnings.push(format!(
+                "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
+                i + 1,
+                f,
+                window.0,
+                window.1
+            ));
+            continue;
+        };
+        // Trend: the two halves of the window (whole periods each).
+        let kh = (k / 2.0).floor();
+        let rel_change = if kh >= 1.0 {
+            let h1 = grid.amplitudes((b - 2.0 * kh * period, b - kh * period), period);
+            let h2 = grid.amplitudes((b - kh * period, b), period);
+            match (h1, h2) {
+                (Some(p), Some(q)) => {
+                    let floor = opts.zero_amplitude * s.amplitude;
+                    let rel = |x: f64, y: f64| {
+                        if x.max(y) < floor {
+                            0.0
+                        } else {
+                            (y - x).abs() / y.max(floor)
+                        }
+                    };
+                    Some(rel(p.0, q.0).max(rel(p.1, q.1)))
+                }
+                _ => None,
+            }
+        } else {
+            None
+        };
+        if let Some(w) = fit_sine(td, xd, window, f, 0.001, 0.0, window.0) {
+            amps.push(w.amplitude);
+        }
+        points.push(MeasuredPoint {
+            frequency_hz: f,
+            eta: 2.0 * PI * f / omega_ref,
+            t_start_s: a,
+            t_end_s: b,
+            window_s: window,
+            amplitude1: f64::NAN,
+            amplitude2: f64::NAN,
+            amplitude1_m: a1,
+            amplitude2_m: a2,
+            rel_change,
+            settled: rel_change.map(|r| r <= opts.settle_tolerance),
+        });
+    }
+    if points.is_empty() {
+        return Err(bad(run, "no step of the sweep could be measured"));
+    }
+    let drive_amplitude_m = median(&amps);
+    if !(drive_amplitude_m.is_finite() && drive_amplitude_m > 0.0) {
+        return Err(bad(run, "the drive amplitude cannot be measured"));
+    }
+    let freqs: Vec<f64> = points.iter().map(|p| p.frequency_hz).collect();
+    Ok(MeasuredFrc {
+        kind: SweepKind::Stepped,
+        direction: direction_of(&freqs),
+        drive_amplitude_m,
+        drive_phase_rad,
+        omega_ref_rad_s: omega_ref,
+        plan,
+        points,
+        warnings,
+    })
+}
+
+/// Drive cycles completed from `seg.start_s` to `t` within a plan segment.
+fn seg_cycles(seg: &PlanSegment, t: f64) -> f64 {
+    let d = seg.end_s - seg.start_s;
+    let s = t - seg.start_s;
+    let rate = if d > 0.0 {
+        (seg.f_end_hz - seg.f_start_hz) / d
+    } else {
+        0.0
+    };
+    seg.f_start_hz * s + 0.5 * rate * s * s
+}
+
+/// The time within `seg` at which `c` cycles have passed since its start.
+fn seg_time(seg: &PlanSegment, c: f64) -> f64 {
+    let d = seg.end_s - seg.start_s;
+    let rate = if d > 0.0 {
+        (seg.f_end_hz - seg.f_start_hz) / d
+    } else {
+        0.0
+    };
+    let f0 = seg.f_start_hz;
+    // 0.5·r·s² + f0·s − c = 0, the root with s ≥ 0 (stable form).
+    let s = if rate.abs() * c < 1e-12 * f0 * f0 {
+        c / f0
+    } else {
+        2.0 * c / (f0 + (f0 * f0 + 2.0 * rate * c).max(0.0).sqrt())
+    };
+    seg.start_s + s
+}
+
+/// Continuous sweep: nodes at the setpoint messages, a plan of linear
+/// pieces through the measured instantaneous frequencies, and one point per
+/// `periods_per_point` drive periods.
+fn continuous(
+    run: &Run,
+    td: &[f64],
+    xd: &[f64],
+    grid: &Grid,
+    opts: &FrcOptions,
+) -> Result<MeasuredFrc> {
+    let mut nodes: Vec<(f64, f64)> = run
+        .setpoints
+        .iter()
+        .filter(|s| s.frequency_hz.is_finite() && s.frequency_hz > 0.0 && s.t_s.is_finite())
+        .map(|s| (s.t_s, s.frequency_hz))
+        .collect();
+    nodes.dedup_by(|b, a| b.0 == a.0);
+    if nodes.len() < 2 {
+        return Err(bad(
+            run,
+            "a continuous sweep needs its commanded frequency (/drive/setpoint messages or a setpoint_hz column) at two times at least",
+        ));
+    }
+    let t_end = td[td.len() - 1].max(grid.end());
+    let omega_ref = run.rig.omega_ref();
+    let mut warnings = Vec::new();
+    // Commanded frequency at the log's ends (held beyond the messages).
+    if nodes[0].0 > 0.0 {
+        nodes.insert(0, (0.0, nodes[0].1));
+    }
+    if nodes[nodes.len() - 1].0 < t_end {
+        let f = nodes[nodes.len() - 1].1;
+        nodes.push((t_end, f));
+    }
+    let n = nodes.len();
+    let rate_cmd = |k: usize| -> f64 {
+        let r = |a: usize, b: usize| (nodes[b].1 - nodes[a].1) / (nodes[b].0 - nodes[a].0);
+        match k {
+            0 => r(0, 1),
+            k if k + 1 == n => r(n - 2, n - 1),
+            k => 0.5 * (r(k - 1, k) + r(k, k + 1)),
+        }
+    };
+    // Measured instantaneous frequency (and amplitude) at each node.
+    let mut fit_nodes: Vec<(f64, Sine)> = Vec::with_capacity(n);
+    for (k, &(tk, fk)) in nodes.iter().enumerate() {
+        let w = (2.0 / fk).max(1.0);
+        let (a, b) = ((tk - 0.5 * w).max(0.0), (tk + 0.5 * w).min(t_end));
+        if let Some(s) = fit_sine(td, xd, (a, b), fk, 0.05, rate_cmd(k), tk) {
+            fit_nodes.push((tk, s));
+        }
+    }
+    if fit_nodes.len() < 2 {
+        return Err(bad(run, "the drive signal of the sweep cannot be measured"));
+    }
+    let mut plan = Vec::with_capacity(fit_nodes.len());
+    for w in fit_nodes.windows(2) {
+        let ((ta, sa), (tb, sb)) = (w[0], w[1]);
+        // Pieces whose commanded frequency does not change are holds at
+        // their mean measured frequency.
+        let cmd = |t: f64| {
+            nodes
+                .iter()
+                .find(|(tn, _)| *tn == t)
+                .map_or(f64::NAN, |(_, f)| *f)
+        };
+        let (fa, fb) = if cmd(ta) == cmd(tb) {
+            let f = 0.5 * (sa.frequency_hz + sb.frequency_hz);
+            (f, f)
+        } else {
+            (sa.frequency_hz, sb.frequency_hz)
+        };
+        plan.push(PlanSegment {
+            start_s: ta,
+            end_s: tb,
+            f_start_hz: fa,
+            f_end_hz: fb,
+        });
+    }
+    // Consecutive equal holds merge into one.
+    plan.dedup_by(|b, a| {
+        let hold = |s: &PlanSegment| s.f_start_hz == s.f_end_hz;
+        if hold(a) && hold(b) && (a.f_start_hz - b.f_start_hz).abs() < 1e-6 * a.f_start_hz {
+            let (da, db) = (a.end_s - a.start_s, b.end_s - b.start_s);
+            let f = (a.f_start_hz * da + b.f_start_hz * db) / (da + db);
+            a.end_s = b.end_s;
+            a.f_start_hz = f;
+            a.f_end_hz = f;
+            true
+        } else {
+            false
+        }
+    });
+    // Holds: refit the frequency over the whole hold.
+    for seg in plan.iter_mut() {
+        if seg.f_start_hz == seg.f_end_hz && seg.end_s - seg.start_s > 2.0 / seg.f_start_hz {
+            if let Some(s) = fit_sine(
+                td,
+                xd,
+                (seg.start_s, seg.end_s),
+                seg.f_start_hz,
+                0.01,
+                0.0,
+                seg.start_s,
+            ) {
+                seg.f_start_hz = s.frequency_hz;
+                seg.f_end_hz = s.frequency_hz;
+            }
+        }
+    }
+    let first = &fit_nodes[0].1;
+    let drive_phase_rad = first.phase_at(0.0) + PI * rate_cmd(0) * first.t_ref * first.t_ref;
+    let drive_amplitude_m = median(
+        &fit_nodes
+            .iter()
+            .map(|(_, s)| s.amplitude)
+            .collect::<Vec<_>>(),
+    );
+    let rms = median(&fit_nodes.iter().map(|(_, s)| s.rms).collect::<Vec<_>>());
+    if rms > 0.05 * drive_amplitude_m {
+        warnings.push(format!(
+            "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
+            rms * 1e6
+        ));
+    }
+
+    // Drive periods from the plan's phase.
+    let per = opts.periods_per_point.max(1) as f64;
+    let mut points = Vec::new();
+    let mut carry = 0.0; // cycles into the current point at a segment start
+    let mut t_a = plan[0].start_s;
+    for seg in &plan {
+        let total = seg_cycles(seg, seg.end_s);
+        let mut c = per - carry;
+        while c <= total + 1e-12 {
+            let t_b = seg_time(seg, c);
+            let window = (t_a, t_b);
+            let period = (t_b - t_a) / per;
+            if let Some((a1, a2)) = grid.amplitudes(window, period) {
+                let f = 1.0 / period;
+                points.push(MeasuredPoint {
+                    frequency_hz: f,
+                    eta: 2.0 * PI * f / omega_ref,
+                    t_start_s: t_a,
+                    t_end_s: t_b,
+                    window_s: window,
+                    amplitude1: f64::NAN,
+                    amplitude2: f64::NAN,
+                    amplitude1_m: a1,
+                    amplitude2_m: a2,
+                    rel_change: None,
+                    settled: None,
+                });
+            }
+            t_a = t_b;
+            c += per;
+        }
+        carry = total - (c - per);
+    }
+    if points.is_empty() {
+        return Err(bad(run, "no drive period of the sweep could be measured"));
+    }
+    let freqs: Vec<f64> = points.iter().map(|p| p.frequency_hz).collect();
+    Ok(MeasuredFrc {
+        kind: SweepKind::Continuous,
+        direction: direction_of(&freqs),
+        drive_amplitude_m,
+        drive_phase_rad,
+        omega_ref_rad_s: omega_ref,
+        plan,
+        points,
+        warnings,
     })
 }
