@@ -94,6 +94,10 @@ pub(crate) fn validation_json(
             "steady_reached": bools(&p.steady_reached),
             "settled_data": bools(&m.points.iter().map(|q| q.settled).collect::<Vec<_>>()),
             "rel_change": list(&m.points.iter().map(|q| q.rel_change).collect::<Vec<_>>()),
+            "amplitude1_uncertainty": m.points.iter().map(|q| super::fit::num(q.amplitude1_u)).collect::<Vec<_>>(),
+            "amplitude2_uncertainty": m.points.iter().map(|q| super::fit::num(q.amplitude2_u)).collect::<Vec<_>>(),
+            "noise_x1_m": super::fit::num(m.noise_m.0),
+            "noise_x2_m": super::fit::num(m.noise_m.1),
             "window_s": m.points.iter().map(|q| json!([q.window_s.0, q.window_s.1])).collect::<Vec<_>>(),
         },
         "predicted": predicted_json(&p.steady),
@@ -109,6 +113,8 @@ pub(crate) fn validation_json(
             "replay_nrms_amplitude2": opt(s.replay_nrms_amplitude2),
             "replay_coverage_amplitude1": opt(s.replay_coverage_amplitude1),
             "replay_coverage_amplitude2": opt(s.replay_coverage_amplitude2),
+            "replay_coverage_strict_amplitude1": opt(s.replay_coverage_strict_amplitude1),
+            "replay_coverage_strict_amplitude2": opt(s.replay_coverage_strict_amplitude2),
             "band_median_rel_halfwidth1": opt(s.band_median_rel_halfwidth1),
             "steady_points": s.steady_points,
             "points": m.points.len(),
@@ -184,6 +190,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     ));
     let mut vo = ValidateOptions::default();
     vo.predict.samples = args.samples;
+    vo.frc.gain_uncertainty = args.gain_uncertainty;
     let v = validate::validate(&fit, &char_run, &sweep_run, &vo)?;
     let mut out = validation_json(&args.characteristic, &args.sweep, &fit, &v);
     out["seconds"] = json!(t0.elapsed().as_secs_f64());

@@ -94,6 +94,12 @@ pub struct MeasuredPoint {
     pub amplitude1_m: f64,
     /// A2 (m).
     pub amplitude2_m: f64,
+    /// 95 % measurement uncertainty of A1/A (absolute): the amplitude
+    /// estimator's noise (from the sensor noise measured in the log) and the
+    /// position sensors' gain budget, combined in quadrature.
+    pub amplitude1_u: f64,
+    /// The same for A2/A.
+    pub amplitude2_u: f64,
     /// Relative amplitude change between the two halves of the window
     /// (stepped sweeps).
     pub rel_change: Option<f64>,
@@ -119,6 +125,9 @@ pub struct MeasuredFrc {
     pub omega_ref_rad_s: f64,
     /// The drive-frequency plan as run, covering the log.
     pub plan: Vec<PlanSegment>,
+    /// White-noise level of the x1 and x2 sensors measured in the log (m,
+    /// 1σ, from third differences).
+    pub noise_m: (f64, f64),
     /// One per step (stepped) or drive period (continuous).
     pub points: Vec<MeasuredPoint>,
     /// Things the user should know.
@@ -141,6 +150,10 @@ pub struct FrcOptions {
     pub max_ramp_s: f64,
     /// Drive periods per point of a continuous sweep.
     pub periods_per_point: usize,
+    /// Relative gain uncertainty of each position sensor (a bound,
+    /// rectangular): A_i/A carries the gains of x_i and x0, so its 95 %
+    /// calibration uncertainty is 1.96·√(2/3)·u.
+    pub gain_uncertainty: f64,
 }
 
 impl Default for FrcOptions {
@@ -151,6 +164,7 @@ impl Default for FrcOptions {
             zero_amplitude: 0.01,
             max_ramp_s: 3.0,
             periods_per_point: 1,
+            gain_uncertainty: 0.01,
         }
     }
 }
@@ -359,18 +373,28 @@ fn locate_ramp(
     if cost.t.len() < 16 {
         return None;
     }
-    // Coarse grid (the cost is periodic-ish in the ramp's phase), then
-    // Nelder–Mead from the best cell.
-    let h = 0.05f64.min((hi - lo) / 40.0);
+    // The phase after the ramp must continue the next hold's sinusoid:
+    // ψa(t0) + π(fa + fb)·T = ψb(t0 + T) (mod 2π) gives, for each start t0,
+    // the discrete durations T = (2πk + ψb(t0) − ψa(t0)) / (π(fa − fb)).
+    // Scan t0 over those candidates, then refine both with Nelder–Mead.
+    let df = prev.frequency_hz - next.frequency_hz;
+    if df.abs() < 1e-9 * prev.frequency_hz {
+        return None;
+    }
+    let h = 0.02f64.min((hi - lo) / 40.0);
     let (mut best, mut fbest) = ((lo, 0.0), f64::INFINITY);
     let nt = ((hi - lo) / h).ceil() as usize;
-    let nd = (max_ramp / h).ceil() as usize;
     for i in 0..=nt {
         let t0 = lo + i as f64 * h;
-        for j in 0..=nd {
-            let d = j as f64 * h;
-            if t0 + d > hi {
-                break;
+        let dpsi = next.phase_at(t0) - prev.phase_at(t0);
+        // T ∈ [0, max_ramp]: k between the bounds (either sign of df).
+        let k_at = |tt: f64| (tt * PI * df - dpsi) / (2.0 * PI);
+        let (ka, kb) = (k_at(0.0), k_at(max_ramp));
+        let (k0, k1) = (ka.min(kb).ceil() as i64, ka.max(kb).floor() as i64);
+        for k in k0..=k1 {
+            let d = (2.0 * PI * k as f64 + dpsi) / (PI * df);
+            if !(0.0..=max_ramp).contains(&d) || t0 + d > hi {
+                continue;
             }
             let c = cost.eval(t0, d);
             if c < fbest {
@@ -378,6 +402,9 @@ fn locate_ramp(
                 best = (t0, d);
             }
         }
+    }
+    if !fbest.is_finite() {
+        return None;
     }
     let simplex = vec![
         vec![best.0, best.1],
@@ -452,6 +479,45 @@ fn amplitude(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), half: usize) -> Op
     Some(0.5 * (hi - lo))
 }
 
+/// Smoothing half-width (samples) for a drive period: 1/16 of it.
+fn half_width(period: f64, dt: f64) -> usize {
+    ((period / 16.0 / dt).round() as usize).max(3)
+}
+
+/// White-noise σ of a smooth signal sampled densely: from the MAD of its
+/// third differences (a smooth signal's third difference is O((ω·dt)³)
+/// and vanishes against the noise; Var Δ³e = 20σ²).
+fn noise_level(y: &[f64]) -> f64 {
+    let d3: Vec<f64> = y
+        .windows(4)
+        .map(|w| w[3] - 3.0 * w[2] + 3.0 * w[1] - w[0])
+        .filter(|v| v.is_finite())
+        .collect();
+    if d3.len() < 16 {
+        return f64::NAN;
+    }
+    let mad = median(&d3.iter().map(|v| v.abs()).collect::<Vec<_>>());
+    mad / 0.6745 / 20f64.sqrt()
+}
+
+/// 95 % uncertainty (m) of (max − min)/2 of a signal with white noise σ
+/// after Savitzky–Golay smoothing (degree 4, half-width `half`) over a
+/// window of `win` seconds: each extreme is a maximum over about
+/// win/((2·half + 1)·dt) nearly independent smoothed values, which biases
+/// it by up to σ_s·√(2 ln n); plus 1.96 σ_s of scatter.
+fn estimator_noise(sigma: f64, half: usize, dt: f64, win: f64) -> f64 {
+    let h = half as i64;
+    let gain = crate::identify::smooth::savgol_weights(-h, h, 4, 0, dt)
+        .map_or(1.0, |w| w.iter().map(|x| x * x).sum::<f64>().sqrt());
+    let s = sigma * gain;
+    let n = (win / ((2 * half + 1) as f64 * dt)).max(2.0);
+    if s.is_finite() {
+        s * ((2.0 * n.ln()).sqrt() + 1.96)
+    } else {
+        0.0
+    }
+}
+
 /// The grid signals used for amplitudes.
 struct Grid<'a> {
     t0: f64,
@@ -468,7 +534,7 @@ impl Grid<'_> {
 
     /// (A1, A2) in metres over a window, smoothing over 1/16 of `period`.
     fn amplitudes(&self, window: (f64, f64), period: f64) -> Option<(f64, f64)> {
-        let half = ((period / 16.0 / self.dt).round() as usize).max(3);
+        let half = half_width(period, self.dt);
         Some((
             amplitude(self.x1, self.dt, self.t0, window, half)?,
             amplitude(self.x2, self.dt, self.t0, window, half)?,
@@ -537,9 +603,24 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
             (a / nominal - 1.0) * 100.0
         ));
     }
+    // Noise of the raw sensor samples (the common grid interpolates some
+    // channels, which averages their noise).
+    let raw_noise = |q: Quantity| raw(run, q).map_or(f64::NAN, |(_, v)| noise_level(&v));
+    let noise = (raw_noise(Quantity::X1), raw_noise(Quantity::X2));
+    m.noise_m = noise;
+    let cal = 1.96 * (2.0f64 / 3.0).sqrt() * opts.gain_uncertainty;
     for p in &mut m.points {
         p.amplitude1 = p.amplitude1_m / a;
         p.amplitude2 = p.amplitude2_m / a;
+        let period = 1.0 / p.frequency_hz;
+        let half = half_width(period, grid.dt);
+        let win = p.window_s.1 - p.window_s.0;
+        let u = |sigma: f64, amp: f64| {
+            let en = estimator_noise(sigma, half, grid.dt, win);
+            (en / a).hypot(cal * amp)
+        };
+        p.amplitude1_u = u(noise.0, p.amplitude1);
+        p.amplitude2_u = u(noise.1, p.amplitude2);
     }
     Ok(m)
 }
@@ -741,6 +822,8 @@ fn stepped(
             amplitude2: f64::NAN,
             amplitude1_m: a1,
             amplitude2_m: a2,
+            amplitude1_u: f64::NAN,
+            amplitude2_u: f64::NAN,
             rel_change,
             settled: rel_change.map(|r| r <= opts.settle_tolerance),
         });
@@ -760,6 +843,7 @@ fn stepped(
         drive_phase_rad,
         omega_ref_rad_s: omega_ref,
         plan,
+        noise_m: (f64::NAN, f64::NAN),
         points,
         warnings,
     })
@@ -945,6 +1029,8 @@ fn continuous(
                     amplitude2: f64::NAN,
                     amplitude1_m: a1,
                     amplitude2_m: a2,
+                    amplitude1_u: f64::NAN,
+                    amplitude2_u: f64::NAN,
                     rel_change: None,
                     settled: None,
                 });
@@ -965,6 +1051,7 @@ fn continuous(
         drive_phase_rad,
         omega_ref_rad_s: omega_ref,
         plan,
+        noise_m: (f64::NAN, f64::NAN),
         points,
         warnings,
     })

@@ -31,7 +31,7 @@ use crate::model::{Absorber, Law, Model, Schedule, Segment};
 use crate::sim::engine::{Event, Init, Observer};
 use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
-use crate::sim::sweep::{curve, Direction, SteadyConfig};
+use crate::sim::sweep::{steady_state, SteadyConfig};
 use crate::{Error, Result};
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -108,6 +108,15 @@ pub struct PredictOptions {
     /// step counts as settled (0.03: the rig's own convention in the data
     /// set's documentation, "within 3 % of the steady state").
     pub steady_tolerance: f64,
+    /// Period budget of the steady-state solver's time-marching fallback
+    /// for the laws drawn for the bands (the central law uses
+    /// `steady.max_periods`). Steady states that exist are found within a
+    /// few dozen periods (shooting, stick proofs); only points without a
+    /// periodic response run the whole budget, and there a draw simply
+    /// contributes nothing.
+    pub band_max_periods: u64,
+    /// The draws' budget where the central law has no steady state.
+    pub band_unsettled_periods: u64,
     /// Trajectory samples per drive period for the replay's amplitudes
     /// (extremes are refined between samples and switching events by cubic
     /// Hermite interpolation of the exact positions and velocities; at 48
@@ -127,6 +136,8 @@ impl Default for PredictOptions {
                 atol: 1e-10,
             },
             steady_tolerance: 0.03,
+            band_max_periods: 2_000,
+            band_unsettled_periods: 200,
             samples_per_period: 48,
         }
     }
@@ -172,10 +183,19 @@ pub struct Score {
     pub replay_nrms_amplitude1: Option<f64>,
     /// nrms of the replay's A2/A.
     pub replay_nrms_amplitude2: Option<f64>,
-    /// Fraction of points whose measured A1/A lies inside the replay band.
+    /// Fraction of points whose measured A1/A, within its own 95 %
+    /// measurement uncertainty (sensor noise and gain budget, see
+    /// [`super::frc::MeasuredPoint::amplitude1_u`]), lies inside the replay
+    /// band: the band holds the fit's uncertainty only, the measurement has
+    /// its own, so the two intervals must overlap.
     pub replay_coverage_amplitude1: Option<f64>,
     /// The same for A2/A.
     pub replay_coverage_amplitude2: Option<f64>,
+    /// Fraction of points whose measured A1/A itself lies inside the band
+    /// (no measurement uncertainty).
+    pub replay_coverage_strict_amplitude1: Option<f64>,
+    /// The same for A2/A.
+    pub replay_coverage_strict_amplitude2: Option<f64>,
     /// Median relative half-width of the replay's A1 band.
     pub band_median_rel_halfwidth1: Option<f64>,
     /// Points scored in the steady-state scores.
@@ -497,17 +517,38 @@ fn replay_one(
     }
 }
 
-fn steady_one(model: &Model, etas: &[f64], opts: &PredictOptions) -> Vec<Option<(f64, f64)>> {
-    match curve(model, etas, Direction::Up, &opts.steady) {
-        Ok(points) => points
-            .into_iter()
-            .map(|p| match (p.amplitude1, p.amplitude2) {
-                (Some(a1), Some(a2)) if p.steady => Some((a1, a2)),
-                _ => None,
-            })
-            .collect(),
-        Err(_) => vec![None; etas.len()],
+/// The steady-state curve of one law at `etas`, continued in the given
+/// order from rest; `budgets[i]` caps the marching fallback at point i
+/// (None: `cfg.max_periods`). A point that fails (an interruption) has no
+/// amplitude and the continuation restarts from rest after it.
+fn steady_one(
+    model: &Model,
+    etas: &[f64],
+    cfg: &SteadyConfig,
+    budgets: Option<&[u64]>,
+) -> Vec<Option<(f64, f64)>> {
+    let mut state = Init::rest();
+    let mut out = Vec::with_capacity(etas.len());
+    for (i, &eta) in etas.iter().enumerate() {
+        let c = SteadyConfig {
+            max_periods: budgets.map_or(cfg.max_periods, |b| b[i]),
+            ..*cfg
+        };
+        match steady_state(model, eta, state, &c) {
+            Ok((p, next)) => {
+                state = next;
+                out.push(match (p.amplitude1, p.amplitude2) {
+                    (Some(a1), Some(a2)) if p.steady => Some((a1, a2)),
+                    _ => None,
+                });
+            }
+            Err(_) => {
+                state = Init::rest();
+                out.push(None);
+            }
+        }
     }
+    out
 }
 
 /// Linear-interpolated percentile of sorted values.
@@ -632,20 +673,39 @@ pub fn predict_with(
         })
         .collect();
 
-    // Central run and draws, in parallel; collected in order.
-    let all: Vec<&Model> = std::iter::once(&model).chain(models.iter()).collect();
-    let runs: Vec<(Amps, Amps)> = all
+    // The central law (steady state and replay side by side), then the
+    // draws in parallel, collected in order. A draw's marching budget is
+    // `band_max_periods` where the central law has a steady state and
+    // `band_unsettled_periods` where it has none (a point with no periodic
+    // response for the central law rarely has one for a nearby law, and
+    // its band needs half the draws).
+    let (c_steady, c_replay) = rayon::join(
+        || steady_one(&model, &etas, &opts.steady, None),
+        || replay_one(&model, &sched, &windows, opts),
+    );
+    let budgets: Vec<u64> = c_steady
+        .iter()
+        .map(|c| {
+            if c.is_some() {
+                opts.band_max_periods
+            } else {
+                opts.band_unsettled_periods
+            }
+            .min(opts.steady.max_periods)
+        })
+        .collect();
+    let runs: Vec<(Amps, Amps)> = models
         .par_iter()
         .map(|m| {
             (
-                steady_one(m, &etas, opts),
+                steady_one(m, &etas, &opts.steady, Some(&budgets)),
                 replay_one(m, &sched, &windows, opts),
             )
         })
         .collect();
-    let (c_steady, c_replay) = &runs[0];
-    let d_steady: Vec<_> = runs[1..].iter().map(|r| r.0.clone()).collect();
-    let d_replay: Vec<_> = runs[1..].iter().map(|r| r.1.clone()).collect();
+    let (c_steady, c_replay) = (&c_steady, &c_replay);
+    let d_steady: Vec<_> = runs.iter().map(|r| r.0.clone()).collect();
+    let d_replay: Vec<_> = runs.iter().map(|r| r.1.clone()).collect();
     let steady = banded(&etas, c_steady, &d_steady);
     let replay = banded(&etas, c_replay, &d_replay);
 
@@ -734,11 +794,16 @@ pub fn score(
             .filter_map(|&i| steady.amplitude1[i].map(|a| (i, a))),
     );
     let eta = |i: usize| frc.points[i].eta;
-    let coverage = |lo: &[Option<f64>], hi: &[Option<f64>], meas: &[f64]| {
+    let u1: Vec<f64> = frc.points.iter().map(|p| p.amplitude1_u).collect();
+    let u2: Vec<f64> = frc.points.iter().map(|p| p.amplitude2_u).collect();
+    let coverage = |lo: &[Option<f64>], hi: &[Option<f64>], meas: &[f64], u: Option<&[f64]>| {
         let n = meas.len();
-        (n > 0).then(|| {
+        (n > 0 && lo.iter().any(|l| l.is_some())).then(|| {
             (0..n)
-                .filter(|&i| matches!((lo[i], hi[i]), (Some(l), Some(h)) if meas[i] >= l && meas[i] <= h))
+                .filter(|&i| {
+                    let ui = u.map_or(0.0, |u| if u[i].is_finite() { u[i] } else { 0.0 });
+                    matches!((lo[i], hi[i]), (Some(l), Some(h)) if meas[i] + ui >= l && meas[i] - ui <= h)
+                })
                 .count() as f64
                 / n as f64
         })
@@ -767,8 +832,30 @@ pub fn score(
         },
         replay_nrms_amplitude1: nrms(rms(&r1), pk1),
         replay_nrms_amplitude2: nrms(rms(&r2), pk2),
-        replay_coverage_amplitude1: coverage(&replay.amplitude1_low, &replay.amplitude1_high, &m1),
-        replay_coverage_amplitude2: coverage(&replay.amplitude2_low, &replay.amplitude2_high, &m2),
+        replay_coverage_amplitude1: coverage(
+            &replay.amplitude1_low,
+            &replay.amplitude1_high,
+            &m1,
+            Some(&u1),
+        ),
+        replay_coverage_amplitude2: coverage(
+            &replay.amplitude2_low,
+            &replay.amplitude2_high,
+            &m2,
+            Some(&u2),
+        ),
+        replay_coverage_strict_amplitude1: coverage(
+            &replay.amplitude1_low,
+            &replay.amplitude1_high,
+            &m1,
+            None,
+        ),
+        replay_coverage_strict_amplitude2: coverage(
+            &replay.amplitude2_low,
+            &replay.amplitude2_high,
+            &m2,
+            None,
+        ),
         band_median_rel_halfwidth1: (!half.is_empty()).then(|| percentile(&half, 0.5)),
         steady_points: settled.len(),
     }
