@@ -273,10 +273,9 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
             }
         }
         for p in &chars {
-            let notes = runs[*p].as_ref().ok().and_then(|r| r.rig.notes.clone());
-            page.fits.push(match &fits[*p] {
-                Ok(f) => views::fit_view(p, f, notes.as_deref(), None),
-                Err(e) => views::fit_error_view(p, &e.to_string()),
+            page.fits.push(match (&fits[*p], &runs[*p]) {
+                (Ok(f), Ok(run)) => super::validate::fit_section(&rd, p, run, f)?,
+                (Err(e), _) | (_, Err(e)) => views::fit_error_view(p, &e.to_string()),
             });
         }
         page.warnings = errors.clone();

@@ -133,6 +133,44 @@ pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
     Ok((ra?, rb?))
 }
 
+/// Writes the characteristic figure of a fitted log (paper Figs. 8–9) and
+/// returns its fit section for the report.
+pub(crate) fn fit_section(
+    dir: &html::ReportDir,
+    log: &Path,
+    run: &Run,
+    f: &LogFit,
+) -> crate::Result<html::FitView> {
+    let name = format!("characteristic_{}.svg", html::stem(log));
+    let ch = identify::characteristic(run, &identify::Gains::default())?;
+    let e = &f.fit;
+    let law = (!e.stuck).then_some(e.law);
+    let alternative = e.stribeck.filter(|s| Some(s.kind) != law.map(|l| l.kind));
+    let bias = if e.bias_n.is_finite() { e.bias_n } else { 0.0 };
+    let title = format!(
+        "Characteristic of {}",
+        log.file_name()
+            .map_or("log".into(), |n| n.to_string_lossy())
+    );
+    crate::report::characteristic_plot::characteristic_figure(
+        &crate::report::characteristic_plot::CharacteristicFigure {
+            title: &title,
+            contact: &ch.contact,
+            stick: &ch.segmentation.stick,
+            bias_n: bias,
+            law,
+            alternative,
+        },
+        &dir.file(&name)?,
+    )?;
+    Ok(views::fit_view(
+        log,
+        f,
+        run.rig.notes.as_deref(),
+        Some(name),
+    ))
+}
+
 /// Writes the validation figure and returns its view for the report.
 pub(crate) fn validation_section(
     dir: &html::ReportDir,
@@ -198,12 +236,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         let inputs = [args.characteristic.clone(), args.sweep.clone()];
         let rd = html::ReportDir::create(dir, &inputs)?;
         let section = validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
-        let fv = views::fit_view(
-            &args.characteristic,
-            &fit,
-            char_run.rig.notes.as_deref(),
-            None,
-        );
+        let fv = fit_section(&rd, &args.characteristic, &char_run, &fit)?;
         let page = html::Page {
             title: format!("Validation of {}", args.sweep.display()),
             version: env!("CARGO_PKG_VERSION").into(),

@@ -1,6 +1,7 @@
 //! The report stage: figures (plotters, SVG or PNG by extension) and,
 //! later, the HTML reports. Every output is written atomically.
 
+pub mod characteristic_plot;
 pub mod html;
 pub mod plot;
 pub mod table;

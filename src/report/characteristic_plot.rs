@@ -1,0 +1,202 @@
+//! The characteristic figure (paper Figs. 8–9): the contact force R(t) and
+//! the absorber velocity ẋ2(t) over the first drive periods (left), and R
+//! against ẋ2 over the whole log with the fitted law drawn over it (right;
+//! stick samples at ẋ2 = 0 with their passive force).
+
+use super::plot::{plot_err, register_font};
+use crate::error::Result;
+use crate::identify::{Contact, SiLaw};
+use plotters::prelude::*;
+use std::path::Path;
+
+/// What the characteristic figure shows.
+#[derive(Debug, Clone, Copy)]
+pub struct CharacteristicFigure<'a> {
+    /// Title (escaped by the SVG backend).
+    pub title: &'a str,
+    /// Contact force and signals.
+    pub contact: &'a Contact,
+    /// Stick flag per sample.
+    pub stick: &'a [bool],
+    /// Force bias removed from R (N).
+    pub bias_n: f64,
+    /// The fitted law (None for a stuck log).
+    pub law: Option<SiLaw>,
+    /// A second law drawn dashed (e.g. the Stribeck alternative).
+    pub alternative: Option<SiLaw>,
+}
+
+/// Draws the figure to `path` (SVG), atomically.
+pub fn characteristic_figure(fig: &CharacteristicFigure<'_>, path: &Path) -> Result<()> {
+    register_font();
+    let mut s = String::new();
+    {
+        let root = SVGBackend::with_string(&mut s, (1100, 520)).into_drawing_area();
+        draw(fig, &root).map_err(|e| plot_err(path, e))?;
+        root.present().map_err(|e| plot_err(path, e))?;
+    }
+    crate::io::write_atomic(path, s.as_bytes())
+}
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+
+fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = v
+        .filter(|x| x.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
+    if !(lo.is_finite() && hi.is_finite()) {
+        return (-1.0, 1.0);
+    }
+    let pad = 0.06 * (hi - lo).max(1e-12);
+    (lo - pad, hi + pad)
+}
+
+/// The sliding friction of a law at velocity v (signed).
+fn law_force(l: &SiLaw, v: f64) -> f64 {
+    let u = v.abs();
+    let mut g = l.rd_n + l.slope_n_s_per_m * u;
+    if let Some(vs) = l.vs_m_per_s {
+        g += (l.rs_n - l.rd_n) * (-(u / vs).powi(2)).exp();
+    }
+    g * v.signum()
+}
+
+fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+    root.fill(&WHITE).map_err(e)?;
+    let root = root.titled(fig.title, ("sans-serif", 20)).map_err(e)?;
+    let (left, right) = root.split_horizontally(560);
+    let (l_top, l_bot) = left.split_vertically(240);
+    let c = fig.contact;
+    let n = c.t.len();
+    let r: Vec<f64> = c.r.iter().map(|x| x - fig.bias_n).collect();
+    let v: Vec<f64> = (0..n)
+        .map(|i| if fig.stick[i] { 0.0 } else { c.v2[i] })
+        .collect();
+    let blue = RGBColor(31, 78, 156);
+    let red = RGBColor(178, 34, 34);
+
+    // Left: two drive periods of R(t) and ẋ2(t).
+    let n_show = ((2.0 / c.drive.frequency_hz) / c.dt).round() as usize;
+    let n_show = n_show.clamp(2, n.max(2)).min(n);
+    if n_show >= 2 {
+        let (t0, t1) = (c.t[0], c.t[n_show - 1]);
+        for (panel, ys, col, label) in [(&l_top, &r, blue, "R [N]"), (&l_bot, &v, red, "ẋ2 [m/s]")]
+        {
+            let (lo, hi) = range(ys[..n_show].iter().copied());
+            let mut chart = ChartBuilder::on(panel)
+                .margin(8)
+                .x_label_area_size(32)
+                .y_label_area_size(62)
+                .build_cartesian_2d(t0..t1, lo..hi)
+                .map_err(e)?;
+            chart
+                .configure_mesh()
+                .x_desc("t [s]")
+                .y_desc(label)
+                .label_style(("sans-serif", 13))
+                .axis_desc_style(("sans-serif", 15))
+                .light_line_style(RGBColor(235, 235, 235))
+                .draw()
+                .map_err(e)?;
+            // Finite runs as separate lines (gaps stay gaps).
+            let mut run: Vec<(f64, f64)> = Vec::new();
+            for i in 0..n_show {
+                if ys[i].is_finite() {
+                    run.push((c.t[i], ys[i]));
+                } else if !run.is_empty() {
+                    chart
+                        .draw_series(LineSeries::new(std::mem::take(&mut run), col))
+                        .map_err(e)?;
+                }
+            }
+            if !run.is_empty() {
+                chart.draw_series(LineSeries::new(run, col)).map_err(e)?;
+            }
+        }
+    }
+
+    // Right: R against ẋ2 over the whole log.
+    let (vlo, vhi) = range(v.iter().copied());
+    let mut rr = range(r.iter().copied());
+    if let Some(l) = fig.law {
+        if l.rs_n.is_finite() {
+            rr = (rr.0.min(-1.05 * l.rs_n), rr.1.max(1.05 * l.rs_n));
+        }
+    }
+    let mut chart = ChartBuilder::on(&right)
+        .margin(8)
+        .x_label_area_size(36)
+        .y_label_area_size(62)
+        .build_cartesian_2d(vlo..vhi, rr.0..rr.1)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("ẋ2 [m/s]")
+        .y_desc("R [N]")
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+    // At most ~2500 points keep the SVG small.
+    let step = (n / 2500).max(1);
+    chart
+        .draw_series(
+            (0..n)
+                .step_by(step)
+                .filter(|&i| v[i].is_finite() && r[i].is_finite())
+                .map(|i| Circle::new((v[i], r[i]), 1, blue.mix(0.35).filled())),
+        )
+        .map_err(e)?
+        .label("measured")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 3, blue.filled()));
+    let curve = |l: &SiLaw| -> Vec<(f64, f64)> {
+        let m = 300;
+        let mut pts = Vec::with_capacity(2 * m + 4);
+        for k in 0..=m {
+            let u = vlo + (0.0 - vlo) * k as f64 / m as f64;
+            if u < 0.0 {
+                pts.push((u, law_force(l, u)));
+            }
+        }
+        if l.rs_n.is_finite() {
+            pts.push((0.0, -l.rs_n));
+            pts.push((0.0, l.rs_n));
+        }
+        for k in 0..=m {
+            let u = vhi * k as f64 / m as f64;
+            if u > 0.0 {
+                pts.push((u, law_force(l, u)));
+            }
+        }
+        pts
+    };
+    if let Some(l) = fig.law {
+        chart
+            .draw_series(LineSeries::new(curve(&l), BLACK.stroke_width(2)))
+            .map_err(e)?
+            .label(format!("fitted: {}", l.kind.as_str()))
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    }
+    if let Some(l) = fig.alternative {
+        let pts = curve(&l);
+        let dashed = DashedLineSeries::new(pts, 6, 4, red.stroke_width(2));
+        chart
+            .draw_series(dashed)
+            .map_err(e)?
+            .label(format!("alternative: {}", l.kind.as_str()))
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(200, 200, 200))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
