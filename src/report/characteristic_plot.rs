@@ -103,9 +103,9 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
                 .map_err(e)?;
             // Finite runs as separate lines (gaps stay gaps).
             let mut run: Vec<(f64, f64)> = Vec::new();
-            for i in 0..n_show {
-                if ys[i].is_finite() {
-                    run.push((c.t[i], ys[i]));
+            for (&t, &y) in c.t.iter().zip(ys.iter()).take(n_show) {
+                if y.is_finite() {
+                    run.push((t, y));
                 } else if !run.is_empty() {
                     chart
                         .draw_series(LineSeries::new(std::mem::take(&mut run), col))
