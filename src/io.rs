@@ -85,6 +85,43 @@ pub fn write_atomic(target: &Path, bytes: &[u8]) -> Result<()> {
     f.commit()
 }
 
+/// Refuses outputs that would overwrite an input (checked before any work
+/// starts): an output path that exists and is the same file as one of the
+/// `inputs` (or a CSV input's channel map `NAME.map.toml`) is an error
+/// naming both. Outputs that do not exist yet cannot be inputs.
+pub fn ensure_not_inputs<'a>(
+    inputs: impl IntoIterator<Item = &'a Path>,
+    outputs: impl IntoIterator<Item = &'a Path>,
+) -> Result<()> {
+    let mut ins: Vec<(std::path::PathBuf, &Path)> = Vec::new();
+    for p in inputs {
+        if let Ok(c) = std::fs::canonicalize(p) {
+            ins.push((c, p));
+        }
+        if p.extension().is_some_and(|e| e.eq_ignore_ascii_case("csv")) {
+            let map = p.with_extension("map.toml");
+            if let Ok(c) = std::fs::canonicalize(&map) {
+                ins.push((c, p));
+            }
+        }
+    }
+    for out in outputs {
+        let Ok(c) = std::fs::canonicalize(out) else {
+            continue;
+        };
+        if let Some((_, input)) = ins.iter().find(|(i, _)| *i == c) {
+            return Err(Error::Input {
+                path: out.to_path_buf(),
+                msg: format!(
+                    "this output would overwrite the input {} (or its channel map): choose another output file",
+                    input.display()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Number of [`guarded`] regions running (in any thread: a decoder's own
 /// worker threads panic too, and their messages must not reach the user).
 static QUIET_PANICS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);

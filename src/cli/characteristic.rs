@@ -40,6 +40,13 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
             });
         }
     }
+    crate::io::ensure_not_inputs(
+        [args.log.as_path()],
+        args.out
+            .iter()
+            .chain(args.plot.iter())
+            .map(PathBuf::as_path),
+    )?;
     let run = ingest::read(&args.log, &IngestOptions::default())?;
     let ch = identify::characteristic(&run, &Gains::default())?;
     let c = &ch.contact;

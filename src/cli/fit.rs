@@ -132,6 +132,7 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
             msg: "must be a finite fraction in [0, 0.5)".into(),
         });
     }
+    crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
     let opts = IdentifyOptions {
         fit: identify::FitOptions {
             law: match args.law {

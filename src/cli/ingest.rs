@@ -102,6 +102,10 @@ pub fn run(args: IngestArgs) -> crate::Result<()> {
             });
         }
     }
+    crate::io::ensure_not_inputs(
+        [args.log.as_path()].into_iter().chain(args.map.as_deref()),
+        args.out.as_deref(),
+    )?;
     let opts = IngestOptions {
         map: args.map.clone(),
     };

@@ -27,6 +27,10 @@ pub struct MergeArgs {
 
 /// Runs `merge`.
 pub fn run(args: MergeArgs) -> crate::Result<()> {
+    crate::io::ensure_not_inputs(
+        args.parts.iter().map(PathBuf::as_path),
+        std::iter::once(args.out.as_path()).chain(args.plot.as_deref()),
+    )?;
     let mut rows = Vec::new();
     for p in &args.parts {
         rows.extend(table::read_frc(p)?);

@@ -123,6 +123,12 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         add(&v.characteristic);
         add(&v.sweep);
     }
+    crate::io::ensure_not_inputs(
+        logs.iter()
+            .map(PathBuf::as_path)
+            .chain([args.plan.as_path()]),
+        args.out.as_deref(),
+    )?;
     let sweeps: Vec<&PathBuf> = plan.validate.iter().map(|v| &v.sweep).collect();
     let chars: Vec<&PathBuf> = logs.iter().filter(|p| !sweeps.contains(p)).collect();
 

@@ -208,6 +208,10 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             msg: "must be a finite fraction in [0, 0.5)".into(),
         });
     }
+    crate::io::ensure_not_inputs(
+        [args.characteristic.as_path(), args.sweep.as_path()],
+        args.out.as_deref(),
+    )?;
     let t0 = Instant::now();
     let say = |msg: &str| {
         if !args.json {
