@@ -70,6 +70,9 @@ fn outputs_never_overwrite_inputs() {
     std::fs::copy(data("char_N1.2.mcap"), &log).unwrap();
     let csv = log_with_script(dir.path());
     let map = dir.path().join("evil.map.toml");
+    let pq = dir.path().join("log.parquet");
+    std::fs::copy(data("char_N2.2.parquet"), &pq).unwrap();
+    let pq_before = std::fs::read(&pq).unwrap();
     let before = std::fs::read(&log).unwrap();
     let map_before = std::fs::read(&map).unwrap();
     let s = |p: &Path| p.display().to_string();
@@ -86,7 +89,7 @@ fn outputs_never_overwrite_inputs() {
             s(&log),
         ],
         vec!["characteristic".into(), s(&log), "--out".into(), s(&log)],
-        vec!["ingest".into(), s(&csv), "--out".into(), s(&map)],
+        vec!["ingest".into(), s(&pq), "--out".into(), s(&pq)],
     ];
     for args in cases {
         let out = Command::new(env!("CARGO_BIN_EXE_stickslip"))
@@ -102,4 +105,9 @@ fn outputs_never_overwrite_inputs() {
     }
     assert_eq!(std::fs::read(&log).unwrap(), before, "log overwritten");
     assert_eq!(std::fs::read(&map).unwrap(), map_before, "map overwritten");
+    assert_eq!(
+        std::fs::read(&pq).unwrap(),
+        pq_before,
+        "parquet overwritten"
+    );
 }
