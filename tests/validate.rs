@@ -203,6 +203,73 @@ fn continuous_sweep_is_measured_like_the_truth() {
     assert!(m.points.len() > 300, "{} drive periods", m.points.len());
 }
 
+/// A continuous sweep exported as DAQ CSV (`stickslip synth`), its
+/// commanded frequency a column (setpoints where it changes): the
+/// measurement matches the virtual rig's truth over its windows (three periods centred on each second) within 2 % (0.01
+/// absolute near zero).
+#[test]
+fn continuous_csv_sweep_is_measured_like_its_truth() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("chirp.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args([
+            "synth",
+            "--test",
+            "continuous",
+            "--from-hz",
+            "1.2",
+            "--to-hz",
+            "3.0",
+        ])
+        .args(["--sweep-s", "30", "--json", "--out"])
+        .arg(&csv)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(dir.path().join("truth.json")).unwrap();
+    let truth: Value = serde_json::from_str(&text).unwrap();
+    let t = &truth["files"]["chirp.csv"];
+    let run = ingest::read(&csv, &IngestOptions::default()).unwrap();
+    assert!(run.setpoints.len() > 20, "the commanded frequency changes");
+    let m = frc::measure(&run, &FrcOptions::default()).unwrap();
+    let a_err = m.drive_amplitude_m / f(&t["drive_amplitude_true_m"]) - 1.0;
+    assert!(a_err.abs() < 0.01, "drive amplitude {a_err}");
+    let (mut n, mut worst) = (0, 0.0f64);
+    for r in t["response"].as_array().unwrap() {
+        let (ts, fr) = (f(&r["t_s"]), f(&r["frequency_hz"]));
+        let w = (ts - 1.5 / fr, ts + 1.5 / fr);
+        if w.0 < 0.0 || w.1 > run.duration_s() {
+            continue;
+        }
+        let (a1, a2) = frc::window_amplitudes(&run, w, 1.0 / fr).unwrap();
+        for (meas, key) in [
+            (a1 / m.drive_amplitude_m, "a1"),
+            (a2 / m.drive_amplitude_m, "a2"),
+        ] {
+            let tr = f(&r[key]);
+            let err = (meas - tr).abs();
+            assert!(
+                err <= 0.02 * tr || err <= 0.01,
+                "t {ts}: {key} {meas} vs {tr}"
+            );
+            if tr > 0.05 {
+                worst = worst.max(err / tr);
+            }
+        }
+        n += 1;
+    }
+    eprintln!(
+        "chirp.csv: {n} entries, worst {:.3} %, {} periods",
+        worst * 100.0,
+        m.points.len()
+    );
+    assert!(n > 30);
+}
+
 /// With the true law and the truth's η and rig constants, the steady-state
 /// prediction is the truth's `steady_a*` to 1e-6, and the replay through
 /// the measured plan matches the rig's amplitudes over the truth's settle

@@ -896,6 +896,21 @@ fn continuous(
         .map(|s| (s.t_s, s.frequency_hz))
         .collect();
     nodes.dedup_by(|b, a| b.0 == a.0);
+    // A commanded-frequency column changes at every row: keep nodes at
+    // least a second (and two drive periods) apart, and the last one.
+    if let Some(&last) = nodes.last() {
+        let mut kept: Vec<(f64, f64)> = Vec::with_capacity(nodes.len());
+        for &(t, f) in &nodes {
+            match kept.last() {
+                Some(&(tk, fk)) if t - tk < (2.0 / fk).max(1.0) => {}
+                _ => kept.push((t, f)),
+            }
+        }
+        if kept.last() != Some(&last) {
+            kept.push(last);
+        }
+        nodes = kept;
+    }
     if nodes.len() < 2 {
         return Err(bad(
             run,
