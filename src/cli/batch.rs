@@ -168,7 +168,10 @@ fn mu_keys(out: &mut serde_json::Map<String, Value>, name: &str, m: &MuFit) {
     let (slope, a, hw) = m.free.unwrap_or((f64::NAN, f64::NAN, f64::NAN));
     out.insert(format!("{name}_free_slope"), num(slope));
     out.insert(format!("{name}_intercept_n"), num(a));
-    out.insert(format!("{name}_intercept_interval_n"), interval((a - hw, a + hw)));
+    out.insert(
+        format!("{name}_intercept_interval_n"),
+        interval((a - hw, a + hw)),
+    );
 }
 
 /// The batch keys of the JSON output (everything but `fits`).
@@ -192,7 +195,11 @@ pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
     ins(&mut o, "recommended_rho_d", num(r.rho_d));
     ins(&mut o, "recommended_rho_s_box", interval(r.rho_s_box));
     ins(&mut o, "worst_amplitude1", num(r.worst.amplitude1));
-    ins(&mut o, "worst_amplitude1_interval", interval(r.worst_interval));
+    ins(
+        &mut o,
+        "worst_amplitude1_interval",
+        interval(r.worst_interval),
+    );
     ins(&mut o, "worst_amplitude1_robust", num(r.worst_interval.1));
     ins(&mut o, "worst_eta", num(r.worst.eta));
     ins(&mut o, "worst_branch", json!(r.worst.branch.as_str()));
@@ -202,7 +209,11 @@ pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
             ins(&mut o, "cliff_rho_s_bracket", interval(c.bracket));
             ins(&mut o, "cliff_normal_force_n", num(c.normal_force_n));
             ins(&mut o, "cliff_threshold", num(c.threshold));
-            ins(&mut o, "cliff_worst_amplitude1", num(c.worst_below.amplitude1));
+            ins(
+                &mut o,
+                "cliff_worst_amplitude1",
+                num(c.worst_below.amplitude1),
+            );
             ins(&mut o, "cliff_eta", num(c.worst_below.eta));
             ins(&mut o, "margin_to_cliff", num(c.margin_rel));
             ins(&mut o, "margin_to_cliff_rho_s", num(c.margin_rho_s));
@@ -316,9 +327,12 @@ fn write_report(
     };
     if let Some(b) = batch {
         let name = "batch.svg";
-        batch_plot::batch_figure(b, "Worst-case main-mass amplitude against normal force", &rd.file(name)?)?;
+        batch_plot::batch_figure(
+            b,
+            "Worst-case main-mass amplitude against normal force",
+            &rd.file(name)?,
+        )?;
         page.batch = Some(batch_view::batch_view(b, Some(name.to_string())));
-        page.summary = batch_view::batch_summary(b);
     }
     for (p, r) in fits {
         page.fits.push(match r {

@@ -61,7 +61,10 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
         .y_desc("worst case max_η A1/A")
         .label_style(("sans-serif", 15))
         .axis_desc_style(("sans-serif", 17))
-        .light_line_style(RGBColor(235, 235, 235))
+        .x_label_formatter(&|v| format!("{v}"))
+        .y_label_formatter(&|v| format!("{v}"))
+        .max_light_lines(1)
+        .light_line_style(RGBColor(240, 240, 240))
         .draw()
         .map_err(e)?;
     let r = &b.recommendation;
@@ -79,7 +82,9 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
             r.interval_n.1,
             100.0 * b.window
         ))
-        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], green.mix(0.25).filled()));
+        .legend(move |(x, y)| {
+            Rectangle::new([(x, y - 5), (x + 20, y + 5)], green.mix(0.25).filled())
+        });
     // Nominal and robust curves.
     let blue = colour(0, 3);
     let nominal: Vec<(f64, f64)> = b
@@ -111,12 +116,7 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
         .filter(|(x, y)| pos(*x) && pos(*y))
         .collect();
     chart
-        .draw_series(DashedLineSeries::new(
-            robust,
-            6,
-            4,
-            orange.stroke_width(2),
-        ))
+        .draw_series(DashedLineSeries::new(robust, 6, 4, orange.stroke_width(2)))
         .map_err(e)?
         .label(format!(
             "robust: worst over μ intervals and ±{:.0} % setting",
@@ -138,7 +138,9 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
                 "cliff at {:.2} N (ρs = {:.3}): η1 peak returns",
                 c.normal_force_n, c.rho_s
             ))
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(1)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(1))
+            });
     }
     // Measured settings.
     let black = RGBColor(20, 20, 20);

@@ -16,10 +16,7 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
             fmt_interval(Some(m.stat_interval), 4),
             100.0 * m.systematic_rel
         );
-        s.push_str(&format!(
-            "; {} measured, {} censored",
-            m.points, m.censored
-        ));
+        s.push_str(&format!("; {} measured, {} censored", m.points, m.censored));
         if let Some((slope, a, hw)) = m.free {
             s.push_str(&format!(
                 "; free fit: slope {slope:.4}, intercept {a:+.4} ± {hw:.4} N"
@@ -90,8 +87,11 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
     v
 }
 
-/// The batch section of the report; `figure` is the figure's file name.
+/// The batch section of the report (settings ordered by normal force);
+/// `figure` is the figure's file name.
 pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
+    let mut logs: Vec<&crate::validate::batch::BatchLog> = b.logs.iter().collect();
+    logs.sort_by(|x, y| x.normal_force_n.total_cmp(&y.normal_force_n));
     let header = [
         "log",
         "N (N)",
@@ -107,8 +107,7 @@ pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
     .iter()
     .map(|s| s.to_string())
     .collect();
-    let rows = b
-        .logs
+    let rows = logs
         .iter()
         .map(|l| {
             let info = match l.static_obs {
@@ -143,7 +142,8 @@ pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
                 fmt(Some(l.model_rho_s), 4),
                 fmt(l.worst.map(|w| w.amplitude1), 3),
                 fmt(l.worst.map(|w| w.eta), 4),
-                l.worst.map_or("–".into(), |w| w.branch.as_str().to_string()),
+                l.worst
+                    .map_or("–".into(), |w| w.branch.as_str().to_string()),
                 match l.consistent {
                     Some(true) => "yes".into(),
                     Some(false) => "no".into(),

@@ -160,9 +160,8 @@ impl BatchOptions {
         if self.eta_points < 2 {
             return Err("at least 2 eta points".into());
         }
-        if !(self.eta_fine_step.is_finite() && self.eta_fine_step >= 0.0)
-            || !(self.eta_fine_halfwidth.is_finite() && self.eta_fine_halfwidth >= 0.0)
-        {
+        let nonneg = |x: f64| x.is_finite() && x >= 0.0;
+        if !(nonneg(self.eta_fine_step) && nonneg(self.eta_fine_halfwidth)) {
             return Err("fine eta step and half-width must be finite and >= 0".into());
         }
         if self.eta_fine_step > 0.0 && self.eta_fine_halfwidth / self.eta_fine_step > 5000.0 {
@@ -455,9 +454,23 @@ fn ln_norm_diff(a: f64, b: f64) -> f64 {
 /// An observation of one log for a through-the-origin fit R = μ·N.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Obs {
-    Point { n: f64, r: f64, s: f64 },
-    Above { n: f64, lb: f64, s: f64 },
-    Between { n: f64, lo: f64, slo: f64, hi: f64, shi: f64 },
+    Point {
+        n: f64,
+        r: f64,
+        s: f64,
+    },
+    Above {
+        n: f64,
+        lb: f64,
+        s: f64,
+    },
+    Between {
+        n: f64,
+        lo: f64,
+        slo: f64,
+        hi: f64,
+        shi: f64,
+    },
 }
 
 fn loglik(obs: &[Obs], mu: f64, inflate: f64) -> f64 {
@@ -476,7 +489,10 @@ fn loglik(obs: &[Obs], mu: f64, inflate: f64) -> f64 {
                 shi,
             } => {
                 // P(lo < Rs < hi) with Rs = μN: both bounds measured.
-                ln_norm_diff((hi - mu * n) / (shi * inflate), (lo - mu * n) / (slo * inflate))
+                ln_norm_diff(
+                    (hi - mu * n) / (shi * inflate),
+                    (lo - mu * n) / (slo * inflate),
+                )
             }
         })
         .sum()
@@ -527,9 +543,9 @@ fn bisect(mut good: f64, mut bad: f64, iters: usize, pred: impl Fn(f64) -> bool)
 /// normal 1.96 for dof = 0, meaning σ known).
 fn t975(dof: usize) -> f64 {
     const T: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179,
-        2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064,
-        2.060, 2.056, 2.052, 2.048, 2.045, 2.042,
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
     ];
     match dof {
         0 => 1.959_964,
@@ -575,12 +591,15 @@ fn free_fit(points: &[(f64, f64, f64)]) -> Option<(f64, f64, f64)> {
     Some((slope, a, q * var_a.sqrt() * inflate))
 }
 
+/// Estimate, statistical 95 % interval, σ inflation factor, χ²/dof.
+type MuEstimate = (f64, (f64, f64), f64, Option<f64>);
+
 /// Fits R = μ·N by maximum likelihood with censored observations; returns
 /// the estimate, the statistical 95 % interval, the inflation factor and
 /// χ²/dof of the points. When the points scatter more than their σ, the σ
 /// are scaled by √(χ²/dof) and the interval uses Student's t with the
 /// points' n − 1 degrees of freedom (the scale is then estimated).
-fn fit_mu(obs: &[Obs]) -> Option<(f64, (f64, f64), f64, Option<f64>)> {
+fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
     let points: Vec<(f64, f64, f64)> = obs
         .iter()
         .filter_map(|o| match *o {
@@ -600,7 +619,7 @@ fn fit_mu(obs: &[Obs]) -> Option<(f64, (f64, f64), f64, Option<f64>)> {
         })
         .filter(|x| x.is_finite())
         .fold(0.0f64, f64::max);
-    if !(scale > 0.0) {
+    if scale.is_nan() || scale <= 0.0 {
         return None;
     }
     let top = 4.0 * scale;
@@ -1059,9 +1078,7 @@ impl Table<'_> {
         // (node value, ratio index) still missing.
         let mut work: Vec<(f64, usize)> = Vec::new();
         for &r in &want {
-            let have = self
-                .find(r)
-                .map_or(0, |i| self.nodes[i].1.len());
+            let have = self.find(r).map_or(0, |i| self.nodes[i].1.len());
             let r = self.find(r).map_or(r, |i| self.nodes[i].0);
             work.extend((have..k).map(|q| (r, q)));
         }
@@ -1095,7 +1112,9 @@ impl Table<'_> {
 
     /// The node at ρ (relative tolerance 1e-12).
     fn find(&self, rho: f64) -> Option<usize> {
-        let j = self.nodes.partition_point(|(x, _)| *x < rho * (1.0 - 1e-12));
+        let j = self
+            .nodes
+            .partition_point(|(x, _)| *x < rho * (1.0 - 1e-12));
         (j < self.nodes.len() && (self.nodes[j].0 - rho).abs() <= 1e-12 * rho).then_some(j)
     }
 
@@ -1300,7 +1319,9 @@ pub fn batch_with_progress(
         .filter(|r| r.is_finite())
         .fold(0.0f64, f64::max);
     let rho_min = opts.rho_min;
-    let rho_max = opts.rho_max.unwrap_or_else(|| (1.1 * measured_max).max(3.0));
+    let rho_max = opts
+        .rho_max
+        .unwrap_or_else(|| (1.1 * measured_max).max(3.0));
     if rho_max <= rho_min {
         return Err(batch_err(format!(
             "rho-max {rho_max} is not above rho-min {rho_min}"
@@ -1354,12 +1375,7 @@ pub fn batch_with_progress(
         .iter()
         .map(|r| table.robust(r * fa, r * fb, true))
         .collect();
-    let Some(rmin) = coarse_rob
-        .iter()
-        .flatten()
-        .copied()
-        .min_by(f64::total_cmp)
-    else {
+    let Some(rmin) = coarse_rob.iter().flatten().copied().min_by(f64::total_cmp) else {
         return Err(batch_err(format!(
             "the ρs grid [{rho_min}, {rho_max}] is too narrow for the uncertainty box (×{fa:.3} … ×{fb:.3}): widen it"
         )));
@@ -1410,7 +1426,9 @@ pub fn batch_with_progress(
         .filter_map(|(i, r)| r.map(|v| (i, v)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(i, _)| i)
-        .ok_or_else(|| batch_err("no candidate setting has its whole uncertainty box on the grid".into()))?;
+        .ok_or_else(|| {
+            batch_err("no candidate setting has its whole uncertainty box on the grid".into())
+        })?;
     let rho_rec = table.nodes[best].0;
     let (box_a, box_b) = (rho_rec * fa, rho_rec * fb);
     // The box ends, evaluated directly (every ratio).
@@ -1577,7 +1595,10 @@ mod tests {
         assert!((mu - 0.42).abs() < 1e-9, "{mu}");
         // σ_μ = 1/√Σ(N/σ)² = 0.002727: the interval is ±1.96 σ_μ.
         let s_mu = 1.0 / (40000.0f64 + 40000.0 + 49.0 / 9e-4).sqrt();
-        assert!((hi - lo - 2.0 * 1.96 * s_mu).abs() < 1e-3 * s_mu, "{lo} {hi}");
+        assert!(
+            (hi - lo - 2.0 * 1.96 * s_mu).abs() < 1e-3 * s_mu,
+            "{lo} {hi}"
+        );
         assert_eq!(birge, 1.0);
         assert!(chi2.unwrap() < 1e-12);
         // Stuck at 30 N with a bound of 5 N (μ > 0.167): no information.
@@ -1669,7 +1690,10 @@ mod tests {
     fn eta_grid_windows() {
         let ab = Absorber::default();
         let r = default_eta_range(&ab);
-        assert!((r.0 - 0.2185).abs() < 1e-3 && (r.1 - 1.6015).abs() < 1e-3, "{r:?}");
+        assert!(
+            (r.0 - 0.2185).abs() < 1e-3 && (r.1 - 1.6015).abs() < 1e-3,
+            "{r:?}"
+        );
         let v = drive_etas(&ab, r, 141, 0.001, 0.025);
         assert!(v.windows(2).all(|w| w[1] > w[0]));
         let (e1, _) = ab.eta_linear();
