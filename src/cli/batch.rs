@@ -47,11 +47,11 @@ pub struct BatchArgs {
     /// The recommended window: settings whose robust worst case is within this fraction of the best.
     #[arg(long, default_value_t = 0.10)]
     pub window: f64,
-    /// Drive range: smallest η (default 0.5·η1 of the rig).
-    #[arg(long)]
+    /// Drive range: smallest η (with --eta-max; default 0.5·η1 of the rig).
+    #[arg(long, requires = "eta_max")]
     pub eta_min: Option<f64>,
-    /// Drive range: largest η (default 1.4·η2 of the rig).
-    #[arg(long)]
+    /// Drive range: largest η (with --eta-min; default 1.4·η2 of the rig).
+    #[arg(long, requires = "eta_min")]
     pub eta_max: Option<f64>,
     /// Uniform η points over the drive range (plus fine windows around η1, η0, η2).
     #[arg(long, default_value_t = 141)]
@@ -106,15 +106,8 @@ fn options(a: &BatchArgs) -> crate::Result<BatchOptions> {
         return Err(arg_err("--max-periods", "must be at least 1"));
     }
     let d = BatchOptions::default();
-    let eta_range = match (a.eta_min, a.eta_max) {
-        (None, None) => None,
-        (lo, hi) => {
-            // One end given: the other from the rig's default, filled in later.
-            Some((lo.unwrap_or(f64::NAN), hi.unwrap_or(f64::NAN)))
-        }
-    };
-    Ok(BatchOptions {
-        eta_range,
+    let o = BatchOptions {
+        eta_range: a.eta_min.zip(a.eta_max),
         eta_points: a.eta_points,
         eta_fine_step: a.eta_fine_step,
         eta_fine_halfwidth: a.eta_fine_halfwidth,
@@ -131,7 +124,9 @@ fn options(a: &BatchArgs) -> crate::Result<BatchOptions> {
             max_periods: a.max_periods,
             ..d.steady
         },
-    })
+    };
+    o.check().map_err(|m| arg_err("batch options", &m))?;
+    Ok(o)
 }
 
 fn interval(i: (f64, f64)) -> Value {
@@ -352,7 +347,7 @@ fn write_report(
 /// Runs `batch`; `Ok(false)` when a log or the batch failed (error lines printed).
 pub fn run(args: BatchArgs) -> crate::Result<bool> {
     let t0 = Instant::now();
-    let mut bopts = options(&args)?;
+    let bopts = options(&args)?;
     let iopts = IdentifyOptions {
         fit: identify::FitOptions {
             bootstrap: args.bootstrap,
@@ -401,14 +396,6 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
         })
     } else {
         let rig = &rigs[0].1;
-        if let Some((lo, hi)) = bopts.eta_range {
-            let ab = crate::validate::predict::absorber(rig);
-            let (dlo, dhi) = vb::default_eta_range(&ab);
-            bopts.eta_range = Some((
-                if lo.is_nan() { dlo } else { lo },
-                if hi.is_nan() { dhi } else { hi },
-            ));
-        }
         bar.set_message("worst-case amplitudes");
         bar.set_length(bar.position() + (bopts.rho_points * 3 + good.len() + 9) as u64);
         let tick = |n: u64| {

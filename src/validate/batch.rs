@@ -150,15 +150,16 @@ impl Default for BatchOptions {
 }
 
 impl BatchOptions {
-    fn check(&self) -> std::result::Result<(), String> {
+    /// Checks the options (what is wrong, for an error line).
+    pub fn check(&self) -> std::result::Result<(), String> {
         let pos = |x: f64| x.is_finite() && x > 0.0;
         if let Some((a, b)) = self.eta_range {
             if !(pos(a) && pos(b) && a < b) {
                 return Err(format!("eta range [{a}, {b}] must be 0 < min < max"));
             }
         }
-        if self.eta_points < 2 {
-            return Err("at least 2 eta points".into());
+        if !(2..=100_000).contains(&self.eta_points) {
+            return Err("eta points must be between 2 and 100000".into());
         }
         let nonneg = |x: f64| x.is_finite() && x >= 0.0;
         if !(nonneg(self.eta_fine_step) && nonneg(self.eta_fine_halfwidth)) {
@@ -175,8 +176,8 @@ impl BatchOptions {
                 return Err("rho-max must be finite and > rho-min".into());
             }
         }
-        if self.rho_points < 4 {
-            return Err("at least 4 rho points".into());
+        if !(4..=10_000).contains(&self.rho_points) {
+            return Err("rho points must be between 4 and 10000".into());
         }
         if !(self.setting_tolerance.is_finite() && (0.0..0.5).contains(&self.setting_tolerance)) {
             return Err("setting tolerance must be a fraction in [0, 0.5)".into());
