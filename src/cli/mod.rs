@@ -6,6 +6,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod args;
+mod batch;
 mod bench;
 mod characteristic;
 mod fit;
@@ -55,6 +56,8 @@ pub enum Command {
     Run(run::RunArgs),
     /// Predict a sweep's frequency response with the law fitted on a characteristic log, and score it.
     Validate(validate::ValidateArgs),
+    /// Batch comparison of normal-force settings of one pad: μs, μd and the recommended normal force.
+    Batch(batch::BatchArgs),
 }
 
 /// Parses the command line, runs the job and returns the exit status:
@@ -86,6 +89,11 @@ pub fn main() -> ExitCode {
         },
         Command::Synth(a) => synth::run(a),
         Command::Validate(a) => validate::run(a),
+        Command::Batch(a) => match batch::run(a) {
+            Ok(true) => Ok(()),
+            Ok(false) => return ExitCode::from(1),
+            Err(e) => Err(e),
+        },
         Command::Run(a) => match run::run(a) {
             Ok(true) => Ok(()),
             Ok(false) => return ExitCode::from(1),

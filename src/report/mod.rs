@@ -1,6 +1,9 @@
-//! The report stage: figures (plotters, SVG or PNG by extension) and,
-//! later, the HTML reports. Every output is written atomically.
+//! The report stage: figures (plotters, SVG or PNG by extension) and the
+//! HTML reports (minijinja, everything from a log auto-escaped). Every
+//! output is written atomically.
 
+pub mod batch_plot;
+pub mod batch_view;
 pub mod characteristic_plot;
 pub mod html;
 pub mod plot;

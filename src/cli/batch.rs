@@ -1,0 +1,477 @@
+//! `stickslip batch LOG...`: one pad at several normal forces. Fits every
+//! log (in parallel), estimates μs and μd through the origin (stuck and
+//! never-sticking logs as censored data), and recommends the normal force
+//! whose worst-case main-mass amplitude over the drive range, robust to its
+//! own uncertainty, is smallest (see [`crate::validate::batch`]). A log that
+//! cannot be read or fitted gives its `error:` line and an entry with
+//! `error`; the batch is computed from the others and the exit status is 1.
+
+use crate::identify::{self, IdentifyOptions, LogFit};
+use crate::ingest::{self, IngestOptions, RigMeta};
+use crate::report::{batch_plot, batch_view, html, views};
+use crate::validate::batch::{self as vb, Batch, BatchOptions, MuFit, Worst};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+use serde_json::{json, Value};
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use super::fit::num;
+
+/// Arguments of `stickslip batch`.
+#[derive(Debug, Args)]
+pub struct BatchArgs {
+    /// Characteristic logs of one pad at several normal forces.
+    #[arg(required = true)]
+    pub logs: Vec<PathBuf>,
+    /// Write the HTML report (index.html and the figure) into this directory.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Write the JSON result to this file (atomically).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Relative gain uncertainty of each motion sensor in the calibration budget.
+    #[arg(long, default_value_t = 0.01)]
+    pub gain_uncertainty: f64,
+    /// Relative gain uncertainty of the normal-force sensor (common to the batch).
+    #[arg(long, default_value_t = 0.01)]
+    pub normal_force_gain_uncertainty: f64,
+    /// Bootstrap replicates over drive periods (per log).
+    #[arg(long, default_value_t = 400)]
+    pub bootstrap: usize,
+    /// Tolerance of a normal-force setting (±, relative).
+    #[arg(long, default_value_t = 0.05)]
+    pub setting_tolerance: f64,
+    /// The recommended window: settings whose robust worst case is within this fraction of the best.
+    #[arg(long, default_value_t = 0.10)]
+    pub window: f64,
+    /// Drive range: smallest η (with --eta-max; default 0.5·η1 of the rig).
+    #[arg(long, requires = "eta_max")]
+    pub eta_min: Option<f64>,
+    /// Drive range: largest η (with --eta-min; default 1.4·η2 of the rig).
+    #[arg(long, requires = "eta_min")]
+    pub eta_max: Option<f64>,
+    /// Uniform η points over the drive range (plus fine windows around η1, η0, η2).
+    #[arg(long, default_value_t = 141)]
+    pub eta_points: usize,
+    /// Step of the fine η windows around η1, η0, η2 (0: none).
+    #[arg(long, default_value_t = 0.001)]
+    pub eta_fine_step: f64,
+    /// Half-width of each fine η window.
+    #[arg(long, default_value_t = 0.025)]
+    pub eta_fine_halfwidth: f64,
+    /// Smallest ρs of the worst-case grid.
+    #[arg(long, default_value_t = 0.2)]
+    pub rho_min: f64,
+    /// Largest ρs of the grid (default: covers every measured setting, at least 3).
+    #[arg(long)]
+    pub rho_max: Option<f64>,
+    /// Nodes of the coarse geometric ρs grid.
+    #[arg(long, default_value_t = 40)]
+    pub rho_points: usize,
+    /// Do not refine the ρs grid around the best candidates.
+    #[arg(long)]
+    pub no_refine: bool,
+    /// Leave the μd/μs interval out of the robust worst case (estimate only).
+    #[arg(long)]
+    pub no_ratio_variants: bool,
+    /// Drive amplitude (mm) for ρ = R/(A·K2) (default: the rig's nominal amplitude).
+    #[arg(long)]
+    pub drive_amplitude_mm: Option<f64>,
+    /// Period budget of the time-marching fallback per steady state.
+    #[arg(long, default_value_t = 500)]
+    pub max_periods: u64,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn arg_err(name: &str, msg: &str) -> crate::Error {
+    crate::Error::Input {
+        path: PathBuf::from(name),
+        msg: msg.into(),
+    }
+}
+
+fn options(a: &BatchArgs) -> crate::Result<BatchOptions> {
+    if !(a.gain_uncertainty.is_finite() && (0.0..0.5).contains(&a.gain_uncertainty)) {
+        return Err(arg_err(
+            "--gain-uncertainty",
+            "must be a finite fraction in [0, 0.5)",
+        ));
+    }
+    if a.max_periods == 0 {
+        return Err(arg_err("--max-periods", "must be at least 1"));
+    }
+    let d = BatchOptions::default();
+    let o = BatchOptions {
+        eta_range: a.eta_min.zip(a.eta_max),
+        eta_points: a.eta_points,
+        eta_fine_step: a.eta_fine_step,
+        eta_fine_halfwidth: a.eta_fine_halfwidth,
+        rho_min: a.rho_min,
+        rho_max: a.rho_max,
+        rho_points: a.rho_points,
+        refine: !a.no_refine,
+        setting_tolerance: a.setting_tolerance,
+        window: a.window,
+        drive_amplitude_m: a.drive_amplitude_mm.map(|x| x * 1e-3),
+        normal_force_gain_uncertainty: a.normal_force_gain_uncertainty,
+        ratio_variants: !a.no_ratio_variants,
+        steady: crate::sim::sweep::SteadyConfig {
+            max_periods: a.max_periods,
+            ..d.steady
+        },
+    };
+    o.check().map_err(|m| arg_err("batch options", &m))?;
+    Ok(o)
+}
+
+fn interval(i: (f64, f64)) -> Value {
+    if i.0.is_finite() && i.1.is_finite() {
+        json!([i.0, i.1])
+    } else {
+        Value::Null
+    }
+}
+
+fn worst_json(w: &Worst) -> Value {
+    json!({
+        "rho_s": num(w.rho_s),
+        "rho_d": num(w.rho_d),
+        "worst_amplitude1": num(w.amplitude1),
+        "eta": num(w.eta),
+        "branch": w.branch.as_str(),
+        "unsettled": w.unsettled,
+    })
+}
+
+fn mu_keys(out: &mut serde_json::Map<String, Value>, name: &str, m: &MuFit) {
+    out.insert(name.into(), num(m.mu));
+    out.insert(format!("{name}_interval"), interval(m.interval));
+    out.insert(format!("{name}_stat_interval"), interval(m.stat_interval));
+    out.insert(format!("{name}_systematic_rel"), num(m.systematic_rel));
+    out.insert(format!("{name}_birge"), num(m.birge));
+    out.insert(
+        format!("{name}_chi2_per_dof"),
+        m.chi2_per_dof.map_or(Value::Null, num),
+    );
+    out.insert(format!("{name}_points"), json!(m.points));
+    out.insert(format!("{name}_censored"), json!(m.censored));
+    let (slope, a, hw) = m.free.unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+    out.insert(format!("{name}_free_slope"), num(slope));
+    out.insert(format!("{name}_intercept_n"), num(a));
+    out.insert(
+        format!("{name}_intercept_interval_n"),
+        interval((a - hw, a + hw)),
+    );
+}
+
+/// The batch keys of the JSON output (everything but `fits`).
+pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
+    let mut o = serde_json::Map::new();
+    mu_keys(&mut o, "mu_s", &b.mu_s);
+    mu_keys(&mut o, "mu_d", &b.mu_d);
+    let r = &b.recommendation;
+    let ins = |o: &mut serde_json::Map<String, Value>, k: &str, v: Value| {
+        o.insert(k.into(), v);
+    };
+    ins(&mut o, "mu_ratio", num(b.ratio));
+    ins(&mut o, "mu_ratio_interval", interval(b.ratio_interval));
+    ins(&mut o, "recommended_normal_force_n", num(r.normal_force_n));
+    ins(
+        &mut o,
+        "recommended_normal_force_interval_n",
+        interval(r.interval_n),
+    );
+    ins(&mut o, "recommended_rho_s", num(r.rho_s));
+    ins(&mut o, "recommended_rho_d", num(r.rho_d));
+    ins(&mut o, "recommended_rho_s_box", interval(r.rho_s_box));
+    ins(&mut o, "worst_amplitude1", num(r.worst.amplitude1));
+    ins(
+        &mut o,
+        "worst_amplitude1_interval",
+        interval(r.worst_interval),
+    );
+    ins(&mut o, "worst_amplitude1_robust", num(r.worst_interval.1));
+    ins(&mut o, "worst_eta", num(r.worst.eta));
+    ins(&mut o, "worst_branch", json!(r.worst.branch.as_str()));
+    match &b.cliff {
+        Some(c) => {
+            ins(&mut o, "cliff_rho_s", num(c.rho_s));
+            ins(&mut o, "cliff_rho_s_bracket", interval(c.bracket));
+            ins(&mut o, "cliff_normal_force_n", num(c.normal_force_n));
+            ins(&mut o, "cliff_threshold", num(c.threshold));
+            ins(
+                &mut o,
+                "cliff_worst_amplitude1",
+                num(c.worst_below.amplitude1),
+            );
+            ins(&mut o, "cliff_eta", num(c.worst_below.eta));
+            ins(&mut o, "margin_to_cliff", num(c.margin_rel));
+            ins(&mut o, "margin_to_cliff_rho_s", num(c.margin_rho_s));
+            ins(&mut o, "margin_to_cliff_n", num(c.margin_n));
+        }
+        None => {
+            for k in [
+                "cliff_rho_s",
+                "cliff_rho_s_bracket",
+                "cliff_normal_force_n",
+                "cliff_threshold",
+                "cliff_worst_amplitude1",
+                "cliff_eta",
+                "margin_to_cliff",
+                "margin_to_cliff_rho_s",
+                "margin_to_cliff_n",
+            ] {
+                ins(&mut o, k, Value::Null);
+            }
+        }
+    }
+    let settings: Vec<Value> = b
+        .logs
+        .iter()
+        .map(|l| {
+            json!({
+                "log": l.log.display().to_string(),
+                "normal_force_n": num(l.normal_force_n),
+                "static": l.static_obs.as_str(),
+                "mu_s_log": l.mu_s.0.map_or(Value::Null, num),
+                "mu_s_log_bounds": match (l.mu_s.1, l.mu_s.2) {
+                    (None, None) => Value::Null,
+                    (a, b) => json!([a.map_or(Value::Null, num), b.map_or(Value::Null, num)]),
+                },
+                "mu_d_log": l.mu_d.map_or(Value::Null, num),
+                "rho_s_log": l.rho_s.map_or(Value::Null, num),
+                "rho_s_model": num(l.model_rho_s),
+                "worst_amplitude1": l.worst.map_or(Value::Null, |w| num(w.amplitude1)),
+                "worst_eta": l.worst.map_or(Value::Null, |w| num(w.eta)),
+                "worst_branch": l.worst.map_or(Value::Null, |w| json!(w.branch.as_str())),
+                "consistent": l.consistent,
+                "drive_amplitude_m": num(l.drive_amplitude_m),
+            })
+        })
+        .collect();
+    ins(&mut o, "settings", json!(settings));
+    let curve: Vec<Value> = b
+        .curve
+        .iter()
+        .map(|c| {
+            let mut v = worst_json(&c.worst);
+            v["normal_force_n"] = num(c.normal_force_n);
+            v["robust_worst_amplitude1"] = c.robust.map_or(Value::Null, num);
+            v
+        })
+        .collect();
+    ins(&mut o, "curve", json!(curve));
+    ins(&mut o, "drive_amplitude_m", num(b.drive_amplitude_m));
+    ins(
+        &mut o,
+        "drive_amplitude_source",
+        json!(b.drive_amplitude_source),
+    );
+    ins(
+        &mut o,
+        "measured_drive_amplitude_m",
+        num(b.measured_drive_amplitude_m),
+    );
+    ins(&mut o, "force_scale_n", num(b.force_scale_n));
+    ins(&mut o, "m", num(b.absorber.m));
+    ins(&mut o, "k", num(b.absorber.k));
+    ins(&mut o, "damping", num(b.absorber.damping));
+    ins(&mut o, "eta_range", interval(b.eta_range));
+    ins(&mut o, "eta_points", json!(b.eta_points));
+    ins(&mut o, "setting_tolerance", num(b.setting_tolerance));
+    ins(&mut o, "evaluations", json!(b.evaluations));
+    ins(&mut o, "warnings", json!(b.warnings));
+    o
+}
+
+/// Reads and fits one log; a panic becomes an error naming the log.
+fn read_fit(log: &Path, opts: &IdentifyOptions) -> crate::Result<(RigMeta, LogFit)> {
+    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let run = ingest::read(log, &IngestOptions::default())?;
+        let f = identify::fit_log(&run, opts)?;
+        Ok((run.rig, f))
+    }));
+    r.unwrap_or_else(|_| {
+        Err(crate::Error::Input {
+            path: log.to_path_buf(),
+            msg: "internal error while fitting this log".into(),
+        })
+    })
+}
+
+/// Writes the report directory: the batch section with its figure and one
+/// section per fit.
+fn write_report(
+    dir: &Path,
+    args: &BatchArgs,
+    fits: &[(PathBuf, crate::Result<(RigMeta, LogFit)>)],
+    batch: Option<&Batch>,
+    errors: &[String],
+) -> crate::Result<PathBuf> {
+    let rd = html::ReportDir::create(dir, &args.logs)?;
+    let mut page = html::Page {
+        title: "Normal-force settings of one pad".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        ..html::Page::default()
+    };
+    if let Some(b) = batch {
+        let name = "batch.svg";
+        batch_plot::batch_figure(
+            b,
+            "Worst-case main-mass amplitude against normal force",
+            &rd.file(name)?,
+        )?;
+        page.batch = Some(batch_view::batch_view(b, Some(name.to_string())));
+    }
+    for (p, r) in fits {
+        page.fits.push(match r {
+            Ok((rig, f)) => views::fit_view(p, f, rig.notes.as_deref(), None),
+            Err(e) => views::fit_error_view(p, &e.to_string()),
+        });
+    }
+    page.warnings = errors.to_vec();
+    page.inputs = args
+        .logs
+        .iter()
+        .filter_map(|p| html::input_file(p).ok())
+        .collect();
+    rd.write_page(&page)
+}
+
+/// Runs `batch`; `Ok(false)` when a log or the batch failed (error lines printed).
+pub fn run(args: BatchArgs) -> crate::Result<bool> {
+    let t0 = Instant::now();
+    let bopts = options(&args)?;
+    let iopts = IdentifyOptions {
+        fit: identify::FitOptions {
+            bootstrap: args.bootstrap,
+            ..Default::default()
+        },
+        gain_uncertainty: args.gain_uncertainty,
+    };
+    let show = !args.json && std::io::stderr().is_terminal();
+    let bar = if show {
+        let b = ProgressBar::new(args.logs.len() as u64);
+        b.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_message("fitting logs");
+    let fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = args
+        .logs
+        .par_iter()
+        .map(|p| {
+            let r = read_fit(p, &iopts);
+            bar.inc(1);
+            (p.clone(), r)
+        })
+        .collect();
+    let mut errors = Vec::new();
+    let mut good: Vec<(PathBuf, LogFit)> = Vec::new();
+    let mut rigs: Vec<(PathBuf, RigMeta)> = Vec::new();
+    for (p, r) in &fits {
+        match r {
+            Ok((rig, f)) => {
+                good.push((p.clone(), f.clone()));
+                rigs.push((p.clone(), rig.clone()));
+            }
+            Err(e) => errors.push(e.to_string()),
+        }
+    }
+    // Results.
+    let result: crate::Result<Batch> = if good.is_empty() {
+        Err(crate::Error::Input {
+            path: PathBuf::from("batch"),
+            msg: "no log of the batch could be fitted".into(),
+        })
+    } else {
+        let rig = &rigs[0].1;
+        bar.set_message("worst-case amplitudes");
+        bar.set_length(bar.position() + (bopts.rho_points * 3 + good.len() + 9) as u64);
+        let tick = |n: u64| {
+            if bar.position() + n > bar.length().unwrap_or(0) {
+                bar.inc_length(n);
+            }
+            bar.inc(n);
+        };
+        vb::batch_with_progress(&good, rig, &bopts, &tick).map(|mut b| {
+            let mut w = vb::rig_warnings(&rigs);
+            w.append(&mut b.warnings);
+            b.warnings = w;
+            b
+        })
+    };
+    bar.finish_and_clear();
+    let mut failed = !errors.is_empty();
+    for e in &errors {
+        eprintln!("error: {e}");
+    }
+    let fit_entries: Vec<Value> = fits
+        .iter()
+        .map(|(p, r)| match r {
+            Ok((_, f)) => super::fit::entry(p, f),
+            Err(e) => json!({"log": p.display().to_string(), "error": e.to_string()}),
+        })
+        .collect();
+    let mut out = serde_json::Map::new();
+    out.insert("fits".into(), json!(fit_entries));
+    match &result {
+        Ok(b) => out.extend(batch_json(b)),
+        Err(e) => {
+            eprintln!("error: {e}");
+            failed = true;
+            for k in [
+                "mu_s",
+                "mu_d",
+                "mu_s_interval",
+                "mu_d_interval",
+                "recommended_normal_force_n",
+                "recommended_normal_force_interval_n",
+                "recommended_rho_s",
+                "worst_amplitude1",
+                "cliff_rho_s",
+            ] {
+                out.insert(k.into(), Value::Null);
+            }
+            out.insert("error".into(), json!(e.to_string()));
+        }
+    }
+    if let Some(dir) = &args.report {
+        let index = write_report(dir, &args, &fits, result.as_ref().ok(), &errors)?;
+        out.insert("report".into(), json!(index.display().to_string()));
+        if !args.json {
+            eprintln!("report: {}", index.display());
+        }
+    }
+    out.insert("seconds".into(), json!(t0.elapsed().as_secs_f64()));
+    let out = Value::Object(out);
+    if let Some(path) = &args.out {
+        let text = serde_json::to_string_pretty(&out).map_err(|e| crate::Error::Input {
+            path: path.clone(),
+            msg: e.to_string(),
+        })?;
+        crate::io::write_atomic(path, text.as_bytes())?;
+    }
+    if args.json {
+        super::print_json(&out);
+    } else if let Ok(b) = &result {
+        for line in batch_view::batch_summary(b) {
+            eprintln!("{}: {}", line.key, line.value);
+        }
+        for w in &b.warnings {
+            eprintln!("warning: {w}");
+        }
+        eprintln!("done in {:.1} s", t0.elapsed().as_secs_f64());
+    }
+    Ok(!failed)
+}

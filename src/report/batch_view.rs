@@ -1,0 +1,162 @@
+//! View model of the batch section: a [`Batch`] turned into the display
+//! rows of [`super::html::BatchView`] (headline lines, the comparison table
+//! of the normal-force settings, the figure, warnings).
+
+use super::html::{fmt, fmt_interval, BatchView, KeyValue};
+use crate::validate::batch::{Batch, StaticObs};
+
+/// The headline lines of a batch (also printed by `stickslip batch`).
+pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
+    let r = &b.recommendation;
+    let mu = |m: &crate::validate::batch::MuFit| {
+        let mut s = format!(
+            "{:.4}, 95 % {} (statistical {}, common calibration ±{:.1} %)",
+            m.mu,
+            fmt_interval(Some(m.interval), 4),
+            fmt_interval(Some(m.stat_interval), 4),
+            100.0 * m.systematic_rel
+        );
+        s.push_str(&format!("; {} measured, {} censored", m.points, m.censored));
+        if let Some((slope, a, hw)) = m.free {
+            s.push_str(&format!(
+                "; free fit: slope {slope:.4}, intercept {a:+.4} ± {hw:.4} N"
+            ));
+        }
+        s
+    };
+    let mut v = vec![
+        KeyValue::new("μs (Rs = μs·N, through the origin)", mu(&b.mu_s)),
+        KeyValue::new("μd (Rd = μd·N)", mu(&b.mu_d)),
+        KeyValue::new(
+            "recommended normal force",
+            format!(
+                "{:.3} N (ρs = {:.4}, ρd = {:.4}); window {}",
+                r.normal_force_n,
+                r.rho_s,
+                r.rho_d,
+                fmt_interval(Some(r.interval_n), 3)
+            ) + &format!(
+                " N (robust worst case within {:.0} % of the best)",
+                100.0 * b.window
+            ),
+        ),
+        KeyValue::new(
+            "worst case at the recommendation",
+            format!(
+                "max A1/A = {:.3} at η = {:.4} ({}); over μ intervals and ±{:.0} % setting: {} ",
+                r.worst.amplitude1,
+                r.worst.eta,
+                r.worst.branch.as_str(),
+                100.0 * b.setting_tolerance,
+                fmt_interval(Some(r.worst_interval), 3)
+            ),
+        ),
+    ];
+    v.push(KeyValue::new(
+        "cliff (η1 peak returns below)",
+        match &b.cliff {
+            Some(c) => format!(
+                "ρs = {:.4} ({:.3} N): max A1/A = {:.2} at η = {:.4} just below; margin {:.4} in ρs, {:.3} N, {:.1} % of the recommendation",
+                c.rho_s,
+                c.normal_force_n,
+                c.worst_below.amplitude1,
+                c.worst_below.eta,
+                c.margin_rho_s,
+                c.margin_n,
+                100.0 * c.margin_rel
+            ),
+            None => "none found on the grid".into(),
+        },
+    ));
+    v.push(KeyValue::new(
+        "model",
+        format!(
+            "m = {:.4}, k = {:.4}, D = {:.5}; ρ = R/(A·K2) with A = {:.4} mm ({}; logs' median measured {:.4} mm); η ∈ [{:.4}, {:.4}], {} points per branch; {} worst-case evaluations",
+            b.absorber.m,
+            b.absorber.k,
+            b.absorber.damping,
+            b.drive_amplitude_m * 1e3,
+            b.drive_amplitude_source,
+            b.measured_drive_amplitude_m * 1e3,
+            b.eta_range.0,
+            b.eta_range.1,
+            b.eta_points,
+            b.evaluations
+        ),
+    ));
+    v
+}
+
+/// The batch section of the report (settings ordered by normal force);
+/// `figure` is the figure's file name.
+pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
+    let mut logs: Vec<&crate::validate::batch::BatchLog> = b.logs.iter().collect();
+    logs.sort_by(|x, y| x.normal_force_n.total_cmp(&y.normal_force_n));
+    let header = [
+        "log",
+        "N (N)",
+        "Rs information",
+        "Rs/N",
+        "Rd/N",
+        "ρs (batch μs, nominal A)",
+        "worst max A1/A",
+        "at η",
+        "branch",
+        "bound consistent",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    let rows = logs
+        .iter()
+        .map(|l| {
+            let info = match l.static_obs {
+                StaticObs::Point { rs_n, sigma_n } => {
+                    format!("{rs_n:.4} N ± {:.4} (stat. 95 %)", 1.96 * sigma_n)
+                }
+                StaticObs::Above { .. } => format!(
+                    "stuck: Rs ≥ {} N",
+                    fmt(l.mu_s.1.map(|m| m * l.normal_force_n), 4)
+                ),
+                StaticObs::Between { .. } => format!(
+                    "never sticks: Rs in [{}, {}] N",
+                    fmt(l.mu_s.1.map(|m| m * l.normal_force_n), 4),
+                    fmt(l.mu_s.2.map(|m| m * l.normal_force_n), 4)
+                ),
+                StaticObs::Unknown => "–".into(),
+            };
+            let mu_s = match l.static_obs {
+                StaticObs::Point { .. } => fmt(l.mu_s.0, 4),
+                StaticObs::Above { .. } => format!("≥ {}", fmt(l.mu_s.1, 4)),
+                StaticObs::Between { .. } => {
+                    format!("[{}, {}]", fmt(l.mu_s.1, 4), fmt(l.mu_s.2, 4))
+                }
+                StaticObs::Unknown => "–".into(),
+            };
+            vec![
+                l.log.display().to_string(),
+                format!("{:.3}", l.normal_force_n),
+                info,
+                mu_s,
+                fmt(l.mu_d, 4),
+                fmt(Some(l.model_rho_s), 4),
+                fmt(l.worst.map(|w| w.amplitude1), 3),
+                fmt(l.worst.map(|w| w.eta), 4),
+                l.worst
+                    .map_or("–".into(), |w| w.branch.as_str().to_string()),
+                match l.consistent {
+                    Some(true) => "yes".into(),
+                    Some(false) => "no".into(),
+                    None => "–".into(),
+                },
+            ]
+        })
+        .collect();
+    BatchView {
+        summary: batch_summary(b),
+        header,
+        rows,
+        figure,
+        warnings: b.warnings.clone(),
+    }
+}

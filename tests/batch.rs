@@ -1,0 +1,282 @@
+//! The batch comparison of normal-force settings (issue 7), against
+//! `truth.json`:
+//!
+//! * `stickslip batch` on the public batch (four logs that stick and slip or
+//!   never stick, one stuck log): μs and μd within 3 % of the truth and
+//!   their intervals containing it; the stuck log as a lower bound and the
+//!   never-sticking one as bounds, both consistent with the truth; a
+//!   recommended normal force with its window, worst case and interval, and
+//!   a cliff below it; the interface's JSON keys; the HTML report.
+//! * A bad log among good ones: its `error:` line and entry, exit 1, the
+//!   batch from the others.
+//! * The issue's claim on the worst case at the paper's parameters
+//!   (m = 4, k = 1, D = 0.005, Coulomb): W ≈ 0.9 at ρs = 0.75, ≈ 7 at 0.65.
+//!
+//! The binary runs with a coarse worst-case grid (fewer η and ρs nodes, no
+//! ratio variants) and 100 bootstrap replicates so the debug build stays
+//! fast; the μ fits do not depend on the grid.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use stickslip::model::Absorber;
+use stickslip::sim::sweep::SteadyConfig;
+use stickslip::validate::batch::{default_eta_range, drive_etas, worst_case};
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("datasets")
+        .join(name)
+}
+
+fn truth() -> Value {
+    let text = std::fs::read_to_string(data("truth.json")).expect("truth.json");
+    serde_json::from_str(&text).expect("truth.json parses")
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+fn pair(v: &Value) -> (f64, f64) {
+    (f(&v[0]), f(&v[1]))
+}
+
+const BATCH: [&str; 5] = [
+    "char_N1.2.mcap",
+    "char_N2.2.mcap",
+    "char_N4.mcap",
+    "char_N7.2.mcap",
+    "char_N30.mcap",
+];
+
+/// Fast options: coarse grids, no ratio variants, 100 bootstrap replicates.
+const FAST: [&str; 10] = [
+    "--bootstrap",
+    "100",
+    "--eta-points",
+    "41",
+    "--eta-fine-step",
+    "0.005",
+    "--no-ratio-variants",
+    "--json",
+    "--max-periods",
+    "300",
+];
+
+fn run_batch(logs: &[PathBuf], rho_points: usize, extra: &[&str]) -> (Option<i32>, Value, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .arg("batch")
+        .args(logs)
+        .args(FAST)
+        .args(["--rho-points", &rho_points.to_string()])
+        .args(extra)
+        .output()
+        .expect("runs");
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    let v: Value = serde_json::from_str(stdout.trim())
+        .unwrap_or_else(|e| panic!("one JSON object on stdout ({e}): {stdout}\n{stderr}"));
+    (out.status.code(), v, stderr)
+}
+
+/// The public batch: coefficients, censored logs, recommendation, keys, report.
+#[test]
+fn public_batch() {
+    let t = truth();
+    let files = &t["files"];
+    let mu_s_true = f(&files["char_N4.mcap"]["mu_s"]);
+    let mu_d_true = f(&files["char_N4.mcap"]["mu_d"]);
+    for name in BATCH {
+        assert!(
+            (f(&files[name]["mu_s"]) - mu_s_true).abs() < 1e-12,
+            "one pad: {name}"
+        );
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("report");
+    let logs: Vec<PathBuf> = BATCH.iter().map(|n| data(n)).collect();
+    let (code, v, stderr) = run_batch(&logs, 12, &["--report", report.to_str().unwrap()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    eprintln!(
+        "mu_s {} {} mu_d {} {} rec {} N {} W {} {} cliff {} margin {} ({} s)",
+        v["mu_s"],
+        v["mu_s_interval"],
+        v["mu_d"],
+        v["mu_d_interval"],
+        v["recommended_normal_force_n"],
+        v["recommended_normal_force_interval_n"],
+        v["worst_amplitude1"],
+        v["worst_amplitude1_interval"],
+        v["cliff_rho_s"],
+        v["margin_to_cliff"],
+        v["seconds"]
+    );
+    // The interface's keys.
+    for k in [
+        "fits",
+        "mu_s",
+        "mu_d",
+        "mu_s_interval",
+        "mu_d_interval",
+        "recommended_normal_force_n",
+        "recommended_normal_force_interval_n",
+        "recommended_rho_s",
+        "worst_amplitude1",
+        "cliff_rho_s",
+    ] {
+        assert!(v.get(k).is_some_and(|x| !x.is_null()), "key {k}: {v}");
+    }
+    // Each fit entry is what `fit` writes.
+    let fits = v["fits"].as_array().unwrap();
+    assert_eq!(fits.len(), 5);
+    for e in fits {
+        for k in [
+            "log",
+            "law",
+            "rho_s_interval",
+            "normal_force_n",
+            "stuck",
+            "never_sticks",
+        ] {
+            assert!(e.get(k).is_some(), "fit key {k}: {e}");
+        }
+    }
+    // μs, μd within 3 % of the truth, their intervals containing it.
+    let (mu_s, mu_d) = (f(&v["mu_s"]), f(&v["mu_d"]));
+    assert!((mu_s / mu_s_true - 1.0).abs() < 0.03, "mu_s {mu_s}");
+    assert!((mu_d / mu_d_true - 1.0).abs() < 0.03, "mu_d {mu_d}");
+    let (a, b) = pair(&v["mu_s_interval"]);
+    assert!(
+        a < mu_s && mu_s < b && a <= mu_s_true && mu_s_true <= b,
+        "{a} {b}"
+    );
+    let (a, b) = pair(&v["mu_d_interval"]);
+    assert!(
+        a < mu_d && mu_d < b && a <= mu_d_true && mu_d_true <= b,
+        "{a} {b}"
+    );
+    assert_eq!(v["mu_s_points"], 3);
+    assert_eq!(v["mu_s_censored"], 2);
+    // The free fit's intercept is reported as a check.
+    assert!(v["mu_s_intercept_n"].is_number() && v["mu_d_intercept_n"].is_number());
+    // The censored logs: bounds, not points, and consistent with the truth.
+    let settings = v["settings"].as_array().unwrap();
+    let by_log = |name: &str| {
+        settings
+            .iter()
+            .find(|s| s["log"].as_str().unwrap().ends_with(name))
+            .unwrap_or_else(|| panic!("{name} in settings"))
+    };
+    let stuck = by_log("char_N30.mcap");
+    assert_eq!(stuck["static"], "lower-bound");
+    assert!(stuck["mu_s_log"].is_null());
+    assert_eq!(stuck["consistent"], true);
+    let lb = f(&stuck["mu_s_log_bounds"][0]);
+    assert!(lb > 0.0 && lb <= mu_s_true, "stuck bound {lb}");
+    assert!(stuck["mu_s_log_bounds"][1].is_null());
+    let never = by_log("char_N1.2.mcap");
+    assert_eq!(never["static"], "bounded");
+    assert_eq!(never["consistent"], true);
+    let (lo, hi) = pair(&never["mu_s_log_bounds"]);
+    assert!(
+        lo <= mu_s_true && mu_s_true <= hi,
+        "never-sticking bounds {lo} {hi}"
+    );
+    let fit_of = |name: &str| {
+        fits.iter()
+            .find(|e| e["log"].as_str().unwrap().ends_with(name))
+            .unwrap()
+    };
+    assert_eq!(fit_of("char_N30.mcap")["stuck"], true);
+    assert_eq!(fit_of("char_N1.2.mcap")["never_sticks"], true);
+    for name in ["char_N2.2.mcap", "char_N4.mcap", "char_N7.2.mcap"] {
+        assert_eq!(by_log(name)["static"], "point", "{name}");
+    }
+    // The recommendation: inside its window, with a worst case inside its
+    // interval and a cliff below it.
+    let n = f(&v["recommended_normal_force_n"]);
+    let (wa, wb) = pair(&v["recommended_normal_force_interval_n"]);
+    assert!(wa <= n && n <= wb && wa > 0.0, "{wa} {n} {wb}");
+    let w = f(&v["worst_amplitude1"]);
+    let (la, lb) = pair(&v["worst_amplitude1_interval"]);
+    assert!(la <= w && w <= lb && w > 0.0, "{la} {w} {lb}");
+    let rho = f(&v["recommended_rho_s"]);
+    assert!((rho - mu_s * n / f(&v["force_scale_n"])).abs() < 1e-9 * rho);
+    let cliff = f(&v["cliff_rho_s"]);
+    assert!(cliff < rho, "cliff {cliff} vs recommendation {rho}");
+    assert!(f(&v["margin_to_cliff"]) > 0.0);
+    // Far below the cliff the η1 peak dominates: the weakest setting is worse.
+    let w_low = f(&by_log("char_N1.2.mcap")["worst_amplitude1"]);
+    assert!(w_low > 10.0 * w, "{w_low} vs {w}");
+    let curve = v["curve"].as_array().unwrap();
+    assert!(curve.len() >= 12);
+    // The report.
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    assert!(html.contains("Normal-force settings (batch)"));
+    assert!(html.contains("batch.svg") && report.join("batch.svg").exists());
+    assert!(!html.contains("http://") && !html.contains("https://"));
+}
+
+/// A bad log among good ones: its error line and entry, exit 1, and the
+/// batch from the others.
+#[test]
+fn bad_log_among_good_ones() {
+    let logs = vec![
+        data("char_N4.mcap"),
+        data("broken/not_mcap.mcap"),
+        data("char_N7.2.mcap"),
+    ];
+    let (code, v, stderr) = run_batch(&logs, 8, &[]);
+    assert_eq!(code, Some(1), "{stderr}");
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains("not_mcap.mcap"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let fits = v["fits"].as_array().unwrap();
+    assert_eq!(fits.len(), 3);
+    assert!(fits[1]["error"].is_string() && fits[1]["log"].is_string());
+    assert!(fits[0]["error"].is_null() && fits[2]["error"].is_null());
+    let mu_s = f(&v["mu_s"]);
+    assert!((mu_s / 0.42 - 1.0).abs() < 0.03, "{mu_s}");
+    assert!(v["recommended_normal_force_n"].is_number());
+}
+
+/// Only a stuck log: no measured static friction, an error naming the batch,
+/// exit 1, still one JSON object.
+#[test]
+fn only_bounds_is_an_error() {
+    let (code, v, stderr) = run_batch(&[data("char_N30.mcap")], 8, &[]);
+    assert_eq!(code, Some(1));
+    assert!(
+        stderr.lines().any(|l| l.starts_with("error: batch")),
+        "{stderr}"
+    );
+    assert!(v["mu_s"].is_null() && v["error"].is_string());
+}
+
+/// The issue's numbers at the paper's parameters (m = 4, k = 1, D = 0.005,
+/// Coulomb), over the default drive range with its fine windows: measured
+/// W = 0.908 at ρs = 0.75 and 6.70 at ρs = 0.65 (the η1 peak, at η ≈ 0.43).
+#[test]
+fn paper_worst_case_cliff() {
+    let ab = Absorber::default();
+    let etas = drive_etas(&ab, default_eta_range(&ab), 141, 0.001, 0.025);
+    let cfg = SteadyConfig {
+        max_periods: 500,
+        ..SteadyConfig::default()
+    };
+    let hi = worst_case(&ab, 0.75, 0.75, &etas, &cfg).unwrap();
+    let lo = worst_case(&ab, 0.65, 0.65, &etas, &cfg).unwrap();
+    eprintln!(
+        "W(0.75) = {} at {}, W(0.65) = {} at {}",
+        hi.amplitude1, hi.eta, lo.amplitude1, lo.eta
+    );
+    assert!((hi.amplitude1 - 0.9).abs() < 0.05, "{hi:?}");
+    assert!((lo.amplitude1 - 7.0).abs() < 1.0, "{lo:?}");
+    let (e1, _) = ab.eta_linear();
+    assert!((lo.eta - e1).abs() < 0.03, "the η1 peak: {lo:?}");
+}
