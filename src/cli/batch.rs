@@ -346,6 +346,7 @@ fn write_report(
 
 /// Runs `batch`; `Ok(false)` when a log or the batch failed (error lines printed).
 pub fn run(args: BatchArgs) -> crate::Result<bool> {
+    crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
     let t0 = Instant::now();
     let bopts = options(&args)?;
     let iopts = IdentifyOptions {

@@ -17,7 +17,8 @@
 
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, Run};
-use crate::report::{html, views};
+use crate::report::{batch_plot, batch_view, html, views};
+use crate::validate::batch as vb;
 use crate::validate::{self, ValidateOptions, Validation};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -210,6 +211,44 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         validations.push((pair.clone(), r));
         bar.inc(1);
     }
+    // The batch: the plan's batch logs that fitted (a stuck or
+    // never-sticking log enters as a bound).
+    let batch: Option<crate::Result<vb::Batch>> = (!plan.batch.is_empty()).then(|| {
+        bar.set_message("batch: worst-case amplitudes against the normal force");
+        let good: Vec<(PathBuf, LogFit)> = plan
+            .batch
+            .iter()
+            .filter_map(|p| fits[p].as_ref().ok().map(|f| (p.clone(), f.clone())))
+            .collect();
+        let rigs: Vec<(PathBuf, crate::ingest::RigMeta)> = plan
+            .batch
+            .iter()
+            .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+            .collect();
+        let Some((_, rig)) = rigs.first() else {
+            return Err(crate::Error::Input {
+                path: args.plan.clone(),
+                msg: "no log of the batch could be read".into(),
+            });
+        };
+        if good.is_empty() {
+            return Err(crate::Error::Input {
+                path: args.plan.clone(),
+                msg: "no log of the batch could be fitted".into(),
+            });
+        }
+        let tick = |_: u64| {};
+        vb::batch_with_progress(&good, rig, &vb::BatchOptions::default(), &tick).map(|mut b| {
+            let mut w = vb::rig_warnings(&rigs);
+            w.append(&mut b.warnings);
+            b.warnings = w;
+            b
+        })
+    });
+    if let Some(Err(e)) = &batch {
+        errors.push(format!("{e}"));
+    }
+    bar.inc(1);
     bar.finish_and_clear();
     for e in &errors {
         eprintln!("error: {e}");
@@ -243,6 +282,22 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         "validations": val_entries,
         "seconds": t0.elapsed().as_secs_f64(),
     });
+    match &batch {
+        Some(Ok(b)) => {
+            let mut m = super::batch::batch_json(b);
+            m.insert(
+                "logs".into(),
+                json!(plan
+                    .batch
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()),
+            );
+            out["batch"] = Value::Object(m);
+        }
+        Some(Err(e)) => out["batch"] = json!({"error": e.to_string()}),
+        None => {}
+    }
 
     if let Some(dir) = &args.report {
         let rd = html::ReportDir::create(dir, &logs)?;
@@ -276,6 +331,24 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
                         s.steady_points
                     ),
                 ));
+            }
+        }
+        if let Some(Ok(b)) = &batch {
+            let fig = "batch.svg";
+            batch_plot::batch_figure(
+                b,
+                &format!(
+                    "{}: worst-case amplitude against the normal force",
+                    plan.title.as_deref().unwrap_or("batch")
+                ),
+                &rd.file(fig)?,
+            )?;
+            page.batch = Some(batch_view::batch_view(b, Some(fig.into())));
+            if let Some(kv) = batch_view::batch_summary(b)
+                .into_iter()
+                .find(|kv| kv.key.starts_with("recommended"))
+            {
+                page.summary.push(kv);
             }
         }
         for p in &chars {
