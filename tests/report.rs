@@ -111,3 +111,56 @@ fn outputs_never_overwrite_inputs() {
         "parquet overwritten"
     );
 }
+
+/// The main job: `stickslip run` on the bundled plan (ingest → fit →
+/// validate → batch) writes one JSON object and a report with every figure.
+#[test]
+fn main_job_on_the_bundled_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let report = dir.path().join("report");
+    let out = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .arg("run")
+        .arg(data("plan.toml"))
+        .args(["--samples", "10", "--json", "--report"])
+        .arg(&report)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        v["fits"].as_array().unwrap().len(),
+        8,
+        "every characteristic log"
+    );
+    let vals = v["validations"].as_array().unwrap();
+    assert_eq!(vals.len(), 3);
+    for val in vals {
+        assert!(val.get("error").is_none(), "{val}");
+        assert!(val["score"]["replay_nrms_amplitude1"].as_f64().unwrap() < 0.1);
+    }
+    let b = &v["batch"];
+    for key in [
+        "mu_s",
+        "mu_d",
+        "recommended_normal_force_n",
+        "worst_amplitude1",
+        "cliff_rho_s",
+    ] {
+        assert!(b[key].as_f64().is_some(), "batch {key}: {b}");
+    }
+    let html = std::fs::read_to_string(report.join("index.html")).unwrap();
+    for fig in [
+        "batch.svg",
+        "frc_sweep_stepped_N4.svg",
+        "frc_sweep_continuous_N4.svg",
+        "characteristic_char_N4.svg",
+        "characteristic_law_stribeck.svg",
+    ] {
+        assert!(html.contains(fig), "{fig} referenced");
+        assert!(report.join(fig).is_file(), "{fig} written");
+    }
+}
