@@ -9,10 +9,13 @@ lint:
     cargo clippy --all-targets -- -D warnings
     cargo fmt --all -- --check
 
-# Criterion benchmarks of the engine.
+# Criterion benchmarks (engine, Fig. 3 family, ingest) and the
+# work-precision study.
 bench:
     cargo bench --bench engine
+    cargo bench --bench sweep
     cargo bench --bench ingest
+    cargo run --release -- bench
 
 # The main job: the whole pipeline on the bundled data set's plan
 # (ingest -> fit -> validate -> batch), report in reports/index.html.
@@ -20,9 +23,9 @@ main:
     cargo run --release -- run datasets/plan.toml --report reports
 
 # Render the report in headless Chromium (Debian: apt install chromium) and
-# save a screenshot to look at.
+# save a screenshot (/tmp/stickslip-report.png) to look at.
 screenshot:
-    chromium --headless --no-sandbox --disable-gpu --hide-scrollbars --window-size=1200,4000 --screenshot=reports/screenshot.png "file://$(pwd)/reports/index.html"
+    chromium --headless --no-sandbox --disable-gpu --disable-background-networking --disable-component-update --no-first-run --hide-scrollbars --window-size=1200,4000 --screenshot=/tmp/stickslip-report.png "file://$(pwd)/reports/index.html"
 
 # CI as it runs on a fresh clone.
 ci:

@@ -137,8 +137,9 @@ pub struct MeasuredFrc {
 /// Options of [`measure`].
 #[derive(Debug, Clone)]
 pub struct FrcOptions {
-    /// Shortest amplitude window at the end of a step (s); whole drive
-    /// periods, at least three, at most half of the hold.
+    /// Amplitude window at the end of a step (s): the last whole drive
+    /// periods covering at least this long (and three periods), but never
+    /// more than half of the hold (down to one period).
     pub window_s: f64,
     /// Relative amplitude change between the two halves of a step's window
     /// above which the step has visibly not settled.
@@ -763,8 +764,8 @@ fn stepped(
         let hold_start = ramps[i].map_or(a, |(t0, d)| t0 + d).max(a);
         let avail = b - hold_start;
         let mut k = (opts.window_s / period).ceil().max(3.0);
-        while k > 1.0 && k * period > 0.5 * avail.max(0.0) && k * period > opts.window_s.min(avail)
-        {
+        // Never more than half of the hold (its start holds the transient).
+        while k > 1.0 && k * period > 0.5 * avail.max(0.0) {
             k -= 1.0;
         }
         let k = k.max(1.0);
