@@ -394,7 +394,10 @@ fn characteristic_writes_the_table() {
     assert_eq!(v["stuck"], false);
     let svg = std::fs::read_to_string(&plot).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-    assert!(svg.contains("fitted: static-dynamic"), "legend names the law");
+    assert!(
+        svg.contains("fitted: static-dynamic"),
+        "legend names the law"
+    );
     let text = std::fs::read_to_string(&out).unwrap();
     let mut lines = text.lines();
     assert_eq!(

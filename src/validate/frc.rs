@@ -897,13 +897,14 @@ fn continuous(
         .map(|s| (s.t_s, s.frequency_hz))
         .collect();
     nodes.dedup_by(|b, a| b.0 == a.0);
-    // A commanded-frequency column changes at every row: keep nodes at
-    // least a second (and two drive periods) apart, and the last one.
+    // A commanded-frequency column may change at every row: keep nodes at
+    // least half a second (or half a drive period, if shorter) apart, and
+    // the last one.
     if let Some(&last) = nodes.last() {
         let mut kept: Vec<(f64, f64)> = Vec::with_capacity(nodes.len());
         for &(t, f) in &nodes {
             match kept.last() {
-                Some(&(tk, fk)) if t - tk < (2.0 / fk).max(1.0) => {}
+                Some(&(tk, fk)) if t - tk < (0.5 / fk).min(0.5) => {}
                 _ => kept.push((t, f)),
             }
         }
