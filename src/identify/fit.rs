@@ -156,6 +156,10 @@ pub struct EquationFit {
     pub breakaway_forces_n: Vec<f64>,
     /// BIC of every family considered (lower is better).
     pub criteria: Vec<(LawKind, f64)>,
+    /// The equation-error law of every simple family that could be fitted
+    /// (start values of the output-error refinement; for static-dynamic
+    /// also when its breakaway level is not above the slip level).
+    pub candidates: Vec<SiLaw>,
     /// Things the user should know.
     pub warnings: Vec<String>,
 }
@@ -410,6 +414,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
             n_breakaways: 0,
             breakaway_forces_n: Vec::new(),
             criteria: Vec::new(),
+            candidates: Vec::new(),
             warnings,
         });
     }
@@ -665,6 +670,12 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
     };
     let residual_rms_n =
         (plain_rss(&chosen.coef, chosen.kind, chosen.vs) / samples.len() as f64).sqrt();
+    let candidates: Vec<SiLaw> = cands
+        .iter()
+        .filter(|c| c.kind != LawKind::Stribeck)
+        .map(to_law)
+        .filter(|l| l.rd_n.is_finite() && l.rs_n.is_finite())
+        .collect();
 
     // Never sticking: bounds on Rs from the reversals.
     let mut rs_upper = None;
@@ -778,6 +789,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         n_breakaways: brks.len(),
         breakaway_forces_n,
         criteria,
+        candidates,
         warnings,
     })
 }

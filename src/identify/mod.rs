@@ -58,11 +58,14 @@
 
 pub mod contact;
 pub mod fit;
+pub mod json;
+pub mod output_error;
 pub mod segment;
 pub mod smooth;
 
 pub use contact::{Contact, DriveFit, Gains};
 pub use fit::{EquationFit, FitOptions, LawKind, SiLaw, StatIntervals};
+pub use output_error::{OeOptions, OutputErrorFit};
 pub use segment::Segmentation;
 
 use crate::error::{Error, Result};
@@ -134,6 +137,11 @@ pub struct IdentifyOptions {
     /// x1, x2, v2, a2), as a bound (rectangular distribution, σ = u/√3).
     /// Default 1 %.
     pub gain_uncertainty: f64,
+    /// Refine by output error (the estimate then used downstream, where it
+    /// applies); `false` keeps the equation-error estimate.
+    pub output_error: bool,
+    /// Options of the output-error refinement.
+    pub oe: OeOptions,
 }
 
 impl Default for IdentifyOptions {
@@ -141,8 +149,46 @@ impl Default for IdentifyOptions {
         Self {
             fit: FitOptions::default(),
             gain_uncertainty: 0.01,
+            output_error: true,
+            oe: OeOptions::default(),
         }
     }
+}
+
+/// Which estimate a [`LogFit`]'s law and intervals are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Estimate {
+    /// The equation-error fit of the characteristic R(ẋ2).
+    EquationError,
+    /// The output-error refinement (simulated x1, x2 against the measured).
+    OutputError,
+}
+
+impl Estimate {
+    /// Name in the JSON (`estimate` key).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Estimate::EquationError => "equation-error",
+            Estimate::OutputError => "output-error",
+        }
+    }
+}
+
+/// 95 % intervals of one estimate, in SI and dimensionless.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Intervals {
+    /// Rs (N); for a never-sticking log, the bounds.
+    pub rs_n: Option<Interval>,
+    /// Rd (N).
+    pub rd_n: Option<Interval>,
+    /// a (N·s/m).
+    pub slope_n_s_per_m: Option<Interval>,
+    /// ρs (measured A); for a never-sticking log, the bounds.
+    pub rho_s: Option<Interval>,
+    /// ρd.
+    pub rho_d: Option<Interval>,
+    /// D*.
+    pub dstar: Option<Interval>,
 }
 
 /// A 95 % interval `[low, high]`.
@@ -150,10 +196,26 @@ pub type Interval = (f64, f64);
 
 /// The fitted law of one log with its 95 % intervals, in SI and
 /// dimensionless (ρ = R/(A·K2) with the measured A, D* = a/√(K2·M2)).
+///
+/// Two estimates are kept: the equation-error fit ([`LogFit::fit`], with
+/// its intervals in [`LogFit::equation_error`]) and, where it applies, the
+/// output-error refinement ([`LogFit::output_error`]). [`LogFit::estimate`]
+/// says which one is *used*: [`LogFit::law`], [`LogFit::rho_s`] etc. and
+/// the flat interval fields (`rs_interval_n`, …) are that estimate's, and
+/// they are what validation and batch read.
 #[derive(Debug, Clone)]
 pub struct LogFit {
     /// The equation-error fit (point estimates, bootstrap, diagnostics).
     pub fit: EquationFit,
+    /// The equation-error intervals (bootstrap ⊕ calibration budget).
+    pub equation_error: Intervals,
+    /// The output-error refinement, when it ran.
+    pub output_error: Option<OutputErrorFit>,
+    /// Which estimate the law and the flat intervals below are.
+    pub estimate: Estimate,
+    /// The law used (the chosen estimate's; Rs NaN where only bounded,
+    /// everything NaN for a stuck log).
+    law: SiLaw,
     /// The drive fit (measured amplitude and frequency).
     pub drive: DriveFit,
     /// Normal force (N): median of the normal-force channel, else the metadata.
@@ -166,17 +228,17 @@ pub struct LogFit {
     pub slope_scale: f64,
     /// Velocity scale A·√(K2/M2) (m/s) of the dimensionless v_s.
     pub velocity_scale_m_per_s: f64,
-    /// Rs interval (N); for a never-sticking log, the bounds.
+    /// Rs interval (N) of the estimate used; for a never-sticking log, the bounds.
     pub rs_interval_n: Option<Interval>,
-    /// Rd interval (N).
+    /// Rd interval (N) of the estimate used.
     pub rd_interval_n: Option<Interval>,
-    /// a interval (N·s/m).
+    /// a interval (N·s/m) of the estimate used.
     pub slope_interval_n_s_per_m: Option<Interval>,
-    /// ρs interval (measured A).
+    /// ρs interval (measured A) of the estimate used.
     pub rho_s_interval: Option<Interval>,
-    /// ρd interval.
+    /// ρd interval of the estimate used.
     pub rho_d_interval: Option<Interval>,
-    /// D* interval.
+    /// D* interval of the estimate used.
     pub dstar_interval: Option<Interval>,
     /// Lower bound on Rs of a stuck log (N), calibration margin included.
     pub rs_lower_bound_n: Option<f64>,
@@ -191,17 +253,42 @@ pub struct LogFit {
 }
 
 impl LogFit {
+    /// The law used downstream (SI): the output-error law where that is
+    /// the estimate, else the equation-error one. Rs is NaN where only
+    /// bounded (never sticks); every parameter is NaN for a stuck log.
+    pub fn law(&self) -> SiLaw {
+        self.law
+    }
+    /// The intervals of the estimate used.
+    pub fn intervals(&self) -> Intervals {
+        Intervals {
+            rs_n: self.rs_interval_n,
+            rd_n: self.rd_interval_n,
+            slope_n_s_per_m: self.slope_interval_n_s_per_m,
+            rho_s: self.rho_s_interval,
+            rho_d: self.rho_d_interval,
+            dstar: self.dstar_interval,
+        }
+    }
     /// ρs (None where only bounded).
     pub fn rho_s(&self) -> Option<f64> {
-        finite(self.fit.law.rs_n / self.force_scale_n)
+        finite(self.law.rs_n / self.force_scale_n)
     }
     /// ρd.
     pub fn rho_d(&self) -> Option<f64> {
-        finite(self.fit.law.rd_n / self.force_scale_n)
+        finite(self.law.rd_n / self.force_scale_n)
     }
     /// D*.
     pub fn dstar(&self) -> Option<f64> {
-        finite(self.fit.law.slope_n_s_per_m / self.slope_scale)
+        finite(self.law.slope_n_s_per_m / self.slope_scale)
+    }
+    /// The M2 never slid: only a lower bound on Rs is known.
+    pub fn stuck(&self) -> bool {
+        self.fit.stuck
+    }
+    /// M2 never stuck: Rs is only bounded.
+    pub fn never_sticks(&self) -> bool {
+        self.fit.never_sticks
     }
 }
 
@@ -302,24 +389,91 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         let c = cal(k);
         Some((est - lo.hypot(c), est + hi.hypot(c)))
     };
-    let rs_interval_n;
-    let rho_s_interval;
-    let rd_interval_n = combine(q0[1], ef.stat.rd, 1.0, 1);
-    let rho_d_interval = combine(q0[4], ef.stat.rd, fs, 4);
-    if ef.never_sticks {
-        // Bounds: Rs ≥ Rd (its interval's low end), Rs ≤ the reversal bound.
-        rs_interval_n = match (rd_interval_n, ef.rs_upper_bound_n) {
-            (Some((lo, _)), Some(ub)) => Some((lo, ub + cal(7))),
-            _ => None,
-        };
-        rho_s_interval = rs_interval_n.map(|(l, h)| (l / fs, h / fs));
-    } else {
-        rs_interval_n = combine(q0[0], ef.stat.rs, 1.0, 0);
-        rho_s_interval = combine(q0[3], ef.stat.rs, fs, 3);
-    }
-    let slope_interval = combine(q0[2], ef.stat.slope, 1.0, 2);
-    let dstar_interval = combine(q0[5], ef.stat.slope, ss, 5);
+    let rd_iv = combine(q0[1], ef.stat.rd, 1.0, 1);
+    let rho_d_iv = combine(q0[4], ef.stat.rd, fs, 4);
+    // Never sticking: Rs ≥ Rd (its interval's low end), Rs ≤ the reversal bound.
+    let ub = ef.rs_upper_bound_n.map(|b| b + cal(7));
+    let bounds = |rd: Option<Interval>| match (rd, ub) {
+        (Some((lo, _)), Some(ub)) => Some((lo, ub)),
+        _ => None,
+    };
+    let equation_error = Intervals {
+        rs_n: if ef.never_sticks {
+            bounds(rd_iv)
+        } else {
+            combine(q0[0], ef.stat.rs, 1.0, 0)
+        },
+        rd_n: rd_iv,
+        slope_n_s_per_m: combine(q0[2], ef.stat.slope, 1.0, 2),
+        rho_s: if ef.never_sticks {
+            bounds(rd_iv).map(|(l, h)| (l / fs, h / fs))
+        } else {
+            combine(q0[3], ef.stat.rs, fs, 3)
+        },
+        rho_d: rho_d_iv,
+        dstar: combine(q0[5], ef.stat.slope, ss, 5),
+    };
     let rs_lower_bound_n = ef.rs_lower_bound_n.map(|lb| (lb - cal(6)).max(0.0));
+
+    let mut warnings = run.warnings.clone();
+    warnings.extend(base.contact.warnings.iter().cloned());
+    warnings.extend(ef.warnings.iter().cloned());
+
+    // Output-error refinement (not for a stuck log: nothing slides; not
+    // for the Stribeck type: no closed form, and it is reported as a law
+    // the simple families do not describe).
+    let mut output_error = None;
+    if opts.output_error && !ef.stuck && ef.law.kind != LawKind::Stribeck {
+        let forced = opts.fit.law.filter(|k| *k != LawKind::Stribeck);
+        match output_error::Refinement::new(
+            &base.contact,
+            &run.resampled.x0,
+            &base.segmentation,
+            rig,
+            &opts.oe,
+        )
+        .and_then(|r| r.run(&ef.candidates, ef.bias_n, forced, u))
+        {
+            Ok(o) => output_error = Some(o),
+            Err(e) => warnings.push(format!(
+                "output-error refinement not possible ({e}); the equation-error estimate is used"
+            )),
+        }
+    }
+    let (estimate, mut law, used) = match &mut output_error {
+        Some(o) => {
+            let iv = &o.intervals;
+            let used = Intervals {
+                rs_n: if ef.never_sticks {
+                    bounds(iv.rd_n)
+                } else {
+                    iv.rs_n
+                },
+                rd_n: iv.rd_n,
+                slope_n_s_per_m: iv.slope_n_s_per_m,
+                rho_s: if ef.never_sticks {
+                    bounds(iv.rd_n).map(|(l, h)| (l / fs, h / fs))
+                } else {
+                    iv.rho_s
+                },
+                rho_d: iv.rho_d,
+                dstar: iv.dstar,
+            };
+            if o.law.kind != ef.law.kind {
+                warnings.push(format!(
+                    "the output-error refinement chose the law {} (equation error: {})",
+                    o.law.kind.as_str(),
+                    ef.law.kind.as_str()
+                ));
+            }
+            o.intervals = used;
+            (Estimate::OutputError, o.law, used)
+        }
+        None => (Estimate::EquationError, ef.law, equation_error),
+    };
+    if ef.never_sticks {
+        law.rs_n = f64::NAN;
+    }
 
     let normal_force_n = run
         .resampled
@@ -329,9 +483,6 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         .filter(|v| v.is_finite())
         .unwrap_or(rig.normal_force_n);
     let eta = 2.0 * std::f64::consts::PI * base.contact.drive.frequency_hz / rig.omega_ref();
-    let mut warnings = run.warnings.clone();
-    warnings.extend(base.contact.warnings.iter().cloned());
-    warnings.extend(ef.warnings.iter().cloned());
     let rel = base.contact.drive.amplitude_m / rig.drive_amplitude_m - 1.0;
     if rel.abs() > 0.005 {
         warnings.push(format!(
@@ -371,12 +522,16 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         force_scale_n: fs,
         slope_scale: ss,
         velocity_scale_m_per_s: a * rig.omega_ref(),
-        rs_interval_n,
-        rd_interval_n,
-        slope_interval_n_s_per_m: slope_interval,
-        rho_s_interval,
-        rho_d_interval,
-        dstar_interval,
+        rs_interval_n: used.rs_n,
+        rd_interval_n: used.rd_n,
+        slope_interval_n_s_per_m: used.slope_n_s_per_m,
+        rho_s_interval: used.rho_s,
+        rho_d_interval: used.rho_d,
+        dstar_interval: used.dstar,
+        equation_error,
+        output_error,
+        estimate,
+        law,
         rho_s_lower_bound: rs_lower_bound_n.map(|x| x / fs),
         rs_lower_bound_n,
         gain_uncertainty: u,
