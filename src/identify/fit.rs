@@ -564,7 +564,8 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         {
             continue;
         }
-        let k_slip = cand.coef.len();
+        // The Stribeck velocity is fitted too (profiled by the scan).
+        let k_slip = cand.coef.len() + usize::from(cand.kind == LawKind::Stribeck);
         let rss = rss_of(&cand.coef, &cand.w, cand.kind, cand.vs);
         let wsum: f64 = cand.w.iter().sum();
         let mut crit = bic(
