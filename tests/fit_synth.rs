@@ -241,13 +241,51 @@ fn study(first: u64, n: u64) -> Tally {
     t
 }
 
+/// CI: 12 random round trips. Per parameter set (SI: Rs, Rd, a; and
+/// dimensionless: ρs, ρd, D*) up to 36 intervals; with a true coverage of
+/// 95 % the misses are binomial with mean ≤ 1.8 and P(misses ≥ 5) ≤ 3.6 %,
+/// so at most 4 misses each. The family must be right in all but one.
+/// Measured: 26/27 and 26/27, families 9/9 (3 of 12 skipped).
 #[test]
-#[ignore = "study: 80 random round trips (several minutes in a debug build); `cargo test --release --test fit_synth -- --ignored --nocapture`"]
+fn synth_round_trips_cover_the_truth() {
+    let t = study(1, 12);
+    for r in &t.report {
+        eprintln!("{r}");
+    }
+    let n = 3 * t.cases;
+    let rho: usize = t.rho_per.iter().sum();
+    eprintln!(
+        "coverage {}/{n} (ρ {rho}/{n}), families {}/{}, skipped {}",
+        t.hits, t.families, t.cases, t.skipped
+    );
+    assert!(
+        t.cases >= 8,
+        "only {} of 12 cases both stick and slip",
+        t.cases
+    );
+    assert!(n - t.hits <= 4, "{}/{n}: {:#?}", t.hits, t.report);
+    assert!(n - rho <= 4, "ρ {rho}/{n}: {:#?}", t.report);
+    assert!(t.families + 1 >= t.cases, "{:#?}", t.report);
+}
+
+/// The long study (`cargo test --release --test fit_synth -- --ignored
+/// --nocapture`; `STUDY_N` cases from `STUDY_FIRST`, default 200 from 1).
+///
+/// Measured (200 cases, 174 both sticking and slipping, 26 skipped):
+/// intervals of the estimate used hold the truth for 511/522 SI parameters
+/// (Rs 173, Rd 173, a 165 of 174) and 493/522 dimensionless ones (ρs 164,
+/// ρd 164, D* 165); the equation-error intervals alone 412/522. Family
+/// right in 171/174 (misses: a viscous slope of D* = 0.049 and a
+/// static-dynamic law taken for the Stribeck type by the equation-error
+/// criterion, which the refinement does not revisit; a Coulomb law with a
+/// spurious, unresolved slope at ρs = 1.40).
+#[test]
+#[ignore = "study: 200 random round trips (about 2 minutes in release)"]
 fn synth_round_trip_study() {
     let n = std::env::var("STUDY_N")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(80);
+        .unwrap_or(200);
     let first = std::env::var("STUDY_FIRST")
         .ok()
         .and_then(|s| s.parse().ok())
@@ -270,15 +308,22 @@ fn synth_round_trip_study() {
     );
 }
 
+/// Repeatability of one law (the paper's rig, a static/dynamic pad at
+/// 4 N) under new sensor draws (typical DAQ): the spread of the estimates
+/// against their intervals. Measured over 200 draws: ρs error mean
+/// +0.004 %, sd 0.025 %, 3 intervals of 200 miss the truth; ρd mean
+/// −0.003 %, sd 0.015 %, 10 of 200 miss. With one anchor interval per
+/// segment instead of three the mean ρs error was −0.027 % (12 draws; the
+/// incidental-parameter bias of per-segment start states).
 #[test]
-#[ignore = "study: repeatability of one law under new sensor draws"]
+#[ignore = "study: repeatability under new sensor draws"]
 fn synth_repeatability_study() {
     let dir = tempfile::tempdir().unwrap();
     let n: u64 = std::env::var("STUDY_N")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
-    let ideal = std::env::var("STUDY_IDEAL").is_ok();
+    let (mut e_s, mut e_d, mut miss) = (Vec::new(), Vec::new(), [0, 0]);
     for seed in 0..n {
         let mut cfg = SynthConfig::paper(seed);
         cfg.friction = FrictionSpec {
@@ -287,29 +332,6 @@ fn synth_repeatability_study() {
             slope_n_s_per_m: 0.0,
             stribeck_velocity_m_per_s: None,
         };
-        if ideal {
-            cfg.sensors = Sensors::ideal();
-        }
-        if let Ok(v) = std::env::var("STUDY_NOISE") {
-            // Ideal sensors plus white noise of the typical size × v.
-            let k: f64 = v.parse().unwrap();
-            cfg.sensors = Sensors::ideal();
-            let ch = std::env::var("STUDY_CH").unwrap_or("x0,x1,x2,v2,a2".into());
-            let on = |c: &str| {
-                if ch.split(',').any(|x| x == c) {
-                    k
-                } else {
-                    0.0
-                }
-            };
-            cfg.sensors.x0.noise = 1.5e-6 * on("x0");
-            cfg.sensors.x1.noise = 3e-6 * on("x1");
-            cfg.sensors.x2.noise = 3e-6 * on("x2");
-            cfg.sensors.v2.noise = 4e-4 * on("v2");
-            if let Some(a) = cfg.sensors.a2.as_mut() {
-                a.noise = 0.02 * on("a2");
-            }
-        }
         let log = synth::generate(&cfg).expect("generate");
         let path = dir.path().join(format!("r{seed}.mcap"));
         synth::write(&log, &path).expect("write");
@@ -317,14 +339,21 @@ fn synth_repeatability_study() {
         let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
         let fs = cfg.rig.drive_amplitude_true_m * cfg.rig.k2_n_per_m;
         let (rs, rd) = (1.68 / fs, 1.36 / fs);
-        let hw = |iv: Option<Interval>| iv.map_or(f64::NAN, |(a, b)| (b - a) / 2.0);
-        eprintln!(
-            "seed {seed}: {} ρs err {:+.5}% (±{:.5}%) ρd err {:+.5}% (±{:.5}%)",
-            fit.law().kind.as_str(),
-            100.0 * (fit.rho_s().unwrap() / rs - 1.0),
-            100.0 * hw(fit.rho_s_interval) / rs,
-            100.0 * (fit.rho_d().unwrap() / rd - 1.0),
-            100.0 * hw(fit.rho_d_interval) / rd,
-        );
+        e_s.push(100.0 * (fit.rho_s().unwrap() / rs - 1.0));
+        e_d.push(100.0 * (fit.rho_d().unwrap() / rd - 1.0));
+        miss[0] += usize::from(!inside(fit.rho_s_interval, rs));
+        miss[1] += usize::from(!inside(fit.rho_d_interval, rd));
     }
+    let ms = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        let sd = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt();
+        (m, sd)
+    };
+    eprintln!(
+        "ρs error (mean, sd) {:?} %, misses {}; ρd {:?} %, misses {} (of {n})",
+        ms(&e_s),
+        miss[0],
+        ms(&e_d),
+        miss[1]
+    );
 }

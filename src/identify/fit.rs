@@ -564,6 +564,13 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         {
             continue;
         }
+        // Likewise the Stribeck type needs a peak (ρs > ρd): a dip or a
+        // vanishing peak is a simple law with an idle extra term.
+        if cand.kind == LawKind::Stribeck
+            && cand.coef[2].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        {
+            continue;
+        }
         // The Stribeck velocity is fitted too (profiled by the scan).
         let k_slip = cand.coef.len() + usize::from(cand.kind == LawKind::Stribeck);
         let rss = rss_of(&cand.coef, &cand.w, cand.kind, cand.vs);

@@ -1308,6 +1308,87 @@ impl Refinement {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identify::{fit_log, Estimate, IdentifyOptions};
+    use crate::ingest::{self, IngestOptions};
+    use crate::synth::{self, FrictionSpec, Sensors, SynthConfig, TestSpec};
+
+    /// `stickslip synth --ideal-sensors` of a law, read back and fitted.
+    fn ideal_fit(friction: FrictionSpec) -> (SynthConfig, super::super::LogFit) {
+        let mut cfg = SynthConfig::paper(3);
+        cfg.sensors = Sensors::ideal();
+        cfg.friction = friction;
+        cfg.test = TestSpec::Characteristic {
+            frequency_hz: 1.72,
+            warmup_s: 20.0,
+            duration_s: 12.0,
+        };
+        let log = synth::generate(&cfg).expect("generate");
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("ideal.mcap");
+        synth::write(&log, &path).expect("write");
+        let run = ingest::read(&path, &IngestOptions::default()).expect("ingest");
+        let fit = fit_log(&run, &IdentifyOptions::default()).expect("fit");
+        (cfg, fit)
+    }
+
+    /// With ideal sensors the refinement recovers the law to the
+    /// simulator's precision (the equation-error fit is 0.3–1 % off on
+    /// the same data: smoothing and differentiation).
+    #[test]
+    fn refinement_recovers_a_law_exactly_from_ideal_sensors() {
+        for (rs, rd, a, kind) in [
+            (1.68, 1.36, 0.0, LawKind::StaticDynamic),
+            (1.2, 1.2, -3.0, LawKind::Decreasing),
+        ] {
+            let (cfg, fit) = ideal_fit(FrictionSpec {
+                rs_n: rs,
+                rd_n: rd,
+                slope_n_s_per_m: a,
+                stribeck_velocity_m_per_s: None,
+            });
+            assert_eq!(
+                fit.estimate,
+                Estimate::OutputError,
+                "{:?} {:?}",
+                fit.warnings,
+                fit.fit.law
+            );
+            let o = fit.output_error.as_ref().expect("refined");
+            assert_eq!(o.law.kind, kind, "{:?}", o.families);
+            let fs = cfg.rig.drive_amplitude_true_m * cfg.rig.k2_n_per_m;
+            let ss = (cfg.rig.k2_n_per_m * cfg.rig.m2_kg).sqrt();
+            let rel = |x: Option<f64>, t: f64| (x.expect("value") / t - 1.0).abs();
+            assert!(
+                rel(fit.rho_s(), rs / fs) < 2e-5,
+                "ρs {:?} vs {}",
+                fit.rho_s(),
+                rs / fs
+            );
+            assert!(
+                rel(fit.rho_d(), rd / fs) < 2e-5,
+                "ρd {:?} vs {}",
+                fit.rho_d(),
+                rd / fs
+            );
+            assert!(
+                (fit.dstar().expect("D*") - a / ss).abs() < 5e-5,
+                "D* {:?}",
+                fit.dstar()
+            );
+            // Gains and bias of ideal sensors: 1 and 0 (the bias, a
+            // constant force, is the least sharply determined: 0.3 µm of
+            // position offset is 2e-4 N).
+            let g = o.chosen.gains;
+            assert!(
+                (g.0 - 1.0).abs() < 5e-5 && (g.1 - 1.0).abs() < 5e-5,
+                "gains {g:?}"
+            );
+            assert!(o.chosen.bias_n.abs() < 1e-3, "bias {}", o.chosen.bias_n);
+            // Every interval holds the truth and is narrow.
+            let (lo, hi) = fit.rho_s_interval.expect("interval");
+            assert!(lo <= rs / fs && rs / fs <= hi && hi - lo < 1e-3);
+        }
+    }
 
     #[test]
     fn student_quantiles() {
