@@ -119,6 +119,8 @@ struct Outcome {
     /// ρs, ρd, D* (truth with the true drive amplitude).
     rho_hits: [bool; 3],
     family_ok: bool,
+    /// The equation-error criterion's family is right.
+    ee_family_ok: bool,
     report: String,
 }
 
@@ -189,6 +191,7 @@ fn round_trip(seed: u64, dir: &Path) -> Option<Outcome> {
         ee_hits,
         rho_hits,
         family_ok: law.kind.as_str() == want,
+        ee_family_ok: fit.fit.law.kind.as_str() == want,
         report,
     })
 }
@@ -210,6 +213,8 @@ struct Tally {
     ee_hits: usize,
     /// Families chosen right.
     families: usize,
+    /// The same by the equation-error criterion.
+    ee_families: usize,
     /// Cases with a miss.
     report: Vec<String>,
 }
@@ -231,6 +236,7 @@ fn study(first: u64, n: u64) -> Tally {
         t.hits += o.hits.iter().filter(|h| **h).count();
         t.ee_hits += o.ee_hits.iter().filter(|h| **h).count();
         t.families += usize::from(o.family_ok);
+        t.ee_families += usize::from(o.ee_family_ok);
         if !o.family_ok || o.hits.iter().any(|h| !h) || o.rho_hits.iter().any(|h| !h) {
             t.report.push(format!(
                 "{} (covered {:?}, ρ {:?}, family ok {})",
@@ -275,10 +281,13 @@ fn synth_round_trips_cover_the_truth() {
 /// intervals of the estimate used hold the truth for 511/522 SI parameters
 /// (Rs 173, Rd 173, a 165 of 174) and 493/522 dimensionless ones (ρs 164,
 /// ρd 164, D* 165); the equation-error intervals alone 412/522. Family
-/// right in 171/174 (misses: a viscous slope of D* = 0.049 and a
-/// static-dynamic law taken for the Stribeck type by the equation-error
-/// criterion, which the refinement does not revisit; a Coulomb law with a
-/// spurious, unresolved slope at ρs = 1.40).
+/// right in 171/174 (by the equation-error criterion alone: 135/174;
+/// misses of the estimate used: two laws taken for the Stribeck type by
+/// the equation-error criterion, a viscous slope of D* = 0.049 and a
+/// static-dynamic law, which the refinement does not revisit; a Coulomb
+/// law at ρs = 1.40 given a slope the log cannot resolve, its interval
+/// holding 0). Most misses of the intervals are slopes and ρ of the
+/// `decreasing` family, whose intervals are narrow (D* to ±0.0003).
 #[test]
 #[ignore = "study: 200 random round trips (about 2 minutes in release)"]
 fn synth_round_trip_study() {
@@ -295,7 +304,7 @@ fn synth_round_trip_study() {
         eprintln!("{r}");
     }
     eprintln!(
-        "coverage {}/{} (Rs, Rd, a: {:?}; ρs, ρd, D*: {:?}; equation error {}/{}), families {}/{}, skipped {}",
+        "coverage {}/{} (Rs, Rd, a: {:?}; ρs, ρd, D*: {:?}; equation error {}/{}), families {}/{} (equation error {}), skipped {}",
         t.hits,
         3 * t.cases,
         t.per,
@@ -304,6 +313,7 @@ fn synth_round_trip_study() {
         3 * t.cases,
         t.families,
         t.cases,
+        t.ee_families,
         t.skipped
     );
 }

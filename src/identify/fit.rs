@@ -19,7 +19,11 @@
 //!   than one observation per smoothing window of 2h + 1 samples (the
 //!   smoothed velocity and a differentiated acceleration share their
 //!   samples); the breakaway part counts transitions. Static-dynamic is only
-//!   a candidate when its breakaway level exceeds the slip level.
+//!   a candidate when its breakaway level exceeds the slip level, the
+//!   Stribeck type only with a peak (ρs > ρd); its velocity v_s counts as
+//!   a parameter. Where the output-error refinement applies, its own
+//!   criterion decides the family (see `output_error`); every simple
+//!   family's law here is kept as its start (`candidates`).
 //! * **Stribeck**: `g(v) = Rd + (Rs − Rd)·exp(−(v/v_s)²) + a·v` by variable
 //!   projection: for given v_s the law is linear in (b, Rd, Rs − Rd, a);
 //!   v_s by golden-section search on log v_s.
