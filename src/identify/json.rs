@@ -1,8 +1,14 @@
 //! The JSON entry of one fitted log (one element of `fits` in `stickslip
 //! fit --json`, and the `fit` object of `validate`/`run`). Interface keys
-//! (`interface.md`) are those of the estimate used ([`LogFit::estimate`]);
-//! both estimates are kept in full under `equation_error` and
-//! `output_error`.
+//! (`interface.md`) are those of the estimate used (`estimate`:
+//! `output-error` or `equation-error`, [`LogFit::estimate`]); both
+//! estimates are kept in full under `equation_error` and `output_error`
+//! (null where not computed), each with its law, intervals and
+//! diagnostics. `residual_rms` (an interface key) and the top-level
+//! `criteria` stay those of the equation-error fit (the scatter of the
+//! characteristic R(ẋ2) about the law); the output-error residuals are
+//! `output_error.rms_x1_m`, `rms_x2_m` and its criteria
+//! `output_error.criteria`. `bias_n` is the estimate used's.
 
 use super::{Estimate, Intervals, LogFit, SiLaw};
 use serde_json::{json, Value};
