@@ -64,9 +64,11 @@
 //!   the parameters move by `−H⁻¹ Jᵀ Δr` (one simulation per sensor, x0,
 //!   x1, x2, v2; a rectangular bound, σ = |δ|/√3, as in the equation-error
 //!   budget).
-//! * **Cost of a fit**: about 0.3 s per 20-s log in release (three
-//!   families, ~1500 simulations of 22 segments, 2 µs per drive period of
-//!   the exact engine plus the samples).
+//! * **Cost of a fit**: 0.25–0.45 s per 20-s log in release (three
+//!   families, 1100–1300 evaluations of the cost, each a simulation of the
+//!   22 segments: 2 µs per drive period of the exact engine plus the
+//!   samples). The sampled drive is about 25× slower (5.5 s for an 8-s
+//!   log): the numerical engine's step is bounded by the drive's sampling.
 //!
 //! Against the equation-error fit (`fit`), which differentiates noisy
 //! signals and therefore has to smooth them (Rs, Rd within 2 %, ρ within
@@ -1123,7 +1125,10 @@ impl Refinement {
         let chosen = families[best].clone();
         let start_th = &start_rms.iter().find(|s| s.0 == *kind).expect("kept").1;
         let start_rms_m = self.rms(&self.problem(&self.data, *kind), start_th);
-        let intervals = self.intervals(*kind, th, proj, u).unwrap_or_default();
+        // Without honest intervals the refinement is not used.
+        let intervals = self
+            .intervals(*kind, th, proj, u)
+            .ok_or("too few shooting segments for intervals")?;
         Ok(OutputErrorFit {
             law: chosen.law,
             chosen,
