@@ -38,6 +38,12 @@ figures:
     cargo run --release -- sweep --slope -0.04 --stop-below 0.5 --plot reports/fig4.svg --out reports/fig4.parquet --title "Fig. 4: decreasing characteristic D* = -0.04 (interrupted below rho_s/2)"
     cargo run --release -- sweep --rho-d-ratio 0.5 --plot reports/fig5.svg --out reports/fig5.parquet --title "Fig. 5: rho_d = rho_s/2"
 
+# Identification studies: round trips through the virtual rig (200 random
+# logs), repeatability under new sensor draws, the long coverage run.
+studies:
+    cargo test --release --test fit_synth -- --ignored --nocapture
+    cargo test --release --test identify_roundtrip -- --ignored --nocapture
+
 # Mutation-fuzz the ingest parsers for 300 s (seeded from datasets/).
 fuzz:
     STICKSLIP_FUZZ_SECS=300 cargo test --release --test fuzz -- --nocapture

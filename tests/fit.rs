@@ -420,3 +420,66 @@ fn characteristic_writes_the_table() {
         .fold(0.0, f64::max);
     assert!(max_stick < rs * 1.15, "{max_stick} vs {rs}");
 }
+
+/// Both estimates are reported; the interface keys are those of the
+/// output-error refinement wherever it applies (M2 sticks and slips or
+/// never sticks, a simple family), and it meets the tolerances on
+/// its own (checked above through the interface keys). The stuck log and
+/// the Stribeck-type log keep the equation-error estimate.
+#[test]
+fn the_output_error_estimate_is_used_and_both_are_reported() {
+    for (log, fit) in fits() {
+        let t = truth_of(log);
+        let ee = &fit["equation_error"];
+        let oe = &fit["output_error"];
+        if t.stuck {
+            assert_eq!(fit["estimate"], "equation-error", "{log}");
+            assert!(oe.is_null() && ee.is_null(), "{log}");
+            continue;
+        }
+        assert!(ee["rho_d"].is_number(), "{log}: {ee}");
+        if t.family == "stribeck" {
+            assert_eq!(fit["estimate"], "equation-error", "{log}");
+            assert!(oe.is_null(), "{log}");
+            continue;
+        }
+        assert_eq!(fit["estimate"], "output-error", "{log}");
+        for k in [
+            "law",
+            "rho_s",
+            "rho_d",
+            "slope",
+            "rho_s_interval",
+            "rho_d_interval",
+            "slope_interval",
+            "r_s_n",
+            "r_d_n",
+        ] {
+            assert_eq!(fit[k], oe[k], "{log}: {k}");
+        }
+        for k in ["rms_x1_m", "rms_x2_m", "seconds", "effective_samples"] {
+            assert!(
+                oe[k].as_f64().is_some_and(|x| x > 0.0),
+                "{log}: {k} = {}",
+                oe[k]
+            );
+        }
+        assert!(oe["iterations"].as_u64().is_some_and(|n| n > 0), "{log}");
+        assert!(oe["segments"].as_u64().is_some_and(|n| n >= 12), "{log}");
+        assert_eq!(oe["drive"], "harmonic", "{log}");
+        // The simulated positions follow the measured ones to a few sensor
+        // noise levels (3–4 µm here).
+        for k in ["rms_x1_m", "rms_x2_m"] {
+            assert!(oe[k].as_f64().unwrap() < 15e-6, "{log}: {k} = {}", oe[k]);
+        }
+        // More accurate than the equation-error estimate on ρd (the slip
+        // level is measured in every log that slides).
+        let err = |v: &Value| (f(&v["rho_d"]) / t.rho_d - 1.0).abs();
+        assert!(
+            err(oe) <= err(ee) + 1e-4,
+            "{log}: {} vs {}",
+            err(oe),
+            err(ee)
+        );
+    }
+}

@@ -48,6 +48,12 @@ fn synth(law: &Law, accel: bool, seed: u64) -> Run {
 
 /// As [`synth`], with the sensor noise scaled by `noise_scale`.
 fn synth_noise(law: &Law, accel: bool, seed: u64, noise_scale: f64) -> Run {
+    synth_drive(law, accel, seed, noise_scale, 0.0)
+}
+
+/// As [`synth_noise`], with a second harmonic of relative size `h2` in the
+/// drive (a shaker that does not move sinusoidally).
+fn synth_drive(law: &Law, accel: bool, seed: u64, noise_scale: f64, h2: f64) -> Run {
     let dt: f64 = 2e-5;
     let w = 2.0 * std::f64::consts::PI * FREQ;
     let (mut x1, mut v1, mut x2, mut v2) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -59,7 +65,7 @@ fn synth_noise(law: &Law, accel: bool, seed: u64, noise_scale: f64) -> Run {
     let mut rec: Vec<[f64; 5]> = Vec::new();
     for k in 0..steps {
         let t = k as f64 * dt;
-        let x0 = AMP * (w * t).cos();
+        let x0 = AMP * ((w * t).cos() + h2 * (2.0 * w * t + 0.3).cos());
         let a1 = (-D * (v1 - v2) - K1 * (x1 - x0) - K2 * (x1 - x2)) / M1;
         let p = -K2 * (x2 - x1) + D * v1; // passive force on M2 with v2 = 0
         let a2 = if stuck {
@@ -235,25 +241,32 @@ fn known_laws_are_recovered_within_tolerance_and_intervals() {
     for (i, (law, accel, family)) in cases.iter().enumerate() {
         let run = synth(law, *accel, 100 + i as u64);
         let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
-        let e = &fit.fit;
+        // The estimate used downstream (the output-error refinement).
+        let e = fit.law();
         let label = format!("case {i} ({family}, accel {accel})");
         assert!(
-            !e.stuck && !e.never_sticks,
+            !fit.stuck() && !fit.never_sticks(),
             "{label}: stuck {} never {} {:?}",
-            e.stuck,
-            e.never_sticks,
+            fit.stuck(),
+            fit.never_sticks(),
             fit.notes
         );
-        assert_eq!(e.law.kind.as_str(), *family, "{label}: {:?}", e.criteria);
-        assert!(
-            (e.law.rs_n / law.rs - 1.0).abs() <= 0.03,
-            "{label}: Rs {}",
-            e.law.rs_n
+        assert_eq!(fit.estimate, identify::Estimate::OutputError, "{label}");
+        assert_eq!(
+            e.kind.as_str(),
+            *family,
+            "{label}: {:?}",
+            fit.output_error.as_ref().map(|o| &o.families)
         );
         assert!(
-            (e.law.rd_n / law.rd - 1.0).abs() <= 0.03,
+            (e.rs_n / law.rs - 1.0).abs() <= 0.03,
+            "{label}: Rs {}",
+            e.rs_n
+        );
+        assert!(
+            (e.rd_n / law.rd - 1.0).abs() <= 0.03,
             "{label}: Rd {}",
-            e.law.rd_n
+            e.rd_n
         );
         let dstar = law.a / ss;
         assert!(
@@ -281,6 +294,49 @@ fn known_laws_are_recovered_within_tolerance_and_intervals() {
     );
 }
 
+/// A drive with a 5 % second harmonic is not a sinusoid to within its
+/// noise: the refinement simulates the sampled drive channel (numerical
+/// engine) and still recovers the law.
+#[test]
+fn a_distorted_drive_is_simulated_as_sampled() {
+    let law = Law {
+        rs: 1.25,
+        rd: 1.0,
+        a: 0.0,
+    };
+    let mut run = synth_drive(&law, true, 77, 1.0, 0.05);
+    // 8 s of log keep the numerical engine's share of the test short.
+    let keep = 8000;
+    let r = &mut run.resampled;
+    for col in [&mut r.t, &mut r.x0, &mut r.x1, &mut r.x2, &mut r.v2] {
+        col.truncate(keep);
+    }
+    if let Some(a) = r.a2.as_mut() {
+        a.truncate(keep);
+    }
+    let t0 = std::time::Instant::now();
+    let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
+    eprintln!(
+        "fit of an 8-s log with a sampled drive: {:.2} s",
+        t0.elapsed().as_secs_f64()
+    );
+    let o = fit.output_error.as_ref().expect("refined");
+    assert_eq!(o.drive.as_str(), "sampled");
+    assert_eq!(fit.estimate, identify::Estimate::OutputError);
+    let l = fit.law();
+    assert_eq!(l.kind.as_str(), "static-dynamic", "{:?}", o.families);
+    for (name, x, t, iv) in [
+        ("Rs", l.rs_n, law.rs, fit.rs_interval_n),
+        ("Rd", l.rd_n, law.rd, fit.rd_interval_n),
+    ] {
+        assert!((x / t - 1.0).abs() <= 0.03, "{name} {x} vs {t}");
+        assert!(
+            matches!(iv, Some((a, b)) if a <= t && t <= b),
+            "{name} {iv:?} vs {t}"
+        );
+    }
+}
+
 #[test]
 fn a_log_shorter_than_two_periods_is_refused_not_called_stuck() {
     let mut run = synth(
@@ -306,27 +362,16 @@ fn a_log_shorter_than_two_periods_is_refused_not_called_stuck() {
 }
 
 /// Random laws, normal-force levels and noise levels, with and without an
-/// accelerometer: the 95 % intervals should hold the truth in about 95 % of
-/// the parameters. With 12 logs × 3 parameters, a true coverage of 95 %
-/// gives fewer than 32 of 36 hits with probability about 2 % (binomial), so
-/// the bar is 32.
-///
-/// NOT MET yet (measured: 19 of 30 parameters covered, 2 of 12 logs never
-/// stick or slip and are skipped). Every miss is a law-selection miss: a
-/// linear slope of |D*| 0.05–0.09 under 1.5–1.8× the README's sensor noise
-/// is not selected (Coulomb or static-dynamic chosen instead), and the
-/// intervals, conditional on the chosen family, then miss Rd and the slope;
-/// without an accelerometer a noisy breakaway location also biases Rs low.
-/// The position-gain regressors of the slip fit are partly collinear with a
-/// slope, which weakens its detection. Kept as an honest, ignored test.
-#[test]
-#[ignore = "coverage 19/30 measured, target 32/36: law selection misses moderate slopes under high noise"]
-fn random_round_trips_cover_the_truth() {
-    let mut rng = Rng(0xC0FFEE);
+/// accelerometer, from the independent simulator above: cases `first..first + n`.
+/// Returns (intervals holding the truth, parameters, skipped logs, misses).
+fn random_coverage(first: u64, n: u64) -> (usize, usize, usize, Vec<String>) {
     let ss = (K2 * M2).sqrt();
     let (mut hits, mut total, mut skipped) = (0, 0, 0);
     let mut report = Vec::new();
-    for case in 0..12u64 {
+    for case in first..first + n {
+        // Each case draws from its own stream (the CI subset and the long
+        // run share their first cases).
+        let mut rng = Rng(0xC0FFEE ^ case.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let family = case % 4;
         let rd = 0.6 + 1.0 * rng.u();
         let law = match family {
@@ -351,7 +396,7 @@ fn random_round_trips_cover_the_truth() {
         let noise = 0.5 + 1.5 * rng.u();
         let run = synth_noise(&law, accel, 1000 + case, noise);
         let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
-        if fit.fit.stuck || fit.fit.never_sticks {
+        if fit.stuck() || fit.never_sticks() {
             skipped += 1;
             continue;
         }
@@ -361,19 +406,47 @@ fn random_round_trips_cover_the_truth() {
             ("a", fit.slope_interval_n_s_per_m, law.a),
         ] {
             total += 1;
-            let ok = matches!(iv, Some((lo, hi)) if lo <= x && x <= hi);
-            if ok {
+            if matches!(iv, Some((lo, hi)) if lo <= x && x <= hi) {
                 hits += 1;
             } else {
                 report.push(format!(
                     "case {case} (family {family}, accel {accel}, noise ×{noise:.2}) {name}: {iv:?} vs {x}; law {} D* {:?} vs {}",
-                    fit.fit.law.kind.as_str(),
+                    fit.law().kind.as_str(),
                     fit.dstar(),
                     law.a / ss
                 ));
             }
         }
     }
+    (hits, total, skipped, report)
+}
+
+/// The 95 % intervals hold the truth in about 95 % of the parameters.
+///
+/// 12 random logs × 3 parameters in CI. With a true coverage of 95 %, the
+/// number of misses among 36 parameters is binomial with mean 1.8;
+/// P(misses ≥ 5) ≈ 3.6 %, so at most 4 misses is the bar (it fails a
+/// coverage of 85 % with probability 71 %). The long run (`just`, ignored)
+/// has 60 logs. Measured with the output-error estimate: 32/33 (12 logs,
+/// one never sticks) and 161/162 (60 logs, 6 skipped); the equation-error
+/// estimate alone had 19/30 on the first 12 of the former draw (moderate
+/// slopes under high noise were not selected).
+#[test]
+fn random_round_trips_cover_the_truth() {
+    let (hits, total, skipped, report) = random_coverage(0, 12);
+    eprintln!("coverage {hits}/{total}, skipped {skipped}: {report:#?}");
     assert!(skipped <= 2, "{skipped} cases neither stick nor slip");
-    assert!(hits >= 32 * total / 36, "{hits}/{total}: {report:#?}");
+    assert!(total - hits <= 4, "{hits}/{total}: {report:#?}");
+}
+
+/// The long run of the coverage study: 60 logs, up to 180 parameters
+/// (binomial, p = 0.05: mean 9 misses; P(misses ≥ 15) ≈ 4 %, so the bar
+/// is 14).
+#[test]
+#[ignore = "long coverage run (60 logs); `cargo test --release --test identify_roundtrip -- --ignored`"]
+fn random_round_trips_cover_the_truth_long() {
+    let (hits, total, skipped, report) = random_coverage(0, 60);
+    eprintln!("coverage {hits}/{total}, skipped {skipped}: {report:#?}");
+    assert!(skipped <= 10, "{skipped} cases neither stick nor slip");
+    assert!(total - hits <= 14, "{hits}/{total}: {report:#?}");
 }

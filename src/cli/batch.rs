@@ -355,6 +355,7 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
             ..Default::default()
         },
         gain_uncertainty: args.gain_uncertainty,
+        ..IdentifyOptions::default()
     };
     let show = !args.json && std::io::stderr().is_terminal();
     let bar = if show {

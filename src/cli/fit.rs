@@ -23,6 +23,16 @@ pub enum LawChoice {
     Stribeck,
 }
 
+/// `--estimate` choices.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum EstimateChoice {
+    /// The output-error refinement where it applies (default), else the
+    /// equation-error estimate.
+    OutputError,
+    /// The equation-error estimate only (no refinement).
+    EquationError,
+}
+
 /// Arguments of `stickslip fit`.
 #[derive(Debug, Args)]
 pub struct FitArgs {
@@ -41,87 +51,20 @@ pub struct FitArgs {
     /// Bootstrap replicates over drive periods.
     #[arg(long, default_value_t = 400)]
     pub bootstrap: usize,
+    /// Which estimate is reported as the law (and used downstream).
+    #[arg(long, value_enum, default_value_t = EstimateChoice::OutputError)]
+    pub estimate: EstimateChoice,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
 }
 
-/// A float for JSON: non-finite values become `null`.
-pub(crate) fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
+pub(crate) use crate::identify::json::num;
 
-fn opt(x: Option<f64>) -> Value {
-    x.map_or(Value::Null, num)
-}
-
-fn interval(i: Option<(f64, f64)>) -> Value {
-    match i {
-        Some((a, b)) if a.is_finite() && b.is_finite() => json!([a, b]),
-        _ => Value::Null,
-    }
-}
-
-/// The JSON entry of one fitted log (keys fixed by `interface.md`).
+/// The JSON entry of one fitted log (keys fixed by `interface.md`; built by
+/// [`LogFit::to_json`]).
 pub fn entry(log: &Path, f: &LogFit) -> Value {
-    let e = &f.fit;
-    let fs = f.force_scale_n;
-    let vel = f.velocity_scale_m_per_s;
-    let law_json = |l: &identify::SiLaw| {
-        json!({
-            "law": l.kind.as_str(),
-            "rho_s": num(l.rs_n / fs),
-            "rho_d": num(l.rd_n / fs),
-            "slope": num(l.slope_n_s_per_m / f.slope_scale),
-            "v_s": l.vs_m_per_s.map_or(Value::Null, |v| num(v / vel)),
-            "r_s_n": num(l.rs_n),
-            "r_d_n": num(l.rd_n),
-            "slope_n_s_per_m": num(l.slope_n_s_per_m),
-            "v_s_m_per_s": l.vs_m_per_s.map_or(Value::Null, num),
-        })
-    };
-    json!({
-        "log": log.display().to_string(),
-        "law": e.law.kind.as_str(),
-        "rho_s": opt(f.rho_s()),
-        "rho_d": opt(f.rho_d()),
-        "slope": opt(f.dstar()),
-        "rho_s_interval": interval(f.rho_s_interval),
-        "rho_d_interval": interval(f.rho_d_interval),
-        "slope_interval": interval(f.dstar_interval),
-        "r_s_n": num(e.law.rs_n),
-        "r_d_n": num(e.law.rd_n),
-        "slope_n_s_per_m": num(e.law.slope_n_s_per_m),
-        "r_s_interval_n": interval(f.rs_interval_n),
-        "r_d_interval_n": interval(f.rd_interval_n),
-        "slope_interval_n_s_per_m": interval(f.slope_interval_n_s_per_m),
-        "normal_force_n": num(f.normal_force_n),
-        "eta": num(f.eta),
-        "drive_frequency_hz": num(f.drive.frequency_hz),
-        "stuck": e.stuck,
-        "rho_s_lower_bound": opt(f.rho_s_lower_bound),
-        "r_s_lower_bound_n": opt(f.rs_lower_bound_n),
-        "never_sticks": e.never_sticks,
-        "drive_amplitude_m": num(f.drive.amplitude_m),
-        "residual_rms": num(e.residual_rms_n / fs),
-        "residual_rms_n": num(e.residual_rms_n),
-        "warnings": f.warnings,
-        "stribeck": e.stribeck.as_ref().map_or(Value::Null, law_json),
-        "simple_law": e.simple.as_ref().map_or(Value::Null, law_json),
-        "criteria": e.criteria.iter().map(|(k, c)| json!({"law": k.as_str(), "bic": num(*c)})).collect::<Vec<_>>(),
-        "estimate": "equation-error",
-        "output_error": Value::Null,
-        "gain_uncertainty": num(f.gain_uncertainty),
-        "bias_n": num(e.bias_n),
-        "slip_samples": e.n_slip,
-        "effective_samples": num(e.n_eff),
-        "breakaways": e.n_breakaways,
-        "notes": f.notes,
-    })
+    f.to_json(log)
 }
 
 /// Runs `fit`; `Ok(false)` when some log failed (its error line is printed).
@@ -146,6 +89,8 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
             ..Default::default()
         },
         gain_uncertainty: args.gain_uncertainty,
+        output_error: args.estimate == EstimateChoice::OutputError,
+        ..Default::default()
     };
     let one = |log: &PathBuf| -> crate::Result<LogFit> {
         let run = ingest::read(log, &IngestOptions::default())?;
@@ -219,17 +164,19 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
 /// One human-readable line per log.
 fn summary(log: &Path, f: &LogFit) -> String {
     let e = &f.fit;
+    let law = f.law();
     let fmt = |x: Option<f64>| x.map_or("-".to_string(), |v| format!("{v:.4}"));
     let mut s = format!(
-        "{}: law {}, rho_s {}, rho_d {}, D* {}, Rs {} N, Rd {} N, A {:.4} mm",
+        "{}: law {}, rho_s {}, rho_d {}, D* {}, Rs {} N, Rd {} N, A {:.4} mm ({} estimate)",
         log.display(),
-        e.law.kind.as_str(),
+        law.kind.as_str(),
         fmt(f.rho_s()),
         fmt(f.rho_d()),
         fmt(f.dstar()),
-        fmt(e.law.rs_n.is_finite().then_some(e.law.rs_n)),
-        fmt(e.law.rd_n.is_finite().then_some(e.law.rd_n)),
-        f.drive.amplitude_m * 1e3
+        fmt(law.rs_n.is_finite().then_some(law.rs_n)),
+        fmt(law.rd_n.is_finite().then_some(law.rd_n)),
+        f.drive.amplitude_m * 1e3,
+        f.estimate.as_str()
     );
     if e.stuck {
         s.push_str(&format!(", stuck (rho_s >= {})", fmt(f.rho_s_lower_bound)));

@@ -195,7 +195,7 @@ pub(crate) fn validation_section(
         char_log,
         f,
         v,
-        "equation-error",
+        f.estimate.as_str(),
         name,
     ))
 }

@@ -19,7 +19,11 @@
 //!   than one observation per smoothing window of 2h + 1 samples (the
 //!   smoothed velocity and a differentiated acceleration share their
 //!   samples); the breakaway part counts transitions. Static-dynamic is only
-//!   a candidate when its breakaway level exceeds the slip level.
+//!   a candidate when its breakaway level exceeds the slip level, the
+//!   Stribeck type only with a peak (ρs > ρd); its velocity v_s counts as
+//!   a parameter. Where the output-error refinement applies, its own
+//!   criterion decides the family (see `output_error`); every simple
+//!   family's law here is kept as its start (`candidates`).
 //! * **Stribeck**: `g(v) = Rd + (Rs − Rd)·exp(−(v/v_s)²) + a·v` by variable
 //!   projection: for given v_s the law is linear in (b, Rd, Rs − Rd, a);
 //!   v_s by golden-section search on log v_s.
@@ -156,6 +160,10 @@ pub struct EquationFit {
     pub breakaway_forces_n: Vec<f64>,
     /// BIC of every family considered (lower is better).
     pub criteria: Vec<(LawKind, f64)>,
+    /// The equation-error law of every simple family that could be fitted
+    /// (start values of the output-error refinement; for static-dynamic
+    /// also when its breakaway level is not above the slip level).
+    pub candidates: Vec<SiLaw>,
     /// Things the user should know.
     pub warnings: Vec<String>,
 }
@@ -410,6 +418,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
             n_breakaways: 0,
             breakaway_forces_n: Vec::new(),
             criteria: Vec::new(),
+            candidates: Vec::new(),
             warnings,
         });
     }
@@ -559,7 +568,15 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         {
             continue;
         }
-        let k_slip = cand.coef.len();
+        // Likewise the Stribeck type needs a peak (ρs > ρd): a dip or a
+        // vanishing peak is a simple law with an idle extra term.
+        if cand.kind == LawKind::Stribeck
+            && cand.coef[2].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        {
+            continue;
+        }
+        // The Stribeck velocity is fitted too (profiled by the scan).
+        let k_slip = cand.coef.len() + usize::from(cand.kind == LawKind::Stribeck);
         let rss = rss_of(&cand.coef, &cand.w, cand.kind, cand.vs);
         let wsum: f64 = cand.w.iter().sum();
         let mut crit = bic(
@@ -665,6 +682,12 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
     };
     let residual_rms_n =
         (plain_rss(&chosen.coef, chosen.kind, chosen.vs) / samples.len() as f64).sqrt();
+    let candidates: Vec<SiLaw> = cands
+        .iter()
+        .filter(|c| c.kind != LawKind::Stribeck)
+        .map(to_law)
+        .filter(|l| l.rd_n.is_finite() && l.rs_n.is_finite())
+        .collect();
 
     // Never sticking: bounds on Rs from the reversals.
     let mut rs_upper = None;
@@ -778,6 +801,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         n_breakaways: brks.len(),
         breakaway_forces_n,
         criteria,
+        candidates,
         warnings,
     })
 }

@@ -15,7 +15,11 @@ pub fn fit_view(
     figure: Option<String>,
 ) -> FitView {
     let e = &f.fit;
-    let mut flags = vec![format!("law: {}", e.law.kind.as_str())];
+    let law = f.law();
+    let mut flags = vec![
+        format!("law: {}", law.kind.as_str()),
+        format!("{} estimate", f.estimate.as_str()),
+    ];
     if e.stuck {
         flags.push("stuck: only a lower bound on Rs".into());
     }
@@ -42,11 +46,11 @@ pub fn fit_view(
         row("Rs lower bound", f.rs_lower_bound_n, None, "N", 4);
         row("ρs lower bound", f.rho_s_lower_bound, None, "–", 4);
     } else {
-        row("Rs", finite(e.law.rs_n), f.rs_interval_n, "N", 4);
-        row("Rd", finite(e.law.rd_n), f.rd_interval_n, "N", 4);
+        row("Rs", finite(law.rs_n), f.rs_interval_n, "N", 4);
+        row("Rd", finite(law.rd_n), f.rd_interval_n, "N", 4);
         row(
             "slope a",
-            finite(e.law.slope_n_s_per_m),
+            finite(law.slope_n_s_per_m),
             f.slope_interval_n_s_per_m,
             "N·s/m",
             3,
@@ -198,7 +202,7 @@ pub fn validation_view(
     ValidationView {
         sweep: sweep.display().to_string(),
         characteristic: characteristic.display().to_string(),
-        law: f.fit.law.kind.as_str().to_string(),
+        law: f.law().kind.as_str().to_string(),
         estimate: estimate.to_string(),
         amplitude: format!("{:.4} mm", v.measured.drive_amplitude_m * 1e3),
         scores,

@@ -695,10 +695,14 @@ fn split_sigma(
     }
 }
 
+/// One log's observations. The batch reads the *equation-error* estimate
+/// and its intervals: its bootstrap separates the statistical part (which
+/// averages over logs) from the calibration part (common to the batch); the
+/// output-error refinement has no such split.
 fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
     let e = &f.fit;
     let n = f.normal_force_n;
-    let (rd_sigma, rd_cal) = split_sigma(e.law.rd_n, e.stat.rd, f.rd_interval_n);
+    let (rd_sigma, rd_cal) = split_sigma(e.law.rd_n, e.stat.rd, f.equation_error.rd_n);
     let rd = if !e.stuck && e.law.rd_n.is_finite() {
         rd_sigma.map(|s| (e.law.rd_n, s))
     } else {
@@ -720,7 +724,7 @@ fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
             _ => StaticObs::Unknown,
         }
     } else {
-        let (s, c) = split_sigma(e.law.rs_n, e.stat.rs, f.rs_interval_n);
+        let (s, c) = split_sigma(e.law.rs_n, e.stat.rs, f.equation_error.rs_n);
         rs_cal = c;
         match s {
             Some(sigma) if e.law.rs_n.is_finite() && sigma > 0.0 => StaticObs::Point {
@@ -748,8 +752,8 @@ fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
         StaticObs::Above { .. } => (None, f.rs_lower_bound_n.and_then(ratio), None),
         StaticObs::Between { .. } => (
             None,
-            f.rs_interval_n.and_then(|i| ratio(i.0)),
-            f.rs_interval_n.and_then(|i| ratio(i.1)),
+            f.equation_error.rs_n.and_then(|i| ratio(i.0)),
+            f.equation_error.rs_n.and_then(|i| ratio(i.1)),
         ),
         StaticObs::Unknown => (None, None, None),
     };
@@ -760,9 +764,12 @@ fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
         rd_n: rd,
         calibration_rel: (rs_cal, rd_cal),
         drive_amplitude_m: f.drive.amplitude_m,
-        rho_s: f.rho_s(),
+        rho_s: {
+            let r = e.law.rs_n / f.force_scale_n;
+            r.is_finite().then_some(r)
+        },
         rho_s_lower_bound: f.rho_s_lower_bound,
-        rho_s_interval: f.rho_s_interval,
+        rho_s_interval: f.equation_error.rho_s,
         mu_s,
         mu_d: rd.and_then(|(r, _)| ratio(r)),
         model_rho_s: f64::NAN,

@@ -278,7 +278,7 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
             msg: "the characteristic log never slid: only a lower bound on the static friction is known, no sliding level to predict with".into(),
         });
     }
-    let mut central = f.law;
+    let mut central = fit.law();
     if f.never_sticks {
         central.rs_n = central.rd_n;
     }
