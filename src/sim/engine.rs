@@ -19,8 +19,8 @@
 //! * **Slip** in direction s: friction −s·g(|ζ2'|); the slip ends when ζ2'
 //!   reaches 0 (eq. 3). Then, with F at that instant: |F| < ρs → stick;
 //!   |F| > ρs → reversal into direction sgn F (necessarily −s: a slip that
-//!   decelerated to rest had s·F ≤ g(0⁺) ≤ ρs). At |F| = ρs to rounding the
-//!   sign of F' decides: pointing inward → stick, outward → slip along F.
+//!   decelerated to rest had s·F ≤ g(0⁺) ≤ ρs). At |F| = ρs to rounding:
+//!   stick while |F| < ρs or F' points inward, else slip along F.
 //! * **Interruption** (paper §3): a slip whose friction g(|ζ2'|) falls below
 //!   `stop_below·ρs`, or would turn negative, ends the run.
 //!
@@ -240,9 +240,9 @@ impl Init {
 
 /// Largest number of zero-length phases at one instant before the run is
 /// declared chattering (a well-posed switch needs at most two).
-const MAX_INSTANT_SWITCHES: u32 = 4;
-/// Largest number of events within one forcing period.
-const MAX_EVENTS_PER_PERIOD: u64 = 100_000;
+pub(crate) const MAX_INSTANT_SWITCHES: u32 = 4;
+/// Largest number of events within one forcing period (every integrator).
+pub(crate) const MAX_EVENTS_PER_PERIOD: u64 = 100_000;
 
 /// The engine for one model at one forcing frequency: all per-parameter-set
 /// work (eigen-decompositions, particular solutions) is done here, once.
@@ -835,10 +835,16 @@ pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
     if f.abs() > rho_s + tol {
         return Mode::Slip { dir: f.signum() };
     }
-    // On the threshold: the sign of F' in the stick dynamics decides.
+    // On the threshold to rounding: stick while the pad can hold (|F| < ρs)
+    // or F' in the stick dynamics points inward; slip along F only when
+    // |F| ≥ ρs and F' points outward. (Sliding from |F| < ρs would start
+    // with ζ2'' = |F| − ρs < 0 when ρd = ρs: at a maximum of F the slip
+    // cannot leave rest, comes back at once, and the tie-break repeated
+    // itself: a false chatter. Sticking there is exact: the stick's own
+    // switching function releases M2 as soon as |F| reaches ρs.)
     let dd1 = (-ab.damping * x[1] - (1.0 + ab.k) * x[0] + x[2] + ab.k * z0) / ab.m;
     let df = x[1] + ab.damping * dd1;
-    if f.signum() * df < 0.0 {
+    if f.abs() < rho_s || f.signum() * df < 0.0 {
         Mode::Stick { z2: x[2] }
     } else {
         Mode::Slip { dir: f.signum() }

@@ -14,7 +14,8 @@
 
 use super::dopri::Dopri5;
 use super::engine::{
-    apply, switch, track_extremum, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
+    apply, switch, track_extremum, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd,
+    Status, MAX_EVENTS_PER_PERIOD, MAX_INSTANT_SWITCHES,
 };
 use super::events::{self, EventFn, Jet, Switch};
 use super::{linalg, phase::absorber, SimError};
@@ -80,9 +81,6 @@ pub struct NumericSim {
     ode: Dopri5,
     thr: f64,
 }
-
-/// Events per unit of forcing period before the run is declared chattering.
-const MAX_EVENTS: u64 = 10_000_000;
 
 impl NumericSim {
     /// Prepares the engine; any valid law and drive.
@@ -237,6 +235,10 @@ impl NumericSim {
         let mut h = self.ode.h_max * 0.1;
         let mut f0 = self.rhs(mode, t, &x);
         let mut instant = 0u32;
+        // Events are counted per forcing period (per 2π/fastest drive
+        // frequency for other drives), as in the exact engine.
+        let window = period.unwrap_or(2.0 * std::f64::consts::PI / self.drive.fastest());
+        let (mut window_end, mut window_events) = (window, 0u64);
         let end = |t: f64, n: u64, x: [f64; 4], mode: Mode, status, events, stick_time| RunEnd {
             status,
             periods: n,
@@ -341,16 +343,9 @@ impl NumericSim {
                 }
                 Some(hit) => {
                     instant = if hit.delta == 0.0 { instant + 1 } else { 0 };
-                    if instant > 4 || events > MAX_EVENTS {
-                        return end(
-                            t,
-                            n,
-                            x,
-                            mode,
-                            Status::Chatter(format!("events accumulate at tau = {t}")),
-                            events,
-                            stick_time,
-                        );
+                    if instant > MAX_INSTANT_SWITCHES {
+                        let why = format!("{instant} switches at one instant (tau = {t})");
+                        return end(t, n, x, mode, Status::Chatter(why), events, stick_time);
                     }
                     if let Mode::Stick { .. } = mode {
                         stick_time += hit.delta;
@@ -381,6 +376,25 @@ impl NumericSim {
                             stats.add(x[0], x[2]);
                             f0 = self.rhs(mode, t, &x);
                             h = h.min(h_next).max(self.ode.h_max * 1e-3);
+                            if t >= window_end {
+                                window_end = ((t / window).floor() + 1.0) * window;
+                                window_events = 0;
+                            }
+                            window_events += 1;
+                            if window_events > MAX_EVENTS_PER_PERIOD {
+                                let why = format!(
+                                    "more than {MAX_EVENTS_PER_PERIOD} events in one forcing period at tau = {t}"
+                                );
+                                return end(
+                                    t,
+                                    n,
+                                    x,
+                                    mode,
+                                    Status::Chatter(why),
+                                    events,
+                                    stick_time,
+                                );
+                            }
                         }
                     }
                 }

@@ -8,6 +8,7 @@
 
 use super::engine::{
     apply, net_force, switch, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
+    MAX_EVENTS_PER_PERIOD, MAX_INSTANT_SWITCHES,
 };
 use super::events;
 use super::SimError;
@@ -128,8 +129,10 @@ impl Rk4 {
         }
         let (mut events, mut stick_time) = (0u64, 0.0);
         let mut fresh = true;
+        let mut instant = 0u32;
         for n in 0..periods {
             let mut s = 0.0;
+            let mut period_events = 0u64;
             let mut st = PeriodStats {
                 min: [x[0], x[2]],
                 max: [x[0], x[2]],
@@ -197,6 +200,34 @@ impl Rk4 {
                     st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
                     continue;
                 };
+                // The guards of the exact engine: zero-length phases
+                // repeating at one instant, events piling up in a period.
+                instant = if d == 0.0 { instant + 1 } else { 0 };
+                period_events += 1;
+                let why = if instant > MAX_INSTANT_SWITCHES {
+                    Some(format!(
+                        "{instant} switches at one instant (tau = {})",
+                        n as f64 * t + s
+                    ))
+                } else if period_events > MAX_EVENTS_PER_PERIOD {
+                    Some(format!(
+                        "more than {MAX_EVENTS_PER_PERIOD} events in one forcing period at tau = {}",
+                        n as f64 * t + s
+                    ))
+                } else {
+                    None
+                };
+                if let Some(why) = why {
+                    return RunEnd {
+                        status: Status::Chatter(why),
+                        periods: n,
+                        tau: n as f64 * t + s,
+                        x,
+                        mode,
+                        events,
+                        stick_time,
+                    };
+                }
                 if matches!(mode, Mode::Stick { .. }) {
                     stick_time += d;
                     st.stick_time += d;
