@@ -283,6 +283,13 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     run::build(path, raw)
 }
 
+/// Parses and checks a CSV channel map (the TOML text of `NAME.map.toml`)
+/// without reading a log, as [`read`] does before the table; `path` names
+/// the map in errors. The entry point of the map parser's fuzz target.
+pub fn check_channel_map(path: &Path, text: &str) -> Result<(), IngestError> {
+    csv::parse_map(path, text).map(|_| ())
+}
+
 /// Converts a value in `unit` to the SI unit of `q`: the factor to multiply
 /// by, or `None` if the unit is not one of `q`'s dimension.
 pub(crate) fn unit_factor(q: Quantity, unit: &str) -> Option<f64> {
