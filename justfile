@@ -44,6 +44,7 @@ studies:
     cargo test --release --test fit_synth -- --ignored --nocapture
     cargo test --release --test identify_roundtrip -- --ignored --nocapture
 
-# Mutation-fuzz the ingest parsers for 300 s (seeded from datasets/).
+# Mutation-fuzz the ingest parsers and the channel-map parser, 300 s each
+# (seeded from datasets/; cargo-fuzz would need a nightly toolchain).
 fuzz:
     STICKSLIP_FUZZ_SECS=300 cargo test --release --test fuzz -- --nocapture
