@@ -984,3 +984,46 @@ fn energy_balance_over_2e4_periods() {
 fn energy_balance_over_1e5_periods() {
     energy_balance(100_000);
 }
+
+/// Extreme stiffness: m = 1e-6 with k = 1e6 puts the fastest mode near
+/// 1e6 (τ units), about 1e7 bracketing steps per forcing period at η = 0.6
+/// (a run measured at ~59 s per period) and 1e9 at η = 0.01. The exact
+/// and the numerical engines refuse such a model at once with the numbers
+/// instead of computing for hours; three decades less stiff still runs.
+#[test]
+fn extreme_stiffness_is_refused_not_computed() {
+    use stickslip::sim::SimError;
+    let t0 = std::time::Instant::now();
+    for eta in [0.6, 0.01] {
+        let m = model(1e-6, 1e6, 0.005, Law::coulomb(0.375));
+        match Sim::new(&m, eta) {
+            Err(SimError::Unsupported(msg)) => {
+                assert!(msg.contains("too stiff"), "{msg}")
+            }
+            Err(e) => panic!("η {eta}: unexpected error {e}"),
+            Ok(_) => panic!("η {eta}: an hours-long model was accepted"),
+        }
+        let num = NumericSim::new(
+            &m,
+            harmonic(eta),
+            NumericOptions {
+                rtol: 1e-8,
+                atol: 1e-10,
+            },
+        );
+        assert!(
+            matches!(&num, Err(SimError::Unsupported(msg)) if msg.contains("too stiff")),
+            "numerical engine, η {eta}: {:?}",
+            num.err()
+        );
+    }
+    assert!(
+        t0.elapsed().as_secs_f64() < 5.0,
+        "refusal must be immediate"
+    );
+    // Within the budget: m = 1e-3, k = 1e3 at η = 0.6 (~1e3·2π/0.6 ≈ 1e4 steps).
+    let m = model(1e-3, 1e3, 0.005, Law::coulomb(0.375));
+    let (status, w) = check(m, 0.6, 20);
+    assert!(!matches!(status, Status::Chatter(_)), "{status:?}");
+    assert!(w.events > 0);
+}

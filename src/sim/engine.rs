@@ -244,6 +244,10 @@ pub(crate) const MAX_INSTANT_SWITCHES: u32 = 4;
 /// Largest number of events within one forcing period (every integrator).
 pub(crate) const MAX_EVENTS_PER_PERIOD: u64 = 100_000;
 
+/// Bracketing steps per forcing period above which [`Sim::new`] refuses a
+/// model (fastest mode · 2π/η): a run would not finish in useful time.
+pub const MAX_STEPS_PER_PERIOD: f64 = 1e7;
+
 /// The engine for one model at one forcing frequency: all per-parameter-set
 /// work (eigen-decompositions, particular solutions) is done here, once.
 #[derive(Debug, Clone)]
@@ -287,6 +291,16 @@ impl Sim {
             eta,
         )
         .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
+        // Work budget: events are bracketed on one radian of the fastest
+        // mode, so a forcing period costs about fastest·2π/η steps; beyond
+        // MAX_STEPS_PER_PERIOD a run would take minutes to hours per period
+        // (e.g. m = 1e-6 with k = 1e6): refuse it with the numbers instead.
+        let steps = stick.fastest.max(slip.fastest) * 2.0 * PI / eta;
+        if steps.is_nan() || steps > MAX_STEPS_PER_PERIOD {
+            return Err(SimError::Unsupported(format!(
+                "the absorber is too stiff for this forcing frequency: its fastest mode needs {steps:.2e} bracketing steps per forcing period (limit {MAX_STEPS_PER_PERIOD:.0e}); raise eta or bring m and k closer to 1"
+            )));
+        }
         let thr = model.interrupt_level();
         let v_interrupt = if rho_d < thr {
             Some(0.0)

@@ -102,6 +102,14 @@ impl NumericSim {
             .into_iter()
             .flatten()
             .fold(1e-300, f64::max);
+        // The exact engine's work budget, per forcing period of the drive.
+        let steps = fastest * 2.0 * std::f64::consts::PI / drive.fastest();
+        let limit = crate::sim::engine::MAX_STEPS_PER_PERIOD;
+        if steps.is_nan() || steps > limit {
+            return Err(SimError::Unsupported(format!(
+                "the absorber is too stiff for this forcing frequency: its fastest mode needs {steps:.2e} steps per forcing period (limit {limit:.0e}); raise eta or bring m and k closer to 1"
+            )));
+        }
         Ok(Self {
             model: *model,
             drive,
