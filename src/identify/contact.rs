@@ -26,7 +26,7 @@
 //! length in sensor coordinates) is *not* removed here: the fit estimates it
 //! from the symmetry of the slip levels (see `fit`).
 
-use super::smooth::{finite_blocks, savgol};
+use super::smooth::{finite_blocks, golden, savgol};
 use crate::ingest::Run;
 
 /// Multipliers applied to the sensor channels before identification: 1 for
@@ -129,30 +129,6 @@ fn sine_fit(t: &[f64], x: &[f64], w: f64) -> Option<(f64, f64, f64, f64, usize)>
     let p = ne.solve()?;
     let rss = (ne.yty - p.iter().zip(&ne.xty).map(|(a, b)| a * b).sum::<f64>()).max(0.0);
     Some((p[0], p[1], p[2], rss, ne.n))
-}
-
-/// Golden-section minimisation of `f` on `[a, b]`.
-pub(crate) fn golden(mut a: f64, mut b: f64, iters: usize, f: impl Fn(f64) -> f64) -> f64 {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..iters {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
 }
 
 /// Fits the drive sinusoid; `f0` is the commanded frequency if known.

@@ -37,9 +37,9 @@
 //!   from above by the passive force at each reversal (the mass did not stick
 //!   there, so it exceeded Rs) and from below by Rd.
 
-use super::contact::{golden, Contact};
+use super::contact::Contact;
 use super::segment::Segmentation;
-use super::smooth::{mad_sigma, median, quantile, savgol, Normal, Rng};
+use super::smooth::{golden, mad_sigma, median, quantile, savgol, Normal, Rng};
 
 /// The law families `fit` can choose from (names as in `interface.md`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -260,36 +260,9 @@ fn irls(samples: &[Sample], kind: LawKind, vs: f64) -> Option<(Vec<f64>, Vec<f64
 }
 
 /// Integrated autocorrelation time of residuals over contiguous sample runs
-/// (initial positive sequence: sum until the autocorrelation turns negative).
+/// (`idx`: each residual's sample index).
 fn tau_int(res: &[f64], idx: &[usize]) -> f64 {
-    let n = res.len();
-    if n < 10 {
-        return 1.0;
-    }
-    let mean = res.iter().sum::<f64>() / n as f64;
-    let var = res.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n as f64;
-    if var <= 0.0 {
-        return 1.0;
-    }
-    let mut tau = 1.0;
-    for lag in 1..2000.min(n / 2) {
-        let (mut s, mut m) = (0.0, 0usize);
-        for k in 0..n - lag {
-            if idx[k + lag] == idx[k] + lag {
-                s += (res[k] - mean) * (res[k + lag] - mean);
-                m += 1;
-            }
-        }
-        if m < 10 {
-            break;
-        }
-        let rho = s / m as f64 / var;
-        if rho <= 0.0 {
-            break;
-        }
-        tau += 2.0 * rho;
-    }
-    tau
+    super::smooth::tau_int(res, 2000, 10, |k, lag| idx[k + lag] == idx[k] + lag)
 }
 
 /// Passive force at fractional sample `at` from a line fitted to `p[a..=b]`.

@@ -690,37 +690,9 @@ fn student_t975(nu: f64) -> f64 {
         + (3.0 * z7 + 19.0 * z5 + 17.0 * z3 - 15.0 * z) / (384.0 * nu.powi(3))
 }
 
-/// Integrated autocorrelation time of residuals within segments (initial
-/// positive sequence).
+/// Integrated autocorrelation time of residuals within segments.
 fn tau_int(seg: &[u32], r: &[f64]) -> f64 {
-    let n = r.len();
-    if n < 20 {
-        return 1.0;
-    }
-    let mean = r.iter().sum::<f64>() / n as f64;
-    let var = r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
-    if var <= 0.0 {
-        return 1.0;
-    }
-    let mut tau = 1.0;
-    for lag in 1..n / 2 {
-        let (mut s, mut m) = (0.0, 0usize);
-        for k in 0..n - lag {
-            if seg[k + lag] == seg[k] {
-                s += (r[k] - mean) * (r[k + lag] - mean);
-                m += 1;
-            }
-        }
-        if m < 20 {
-            break;
-        }
-        let rho = s / m as f64 / var;
-        if rho <= 0.0 {
-            break;
-        }
-        tau += 2.0 * rho;
-    }
-    tau
+    super::smooth::tau_int(r, usize::MAX, 20, |k, lag| seg[k + lag] == seg[k])
 }
 
 /// The prepared refinement of one log.

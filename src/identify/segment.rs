@@ -187,7 +187,7 @@ fn hinge_fit(
     if !best.1.is_finite() {
         return None;
     }
-    Some(super::contact::golden(
+    Some(super::smooth::golden(
         best.0 - 1.0,
         best.0 + 1.0,
         25,

@@ -292,6 +292,75 @@ impl Rng {
     }
 }
 
+/// Golden-section minimisation of a unimodal `f` on `[a, b]`: at most
+/// `iters` steps, fewer once the bracket is at rounding level.
+pub fn golden(mut a: f64, mut b: f64, iters: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iters {
+        if (b - a).abs() <= 1e-14 * (a.abs() + b.abs()) {
+            break;
+        }
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}
+
+/// Integrated autocorrelation time of residuals `r` (initial positive
+/// sequence: lags are summed until the autocorrelation turns negative),
+/// counting only pairs (k, k + lag) that `same_run` says lie in one
+/// contiguous run; lags up to `max_lag`, stopping when fewer than
+/// `min_pairs` pairs remain (also the least n to estimate anything).
+pub fn tau_int(
+    r: &[f64],
+    max_lag: usize,
+    min_pairs: usize,
+    same_run: impl Fn(usize, usize) -> bool,
+) -> f64 {
+    let n = r.len();
+    if n < min_pairs {
+        return 1.0;
+    }
+    let mean = r.iter().sum::<f64>() / n as f64;
+    let var = r.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
+    if var <= 0.0 {
+        return 1.0;
+    }
+    let mut tau = 1.0;
+    for lag in 1..max_lag.min(n / 2) {
+        let (mut s, mut m) = (0.0, 0usize);
+        for k in 0..n - lag {
+            if same_run(k, lag) {
+                s += (r[k] - mean) * (r[k + lag] - mean);
+                m += 1;
+            }
+        }
+        if m < min_pairs {
+            break;
+        }
+        let rho = s / m as f64 / var;
+        if rho <= 0.0 {
+            break;
+        }
+        tau += 2.0 * rho;
+    }
+    tau
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -82,6 +82,7 @@
 //!   by bisection (7 steps); the margin is reported in ρs, newtons and
 //!   relative to the recommendation.
 
+use crate::identify::smooth::golden;
 use crate::identify::LogFit;
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Law, Model};
@@ -499,33 +500,6 @@ fn loglik(obs: &[Obs], mu: f64, inflate: f64) -> f64 {
         .sum()
 }
 
-/// Golden-section maximum of a unimodal function on [a, b].
-fn golden_max(mut a: f64, mut b: f64, f: impl Fn(f64) -> f64) -> f64 {
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..200 {
-        if (b - a).abs() <= 1e-14 * (a.abs() + b.abs()) {
-            break;
-        }
-        if fc >= fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
-}
-
 /// Bisection for the crossing of a monotone predicate between `good` (false)
 /// and `bad` (true).
 fn bisect(mut good: f64, mut bad: f64, iters: usize, pred: impl Fn(f64) -> bool) -> f64 {
@@ -595,19 +569,23 @@ fn free_fit(points: &[(f64, f64, f64)]) -> Option<(f64, f64, f64)> {
 /// Estimate, statistical 95 % interval, σ inflation factor, χ²/dof.
 type MuEstimate = (f64, (f64, f64), f64, Option<f64>);
 
+/// The (N, R, σ) of the point observations (bounds left out).
+fn point_obs(obs: &[Obs]) -> Vec<(f64, f64, f64)> {
+    obs.iter()
+        .filter_map(|o| match *o {
+            Obs::Point { n, r, s } => Some((n, r, s)),
+            _ => None,
+        })
+        .collect()
+}
+
 /// Fits R = μ·N by maximum likelihood with censored observations; returns
 /// the estimate, the statistical 95 % interval, the inflation factor and
 /// χ²/dof of the points. When the points scatter more than their σ, the σ
 /// are scaled by √(χ²/dof) and the interval uses Student's t with the
 /// points' n − 1 degrees of freedom (the scale is then estimated).
 fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
-    let points: Vec<(f64, f64, f64)> = obs
-        .iter()
-        .filter_map(|o| match *o {
-            Obs::Point { n, r, s } => Some((n, r, s)),
-            _ => None,
-        })
-        .collect();
+    let points = point_obs(obs);
     if points.is_empty() {
         return None;
     }
@@ -624,7 +602,7 @@ fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
         return None;
     }
     let top = 4.0 * scale;
-    let mle = |inflate: f64| golden_max(0.0, top, |m| loglik(obs, m, inflate));
+    let mle = |inflate: f64| golden(0.0, top, 200, |m| -loglik(obs, m, inflate));
     let mut mu = mle(1.0);
     let dof = points.len() as f64 - 1.0;
     let chi2: f64 = points
@@ -893,13 +871,7 @@ fn fit_coefficients(
             ))
         })?;
         let sys = common_calibration(cal).hypot(gain_n);
-        let points: Vec<(f64, f64, f64)> = obs
-            .iter()
-            .filter_map(|o| match *o {
-                Obs::Point { n, r, s } => Some((n, r, s)),
-                _ => None,
-            })
-            .collect();
+        let points = point_obs(obs);
         Ok(MuFit {
             mu,
             interval: with_systematic(mu, stat, sys),

@@ -31,7 +31,7 @@
 //!   them — not the raw extremes of noisy samples, which are biased upwards
 //!   by about two noise σ.
 
-use crate::identify::smooth::{median, savgol};
+use crate::identify::smooth::{golden, median, savgol};
 use crate::ingest::{Quantity, Run, SweepKind as LogSweepKind};
 use crate::sim::sweep::Direction;
 use crate::{Error, Result};
@@ -237,30 +237,6 @@ fn lsq_sine(t: &[f64], x: &[f64], f: f64, rate: f64, tr: f64) -> Option<(f64, f6
     let p = crate::identify::smooth::solve_small(&a, &r)?;
     let rss = (yy - p.iter().zip(&r).map(|(a, b)| a * b).sum::<f64>()).max(0.0);
     Some((p[0], p[1], p[2], rss))
-}
-
-/// Golden-section minimisation on [a, b].
-fn golden(mut a: f64, mut b: f64, iters: usize, f: impl Fn(f64) -> f64) -> f64 {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..iters {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
 }
 
 /// Fits the drive sinusoid on [a, b) around the frequency `f0` (±`rel`),
@@ -558,6 +534,16 @@ pub fn window_amplitudes(run: &Run, window: (f64, f64), period_s: f64) -> Option
     grid.amplitudes(window, period_s)
 }
 
+/// What the stepped and continuous measurements produce; [`measure`]
+/// assembles the [`MeasuredFrc`] (direction, noise, uncertainties) once.
+struct Parts {
+    drive_amplitude_m: f64,
+    drive_phase_rad: f64,
+    plan: Vec<PlanSegment>,
+    points: Vec<MeasuredPoint>,
+    warnings: Vec<String>,
+}
+
 /// Measures the frequency response of a sweep log.
 pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     if run.rig.test != crate::ingest::TestKind::Sweep {
@@ -590,11 +576,35 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
             }
         }
     };
-    let mut m = match kind {
+    let parts = match kind {
         SweepKind::Stepped => stepped(run, &td, &xd, &grid, opts)?,
         SweepKind::Continuous => continuous(run, &td, &xd, &grid, opts)?,
     };
-    let a = m.drive_amplitude_m;
+    if parts.points.is_empty() {
+        return Err(bad(
+            run,
+            match kind {
+                SweepKind::Stepped => "no step of the sweep could be measured",
+                SweepKind::Continuous => "no drive period of the sweep could be measured",
+            },
+        ));
+    }
+    let a = parts.drive_amplitude_m;
+    if !(a.is_finite() && a > 0.0) {
+        return Err(bad(run, "the drive amplitude cannot be measured"));
+    }
+    let freqs: Vec<f64> = parts.points.iter().map(|p| p.frequency_hz).collect();
+    let mut m = MeasuredFrc {
+        kind,
+        direction: direction_of(&freqs),
+        drive_amplitude_m: a,
+        drive_phase_rad: parts.drive_phase_rad,
+        omega_ref_rad_s: run.rig.omega_ref(),
+        plan: parts.plan,
+        noise_m: (f64::NAN, f64::NAN),
+        points: parts.points,
+        warnings: parts.warnings,
+    };
     let nominal = run.rig.drive_amplitude_m;
     if (a / nominal - 1.0).abs() > 0.005 {
         m.warnings.push(format!(
@@ -650,13 +660,7 @@ fn direction_of(f: &[f64]) -> Direction {
     }
 }
 
-fn stepped(
-    run: &Run,
-    td: &[f64],
-    xd: &[f64],
-    grid: &Grid,
-    opts: &FrcOptions,
-) -> Result<MeasuredFrc> {
+fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let steps = distinct_steps(run);
     if steps.is_empty() {
         return Err(bad(
@@ -829,22 +833,10 @@ fn stepped(
             settled: rel_change.map(|r| r <= opts.settle_tolerance),
         });
     }
-    if points.is_empty() {
-        return Err(bad(run, "no step of the sweep could be measured"));
-    }
-    let drive_amplitude_m = median(&amps);
-    if !(drive_amplitude_m.is_finite() && drive_amplitude_m > 0.0) {
-        return Err(bad(run, "the drive amplitude cannot be measured"));
-    }
-    let freqs: Vec<f64> = points.iter().map(|p| p.frequency_hz).collect();
-    Ok(MeasuredFrc {
-        kind: SweepKind::Stepped,
-        direction: direction_of(&freqs),
-        drive_amplitude_m,
+    Ok(Parts {
+        drive_amplitude_m: median(&amps),
         drive_phase_rad,
-        omega_ref_rad_s: omega_ref,
         plan,
-        noise_m: (f64::NAN, f64::NAN),
         points,
         warnings,
     })
@@ -883,13 +875,7 @@ fn seg_time(seg: &PlanSegment, c: f64) -> f64 {
 /// Continuous sweep: nodes at the setpoint messages, a plan of linear
 /// pieces through the measured instantaneous frequencies, and one point per
 /// `periods_per_point` drive periods.
-fn continuous(
-    run: &Run,
-    td: &[f64],
-    xd: &[f64],
-    grid: &Grid,
-    opts: &FrcOptions,
-) -> Result<MeasuredFrc> {
+fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let mut nodes: Vec<(f64, f64)> = run
         .setpoints
         .iter()
@@ -1057,18 +1043,10 @@ fn continuous(
         }
         carry = total - (c - per);
     }
-    if points.is_empty() {
-        return Err(bad(run, "no drive period of the sweep could be measured"));
-    }
-    let freqs: Vec<f64> = points.iter().map(|p| p.frequency_hz).collect();
-    Ok(MeasuredFrc {
-        kind: SweepKind::Continuous,
-        direction: direction_of(&freqs),
+    Ok(Parts {
         drive_amplitude_m,
         drive_phase_rad,
-        omega_ref_rad_s: omega_ref,
         plan,
-        noise_m: (f64::NAN, f64::NAN),
         points,
         warnings,
     })
