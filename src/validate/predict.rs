@@ -25,7 +25,7 @@
 //! re-scaled ([`Scales`]).
 
 use super::frc::{MeasuredFrc, SweepKind};
-use crate::identify::{LawKind, LogFit, SiLaw};
+use crate::identify::{Estimate, LawKind, LogFit, SiLaw};
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Law, Model, Schedule, Segment};
 use crate::sim::engine::{Event, Init, Observer};
@@ -261,9 +261,27 @@ fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
 /// The central law of a fit (SI) and `n` laws drawn from its uncertainty.
 ///
 /// Each parameter is drawn from a split normal whose 2.5 % and 97.5 %
-/// points are the fit's interval ends (the intervals hold the bootstrap
-/// and the calibration budget); parameters are drawn independently (Rs
-/// comes from the breakaways, Rd and the slope from the slip samples).
+/// points are the fit's interval ends; the law parameters are drawn
+/// independently (Rs comes from the breakaways, Rd and the slope from the
+/// slip samples). The sensors' *common* scale errors are drawn once per
+/// law, because they move every force together:
+///
+/// * the sweep's own drive sensor: the sweep's ρ = R/(A·K2) uses its
+///   measured A, whose gain is known to ±u (the fit's `gain_uncertainty`);
+///   every force of a draw is scaled by one factor 1 + e, e uniform on
+///   [−u, u] (the calibration budget's rectangular bound);
+/// * for the output-error estimate, the characteristic log's drive sensor
+///   too: that fit compares positions with the model driven by the
+///   measured drive, so it is precise in ρ (relative to the measured drive
+///   amplitude) and its forces in newtons carry the drive gain whole. Its
+///   parameters are drawn from the ρ and D* intervals (which hold the
+///   statistical part and every calibration effect on ρ) and turned into
+///   newtons with the measured amplitude times a second common factor.
+///   Drawing Rs and Rd independently from their newton intervals instead
+///   would make the common part too small and their difference too large.
+///   The equation-error estimate computes forces from M2's own sensors (no
+///   drive gain in newtons), so its newton intervals are used as they are.
+///
 /// Where ρs is only bounded (a never-sticking log), Rs is uniform between
 /// its bounds and the central law takes Rs = Rd (the lower bound). The
 /// family's constraints are kept: Coulomb and `decreasing` laws keep
@@ -282,30 +300,61 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
     if f.never_sticks {
         central.rs_n = central.rd_n;
     }
+    let u = if fit.gain_uncertainty.is_finite() {
+        fit.gain_uncertainty.clamp(0.0, 0.5)
+    } else {
+        0.0
+    };
+    // The frame of the draws: newton intervals and whether the
+    // characteristic log's drive gain is a common factor on top.
+    let scale = |iv: Option<(f64, f64)>, s: f64| iv.map(|(lo, hi)| (lo * s, hi * s));
+    let oe = fit.estimate == Estimate::OutputError;
+    let (rs_iv, rd_iv, slope_iv) = if oe {
+        (
+            scale(fit.rho_s_interval, fit.force_scale_n),
+            scale(fit.rho_d_interval, fit.force_scale_n),
+            scale(fit.dstar_interval, fit.slope_scale),
+        )
+    } else {
+        (
+            fit.rs_interval_n,
+            fit.rd_interval_n,
+            fit.slope_interval_n_s_per_m,
+        )
+    };
     let tied = matches!(central.kind, LawKind::Coulomb | LawKind::Decreasing);
     let mut rng = Rng(seed);
     let mut out = Vec::with_capacity(n);
     for _ in 0..n {
         let mut l = central;
-        l.rd_n = split_normal(&mut rng, central.rd_n, fit.rd_interval_n).max(0.0);
+        l.rd_n = split_normal(&mut rng, central.rd_n, rd_iv).max(0.0);
         l.slope_n_s_per_m = if central.slope_n_s_per_m == 0.0 && central.kind != LawKind::Decreasing
         {
             0.0
         } else {
-            split_normal(
-                &mut rng,
-                central.slope_n_s_per_m,
-                fit.slope_interval_n_s_per_m,
-            )
+            split_normal(&mut rng, central.slope_n_s_per_m, slope_iv)
+        };
+        let sweep_gain = 1.0 + u * (2.0 * rng.uniform() - 1.0);
+        let char_gain = if oe {
+            1.0 + u * (2.0 * rng.uniform() - 1.0)
+        } else {
+            1.0
         };
         if f.never_sticks {
+            // The bounds (newtons) already hold the calibration margin.
+            l.rd_n *= char_gain;
             let (lo, hi) = fit.rs_interval_n.unwrap_or((l.rd_n, l.rd_n));
             l.rs_n = (lo + (hi - lo) * rng.uniform()).max(l.rd_n);
         } else if tied {
+            l.rd_n *= char_gain;
             l.rs_n = l.rd_n;
         } else {
-            l.rs_n = split_normal(&mut rng, central.rs_n, fit.rs_interval_n).max(l.rd_n);
+            l.rs_n = split_normal(&mut rng, central.rs_n, rs_iv) * char_gain;
+            l.rd_n *= char_gain;
+            l.rs_n = l.rs_n.max(l.rd_n);
         }
+        l.rs_n *= sweep_gain;
+        l.rd_n *= sweep_gain;
         out.push(l);
     }
     Ok((central, out))
