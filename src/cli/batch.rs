@@ -57,7 +57,7 @@ pub struct BatchArgs {
     #[arg(long, default_value_t = 141)]
     pub eta_points: usize,
     /// Step of the fine η windows around η1, η0, η2 (0: none).
-    #[arg(long, default_value_t = 0.001)]
+    #[arg(long, default_value_t = vb::DEFAULT_ETA_FINE_STEP)]
     pub eta_fine_step: f64,
     /// Half-width of each fine η window.
     #[arg(long, default_value_t = 0.025)]
@@ -81,7 +81,7 @@ pub struct BatchArgs {
     #[arg(long)]
     pub drive_amplitude_mm: Option<f64>,
     /// Period budget of the time-marching fallback per steady state.
-    #[arg(long, default_value_t = 500)]
+    #[arg(long, default_value_t = vb::DEFAULT_MAX_PERIODS)]
     pub max_periods: u64,
     /// Print one JSON object on stdout.
     #[arg(long)]

@@ -189,62 +189,73 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         }
     }
 
-    bar.set_message("validating against sweeps");
+    // The validations and the batch need nothing from each other: they run
+    // side by side (each collected in order, so the output does not depend
+    // on the thread count).
+    bar.set_message("validating against sweeps; batch: worst-case amplitudes");
     let mut vopts = ValidateOptions::default();
     vopts.predict.samples = args.samples;
-    let mut validations: Vec<(Pair, crate::Result<Validation>)> = Vec::new();
-    for pair in &plan.validate {
-        let r = match (
-            &fits[&pair.characteristic],
-            &runs[&pair.characteristic],
-            &runs[&pair.sweep],
-        ) {
-            (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, cr, sr, &vopts),
-            (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => Err(crate::Error::Input {
-                path: pair.sweep.clone(),
-                msg: format!("not validated: {e}"),
-            }),
-        };
-        if let Err(e) = &r {
-            errors.push(format!("{e}"));
-        }
-        validations.push((pair.clone(), r));
-        bar.inc(1);
-    }
+    let validate_all = || -> Vec<(Pair, crate::Result<Validation>)> {
+        plan.validate
+            .par_iter()
+            .map(|pair| {
+                let r = match (
+                    &fits[&pair.characteristic],
+                    &runs[&pair.characteristic],
+                    &runs[&pair.sweep],
+                ) {
+                    (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, cr, sr, &vopts),
+                    (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => Err(crate::Error::Input {
+                        path: pair.sweep.clone(),
+                        msg: format!("not validated: {e}"),
+                    }),
+                };
+                bar.inc(1);
+                (pair.clone(), r)
+            })
+            .collect()
+    };
     // The batch: the plan's batch logs that fitted (a stuck or
     // never-sticking log enters as a bound).
-    let batch: Option<crate::Result<vb::Batch>> = (!plan.batch.is_empty()).then(|| {
-        bar.set_message("batch: worst-case amplitudes against the normal force");
-        let good: Vec<(PathBuf, LogFit)> = plan
-            .batch
-            .iter()
-            .filter_map(|p| fits[p].as_ref().ok().map(|f| (p.clone(), f.clone())))
-            .collect();
-        let rigs: Vec<(PathBuf, crate::ingest::RigMeta)> = plan
-            .batch
-            .iter()
-            .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
-            .collect();
-        let Some((_, rig)) = rigs.first() else {
-            return Err(crate::Error::Input {
-                path: args.plan.clone(),
-                msg: "no log of the batch could be read".into(),
-            });
-        };
-        if good.is_empty() {
-            return Err(crate::Error::Input {
-                path: args.plan.clone(),
-                msg: "no log of the batch could be fitted".into(),
-            });
-        }
-        let tick = |_: u64| {};
-        vb::batch_with_progress(&good, rig, &vb::BatchOptions::default(), &tick).map(|mut b| {
-            let mut w = vb::rig_warnings(&rigs);
-            w.append(&mut b.warnings);
-            b.warnings = w;
-            b
+    let run_batch = || -> Option<crate::Result<vb::Batch>> {
+        (!plan.batch.is_empty()).then(|| {
+            let good: Vec<(PathBuf, LogFit)> = plan
+                .batch
+                .iter()
+                .filter_map(|p| fits[p].as_ref().ok().map(|f| (p.clone(), f.clone())))
+                .collect();
+            let rigs: Vec<(PathBuf, crate::ingest::RigMeta)> = plan
+                .batch
+                .iter()
+                .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+                .collect();
+            let Some((_, rig)) = rigs.first() else {
+                return Err(crate::Error::Input {
+                    path: args.plan.clone(),
+                    msg: "no log of the batch could be read".into(),
+                });
+            };
+            if good.is_empty() {
+                return Err(crate::Error::Input {
+                    path: args.plan.clone(),
+                    msg: "no log of the batch could be fitted".into(),
+                });
+            }
+            let tick = |_: u64| {};
+            vb::batch_with_progress(&good, rig, &vb::BatchOptions::default(), &tick).map(|mut b| {
+                let mut w = vb::rig_warnings(&rigs);
+                w.append(&mut b.warnings);
+                b.warnings = w;
+                b
+            })
         })
-    });
+    };
+    let (validations, batch) = rayon::join(validate_all, run_batch);
+    for (_, r) in &validations {
+        if let Err(e) = r {
+            errors.push(format!("{e}"));
+        }
+    }
     if let Some(Err(e)) = &batch {
         errors.push(format!("{e}"));
     }

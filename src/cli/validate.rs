@@ -32,6 +32,10 @@ pub struct ValidateArgs {
     /// Relative gain uncertainty of each sensor in the calibration budget.
     #[arg(long, default_value_t = 0.01)]
     pub gain_uncertainty: f64,
+    /// Period budget of the fitted law's steady state at each point (points
+    /// with no periodic response by then are reported without one).
+    #[arg(long, default_value_t = validate::predict::DEFAULT_STEADY_PERIODS)]
+    pub max_periods: u64,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -208,6 +212,12 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             msg: "must be a finite fraction in [0, 0.5)".into(),
         });
     }
+    if args.max_periods == 0 {
+        return Err(crate::Error::Input {
+            path: PathBuf::from("--max-periods"),
+            msg: "must be at least 1".into(),
+        });
+    }
     crate::io::ensure_not_inputs(
         [args.characteristic.as_path(), args.sweep.as_path()],
         args.out.as_deref(),
@@ -232,6 +242,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     ));
     let mut vo = ValidateOptions::default();
     vo.predict.samples = args.samples;
+    vo.predict.steady.max_periods = args.max_periods;
     vo.frc.gain_uncertainty = args.gain_uncertainty;
     let v = validate::validate(&fit, &char_run, &sweep_run, &vo)?;
     let mut out = validation_json(&args.characteristic, &args.sweep, &fit, &v);

@@ -93,6 +93,9 @@ pub fn absorber(rig: &RigMeta) -> Absorber {
     }
 }
 
+/// Default period budget of the fitted law's steady state per point.
+pub const DEFAULT_STEADY_PERIODS: u64 = 20_000;
+
 /// Options of the predictions.
 #[derive(Debug, Clone)]
 pub struct PredictOptions {
@@ -130,7 +133,10 @@ impl Default for PredictOptions {
         Self {
             samples: 40,
             seed: 0x0ba5_e11e,
-            steady: SteadyConfig::default(),
+            steady: SteadyConfig {
+                max_periods: DEFAULT_STEADY_PERIODS,
+                ..SteadyConfig::default()
+            },
             numeric: NumericOptions {
                 rtol: 1e-8,
                 atol: 1e-10,
@@ -728,9 +734,23 @@ pub fn predict_with(
     // `band_unsettled_periods` where it has none (a point with no periodic
     // response for the central law rarely has one for a nearby law, and
     // its band needs half the draws).
-    let (c_steady, c_replay) = rayon::join(
+    // The central steady state is one sequential continuation (seconds
+    // where points have no periodic response and run the whole budget), so
+    // it runs beside the replays, which need nothing from it; the draws'
+    // steady states follow, with budgets from the central one.
+    let (c_steady, (c_replay, d_replay)) = rayon::join(
         || steady_one(&model, &etas, &opts.steady, None),
-        || replay_one(&model, &sched, &windows, opts),
+        || {
+            rayon::join(
+                || replay_one(&model, &sched, &windows, opts),
+                || {
+                    models
+                        .par_iter()
+                        .map(|m| replay_one(m, &sched, &windows, opts))
+                        .collect::<Vec<Amps>>()
+                },
+            )
+        },
     );
     let budgets: Vec<u64> = c_steady
         .iter()
@@ -743,18 +763,11 @@ pub fn predict_with(
             .min(opts.steady.max_periods)
         })
         .collect();
-    let runs: Vec<(Amps, Amps)> = models
+    let d_steady: Vec<Amps> = models
         .par_iter()
-        .map(|m| {
-            (
-                steady_one(m, &etas, &opts.steady, Some(&budgets)),
-                replay_one(m, &sched, &windows, opts),
-            )
-        })
+        .map(|m| steady_one(m, &etas, &opts.steady, Some(&budgets)))
         .collect();
     let (c_steady, c_replay) = (&c_steady, &c_replay);
-    let d_steady: Vec<_> = runs.iter().map(|r| r.0.clone()).collect();
-    let d_replay: Vec<_> = runs.iter().map(|r| r.1.clone()).collect();
     let steady = banded(&etas, c_steady, &d_steady);
     let replay = banded(&etas, c_replay, &d_replay);
 
