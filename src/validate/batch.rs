@@ -1717,7 +1717,7 @@ mod tests {
         let fast = drive_etas(&ab, r, o.eta_points, o.eta_fine_step, o.eta_fine_halfwidth);
         let reference = SteadyConfig {
             max_periods: 2000,
-            ..o.steady.clone()
+            ..o.steady
         };
         for (rho, tol) in [
             (0.8145, 1e-3),
