@@ -119,7 +119,9 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
                 stick: &ch.segmentation.stick,
                 bias_n: bias,
                 law,
+                law_label: "fitted",
                 alternative,
+                alternative_label: "alternative",
             },
             path,
         )?;

@@ -148,8 +148,23 @@ pub(crate) fn fit_section(
     let name = format!("characteristic_{}.svg", html::stem(log));
     let ch = identify::characteristic(run, &identify::Gains::default())?;
     let e = &f.fit;
-    let law = (!e.stuck).then_some(e.law);
-    let alternative = e.stribeck.filter(|s| Some(s.kind) != law.map(|l| l.kind));
+    // The law used downstream, and beside it the equation-error law (the
+    // one fitted to these very points) where the output error refined it,
+    // else the Stribeck alternative.
+    let (law, law_label, alternative, alternative_label) = if e.stuck {
+        (None, "fitted", None, "alternative")
+    } else if f.estimate == identify::Estimate::OutputError {
+        let used = f.law();
+        (
+            Some(used),
+            "output error (used)",
+            Some(e.law),
+            "equation error",
+        )
+    } else {
+        let alt = e.stribeck.filter(|s| s.kind != e.law.kind);
+        (Some(e.law), "fitted", alt, "alternative")
+    };
     let bias = if e.bias_n.is_finite() { e.bias_n } else { 0.0 };
     let title = format!(
         "Characteristic of {}",
@@ -163,7 +178,9 @@ pub(crate) fn fit_section(
             stick: &ch.segmentation.stick,
             bias_n: bias,
             law,
+            law_label,
             alternative,
+            alternative_label,
         },
         &dir.file(&name)?,
     )?;

@@ -22,8 +22,12 @@ pub struct CharacteristicFigure<'a> {
     pub bias_n: f64,
     /// The fitted law (None for a stuck log).
     pub law: Option<SiLaw>,
+    /// Legend name of `law` (e.g. "fitted", "output error (used)").
+    pub law_label: &'a str,
     /// A second law drawn dashed (e.g. the Stribeck alternative).
     pub alternative: Option<SiLaw>,
+    /// Legend name of `alternative`.
+    pub alternative_label: &'a str,
 }
 
 /// Draws the figure to `path` (SVG), atomically.
@@ -178,7 +182,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
         chart
             .draw_series(LineSeries::new(curve(&l), BLACK.stroke_width(2)))
             .map_err(e)?
-            .label(format!("fitted: {}", l.kind.as_str()))
+            .label(format!("{}: {}", fig.law_label, l.kind.as_str()))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
     }
     if let Some(l) = fig.alternative {
@@ -187,7 +191,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
         chart
             .draw_series(dashed)
             .map_err(e)?
-            .label(format!("alternative: {}", l.kind.as_str()))
+            .label(format!("{}: {}", fig.alternative_label, l.kind.as_str()))
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], red.stroke_width(2)));
     }
     chart
