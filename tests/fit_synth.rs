@@ -10,59 +10,51 @@
 //! bound ρs; their semantics are tested on the public data set).
 
 use std::path::Path;
+use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
 use stickslip::ingest::{self, IngestOptions};
 use stickslip::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
 
-/// SplitMix64 uniform deviates (deterministic cases).
-struct Rng(u64);
-impl Rng {
-    fn u(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        (((z ^ (z >> 31)) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.u()
-    }
+/// Uniform deviate in [a, b) from the project's SplitMix64 generator
+/// (deterministic cases).
+fn range(rng: &mut Rng, a: f64, b: f64) -> f64 {
+    a + (b - a) * rng.uniform()
 }
 
 /// A random characteristic test: its configuration and a description.
 fn random_case(seed: u64) -> (SynthConfig, String) {
-    let mut r = Rng(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0xA5A5);
-    let m2 = r.range(1.5, 3.0);
-    let k2 = r.range(500.0, 900.0);
-    let a_nom = r.range(0.002, 0.003);
+    let mut r = Rng::new(seed.wrapping_mul(0x2545_F491_4F6C_DD1D) ^ 0xA5A5);
+    let m2 = range(&mut r, 1.5, 3.0);
+    let k2 = range(&mut r, 500.0, 900.0);
+    let a_nom = range(&mut r, 0.002, 0.003);
     let rig = RigSpec {
-        m1_kg: m2 * r.range(3.0, 5.0),
+        m1_kg: m2 * range(&mut r, 3.0, 5.0),
         m2_kg: m2,
-        k1_n_per_m: k2 * r.range(0.8, 1.25),
+        k1_n_per_m: k2 * range(&mut r, 0.8, 1.25),
         k2_n_per_m: k2,
-        d_n_s_per_m: r.range(0.002, 0.008) * (k2 * m2).sqrt(),
+        d_n_s_per_m: range(&mut r, 0.002, 0.008) * (k2 * m2).sqrt(),
         drive_amplitude_nominal_m: a_nom,
-        drive_amplitude_true_m: a_nom * r.range(0.985, 1.015),
+        drive_amplitude_true_m: a_nom * range(&mut r, 0.985, 1.015),
     };
     // η between the first resonance and the stuck system's.
-    let eta = r.range(0.55, 0.68);
+    let eta = range(&mut r, 0.55, 0.68);
     let frequency_hz = eta * rig.omega_ref() / (2.0 * std::f64::consts::PI);
     let fs = rig.drive_amplitude_true_m * k2;
     let ss = (k2 * m2).sqrt();
     // Normal force and friction coefficients such that ρs is in [0.35, 1.5].
-    let rho = r.range(0.35, 1.5);
-    let mu = r.range(0.3, 0.6);
+    let rho = range(&mut r, 0.35, 1.5);
+    let mu = range(&mut r, 0.3, 0.6);
     let normal = rho * fs / mu;
     let family = (seed % 4) as u32;
     let rs = mu * normal;
     let (rd, slope, name) = match family {
         0 => (rs, 0.0, "coulomb"),
-        1 => (rs, -r.range(0.03, 0.15) * ss, "decreasing"),
-        2 => (rs, r.range(0.03, 0.15) * ss, "viscous"),
-        _ => (rs * r.range(0.7, 0.9), 0.0, "static-dynamic"),
+        1 => (rs, -range(&mut r, 0.03, 0.15) * ss, "decreasing"),
+        2 => (rs, range(&mut r, 0.03, 0.15) * ss, "viscous"),
+        _ => (rs * range(&mut r, 0.7, 0.9), 0.0, "static-dynamic"),
     };
-    let noise = r.range(0.5, 2.0);
-    let accel = r.u() < 0.5;
+    let noise = range(&mut r, 0.5, 2.0);
+    let accel = r.uniform() < 0.5;
     let mut sensors = Sensors::typical(seed);
     for m in [
         &mut sensors.x0,

@@ -8,23 +8,9 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions};
 use stickslip::ingest::{Channel, LogFormat, Quantity, Resampled, RigMeta, Run, TestKind};
-
-/// SplitMix64 + Box–Muller (deterministic noise).
-struct Rng(u64);
-impl Rng {
-    fn u(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        (((z ^ (z >> 31)) >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    fn n(&mut self) -> f64 {
-        (-2.0 * self.u().ln()).sqrt() * (2.0 * std::f64::consts::PI * self.u()).cos()
-    }
-}
 
 struct Law {
     rs: f64,
@@ -105,14 +91,14 @@ fn synth_drive(law: &Law, accel: bool, seed: u64, noise_scale: f64, h2: f64) -> 
             x2 += v2 * dt;
         }
     }
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     // Sensor model: gain, offset, white noise (README's rig A sizes).
     let gains = [
-        1.0 + 0.004 * (2.0 * rng.u() - 1.0),
-        1.0 + 0.01 * (2.0 * rng.u() - 1.0),
-        1.0 + 0.01 * (2.0 * rng.u() - 1.0),
-        1.0 + 0.01 * (2.0 * rng.u() - 1.0),
-        1.0 + 0.01 * (2.0 * rng.u() - 1.0),
+        1.0 + 0.004 * (2.0 * rng.uniform() - 1.0),
+        1.0 + 0.01 * (2.0 * rng.uniform() - 1.0),
+        1.0 + 0.01 * (2.0 * rng.uniform() - 1.0),
+        1.0 + 0.01 * (2.0 * rng.uniform() - 1.0),
+        1.0 + 0.01 * (2.0 * rng.uniform() - 1.0),
     ];
     let offsets = [1e-5, 1.2e-4, -9e-5, 8e-5, 0.02];
     let noise = [2e-6, 4e-6, 3e-6, 5e-4, 0.03];
@@ -120,7 +106,7 @@ fn synth_drive(law: &Law, accel: bool, seed: u64, noise_scale: f64, h2: f64) -> 
     let mut cols: Vec<Vec<f64>> = (0..5).map(|_| Vec::with_capacity(n)).collect();
     for r in &rec {
         for q in 0..5 {
-            cols[q].push(gains[q] * r[q] + offsets[q] + noise_scale * noise[q] * rng.n());
+            cols[q].push(gains[q] * r[q] + offsets[q] + noise_scale * noise[q] * rng.normal_open());
         }
     }
     let t: Vec<f64> = (0..n).map(|i| i as f64 * 1e-3).collect();
@@ -371,12 +357,12 @@ fn random_coverage(first: u64, n: u64) -> (usize, usize, usize, Vec<String>) {
     for case in first..first + n {
         // Each case draws from its own stream (the CI subset and the long
         // run share their first cases).
-        let mut rng = Rng(0xC0FFEE ^ case.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let mut rng = Rng::new(0xC0FFEE ^ case.wrapping_mul(0x9E37_79B9_7F4A_7C15));
         let family = case % 4;
-        let rd = 0.6 + 1.0 * rng.u();
+        let rd = 0.6 + 1.0 * rng.uniform();
         let law = match family {
             0 => Law {
-                rs: rd * (1.1 + 0.3 * rng.u()),
+                rs: rd * (1.1 + 0.3 * rng.uniform()),
                 rd,
                 a: 0.0,
             },
@@ -384,16 +370,16 @@ fn random_coverage(first: u64, n: u64) -> (usize, usize, usize, Vec<String>) {
             2 => Law {
                 rs: rd,
                 rd,
-                a: -(1.0 + 4.0 * rng.u()),
+                a: -(1.0 + 4.0 * rng.uniform()),
             },
             _ => Law {
                 rs: rd,
                 rd,
-                a: 1.0 + 3.0 * rng.u(),
+                a: 1.0 + 3.0 * rng.uniform(),
             },
         };
-        let accel = rng.u() < 0.5;
-        let noise = 0.5 + 1.5 * rng.u();
+        let accel = rng.uniform() < 0.5;
+        let noise = 0.5 + 1.5 * rng.uniform();
         let run = synth_noise(&law, accel, 1000 + case, noise);
         let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
         if fit.stuck() || fit.never_sticks() {

@@ -458,11 +458,7 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
     out.insert("seconds".into(), json!(t0.elapsed().as_secs_f64()));
     let out = Value::Object(out);
     if let Some(path) = &args.out {
-        let text = serde_json::to_string_pretty(&out).map_err(|e| crate::Error::Input {
-            path: path.clone(),
-            msg: e.to_string(),
-        })?;
-        crate::io::write_atomic(path, text.as_bytes())?;
+        super::write_json(path, &out)?;
     }
     if args.json {
         super::print_json(&out);

@@ -109,6 +109,15 @@ pub fn main() -> ExitCode {
     }
 }
 
+/// Writes a JSON result to `path` (pretty, atomically: `--out`).
+pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> crate::Result<()> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| crate::Error::Input {
+        path: path.to_path_buf(),
+        msg: e.to_string(),
+    })?;
+    crate::io::write_atomic(path, text.as_bytes())
+}
+
 /// Prints one JSON object on stdout (non-finite numbers become `null`).
 pub(crate) fn print_json(value: &serde_json::Value) {
     use std::io::Write;

@@ -381,8 +381,7 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     }
     out["seconds"] = json!(t0.elapsed().as_secs_f64());
     if let Some(path) = &args.out {
-        let text = serde_json::to_string_pretty(&out).map_err(|e| plan_err(path, e.to_string()))?;
-        crate::io::write_atomic(path, text.as_bytes())?;
+        super::write_json(path, &out)?;
     }
     if args.json {
         super::print_json(&out);

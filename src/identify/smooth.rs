@@ -280,9 +280,20 @@ impl Rng {
         z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
         z ^ (z >> 31)
     }
+    /// Uniform deviate in the open interval (0, 1).
+    pub fn uniform(&mut self) -> f64 {
+        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+    }
     /// Uniform index in `0..n` (n > 0).
     pub fn below(&mut self, n: usize) -> usize {
         ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * n as f64) as usize % n
+    }
+    /// Standard normal deviate (Box–Muller on two open-interval uniforms).
+    /// [`Rng::normal`] takes its second uniform half-open; both streams are
+    /// kept so that every seeded result reproduces bit for bit.
+    pub fn normal_open(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
     }
     /// Standard normal deviate (Box–Muller).
     pub fn normal(&mut self) -> f64 {

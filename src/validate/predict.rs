@@ -25,6 +25,7 @@
 //! re-scaled ([`Scales`]).
 
 use super::frc::{MeasuredFrc, SweepKind};
+use crate::identify::smooth::Rng;
 use crate::identify::{Estimate, LawKind, LogFit, SiLaw};
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Law, Model, Schedule, Segment};
@@ -231,30 +232,9 @@ pub struct Prediction {
     pub warnings: Vec<String>,
 }
 
-/// A small deterministic generator (SplitMix64) for the draws.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    /// Standard normal (Box–Muller).
-    fn normal(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (2.0 * PI * v).cos()
-    }
-}
-
 /// A draw from a split normal with the interval as its 2.5/97.5 % points.
 fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
-    let z = rng.normal();
+    let z = rng.normal_open();
     match iv {
         Some((lo, hi)) if lo.is_finite() && hi.is_finite() => {
             let s = if z < 0.0 { est - lo } else { hi - est };
@@ -329,7 +309,7 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
         )
     };
     let tied = matches!(central.kind, LawKind::Coulomb | LawKind::Decreasing);
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     let mut out = Vec::with_capacity(n);
     for _ in 0..n {
         let mut l = central;
@@ -1006,7 +986,7 @@ mod replay_tests {
     /// 97.5 % points.
     #[test]
     fn split_normal_quantiles() {
-        let mut rng = Rng(7);
+        let mut rng = Rng::new(7);
         let mut v: Vec<f64> = (0..40_000)
             .map(|_| split_normal(&mut rng, 1.0, Some((0.9, 1.3))))
             .collect();
