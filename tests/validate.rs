@@ -58,6 +58,45 @@ fn true_law(t: &Value) -> SiLaw {
     }
 }
 
+/// Compares the sweep's amplitudes over the truth's per-second windows
+/// (three drive periods centred on `t_s`) with the truth's `a1`, `a2`:
+/// within 2 % (or 0.01 absolute near zero) each; `per_window` sees every
+/// compared entry and its window. Returns the entries compared and the
+/// worst relative error over amplitudes above 0.05.
+fn check_truth_windows(
+    run: &stickslip::ingest::Run,
+    m: &frc::MeasuredFrc,
+    resp: &[Value],
+    mut per_window: impl FnMut(&Value, (f64, f64)),
+) -> (usize, f64) {
+    let (mut n, mut worst) = (0usize, 0.0f64);
+    for r in resp {
+        let (ts, fr) = (f(&r["t_s"]), f(&r["frequency_hz"]));
+        let w = (ts - 1.5 / fr, ts + 1.5 / fr);
+        if w.0 < 0.0 || w.1 > run.duration_s() {
+            continue;
+        }
+        let (a1, a2) = frc::window_amplitudes(run, w, 1.0 / fr).unwrap();
+        for (meas, key) in [
+            (a1 / m.drive_amplitude_m, "a1"),
+            (a2 / m.drive_amplitude_m, "a2"),
+        ] {
+            let tr = f(&r[key]);
+            let err = (meas - tr).abs();
+            assert!(
+                err <= 0.02 * tr || err <= 0.01,
+                "t {ts} s ({fr} Hz): {key} {meas} vs truth {tr}"
+            );
+            if tr > 0.05 {
+                worst = worst.max(err / tr);
+            }
+        }
+        per_window(r, w);
+        n += 1;
+    }
+    (n, worst)
+}
+
 /// The measured response of the stepped sweeps matches the truth: within
 /// 2 % (or 0.01 absolute near zero) at every step that had settled
 /// (`steady_state_reached` or `settled_rel_change` < 0.005), within 5 % at
@@ -133,29 +172,10 @@ fn continuous_sweep_is_measured_like_the_truth() {
     let a_err = m.drive_amplitude_m / a_true - 1.0;
     assert!(a_err.abs() < 0.005, "drive amplitude {a_err}");
     let resp = t["response"].as_array().unwrap();
-    let (mut worst, mut worst_sub, mut worst_f, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
-    for r in resp {
-        let (ts, fr) = (f(&r["t_s"]), f(&r["frequency_hz"]));
-        let w = (ts - 1.5 / fr, ts + 1.5 / fr);
-        if w.0 < 0.0 || w.1 > run.duration_s() {
-            continue;
-        }
-        let (a1, a2) = frc::window_amplitudes(&run, w, 1.0 / fr).unwrap();
-        for (meas, key) in [
-            (a1 / m.drive_amplitude_m, "a1"),
-            (a2 / m.drive_amplitude_m, "a2"),
-        ] {
-            let tr = f(&r[key]);
-            let err = (meas - tr).abs();
-            assert!(
-                err <= 0.02 * tr || err <= 0.01,
-                "t {ts} s ({fr} Hz): {key} {meas} vs truth {tr}"
-            );
-            if tr > 0.05 {
-                worst = worst.max(err / tr);
-            }
-        }
+    let (mut worst_sub, mut worst_f) = (0.0f64, 0.0f64);
+    let (n, worst) = check_truth_windows(&run, &m, resp, |r, w| {
         // Per-period points inside the window.
+        let ts = f(&r["t_s"]);
         for p in m
             .points
             .iter()
@@ -187,8 +207,7 @@ fn continuous_sweep_is_measured_like_the_truth() {
                 }
             }
         }
-        n += 1;
-    }
+    });
     eprintln!(
         "{name}: {n} entries, worst relative error {:.3} %, frequency {:.4} %, per-period points at most {:+.3} % above the truth",
         worst * 100.0,
@@ -238,30 +257,8 @@ fn continuous_csv_sweep_is_measured_like_its_truth() {
     let m = frc::measure(&run, &FrcOptions::default()).unwrap();
     let a_err = m.drive_amplitude_m / f(&t["drive_amplitude_true_m"]) - 1.0;
     assert!(a_err.abs() < 0.01, "drive amplitude {a_err}");
-    let (mut n, mut worst) = (0, 0.0f64);
-    for r in t["response"].as_array().unwrap() {
-        let (ts, fr) = (f(&r["t_s"]), f(&r["frequency_hz"]));
-        let w = (ts - 1.5 / fr, ts + 1.5 / fr);
-        if w.0 < 0.0 || w.1 > run.duration_s() {
-            continue;
-        }
-        let (a1, a2) = frc::window_amplitudes(&run, w, 1.0 / fr).unwrap();
-        for (meas, key) in [
-            (a1 / m.drive_amplitude_m, "a1"),
-            (a2 / m.drive_amplitude_m, "a2"),
-        ] {
-            let tr = f(&r[key]);
-            let err = (meas - tr).abs();
-            assert!(
-                err <= 0.02 * tr || err <= 0.01,
-                "t {ts}: {key} {meas} vs {tr}"
-            );
-            if tr > 0.05 {
-                worst = worst.max(err / tr);
-            }
-        }
-        n += 1;
-    }
+    let resp = t["response"].as_array().unwrap();
+    let (n, worst) = check_truth_windows(&run, &m, resp, |_, _| {});
     eprintln!(
         "chirp.csv: {n} entries, worst {:.3} %, {} periods",
         worst * 100.0,
