@@ -1,4 +1,4 @@
-//! The command-line interface (`../shared/interface.md`): clap parsing, one
+//! The command-line interface (`docs/interface.md`): clap parsing, one
 //! module per subcommand. Each subcommand turns its arguments into a validated
 //! plan, calls the library and prints; nothing here computes physics.
 

@@ -2,7 +2,7 @@
 //!
 //! This stage owns everything between a file on disk and the typed, checked
 //! run that the later stages work on: reading the three log formats of
-//! `../shared/rig-log-format.md` (MCAP, DAQ CSV + channel map, Parquet),
+//! `docs/rig-log-format.md` (MCAP, DAQ CSV + channel map, Parquet),
 //! parsing and checking the `rig` metadata ([`RigMeta`]), converting every
 //! channel to SI and to seconds from the log start, detecting gaps and
 //! dropouts, and laying all channels on one common time base.

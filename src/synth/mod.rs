@@ -7,7 +7,7 @@
 //! samples the **exact** trajectory at each sensor's own sample times and
 //! passes it through a sensor model per channel ([`SensorModel`]). [`write`]
 //! then writes the log as MCAP, DAQ CSV + channel map, or Parquet (the
-//! formats of `../shared/rig-log-format.md`), atomically, and the ground
+//! formats of `docs/rig-log-format.md`), atomically, and the ground
 //! truth into `truth.json` beside it.
 //!
 //! ## The physics
