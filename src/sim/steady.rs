@@ -137,15 +137,29 @@ impl<'a, O: Observer> Tracker<'a, O> {
 }
 
 impl<O: Observer> Tracker<'_, O> {
+    /// Section periods seen so far.
+    pub fn seen(&self) -> u64 {
+        self.n
+    }
+
+    /// The section state `back` periods before the last one (0: the last)
+    /// and whether M2 was stuck there; `None` beyond the ring (64) or
+    /// before the start.
+    pub fn section(&self, back: u64) -> Option<([f64; 4], bool)> {
+        (back < self.n && back < RING as u64)
+            .then(|| self.points[((self.n - 1 - back) % RING as u64) as usize])
+    }
+
     /// The smallest divisor q of a converged period p whose shift maps the
-    /// last 2p section points onto each other within `lim` (oscillating
+    /// last p section points onto the q before each within `lim` (all of
+    /// them inside the converged streak of 2p periods; oscillating
     /// convergence can make a period-1 orbit pass the test at p = 2 first).
     fn minimal_period(&self, p: usize, n: u64, lim: f64) -> u32 {
         for q in 1..p {
             if p % q != 0 {
                 continue;
             }
-            let ok = (0..2 * p as u64).all(|j| {
+            let ok = (0..p as u64).all(|j| {
                 let (a, sa) = self.points[((n - 1 - j) % RING as u64) as usize];
                 let (b, sb) = self.points[((n - 1 - j - q as u64) % RING as u64) as usize];
                 sa == sb && a.iter().zip(&b).all(|(u, v)| (u - v).abs() <= lim)
@@ -205,7 +219,10 @@ impl<O: Observer> Observer for Tracker<'_, O> {
             };
             self.streak[p] = if close { self.streak[p] + 1 } else { 0 };
             if self.steady.is_none() && self.streak[p] >= 2 * p as u64 {
-                self.steady = Some(self.minimal_period(p, n, lim));
+                // Every iterate is within `lim` of its orbit point, so those
+                // of a period-q orbit are within 2·lim of each other q
+                // periods apart; 4·lim leaves room for the estimate.
+                self.steady = Some(self.minimal_period(p, n, 4.0 * lim));
             }
         }
         let inner = self.inner.period(n, x, mode, stats);

@@ -25,7 +25,7 @@ use faer::linalg::solvers::Solve;
 
 use super::engine::{net_force, Flow, Init, Mode, Observer, PeriodStats, Sim, Status};
 use super::linear;
-use super::steady::Tracker;
+use super::steady::{Tracker, MAX_PERIOD_MULTIPLE};
 use super::SimError;
 use crate::model::Model;
 
@@ -97,18 +97,6 @@ pub struct Point {
     /// Which method settled it (`closed-form`, `marching`, `stick-proof`,
     /// `shooting`, `not-settled`, `interrupted`, `chatter`).
     pub method: &'static str,
-}
-
-/// Counts periods and keeps the last period's statistics.
-struct Last {
-    stats: Option<PeriodStats>,
-}
-
-impl Observer for Last {
-    fn period(&mut self, _n: u64, _x: &[f64; 4], _m: Mode, s: &PeriodStats) -> Flow {
-        self.stats = Some(*s);
-        Flow::Continue
-    }
 }
 
 fn point_from(
@@ -229,31 +217,31 @@ pub fn steady_state(
             },
         ));
     }
-    let sim = Sim::new(model, eta)?;
-    let mut used = 0u64;
-    // 2. Transient, watched on the section.
-    let mut tr_inner = ();
-    let mut tr = Tracker::new(&mut tr_inner, cfg.tol, true);
-    let end = sim.run(init, cfg.transient, &mut tr);
-    used += end.periods;
-    if let Some(p) = failed(&end.status, eta, used) {
-        return Ok((p, Init::rest()));
-    }
-    if let Some(p) = tr.steady {
-        let st = tr.window(p as u64).expect("periods seen");
-        return Ok((
-            point_from(eta, &st, p, t, used, "marching"),
-            Init {
-                x: end.x,
-                mode: end.mode,
-            },
+    if cfg.max_periods == 0 {
+        return Err(SimError::Unsupported(
+            "the period budget (max_periods) must be at least 1".into(),
         ));
     }
-    let mut x = end.x;
-    let mut mode = end.mode;
+    let sim = Sim::new(model, eta)?;
+    let mut unit = ();
+    let mut w = Walk {
+        sim: &sim,
+        tr: Tracker::new(&mut unit, cfg.tol, true),
+        state: init,
+        dwell: 0,
+        used: 0,
+    };
+    // 2. Transient, watched on the section.
+    let end = w.march(cfg.transient.min(cfg.max_periods));
+    if let Some(p) = failed(&end.status, eta, w.used) {
+        return Ok((p, Init::rest()));
+    }
+    if let Some(p) = w.tr.steady {
+        return Ok(w.settled(eta, p, t));
+    }
     // 3. Proven permanent stick.
-    if let Mode::Stick { z2 } = mode {
-        if permanently_stuck(model, eta, &x, z2) {
+    if let Mode::Stick { z2 } = w.state.mode {
+        if permanently_stuck(model, eta, &w.state.x, z2) {
             let (a1, _) = linear::stuck_amplitudes(ab, eta);
             let p = Point {
                 eta,
@@ -263,63 +251,301 @@ pub fn steady_state(
                 period_multiple: Some(1),
                 stick_fraction: 1.0,
                 interrupted: false,
-                periods: used,
+                periods: w.used,
                 method: "stick-proof",
             };
             return Ok((
                 p,
                 Init {
                     x: linear::stuck_state(ab, eta, z2),
-                    mode,
+                    mode: w.state.mode,
                 },
             ));
         }
     }
-    // 4. Newton shooting on the period-1 Poincaré map.
+    // 4. Newton shooting on the p-th iterate, accepted only where the
+    //    trajectory itself is seen to approach the orbit found; between
+    //    attempts the trajectory marches on.
     if cfg.shooting {
-        if let Some((xs, ms, n)) = shoot(&sim, model, x, mode, cfg.tol) {
-            used += n;
-            let mut last = Last { stats: None };
-            let e = sim.run(Init { x: xs, mode: ms }, 1, &mut last);
-            used += 1;
-            if matches!(e.status, Status::Completed) {
-                if let Some(st) = last.stats {
-                    return Ok((
-                        point_from(eta, &st, 1, t, used, "shooting"),
-                        Init { x: xs, mode: ms },
-                    ));
-                }
+        let mut block = cfg.transient.max(16);
+        for _ in 0..SHOOTING_ATTEMPTS {
+            match w.try_shooting(model, eta, t, cfg) {
+                Shot::Accepted(r) => return Ok(r),
+                Shot::Failed(p) => return Ok((p, Init::rest())),
+                Shot::Settled(p) => return Ok(w.settled(eta, p, t)),
+                Shot::Rejected => {}
             }
-        } else {
-            used += 4 * (1 + 4);
+            let left = cfg.max_periods.saturating_sub(w.dwell);
+            if left == 0 {
+                break;
+            }
+            let end = w.march(block.min(left));
+            if let Some(p) = failed(&end.status, eta, w.used) {
+                return Ok((p, Init::rest()));
+            }
+            if let Some(p) = w.tr.steady {
+                return Ok(w.settled(eta, p, t));
+            }
+            block *= 2;
         }
     }
-    // 5. Time marching.
-    let mut tr_inner = ();
-    let mut tr = Tracker::new(&mut tr_inner, cfg.tol, true);
-    let end = sim.run(Init { x, mode }, cfg.max_periods, &mut tr);
-    used += end.periods;
-    if let Some(p) = failed(&end.status, eta, used) {
+    // 5. Time marching to the end of the budget.
+    let end = w.march(cfg.max_periods.saturating_sub(w.dwell));
+    if let Some(p) = failed(&end.status, eta, w.used) {
         return Ok((p, Init::rest()));
     }
-    x = end.x;
-    mode = end.mode;
-    let cont = Init { x, mode };
-    match tr.steady {
-        Some(p) => {
-            let st = tr.window(p as u64).expect("periods seen");
-            Ok((point_from(eta, &st, p, t, used, "marching"), cont))
-        }
-        None => {
-            let w = 50.min(end.periods);
-            let st = tr.window(w).expect("periods seen");
-            let mut pt = point_from(eta, &st, 1, t, used, "not-settled");
-            pt.steady = false;
-            pt.period_multiple = None;
-            pt.stick_fraction = (st.stick_time / (w as f64 * t)).clamp(0.0, 1.0);
-            Ok((pt, cont))
-        }
+    if let Some(p) = w.tr.steady {
+        return Ok(w.settled(eta, p, t));
     }
+    let n = w.tr.seen().clamp(1, 50);
+    let Some(st) = w.tr.window(n) else {
+        return Err(SimError::Unsupported(
+            "no forcing period was integrated (period budget 0)".into(),
+        ));
+    };
+    let mut pt = point_from(eta, &st, 1, t, w.used, "not-settled");
+    pt.steady = false;
+    pt.period_multiple = None;
+    pt.stick_fraction = (st.stick_time / (n as f64 * t)).clamp(0.0, 1.0);
+    Ok((pt, w.state))
+}
+
+/// Shooting attempts before marching to the end of the budget.
+const SHOOTING_ATTEMPTS: usize = 3;
+/// Iterates of the p-th return map over which the trajectory must follow
+/// the linearisation about a shooting fixed point before it is accepted.
+const VERIFY_ITERATES: usize = 3;
+
+/// Forwards the engine's period callbacks to a [`Tracker`] with a running
+/// period count, so that one tracker watches a trajectory integrated in
+/// several pieces.
+struct Offset<'t, 'a> {
+    tr: &'t mut Tracker<'a, ()>,
+    base: u64,
+}
+
+impl Observer for Offset<'_, '_> {
+    fn wants_extremes(&self) -> bool {
+        true
+    }
+    fn period(&mut self, n: u64, x: &[f64; 4], mode: Mode, stats: &PeriodStats) -> Flow {
+        self.tr.period(self.base + n, x, mode, stats)
+    }
+}
+
+/// The physical trajectory at one η: its state after `dwell` whole forcing
+/// periods from the start state, watched on the section by `tr`; `used`
+/// counts every integrated period (shooting's trial periods too).
+struct Walk<'s, 'a> {
+    sim: &'s Sim,
+    tr: Tracker<'a, ()>,
+    state: Init,
+    dwell: u64,
+    used: u64,
+}
+
+/// What a shooting attempt concluded.
+enum Shot {
+    /// The trajectory approaches the orbit found: the point and the state
+    /// to continue from.
+    Accepted((Point, Init)),
+    /// No orbit, or one the trajectory is not seen to approach.
+    Rejected,
+    /// The marching detector settled during the check (period p).
+    Settled(u32),
+    /// Interrupted or chattering during the check.
+    Failed(Point),
+}
+
+impl Walk<'_, '_> {
+    /// Marches `n` more periods (stops early when the section repeats).
+    fn march(&mut self, n: u64) -> super::engine::RunEnd {
+        let mut off = Offset {
+            tr: &mut self.tr,
+            base: self.dwell,
+        };
+        let end = self.sim.run(self.state, n, &mut off);
+        self.dwell += end.periods;
+        self.used += end.periods;
+        self.state = Init {
+            x: end.x,
+            mode: end.mode,
+        };
+        end
+    }
+
+    /// The point of a trajectory the detector found period-`p`, and the
+    /// state to continue from: the trajectory marched on to the next whole
+    /// multiple of p periods of its dwell (see [`curve`]).
+    fn settled(&mut self, eta: f64, p: u32, t: f64) -> (Point, Init) {
+        let st = self
+            .tr
+            .window(p as u64)
+            .expect("the detector has seen at least 2p periods");
+        let extra = (p as u64 - self.dwell % p as u64) % p as u64;
+        if extra > 0 {
+            let end = self.sim.run(self.state, extra, &mut ());
+            self.used += end.periods;
+            self.dwell += end.periods;
+            self.state = Init {
+                x: end.x,
+                mode: end.mode,
+            };
+        }
+        (
+            point_from(eta, &st, p, t, self.used, "marching"),
+            self.state,
+        )
+    }
+
+    /// Picks the period multiple the section iterates suggest (the
+    /// smallest p whose return distance is within 4× the best), shoots on
+    /// P^p from the current state and accepts the orbit only if the next
+    /// iterates of the trajectory follow its linearisation.
+    fn try_shooting(&mut self, model: &Model, eta: f64, t: f64, cfg: &SteadyConfig) -> Shot {
+        let Some((x_now, s_now)) = self.tr.section(0) else {
+            return Shot::Rejected;
+        };
+        let mut d = [f64::INFINITY; MAX_PERIOD_MULTIPLE + 1];
+        for (p, dp) in d.iter_mut().enumerate().skip(1) {
+            if let Some((y, sy)) = self.tr.section(p as u64) {
+                if sy == s_now {
+                    *dp = dist(&x_now, &y, 4);
+                }
+            }
+        }
+        let best = d.iter().copied().fold(f64::INFINITY, f64::min);
+        let Some(p) = (1..=MAX_PERIOD_MULTIPLE).find(|&p| d[p] <= 4.0 * best) else {
+            // Fewer than two section points, or contact modes that never repeat.
+            return Shot::Rejected;
+        };
+        let Some(sh) = shoot(
+            self.sim,
+            model,
+            self.state.x,
+            self.state.mode,
+            p as u64,
+            cfg.tol,
+        ) else {
+            self.used += 4 * (1 + 4) * p as u64;
+            return Shot::Rejected;
+        };
+        self.used += sh.used;
+        let dim = sh.dim;
+        let lim = |x: &[f64; 4]| cfg.tol * (1.0 + x.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+        // The check: e_{k+1} = J·e_k + O(|e_k|²) for the deviations of the
+        // trajectory's own p-th iterates from the fixed point.
+        let mut e = diff(&self.state.x, &sh.x, dim);
+        let mut ok = norm(&e, dim) <= lim(&sh.x);
+        for _ in 0..VERIFY_ITERATES {
+            if ok {
+                break;
+            }
+            let end = self.march(p as u64);
+            if let Some(pt) = failed(&end.status, eta, self.used) {
+                return Shot::Failed(pt);
+            }
+            if let Some(q) = self.tr.steady {
+                return Shot::Settled(q);
+            }
+            if end.periods < p as u64 {
+                return Shot::Rejected;
+            }
+            if matches!(self.state.mode, Mode::Stick { .. }) != sh.stuck {
+                return Shot::Rejected;
+            }
+            let e1 = diff(&self.state.x, &sh.x, dim);
+            let mut miss = [0.0; 4];
+            for i in 0..dim {
+                let pred: f64 = (0..dim).map(|j| sh.jac[i][j] * e[j]).sum();
+                miss[i] = e1[i] - pred;
+            }
+            if norm(&miss, dim) > 0.1 * norm(&e, dim) + 10.0 * lim(&sh.x) {
+                return Shot::Rejected;
+            }
+            ok = norm(&e1, dim) <= lim(&sh.x);
+            e = e1;
+        }
+        // Accepted: the orbit's statistics over p periods from the fixed
+        // point, its minimal period q and the continuation state.
+        let mut orbit = Orbit {
+            stats: None,
+            sections: Vec::with_capacity(p),
+        };
+        let start = Init {
+            x: sh.x,
+            mode: sh.mode,
+        };
+        let e = self.sim.run(start, p as u64, &mut orbit);
+        self.used += e.periods;
+        let (Some(st), true) = (orbit.stats, matches!(e.status, Status::Completed)) else {
+            return Shot::Rejected;
+        };
+        // A divisor q of p is the minimal period when the orbit returns
+        // within 1e-6 (relative) after q periods: Newton's residual bounds
+        // the fixed point's error only through (I − J)⁻¹, and orbits that
+        // differ by less are not told apart anywhere in the tool.
+        let l = 1e-6 * (1.0 + sh.x.iter().fold(0.0f64, |a, v| a.max(v.abs())));
+        let q = (1..=p)
+            .filter(|q| p % q == 0)
+            .find(|&q| {
+                let (y, m) = orbit.sections[q - 1];
+                matches!(m, Mode::Stick { .. }) == sh.stuck && dist(&y, &sh.x, 4) <= l
+            })
+            .unwrap_or(p);
+        // The fixed point is the orbit's state at dwell ≡ dwell (mod q);
+        // continue from its state at the next whole multiple of q.
+        let j = ((q as u64 - self.dwell % q as u64) % q as u64) as usize;
+        let next = if j == 0 {
+            start
+        } else {
+            let (x, mode) = orbit.sections[j - 1];
+            Init { x, mode }
+        };
+        let mut pt = point_from(eta, &st, p as u32, t, self.used, "shooting");
+        pt.period_multiple = Some(q as u32);
+        Shot::Accepted((pt, next))
+    }
+}
+
+/// Merged statistics and section states of a run (an orbit).
+struct Orbit {
+    stats: Option<PeriodStats>,
+    sections: Vec<([f64; 4], Mode)>,
+}
+
+impl Observer for Orbit {
+    fn wants_extremes(&self) -> bool {
+        true
+    }
+    fn period(&mut self, _n: u64, x: &[f64; 4], m: Mode, s: &PeriodStats) -> Flow {
+        self.stats = Some(match self.stats {
+            None => *s,
+            Some(a) => PeriodStats {
+                min: [a.min[0].min(s.min[0]), a.min[1].min(s.min[1])],
+                max: [a.max[0].max(s.max[0]), a.max[1].max(s.max[1])],
+                stick_time: a.stick_time + s.stick_time,
+            },
+        });
+        self.sections.push((*x, m));
+        Flow::Continue
+    }
+}
+
+fn diff(a: &[f64; 4], b: &[f64; 4], dim: usize) -> [f64; 4] {
+    let mut d = [0.0; 4];
+    for i in 0..dim {
+        d[i] = a[i] - b[i];
+    }
+    d
+}
+
+fn norm(a: &[f64; 4], dim: usize) -> f64 {
+    a[..dim].iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+fn dist(a: &[f64; 4], b: &[f64; 4], dim: usize) -> f64 {
+    norm(&diff(a, b, dim), dim)
 }
 
 /// An undamped linear limit forced at its eigenfrequency: no steady state.
@@ -356,16 +582,35 @@ fn failed(status: &Status, eta: f64, periods: u64) -> Option<Point> {
     })
 }
 
-/// Newton's method on P(x) − x for the period-1 section state. Stuck states
-/// vary (ζ1, ζ1', ζ2) with ζ2' = 0; slipping states all four components.
-/// Returns the fixed point, its mode and the periods used.
+/// A fixed point of the p-th return map found by [`shoot`].
+struct Shooting {
+    /// The section state.
+    x: [f64; 4],
+    /// Its contact mode.
+    mode: Mode,
+    /// M2 sticks there (coordinates ζ1, ζ1', ζ2; else all four).
+    stuck: bool,
+    /// Number of coordinates varied (3 stuck, 4 slipping).
+    dim: usize,
+    /// Jacobian of P^p at `x` (finite differences, `dim`×`dim`).
+    jac: [[f64; 4]; 4],
+    /// Periods integrated.
+    used: u64,
+}
+
+/// Newton's method on P^p(x) − x for a section state of a period-p orbit.
+/// Stuck states vary (ζ1, ζ1', ζ2) with ζ2' = 0; slipping states all four
+/// components. Only a converged, stable (spectral radius < 1) fixed point
+/// with the start's contact mode is returned; whether the trajectory
+/// approaches it is the caller's check.
 fn shoot(
     sim: &Sim,
     model: &Model,
     x0: [f64; 4],
     mode0: Mode,
+    p: u64,
     tol: f64,
-) -> Option<([f64; 4], Mode, u64)> {
+) -> Option<Shooting> {
     let stuck = matches!(mode0, Mode::Stick { .. });
     let dim = if stuck { 3 } else { 4 };
     let same_kind = |m: Mode| matches!(m, Mode::Stick { .. }) == stuck;
@@ -375,7 +620,7 @@ fn shoot(
         } else {
             mode0
         };
-        let e = sim.run(Init { x: *x, mode }, 1, &mut ());
+        let e = sim.run(Init { x: *x, mode }, p, &mut ());
         match e.status {
             Status::Completed => Some((e.x, e.mode)),
             _ => None,
@@ -385,21 +630,21 @@ fn shoot(
     let mut used = 0;
     for _ in 0..8 {
         let (px, pm) = map(&x)?;
-        used += 1;
+        used += p;
         if !same_kind(pm) {
             return None;
         }
         let scale = 1.0 + x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let r: Vec<f64> = (0..dim).map(|i| px[i] - x[i]).collect();
         let rn = r.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        // Jacobian of P by forward differences.
+        // Jacobian of P^p by forward differences.
         let mut j = faer::Mat::<f64>::zeros(dim, dim);
         for c in 0..dim {
             let h = 1e-7 * (1.0 + x[c].abs());
             let mut xp = x;
             xp[c] += h;
             let (pp, pmm) = map(&xp)?;
-            used += 1;
+            used += p;
             if !same_kind(pmm) {
                 return None;
             }
@@ -411,11 +656,27 @@ fn shoot(
             // Converged: accept only a stable orbit.
             let ev = j.eigenvalues().ok()?;
             let rho = ev.iter().map(|z| z.norm()).fold(0.0, f64::max);
-            return if rho < 1.0 - 1e-9 {
-                Some((x, if stuck { Mode::Stick { z2: x[2] } } else { pm }, used))
-            } else {
-                None
-            };
+            if rho >= 1.0 - 1e-9 {
+                return None;
+            }
+            let mut jac = [[0.0; 4]; 4];
+            for (i, row) in jac.iter_mut().enumerate().take(dim) {
+                for (c, v) in row.iter_mut().enumerate().take(dim) {
+                    *v = j[(i, c)];
+                }
+            }
+            return Some(Shooting {
+                x,
+                mode: if stuck {
+                    Mode::Stick { z2: x[2] }
+                } else {
+                    mode0
+                },
+                stuck,
+                dim,
+                jac,
+                used,
+            });
         }
         let mut a = j.clone();
         for i in 0..dim {
