@@ -168,6 +168,8 @@ fn from_rest_equals_plain_march_full_grid() {
         open += o;
     }
     eprintln!("compared {compared} points, {open} not settled within 20000 periods");
+    // 908 compared, 46 not settled (2026-11-24); the rest are interrupted.
+    assert!(compared >= 850, "only {compared} points compared");
 }
 
 /// Continuation (`--direction up|down`) is the time-march of this plan:

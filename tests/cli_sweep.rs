@@ -139,3 +139,113 @@ fn figures_and_bad_options() {
         assert!(e.starts_with("error: ") && e.lines().count() == 1, "{e}");
     }
 }
+
+/// Coexisting stable states: the paper's decreasing law (ρs 0.375,
+/// D* −0.04, interrupted below ρs/2) at η = 0.29 settles to a period-1
+/// orbit (A1/A 1.4005) continued upwards from η = 0.2 and to the period-3
+/// orbit (A1/A 1.5648) from rest and continued downwards
+/// (tests/attractor.rs). `--direction both` flags both branches there, a
+/// single direction cannot, and `merge` flags them when the branches come
+/// from different shards.
+#[test]
+fn coexisting_states_are_flagged_and_merge_finds_them_across_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |n: &str| dir.path().join(n);
+    let common = [
+        "sweep",
+        "--rho-s",
+        "0.375",
+        "--slope",
+        "-0.04",
+        "--stop-below",
+        "0.5",
+        "--eta-min",
+        "0.2",
+        "--eta-max",
+        "0.5",
+        "--points",
+        "31",
+        "--direction",
+        "both",
+    ];
+    let out = bin().args(common).arg("--json").output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let flagged = |c: &serde_json::Value| -> Vec<(f64, f64)> {
+        let eta = c["eta"].as_array().unwrap();
+        let a1 = c["amplitude1"].as_array().unwrap();
+        c["coexisting"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| f.as_bool().unwrap())
+            .map(|(i, _)| (eta[i].as_f64().unwrap(), a1[i].as_f64().unwrap()))
+            .collect()
+    };
+    let curves = v["curves"].as_array().unwrap();
+    let (up, down) = (flagged(&curves[0]), flagged(&curves[1]));
+    assert_eq!(up.len(), down.len());
+    let at = |c: &[(f64, f64)]| c.iter().find(|(e, _)| (e - 0.29).abs() < 1e-9).map(|x| x.1);
+    let (a_up, a_down) = (at(&up).expect("η 0.29 flagged up"), at(&down).unwrap());
+    assert!(
+        (a_up - 1.4005).abs() < 1e-4 && (a_down - 1.5648).abs() < 1e-4,
+        "{a_up} {a_down}"
+    );
+    assert_eq!(
+        v["coexisting_points"].as_u64().unwrap() as usize,
+        2 * up.len()
+    );
+
+    // One direction alone: nothing to compare with.
+    let one = bin()
+        .args(&common[..common.len() - 2])
+        .arg("--json")
+        .output()
+        .unwrap();
+    let v1: serde_json::Value = serde_json::from_slice(&one.stdout).unwrap();
+    assert_eq!(v1["coexisting_points"], 0);
+
+    // Shards 1/2 and 2/2 hold the up and the down curve; each alone sees no
+    // other branch, the merged table flags the same points as the whole run.
+    for k in [1, 2] {
+        let st = bin()
+            .args(common)
+            .args(["--shard", &format!("{k}/2"), "--out"])
+            .arg(p(&format!("part{k}.csv")))
+            .status()
+            .unwrap();
+        assert!(st.success());
+        assert!(read_frc(&p(&format!("part{k}.csv")))
+            .unwrap()
+            .iter()
+            .all(|r| !r.coexisting));
+    }
+    let st = bin()
+        .arg("merge")
+        .arg(p("part1.csv"))
+        .arg(p("part2.csv"))
+        .arg("--out")
+        .arg(p("all.csv"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let merged = read_frc(&p("all.csv")).unwrap();
+    let st = bin()
+        .args(common)
+        .arg("--out")
+        .arg(p("whole.csv"))
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let whole = read_frc(&p("whole.csv")).unwrap();
+    let flags = |t: &[stickslip::report::table::FrcRow]| -> Vec<(u32, u32, bool)> {
+        t.iter().map(|r| (r.curve, r.point, r.coexisting)).collect()
+    };
+    assert_eq!(flags(&merged), flags(&whole));
+    assert!(merged.iter().any(|r| r.coexisting));
+}

@@ -145,6 +145,7 @@ fn worst_json(w: &Worst) -> Value {
         "eta": num(w.eta),
         "branch": w.branch.as_str(),
         "unsettled": w.unsettled,
+        "coexisting_points": w.coexisting,
     })
 }
 
@@ -198,6 +199,8 @@ pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
     ins(&mut o, "worst_amplitude1_robust", num(r.worst_interval.1));
     ins(&mut o, "worst_eta", num(r.worst.eta));
     ins(&mut o, "worst_branch", json!(r.worst.branch.as_str()));
+    ins(&mut o, "worst_coexisting_points", json!(r.worst.coexisting));
+    ins(&mut o, "worst_coexisting_eta", num(r.worst.coexisting_eta));
     match &b.cliff {
         Some(c) => {
             ins(&mut o, "cliff_rho_s", num(c.rho_s));

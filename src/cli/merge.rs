@@ -45,6 +45,8 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
             .into());
         }
     }
+    // Branches of one model may come from different shards.
+    table::mark_coexisting(&mut rows);
     table::write_frc(&rows, &args.out)?;
     if let Some(p) = &args.plot {
         plot::frc(&super::sweep::figure(&rows, "Frequency response".into()), p)?;

@@ -37,8 +37,8 @@ pub struct SimulateArgs {
     /// Integrate until the response is periodic (or declared not periodic).
     #[arg(long)]
     pub steady: bool,
-    /// Longest run with --steady, in forcing periods.
-    #[arg(long, default_value_t = 20_000)]
+    /// Longest run with --steady, in forcing periods (1 to 1e8).
+    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     pub max_periods: u64,
     /// Start at rest with M2 sticking (the default initial state).
     #[arg(long)]

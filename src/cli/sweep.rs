@@ -60,8 +60,8 @@ pub struct SweepArgs {
     /// Start every η from rest instead of continuing.
     #[arg(long)]
     pub from_rest: bool,
-    /// Period budget of the time-marching fallback per point.
-    #[arg(long, default_value_t = 20_000)]
+    /// Period budget of the time-marching fallback per point (1 to 1e8).
+    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     pub max_periods: u64,
     /// Compute slice K of N of the family (1-based K), for job arrays.
     #[arg(long)]
@@ -219,9 +219,12 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
                 interrupted: v.interrupted,
                 method: v.method.to_string(),
                 periods: v.periods,
+                coexisting: false,
             }
         })
         .collect();
+    let mut table = table;
+    table::mark_coexisting(&mut table);
     if let Some(p) = &args.out {
         table::write_frc(&table, p)?;
     }
@@ -234,18 +237,21 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
             "curves": curves_json(&table),
             "seconds": seconds,
             "points": table.len(),
+            "coexisting_points": table.iter().filter(|r| r.coexisting).count(),
             "shard": args.shard,
         }));
     } else {
         let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
         let interrupted = table.iter().filter(|r| r.interrupted).count();
+        let coexisting = table.iter().filter(|r| r.coexisting).count();
         eprintln!(
-            "{} curves, {} steady states in {:.2} s ({} not settled, {} interrupted)",
+            "{} curves, {} steady states in {:.2} s ({} not settled, {} interrupted, {} where the branches settle to different stable states)",
             specs.len(),
             table.len(),
             seconds,
             not_steady,
-            interrupted
+            interrupted,
+            coexisting
         );
     }
     Ok(())
@@ -295,6 +301,7 @@ pub fn curves_json(table: &[FrcRow]) -> serde_json::Value {
                 "period_multiple": c.iter().map(|r| r.period_multiple).collect::<Vec<_>>(),
                 "stick_fraction": c.iter().map(|r| r.stick_fraction).collect::<Vec<_>>(),
                 "interrupted": c.iter().map(|r| r.interrupted).collect::<Vec<_>>(),
+                "coexisting": c.iter().map(|r| r.coexisting).collect::<Vec<_>>(),
             })
         })
         .collect();
@@ -333,6 +340,7 @@ pub fn figure(table: &[FrcRow], title: String) -> FrcFigure {
                 eta: c.iter().map(|r| r.eta).collect(),
                 a1: c.iter().map(|r| r.amplitude1).collect(),
                 a2: c.iter().map(|r| r.amplitude2).collect(),
+                coexisting: c.iter().map(|r| r.coexisting).collect(),
             }
         })
         .collect();

@@ -52,6 +52,15 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
             ),
         ),
     ];
+    if r.worst.coexisting > 0 {
+        v.push(KeyValue::new(
+            "coexisting stable states at the recommendation",
+            format!(
+                "at {} of the grid's η nodes (first at η = {:.4}) the up, down and from-rest branches settle to different steady states (> 1e-6 relative); the worst case takes the worst of them, on this grid",
+                r.worst.coexisting, r.worst.coexisting_eta
+            ),
+        ));
+    }
     v.push(KeyValue::new(
         "cliff (η1 peak returns below)",
         match &b.cliff {

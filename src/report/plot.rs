@@ -35,6 +35,9 @@ pub struct FrcCurve {
     pub a1: Vec<Option<f64>>,
     /// A2/A.
     pub a2: Vec<Option<f64>>,
+    /// Points where another branch settles to a different stable state
+    /// (drawn as open circles); empty or all false when not known.
+    pub coexisting: Vec<bool>,
 }
 
 /// A frequency-response figure.
@@ -259,6 +262,34 @@ fn draw_frc<DB: DrawingBackend>(
                 }
             }
             flush(&mut seg, &mut chart)?;
+        }
+        // Coexisting stable states: open circles on every branch's point.
+        let marks: Vec<(f64, f64)> = fig
+            .curves
+            .iter()
+            .flat_map(|c| {
+                let ys = if which == 0 { &c.a1 } else { &c.a2 };
+                c.eta
+                    .iter()
+                    .zip(ys)
+                    .zip(c.coexisting.iter().chain(std::iter::repeat(&false)))
+                    .filter_map(|((x, y), f)| match y {
+                        Some(v) if *f && v.is_finite() => Some((*x, v.min(ymax))),
+                        _ => None,
+                    })
+            })
+            .collect();
+        if !marks.is_empty() {
+            let black = RGBColor(0, 0, 0);
+            chart
+                .draw_series(
+                    marks
+                        .into_iter()
+                        .map(|p| Circle::new(p, 4, black.stroke_width(1))),
+                )
+                .map_err(e)?
+                .label("coexisting stable states (branches differ)")
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, black.stroke_width(1)));
         }
         if which == 0 {
             chart

@@ -5,7 +5,16 @@
 //! Columns: `curve`, `point` (indices in the family, for merging), `m`, `k`,
 //! `damping`, `rho_s`, `rho_d`, `slope`, `v_s`, `stop_below`, `direction`,
 //! `eta`, `amplitude1`, `amplitude2`, `steady`, `period_multiple`,
-//! `stick_fraction`, `interrupted`, `method`, `periods`.
+//! `stick_fraction`, `interrupted`, `method`, `periods`, `coexisting`.
+//!
+//! `coexisting` is true where the family holds another branch (direction
+//! `up`, `down` or `rest`) of the same model whose settled steady state at
+//! the same η differs by more than 1e-6 relative
+//! ([`crate::sim::sweep::distinct_states`]): two stable states coexist
+//! there. It holds for the branches and the grid computed: a single
+//! direction can never show it, and other states may exist unseen.
+//! [`mark_coexisting`] sets it; `merge` re-marks the joined table, so
+//! branches computed in different shards are compared too.
 
 use crate::error::{Error, Result};
 use polars::prelude::*;
@@ -54,6 +63,74 @@ pub struct FrcRow {
     pub method: String,
     /// Forcing periods integrated.
     pub periods: u64,
+    /// Another branch of the same model settles elsewhere at this η.
+    pub coexisting: bool,
+}
+
+impl FrcRow {
+    /// The row's steady state as a [`crate::sim::sweep::Point`] (for the
+    /// comparison of branches).
+    fn point_value(&self) -> crate::sim::sweep::Point {
+        crate::sim::sweep::Point {
+            eta: self.eta,
+            amplitude1: self.amplitude1,
+            amplitude2: self.amplitude2,
+            steady: self.steady,
+            period_multiple: self.period_multiple,
+            stick_fraction: self.stick_fraction,
+            interrupted: self.interrupted,
+            periods: self.periods,
+            method: "",
+        }
+    }
+
+    /// Everything that names the model of the row's curve (not the
+    /// direction), as exact bit patterns.
+    fn model_key(&self) -> [u64; 8] {
+        let o = |v: Option<f64>| v.map_or(u64::MAX, f64::to_bits);
+        [
+            self.m.to_bits(),
+            self.k.to_bits(),
+            self.damping.to_bits(),
+            self.rho_s.to_bits(),
+            self.rho_d.to_bits(),
+            self.slope.to_bits(),
+            o(self.v_s),
+            o(self.stop_below),
+        ]
+    }
+}
+
+/// Sets `coexisting` on every row: true where another branch of the same
+/// model at the same η (bit-identical) settles to a different state.
+pub fn mark_coexisting(rows: &mut [FrcRow]) {
+    use std::collections::HashMap;
+    let mut groups: HashMap<([u64; 8], u64), Vec<usize>> = HashMap::new();
+    for (i, r) in rows.iter().enumerate() {
+        groups
+            .entry((r.model_key(), r.eta.to_bits()))
+            .or_default()
+            .push(i);
+    }
+    let mut flag = vec![false; rows.len()];
+    for idx in groups.values() {
+        for (a, &i) in idx.iter().enumerate() {
+            for &j in &idx[a + 1..] {
+                if rows[i].direction != rows[j].direction
+                    && crate::sim::sweep::distinct_states(
+                        &rows[i].point_value(),
+                        &rows[j].point_value(),
+                    )
+                {
+                    flag[i] = true;
+                    flag[j] = true;
+                }
+            }
+        }
+    }
+    for (r, f) in rows.iter_mut().zip(flag) {
+        r.coexisting = f;
+    }
 }
 
 fn fail(path: &Path, what: &str, e: impl std::fmt::Display) -> Error {
@@ -125,6 +202,10 @@ pub fn write_frc(rows: &[FrcRow], path: &Path) -> Result<()> {
         Column::new(
             "periods".into(),
             rows.iter().map(|r| r.periods).collect::<Vec<u64>>(),
+        ),
+        Column::new(
+            "coexisting".into(),
+            rows.iter().map(|r| r.coexisting).collect::<Vec<bool>>(),
         ),
     ];
     let mut df =
@@ -240,6 +321,12 @@ pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
         bcol("interrupted")?,
         scol("method")?,
     );
+    // Optional: tables written before the column existed read as false.
+    let co = if df.column("coexisting").is_ok() {
+        bcol("coexisting")?
+    } else {
+        vec![None; n]
+    };
     let mut rows = Vec::with_capacity(n);
     for i in 0..n {
         let idx = |v: Option<u64>, name: &str| {
@@ -267,6 +354,7 @@ pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
             interrupted: it[i].unwrap_or(false),
             method: me[i].clone().unwrap_or_default(),
             periods: periods[i].unwrap_or(0),
+            coexisting: co[i].unwrap_or(false),
         });
     }
     Ok(rows)

@@ -8,16 +8,40 @@
 //!    1-DOF motion can never load the pad up to ρs — the contact force is
 //!    bounded by its steady part plus a bound on the decaying free part from
 //!    its (non-increasing) energy — so the answer is the 1-DOF closed form;
-//! 4. **Newton shooting** on the Poincaré map at the forcing period, with a
-//!    finite-difference monodromy matrix (in the stuck or slipping
-//!    coordinates of the section state); accepted only if it converges, the
-//!    contact mode repeats and the orbit is stable (spectral radius < 1);
+//! 4. **Newton shooting** on the p-th return map P^p (p ≤ 8, the smallest
+//!    p whose section return distance ‖x_n − x_{n−p}‖ is within 4× the
+//!    best), with a finite-difference Jacobian in the stuck or slipping
+//!    coordinates of the section state; a converged, stable (spectral
+//!    radius < 1) fixed point x* with the start's contact mode is only a
+//!    *candidate*. Shooting may speed up convergence to the orbit the
+//!    trajectory is approaching, never pick another attractor: the
+//!    trajectory marches on p periods at a time and x* is accepted only
+//!    when its own iterates follow the linearisation,
+//!    ‖e_{k+1} − J·e_k‖ ≤ 0.1·‖e_k‖ + 10·tol (e_k = x_{n+kp} − x*), for up
+//!    to three iterates or until it is within tol. Otherwise the trajectory
+//!    marches a block (16, 32, 64 periods) and shooting is tried again (three
+//!    attempts). The reported period is the smallest divisor q of p after
+//!    which the orbit returns within 1e-6 (relative);
 //! 5. otherwise time-marching until the section repeats (period-n, n ≤ 8)
 //!    or the period budget runs out (`steady: false`).
 //!
-//! A curve continues each η from the previous η's steady state (like a slow
-//! rig sweep, up or down in η) or starts every η from rest. An interrupted
-//! point (the paper's rule) has no amplitude; the next η starts from rest.
+//! ## Continuation (`Direction::Up`, `Down`)
+//!
+//! A curve is one time-march of a plan: at each η in turn, the absorber
+//! starts from the state carried over, the trajectory is marched until
+//! its section repeats (steps 2–5 only accelerate that march), then on to
+//! the next whole multiple of the response's period n counted from the
+//! switch, and that **section state** (forcing phase 0) is carried to the
+//! next η. No ramp is modelled: the drive's frequency changes at phase 0,
+//! where its displacement (A) and velocity (0) are the same for both
+//! frequencies, so the base motion stays continuous with a continuous
+//! velocity. An interrupted point (the paper's rule) has no amplitude and
+//! the next η starts from rest; a point that does not settle within the
+//! budget carries its last state. `tests/attractor.rs` checks curves
+//! against a plain time-march of this plan, and steady states from rest
+//! against a plain march from rest (same amplitudes to 1e-6, same period).
+//! `Direction::Rest` starts every η from rest.
+//!
 //! Curves are independent, so families run in parallel (rayon) with results
 //! identical for any thread count.
 
@@ -742,6 +766,27 @@ pub fn curve(
         .into_iter()
         .map(|p| p.expect("every eta computed"))
         .collect())
+}
+
+/// Relative difference of an amplitude above which the steady states of
+/// two branches (up, down, rest) at one η are distinct stable states.
+pub const COEXISTING_REL: f64 = 1e-6;
+
+/// Whether two *settled* points at the same η are different stable states:
+/// A1/A or A2/A differ by more than [`COEXISTING_REL`] relative (1e-12
+/// absolute near zero, e.g. A2 of two stuck orbits). Points that did not
+/// settle (amplitudes over a window of a non-periodic response) or have no
+/// amplitude (interrupted) are never called coexisting.
+pub fn distinct_states(a: &Point, b: &Point) -> bool {
+    let settled = |p: &Point| p.steady && p.amplitude1.is_some() && p.amplitude2.is_some();
+    if !settled(a) || !settled(b) {
+        return false;
+    }
+    let differ = |x: Option<f64>, y: Option<f64>| match (x, y) {
+        (Some(x), Some(y)) => (x - y).abs() > (COEXISTING_REL * x.abs().max(y.abs())).max(1e-12),
+        _ => false,
+    };
+    differ(a.amplitude1, b.amplitude1) || differ(a.amplitude2, b.amplitude2)
 }
 
 /// `n` equally spaced η in [lo, hi].

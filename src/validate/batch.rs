@@ -327,6 +327,12 @@ pub struct Worst {
     pub unsettled: usize,
     /// Points without amplitude (interrupted, resonant limit).
     pub missing: usize,
+    /// η nodes where the settled steady states of the branches differ by
+    /// more than 1e-6 relative (coexisting stable states on this grid;
+    /// [`crate::sim::sweep::distinct_states`]).
+    pub coexisting: usize,
+    /// The η (lowest) of the first such node, NaN if none.
+    pub coexisting_eta: f64,
 }
 
 /// One node of the worst-case curve.
@@ -1025,7 +1031,21 @@ pub fn worst_case(
         branch: Direction::Up,
         unsettled: 0,
         missing: 0,
+        coexisting: 0,
+        coexisting_eta: f64::NAN,
     };
+    for (i, &eta) in etas.iter().enumerate() {
+        let differ = (0..curves.len()).any(|a| {
+            (a + 1..curves.len())
+                .any(|b| crate::sim::sweep::distinct_states(&curves[a][i], &curves[b][i]))
+        });
+        if differ {
+            w.coexisting += 1;
+            if w.coexisting == 1 {
+                w.coexisting_eta = eta;
+            }
+        }
+    }
     for (d, c) in branches.iter().zip(&curves) {
         for p in c {
             if !p.steady {
