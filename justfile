@@ -32,11 +32,12 @@ ci:
     bash .ci/run
 
 # Regenerate the paper's Figs. 3-5 (Coulomb; decreasing D* = -0.04 interrupted
-# below rho_s/2; rho_d = rho_s/2) into reports/.
+# below rho_s/2; rho_d = rho_s/2) and the coexisting-states figure into reports/.
 figures:
     cargo run --release -- sweep --plot reports/fig3.svg --out reports/fig3.parquet --title "Fig. 3: Coulomb friction"
     cargo run --release -- sweep --slope -0.04 --stop-below 0.5 --plot reports/fig4.svg --out reports/fig4.parquet --title "Fig. 4: decreasing characteristic D* = -0.04 (interrupted below rho_s/2)"
     cargo run --release -- sweep --rho-d-ratio 0.5 --plot reports/fig5.svg --out reports/fig5.parquet --title "Fig. 5: rho_d = rho_s/2"
+    cargo run --release -- sweep --rho-s 1 --rho-d-ratio 0.5 --direction both --plot reports/coexisting.svg --title "Coexisting stable states: rho_s 1, rho_d 0.5, continued up and down"
 
 # Identification studies: round trips through the virtual rig (200 random
 # logs), repeatability under new sensor draws, the long coverage run.
