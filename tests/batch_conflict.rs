@@ -415,3 +415,35 @@ fn mixed_rigs_refused_unless_allowed() {
     assert_eq!(errors.len(), 1, "{stderr}");
     assert!(errors[0].contains("K2") && errors[0].contains("k2_700.mcap"));
 }
+
+/// Two logs of two pads, one measured Rs each, 67 % apart: nothing says
+/// which is right (two observations: nothing is set aside), so μs's
+/// interval, widened by their scatter with one degree of freedom, reaches
+/// zero. μs and μd are still reported with intervals; no normal force is
+/// recommended and `recommendation_reason` says why in words.
+#[test]
+fn no_recommendation_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, ta) = synth(dir.path(), "pad_a_n3.2", 3.2, (MU_S, MU_D), &[]);
+    let (b, tb) = synth(dir.path(), "pad_b_n2", 2.0, (0.7, 0.6), &["--seed", "9"]);
+    for t in [&ta, &tb] {
+        let sf = f(&t["stick_fraction"]);
+        assert!(sf > 0.05 && sf < 0.95, "sticks and slips: {sf}");
+    }
+    let (code, v, stderr) = batch(&[a, b], &[]);
+    show(&v);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(!stderr.contains("panicked"));
+    assert_eq!(v["mu_s_points"], 2);
+    assert!(v["mu_s"].is_number() && v["mu_d"].is_number());
+    assert!(v["mu_s_interval"][0].is_number() && v["mu_s_interval"][1].is_number());
+    recommendation_or_reason(&v);
+    assert!(v["recommended_normal_force_n"].is_null());
+    let reason = v["recommendation_reason"].as_str().unwrap();
+    assert!(
+        reason.contains("μs") && reason.contains("interval"),
+        "{reason}"
+    );
+    let cs = checked_conflicts(&v);
+    assert!(cs.iter().any(|c| c["quantity"] == "mu_s"), "{cs:?}");
+}

@@ -701,10 +701,11 @@ fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
 }
 
 /// Adds the relative systematic half-width `sys` (of μ) to a statistical
-/// interval, in quadrature on each side.
+/// interval, in quadrature on each side (a friction coefficient is not
+/// negative: the lower end stops at 0).
 fn with_systematic(mu: f64, (lo, hi): (f64, f64), sys: f64) -> (f64, f64) {
     let s = sys * mu;
-    (mu - (mu - lo).hypot(s), mu + (hi - mu).hypot(s))
+    ((mu - (mu - lo).hypot(s)).max(0.0), mu + (hi - mu).hypot(s))
 }
 
 // ---------------------------------------------------------------- conflicts
@@ -1971,15 +1972,23 @@ pub fn batch_with_progress(
         "μs = {:.4} with the 95 % interval [{:.4}, {:.4}]",
         mu_s.mu, mu_s.interval.0, mu_s.interval.1
     );
+    let unresolved = conflicts
+        .iter()
+        .any(|c| c.quantity == "mu_s" && c.kind != "scatter" && !c.set_aside);
     let outcome: std::result::Result<(Recommendation, Option<Cliff>), String> = 'rec: {
         if !box_ok {
+            let why = if unresolved {
+                " (the logs contradict each other on Rs and the data do not say which is off: see the conflicts)"
+            } else {
+                ""
+            };
             break 'rec Err(if fa <= 0.0 || !fb.is_finite() {
                 format!(
-                    "{mu_words} reaches down to zero or is unbounded: the logs do not pin down the static friction, so no normal force can be shown to keep the main mass quiet; add logs at normal forces where the absorber sticks and slips"
+                    "{mu_words}{why} reaches down to zero or is unbounded: the logs do not pin down the static friction, so no normal force can be shown to keep the main mass quiet; add logs at normal forces where the absorber sticks and slips"
                 )
             } else {
                 format!(
-                    "{mu_words} spans a factor of {:.0}: any normal force could be anywhere from sliding freely to stuck; add logs at normal forces where the absorber sticks and slips",
+                    "{mu_words}{why} spans a factor of {:.0}: any normal force could be anywhere from sliding freely to stuck; add logs at normal forces where the absorber sticks and slips",
                     mu_s.interval.1 / mu_s.interval.0
                 )
             });
