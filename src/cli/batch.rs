@@ -5,6 +5,10 @@
 //! own uncertainty, is smallest (see [`crate::validate::batch`]). A log that
 //! cannot be read or fitted gives its `error:` line and an entry with
 //! `error`; the batch is computed from the others and the exit status is 1.
+//! Logs whose rig constants differ by more than 1 % are refused unless
+//! `--allow-mixed-rigs`; the same test given twice (the same file, or the
+//! same test in another format) counts once, with a warning. Conflicting
+//! logs are named in `conflicts` and μ is reported with and without them.
 
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, RigMeta};
@@ -83,6 +87,9 @@ pub struct BatchArgs {
     /// Period budget of the time-marching fallback per steady state.
     #[arg(long, default_value_t = vb::DEFAULT_MAX_PERIODS)]
     pub max_periods: u64,
+    /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
+    #[arg(long)]
+    pub allow_mixed_rigs: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -175,32 +182,88 @@ pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
     let mut o = serde_json::Map::new();
     mu_keys(&mut o, "mu_s", &b.mu_s);
     mu_keys(&mut o, "mu_d", &b.mu_d);
-    let r = &b.recommendation;
     let ins = |o: &mut serde_json::Map<String, Value>, k: &str, v: Value| {
         o.insert(k.into(), v);
     };
+    // Both ways: without the conflicting logs (the keys above) and with
+    // every log.
+    let mut all = serde_json::Map::new();
+    mu_keys(&mut all, "mu_s", &b.mu_s_all);
+    mu_keys(&mut all, "mu_d", &b.mu_d_all);
+    ins(&mut o, "all_logs", Value::Object(all));
+    let set_aside = |pick: fn(&vb::BatchLog) -> bool| -> Value {
+        json!(b
+            .logs
+            .iter()
+            .filter(|l| pick(l))
+            .map(|l| l.log.display().to_string())
+            .collect::<Vec<_>>())
+    };
+    ins(&mut o, "mu_s_set_aside", set_aside(|l| l.set_aside.0));
+    ins(&mut o, "mu_d_set_aside", set_aside(|l| l.set_aside.1));
+    let conflicts: Vec<Value> = b
+        .conflicts
+        .iter()
+        .map(|c| {
+            json!({
+                "logs": c.logs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
+                "quantity": c.quantity,
+                "kind": c.kind,
+                "what": c.what,
+                "size_sigma": num(c.size_sigma),
+                "size_rel": num(c.size_rel),
+                "set_aside": c.set_aside,
+            })
+        })
+        .collect();
+    ins(&mut o, "conflicts", json!(conflicts));
     ins(&mut o, "mu_ratio", num(b.ratio));
     ins(&mut o, "mu_ratio_interval", interval(b.ratio_interval));
-    ins(&mut o, "recommended_normal_force_n", num(r.normal_force_n));
-    ins(
-        &mut o,
-        "recommended_normal_force_interval_n",
-        interval(r.interval_n),
-    );
-    ins(&mut o, "recommended_rho_s", num(r.rho_s));
-    ins(&mut o, "recommended_rho_d", num(r.rho_d));
-    ins(&mut o, "recommended_rho_s_box", interval(r.rho_s_box));
-    ins(&mut o, "worst_amplitude1", num(r.worst.amplitude1));
-    ins(
-        &mut o,
-        "worst_amplitude1_interval",
-        interval(r.worst_interval),
-    );
-    ins(&mut o, "worst_amplitude1_robust", num(r.worst_interval.1));
-    ins(&mut o, "worst_eta", num(r.worst.eta));
-    ins(&mut o, "worst_branch", json!(r.worst.branch.as_str()));
-    ins(&mut o, "worst_coexisting_points", json!(r.worst.coexisting));
-    ins(&mut o, "worst_coexisting_eta", num(r.worst.coexisting_eta));
+    match &b.recommendation {
+        Some(r) => {
+            ins(&mut o, "recommended_normal_force_n", num(r.normal_force_n));
+            ins(
+                &mut o,
+                "recommended_normal_force_interval_n",
+                interval(r.interval_n),
+            );
+            ins(&mut o, "recommended_rho_s", num(r.rho_s));
+            ins(&mut o, "recommended_rho_d", num(r.rho_d));
+            ins(&mut o, "recommended_rho_s_box", interval(r.rho_s_box));
+            ins(&mut o, "worst_amplitude1", num(r.worst.amplitude1));
+            ins(
+                &mut o,
+                "worst_amplitude1_interval",
+                interval(r.worst_interval),
+            );
+            ins(&mut o, "worst_amplitude1_robust", num(r.worst_interval.1));
+            ins(&mut o, "worst_eta", num(r.worst.eta));
+            ins(&mut o, "worst_branch", json!(r.worst.branch.as_str()));
+            ins(&mut o, "worst_coexisting_points", json!(r.worst.coexisting));
+            ins(&mut o, "worst_coexisting_eta", num(r.worst.coexisting_eta));
+        }
+        None => {
+            for k in [
+                "recommended_normal_force_n",
+                "recommended_normal_force_interval_n",
+                "recommended_rho_s",
+                "recommended_rho_d",
+                "recommended_rho_s_box",
+                "worst_amplitude1",
+                "worst_amplitude1_interval",
+                "worst_amplitude1_robust",
+                "worst_eta",
+                "worst_branch",
+                "worst_coexisting_points",
+                "worst_coexisting_eta",
+            ] {
+                ins(&mut o, k, Value::Null);
+            }
+        }
+    }
+    if let Some(reason) = &b.recommendation_reason {
+        ins(&mut o, "recommendation_reason", json!(reason));
+    }
     match &b.cliff {
         Some(c) => {
             ins(&mut o, "cliff_rho_s", num(c.rho_s));
@@ -253,6 +316,10 @@ pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
                 "worst_eta": l.worst.map_or(Value::Null, |w| num(w.eta)),
                 "worst_branch": l.worst.map_or(Value::Null, |w| json!(w.branch.as_str())),
                 "consistent": l.consistent,
+                "set_aside_mu_s": l.set_aside.0,
+                "set_aside_mu_d": l.set_aside.1,
+                "estimate_disagreement_rs_sigma": num(l.estimate_disagreement.0),
+                "estimate_disagreement_rd_sigma": num(l.estimate_disagreement.1),
                 "drive_amplitude_m": num(l.drive_amplitude_m),
             })
         })
@@ -393,6 +460,35 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
             Err(e) => errors.push(e.to_string()),
         }
     }
+    if let Err(e) = super::refuse_mixed_rigs(&rigs, args.allow_mixed_rigs) {
+        bar.finish_and_clear();
+        return Err(e);
+    }
+    // The same test given twice counts once.
+    let (keep, dup_warnings) = {
+        let ids: Vec<super::TestId<'_>> = good
+            .iter()
+            .zip(&rigs)
+            .map(|((p, f), (_, rig))| super::TestId {
+                path: p,
+                rig,
+                normal_force_n: f.normal_force_n,
+                drive_amplitude_m: f.drive.amplitude_m,
+                drive_frequency_hz: f.drive.frequency_hz,
+            })
+            .collect();
+        super::find_duplicates(&ids)
+    };
+    let duplicates: Vec<String> = good
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| !**k)
+        .map(|((p, _), _)| p.display().to_string())
+        .collect();
+    let mut k = keep.iter();
+    good.retain(|_| *k.next().unwrap_or(&true));
+    let mut k = keep.iter();
+    rigs.retain(|_| *k.next().unwrap_or(&true));
     // Results.
     let result: crate::Result<Batch> = if good.is_empty() {
         Err(crate::Error::Input {
@@ -410,7 +506,8 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
             bar.inc(n);
         };
         vb::batch_with_progress(&good, rig, &bopts, &tick).map(|mut b| {
-            let mut w = vb::rig_warnings(&rigs);
+            let mut w = dup_warnings.clone();
+            w.extend(vb::rig_warnings(&rigs));
             w.append(&mut b.warnings);
             b.warnings = w;
             b
@@ -430,6 +527,7 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
         .collect();
     let mut out = serde_json::Map::new();
     out.insert("fits".into(), json!(fit_entries));
+    out.insert("duplicates".into(), json!(duplicates));
     match &result {
         Ok(b) => out.extend(batch_json(b)),
         Err(e) => {

@@ -44,6 +44,9 @@ pub struct RunArgs {
     /// Laws drawn from each fit's uncertainty for the prediction bands.
     #[arg(long, default_value_t = 40)]
     pub samples: usize,
+    /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
+    #[arg(long)]
+    pub allow_mixed_rigs: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -156,6 +159,15 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
             (p.clone(), r)
         })
         .collect();
+    // One rig: every log of the plan that could be read.
+    let read_rigs: Vec<(PathBuf, crate::ingest::RigMeta)> = logs
+        .iter()
+        .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+        .collect();
+    if let Err(e) = super::refuse_mixed_rigs(&read_rigs, args.allow_mixed_rigs) {
+        bar.finish_and_clear();
+        return Err(e);
+    }
     bar.set_message("fitting friction laws");
     let opts = IdentifyOptions::default();
     let fits: BTreeMap<PathBuf, crate::Result<LogFit>> = chars
@@ -219,16 +231,48 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     // never-sticking log enters as a bound).
     let run_batch = || -> Option<crate::Result<vb::Batch>> {
         (!plan.batch.is_empty()).then(|| {
-            let good: Vec<(PathBuf, LogFit)> = plan
+            // The logs that were read and fitted, each test once.
+            let both: Vec<(PathBuf, LogFit, crate::ingest::RigMeta)> = plan
                 .batch
                 .iter()
-                .filter_map(|p| fits[p].as_ref().ok().map(|f| (p.clone(), f.clone())))
+                .filter_map(|p| match (&fits[p], &runs[p]) {
+                    (Ok(f), Ok(r)) => Some((p.clone(), f.clone(), r.rig.clone())),
+                    _ => None,
+                })
                 .collect();
-            let rigs: Vec<(PathBuf, crate::ingest::RigMeta)> = plan
-                .batch
+            let (keep, dup_warnings) = super::find_duplicates(
+                &both
+                    .iter()
+                    .map(|(p, f, rig)| super::TestId {
+                        path: p,
+                        rig,
+                        normal_force_n: f.normal_force_n,
+                        drive_amplitude_m: f.drive.amplitude_m,
+                        drive_frequency_hz: f.drive.frequency_hz,
+                    })
+                    .collect::<Vec<_>>(),
+            );
+            let kept: Vec<&(PathBuf, LogFit, crate::ingest::RigMeta)> = both
                 .iter()
-                .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+                .zip(&keep)
+                .filter(|(_, k)| **k)
+                .map(|(x, _)| x)
                 .collect();
+            let good: Vec<(PathBuf, LogFit)> = kept
+                .iter()
+                .map(|(p, f, _)| (p.clone(), f.clone()))
+                .collect();
+            let mut rigs: Vec<(PathBuf, crate::ingest::RigMeta)> = kept
+                .iter()
+                .map(|(p, _, r)| (p.clone(), r.clone()))
+                .collect();
+            if rigs.is_empty() {
+                rigs = plan
+                    .batch
+                    .iter()
+                    .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+                    .collect();
+            }
             let Some((_, rig)) = rigs.first() else {
                 return Err(crate::Error::Input {
                     path: args.plan.clone(),
@@ -243,7 +287,8 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
             }
             let tick = |_: u64| {};
             vb::batch_with_progress(&good, rig, &vb::BatchOptions::default(), &tick).map(|mut b| {
-                let mut w = vb::rig_warnings(&rigs);
+                let mut w = dup_warnings.clone();
+                w.extend(vb::rig_warnings(&rigs));
                 w.append(&mut b.warnings);
                 b.warnings = w;
                 b

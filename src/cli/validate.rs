@@ -36,6 +36,9 @@ pub struct ValidateArgs {
     /// with no periodic response by then are reported without one).
     #[arg(long, default_value_t = validate::predict::DEFAULT_STEADY_PERIODS)]
     pub max_periods: u64,
+    /// Use a characteristic log and a sweep whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
+    #[arg(long)]
+    pub allow_mixed_rigs: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -247,6 +250,13 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     };
     say("reading logs");
     let (char_run, sweep_run) = read_pair(&args.characteristic, &args.sweep)?;
+    super::refuse_mixed_rigs(
+        &[
+            (args.characteristic.clone(), char_run.rig.clone()),
+            (args.sweep.clone(), sweep_run.rig.clone()),
+        ],
+        args.allow_mixed_rigs,
+    )?;
     say("fitting the friction law");
     let opts = IdentifyOptions {
         gain_uncertainty: args.gain_uncertainty,

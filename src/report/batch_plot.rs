@@ -67,24 +67,25 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
         .light_line_style(RGBColor(240, 240, 240))
         .draw()
         .map_err(e)?;
-    let r = &b.recommendation;
     // The window of the recommendation.
     let green = RGBColor(44, 160, 44);
-    chart
-        .draw_series(std::iter::once(Rectangle::new(
-            [(r.interval_n.0, y0), (r.interval_n.1, y1)],
-            green.mix(0.12).filled(),
-        )))
-        .map_err(e)?
-        .label(format!(
-            "window {:.2}–{:.2} N (robust worst case within {:.0} %)",
-            r.interval_n.0,
-            r.interval_n.1,
-            100.0 * b.window
-        ))
-        .legend(move |(x, y)| {
-            Rectangle::new([(x, y - 5), (x + 20, y + 5)], green.mix(0.25).filled())
-        });
+    if let Some(r) = &b.recommendation {
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(r.interval_n.0, y0), (r.interval_n.1, y1)],
+                green.mix(0.12).filled(),
+            )))
+            .map_err(e)?
+            .label(format!(
+                "window {:.2}–{:.2} N (robust worst case within {:.0} %)",
+                r.interval_n.0,
+                r.interval_n.1,
+                100.0 * b.window
+            ))
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], green.mix(0.25).filled())
+            });
+    }
     // Nominal and robust curves.
     let blue = colour(0, 3);
     let nominal: Vec<(f64, f64)> = b
@@ -180,18 +181,20 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
     }
     // The recommendation.
     let red = RGBColor(214, 39, 40);
-    chart
-        .draw_series(std::iter::once(TriangleMarker::new(
-            (r.normal_force_n, r.worst.amplitude1),
-            9,
-            red.filled(),
-        )))
-        .map_err(e)?
-        .label(format!(
-            "recommended {:.2} N (ρs = {:.3}): W = {:.3}, robust {:.3}",
-            r.normal_force_n, r.rho_s, r.worst.amplitude1, r.worst_interval.1
-        ))
-        .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 6, red.filled()));
+    if let Some(r) = &b.recommendation {
+        chart
+            .draw_series(std::iter::once(TriangleMarker::new(
+                (r.normal_force_n, r.worst.amplitude1),
+                9,
+                red.filled(),
+            )))
+            .map_err(e)?
+            .label(format!(
+                "recommended {:.2} N (ρs = {:.3}): W = {:.3}, robust {:.3}",
+                r.normal_force_n, r.rho_s, r.worst.amplitude1, r.worst_interval.1
+            ))
+            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 6, red.filled()));
+    }
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperRight)

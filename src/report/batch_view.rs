@@ -7,7 +7,6 @@ use crate::validate::batch::{Batch, StaticObs};
 
 /// The headline lines of a batch (also printed by `stickslip batch`).
 pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
-    let r = &b.recommendation;
     let mu = |m: &crate::validate::batch::MuFit| {
         let mut s = format!(
             "{:.4}, 95 % {} (statistical {}, common calibration ±{:.1} %)",
@@ -24,42 +23,91 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
         }
         s
     };
-    let mut v = vec![
-        KeyValue::new("μs (Rs = μs·N, through the origin)", mu(&b.mu_s)),
-        KeyValue::new("μd (Rd = μd·N)", mu(&b.mu_d)),
-        KeyValue::new(
-            "recommended normal force",
-            format!(
-                "{:.3} N (ρs = {:.4}, ρd = {:.4}); window {}",
-                r.normal_force_n,
-                r.rho_s,
-                r.rho_d,
-                fmt_interval(Some(r.interval_n), 3)
-            ) + &format!(
-                " N (robust worst case within {:.0} % of the best)",
-                100.0 * b.window
-            ),
-        ),
-        KeyValue::new(
-            "worst case at the recommendation",
-            format!(
-                "max A1/A = {:.3} at η = {:.4} ({}); over μ intervals and ±{:.0} % setting: {} ",
-                r.worst.amplitude1,
-                r.worst.eta,
-                r.worst.branch.as_str(),
-                100.0 * b.setting_tolerance,
-                fmt_interval(Some(r.worst_interval), 3)
-            ),
-        ),
-    ];
-    if r.worst.coexisting > 0 {
+    let aside = |pick: fn(&crate::validate::batch::BatchLog) -> bool| -> Vec<String> {
+        b.logs
+            .iter()
+            .filter(|l| pick(l))
+            .map(|l| l.log.display().to_string())
+            .collect()
+    };
+    let mut v = vec![KeyValue::new(
+        "μs (Rs = μs·N, through the origin)",
+        mu(&b.mu_s),
+    )];
+    let aside_s = aside(|l| l.set_aside.0);
+    if !aside_s.is_empty() {
         v.push(KeyValue::new(
-            "coexisting stable states at the recommendation",
+            format!("μs with every log (incl. {})", aside_s.join(", ")),
+            mu(&b.mu_s_all),
+        ));
+    }
+    v.push(KeyValue::new("μd (Rd = μd·N)", mu(&b.mu_d)));
+    let aside_d = aside(|l| l.set_aside.1);
+    if !aside_d.is_empty() {
+        v.push(KeyValue::new(
+            format!("μd with every log (incl. {})", aside_d.join(", ")),
+            mu(&b.mu_d_all),
+        ));
+    }
+    if !b.conflicts.is_empty() {
+        v.push(KeyValue::new(
+            "conflicts between logs",
             format!(
-                "at {} of the grid's η nodes (first at η = {:.4}) the up, down and from-rest branches settle to different steady states (> 1e-6 relative); the worst case takes the worst of them, on this grid",
-                r.worst.coexisting, r.worst.coexisting_eta
+                "{} (see below){}",
+                b.conflicts.len(),
+                if aside_s.is_empty() && aside_d.is_empty() {
+                    String::new()
+                } else {
+                    "; μ above without the logs set aside".to_string()
+                }
             ),
         ));
+    }
+    match &b.recommendation {
+        Some(r) => {
+            v.push(KeyValue::new(
+                "recommended normal force",
+                format!(
+                    "{:.3} N (ρs = {:.4}, ρd = {:.4}); window {}",
+                    r.normal_force_n,
+                    r.rho_s,
+                    r.rho_d,
+                    fmt_interval(Some(r.interval_n), 3)
+                ) + &format!(
+                    " N (robust worst case within {:.0} % of the best)",
+                    100.0 * b.window
+                ),
+            ));
+            v.push(KeyValue::new(
+                "worst case at the recommendation",
+                format!(
+                    "max A1/A = {:.3} at η = {:.4} ({}); over μ intervals and ±{:.0} % setting: {} ",
+                    r.worst.amplitude1,
+                    r.worst.eta,
+                    r.worst.branch.as_str(),
+                    100.0 * b.setting_tolerance,
+                    fmt_interval(Some(r.worst_interval), 3)
+                ),
+            ));
+            if r.worst.coexisting > 0 {
+                v.push(KeyValue::new(
+                    "coexisting stable states at the recommendation",
+                    format!(
+                        "at {} of the grid's η nodes (first at η = {:.4}) the up, down and from-rest branches settle to different steady states (> 1e-6 relative); the worst case takes the worst of them, on this grid",
+                        r.worst.coexisting, r.worst.coexisting_eta
+                    ),
+                ));
+            }
+        }
+        None => v.push(KeyValue::new(
+            "recommended normal force",
+            format!(
+                "none: {}",
+                b.recommendation_reason
+                    .as_deref()
+                    .unwrap_or("no reason recorded")
+            ),
+        )),
     }
     v.push(KeyValue::new(
         "cliff (η1 peak returns below)",
@@ -112,6 +160,7 @@ pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
         "at η",
         "branch",
         "bound consistent",
+        "set aside (conflict)",
     ]
     .iter()
     .map(|s| s.to_string())
@@ -158,6 +207,12 @@ pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
                     Some(false) => "no".into(),
                     None => "–".into(),
                 },
+                match l.set_aside {
+                    (true, true) => "from μs and μd".into(),
+                    (true, false) => "from μs".into(),
+                    (false, true) => "from μd".into(),
+                    (false, false) => "–".into(),
+                },
             ]
         })
         .collect();
@@ -166,6 +221,12 @@ pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
         header,
         rows,
         figure,
-        warnings: b.warnings.clone(),
+        conflicts: b.conflicts.iter().map(|c| c.what.clone()).collect(),
+        warnings: b
+            .warnings
+            .iter()
+            .filter(|w| !w.starts_with("conflict: "))
+            .cloned()
+            .collect(),
     }
 }

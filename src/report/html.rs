@@ -129,6 +129,8 @@ pub struct BatchView {
     pub rows: Vec<Vec<String>>,
     /// Figure file name.
     pub figure: Option<String>,
+    /// Conflicts between logs, in words (with what was set aside).
+    pub conflicts: Vec<String>,
     /// Warnings.
     pub warnings: Vec<String>,
 }

@@ -16,8 +16,11 @@
 //!   **never-sticking** log says Rd ≤ Rs < the reversal bound. These enter
 //!   as censored data, never as points: the log-likelihood is
 //!   Σ −½((Rs_i − μN_i)/σ_i)² over points plus Σ log Φ((μN_i − LB_i)/σ_b)
-//!   over stuck logs plus Σ log[Φ((UB_i − μN_i)/σ_b) − Φ((Rd_i − μN_i)/σ_d)]
-//!   over never-sticking logs (σ_b of a bound: the bound times the median
+//!   over stuck logs plus Σ log[Φ((UB_i − μN_i)/σ_b) · Φ((μN_i − Rd_i)/σ_d)]
+//!   over never-sticking logs (both bounds measured independently; the
+//!   former form Φ(UB…) − Φ(Rd…) turned negative, i.e. a log-likelihood of
+//!   −∞, when a bound contradicted the points, and the fit collapsed into a
+//!   μ interval of [0, 2e18]) (σ_b of a bound: the bound times the median
 //!   relative σ of the points — a bound is taken as known as well as a
 //!   typical point). It is concave in μ: the maximum is found by
 //!   golden-section search and the 95 % interval by the profile likelihood
@@ -43,6 +46,48 @@
 //!   budget (default ±1 %, rectangular, 95 % half-width 1.96·u/√3), in
 //!   quadrature on each side. This is conservative if the sensors were in
 //!   fact re-calibrated between logs (then that part would average down).
+//!
+//! ## Conflicting logs
+//!
+//! Logs can contradict each other: a never-sticks or stuck bound of one log
+//! against the measured Rs of others, or a measured value far off the rest
+//! (a misread log, a log of another pad, a short-stick log whose breakaways
+//! are biased). The batch finds, names and sizes these conflicts and
+//! combines the logs robustly.
+//!
+//! * **Tension.** Each observation is compared with the fit of the *other*
+//!   logs (leave one out): its distance from their μ·N in σ of the combined
+//!   uncertainty, the observation's σ scaled by the others' own scatter
+//!   (Birge ratio) and the others' μ interval on the side facing it. A
+//!   conflict is a tension beyond the 3σ quantile (Student's t with the
+//!   others' n − 1 degrees of freedom when their scatter was estimated,
+//!   else 3). Because three or four logs estimate their own scatter poorly
+//!   (t with 2 degrees of freedom needs 19σ), a measured point is also in
+//!   conflict when Dixon's Q test at 99 % calls it an outlier among the
+//!   points' R/N and its gap exceeds 3σ of its own and its neighbour's σ
+//!   (a log of another pad 70 % off three logs that scatter 1 %).
+//!   The conflict names the log, the logs it disagrees with one to
+//!   one (else the others' measured logs), the size in σ and relative to
+//!   μ·N. Measured points that scatter beyond their intervals (Birge ratio
+//!   above 1.5) are a `scatter` conflict of all of them.
+//! * **Robust combination.** Repeatedly, among the logs in conflict and
+//!   those they contradict one to one, the log whose removal leaves the least
+//!   misfit (−2 log-likelihood of the rest at its own maximum, with the
+//!   logs' own σ: a χ² for points) is set aside; when two removals are
+//!   equally good (within 1 or 5 %; a pair of points is symmetric), the one whose own fit casts doubt on it
+//!   goes (its equation-error and output-error estimates disagree by more
+//!   than 1.96σ, the more so), else a bound before a measured point;
+//!   otherwise nothing more is set aside: the conflict stays named and the
+//!   scatter inflation (Birge, Student's t) widens the interval. At least
+//!   one measured point and more than half of the observations stay.
+//!   μs and μd are reported both ways: without the logs set aside (the
+//!   result used) and from every log.
+//! * **No recommendation.** When μs's interval reaches zero, is unbounded
+//!   or spans more than a factor of 1000, or no setting's uncertainty box
+//!   fits the ρs grid, the batch says why in plain words instead of
+//!   recommending (μ and the worst-case curve are still reported). Without
+//!   `--rho-max` the grid reaches at least 8·ρmin times the box's width
+//!   factor, so a wide but finite box still finds candidates.
 //!
 //! ## Worst-case amplitude and the recommendation
 //!
@@ -284,6 +329,12 @@ pub struct BatchLog {
     pub worst: Option<Worst>,
     /// A censored log whose bound agrees with the fitted μs interval.
     pub consistent: Option<bool>,
+    /// How far the log's own equation-error and output-error estimates of
+    /// Rs and Rd lie apart (σ of their combined intervals; 0 when only one
+    /// exists): doubt the log casts on itself.
+    pub estimate_disagreement: (f64, f64),
+    /// Set aside from the robust μs and μd (in conflict with the others).
+    pub set_aside: (bool, bool),
 }
 
 /// A friction coefficient with its intervals.
@@ -391,10 +442,16 @@ pub struct Cliff {
 pub struct Batch {
     /// The logs, in input order.
     pub logs: Vec<BatchLog>,
-    /// μs.
+    /// μs (robust: logs in conflict set aside where the data say which).
     pub mu_s: MuFit,
-    /// μd.
+    /// μd (robust).
     pub mu_d: MuFit,
+    /// μs from every log (equal to `mu_s` when nothing was set aside).
+    pub mu_s_all: MuFit,
+    /// μd from every log.
+    pub mu_d_all: MuFit,
+    /// Contradictions between logs (named, with their size).
+    pub conflicts: Vec<Conflict>,
     /// μd/μs and its statistical 95 % interval.
     pub ratio: f64,
     /// Interval of the ratio.
@@ -419,8 +476,10 @@ pub struct Batch {
     pub window: f64,
     /// The worst-case curve (grid nodes, ascending ρs).
     pub curve: Vec<CurvePoint>,
-    /// The recommendation.
-    pub recommendation: Recommendation,
+    /// The recommendation, when one can be made.
+    pub recommendation: Option<Recommendation>,
+    /// Why no normal force is recommended (plain words), when none is.
+    pub recommendation_reason: Option<String>,
     /// The cliff below it.
     pub cliff: Option<Cliff>,
     /// Worst-case evaluations (each: three branches over the η grid).
@@ -454,21 +513,6 @@ pub fn ln_norm_cdf(z: f64) -> f64 {
         0.5f64.ln() + ln_erfc_pos(-z * s)
     } else {
         (-0.5 * ln_erfc_pos(z * s).exp()).ln_1p()
-    }
-}
-
-/// ln(Φ(a) − Φ(b)) for a > b, without cancellation in either tail.
-fn ln_norm_diff(a: f64, b: f64) -> f64 {
-    if a <= b {
-        return f64::NEG_INFINITY;
-    }
-    if b > 0.0 {
-        // Both in the upper tail: Φ(a) − Φ(b) = Φ(−b) − Φ(−a).
-        let (u, v) = (ln_norm_cdf(-b), ln_norm_cdf(-a));
-        u + (-(v - u).exp()).ln_1p()
-    } else {
-        let (u, v) = (ln_norm_cdf(a), ln_norm_cdf(b));
-        u + (-(v - u).exp()).ln_1p()
     }
 }
 
@@ -509,11 +553,14 @@ fn loglik(obs: &[Obs], mu: f64, inflate: f64) -> f64 {
                 hi,
                 shi,
             } => {
-                // P(lo < Rs < hi) with Rs = μN: both bounds measured.
-                ln_norm_diff(
-                    (hi - mu * n) / (shi * inflate),
-                    (lo - mu * n) / (slo * inflate),
-                )
+                // Both bounds are measured independently: the probability
+                // of the observed lower bound lying below Rs = μN times that
+                // of the observed upper bound lying above it. Never zero, so
+                // a bound that contradicts the points pulls on μ with a
+                // finite force (and is found by the conflict check) instead
+                // of making the likelihood −∞.
+                ln_norm_cdf((mu * n - lo) / (slo * inflate))
+                    + ln_norm_cdf((hi - mu * n) / (shi * inflate))
             }
         })
         .sum()
@@ -640,6 +687,9 @@ fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
     };
     let drop = 0.5 * q * q;
     let l0 = loglik(obs, mu, inflate);
+    if !(mu.is_finite() && l0.is_finite()) {
+        return None;
+    }
     let below = |m: f64| l0 - loglik(obs, m, inflate) > drop;
     let lo = if below(0.0) {
         bisect(mu, 0.0, 80, below)
@@ -657,10 +707,297 @@ fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
 }
 
 /// Adds the relative systematic half-width `sys` (of μ) to a statistical
-/// interval, in quadrature on each side.
+/// interval, in quadrature on each side (a friction coefficient is not
+/// negative: the lower end stops at 0).
 fn with_systematic(mu: f64, (lo, hi): (f64, f64), sys: f64) -> (f64, f64) {
     let s = sys * mu;
-    (mu - (mu - lo).hypot(s), mu + (hi - mu).hypot(s))
+    ((mu - (mu - lo).hypot(s)).max(0.0), mu + (hi - mu).hypot(s))
+}
+
+// ---------------------------------------------------------------- conflicts
+
+/// The two-sided 99.73 % ("3σ") quantile of Student's t with `dof` degrees
+/// of freedom (3 for dof = 0, meaning σ known).
+fn t9973(dof: usize) -> f64 {
+    const T: [f64; 10] = [235.8, 19.21, 9.22, 6.62, 5.51, 4.90, 4.53, 4.28, 4.09, 3.96];
+    match dof {
+        0 => 3.0,
+        d if d <= 10 => T[d - 1],
+        d => 3.0 + 9.6 / d as f64,
+    }
+}
+
+/// A limit on R (value, σ), in newtons, if there is one.
+type Limit = Option<(f64, f64)>;
+
+/// What one observation says about R = μN, as a lower and an upper limit
+/// (value, σ), both in newtons; a point is both.
+fn limits(o: &Obs) -> (f64, Limit, Limit) {
+    match *o {
+        Obs::Point { n, r, s } => (n, Some((r, s)), Some((r, s))),
+        Obs::Above { n, lb, s } => (n, Some((lb, s)), None),
+        Obs::Between {
+            n,
+            lo,
+            slo,
+            hi,
+            shi,
+        } => (n, Some((lo, slo)), Some((hi, shi))),
+    }
+}
+
+/// How far one observation lies outside a prediction of μ (σ of the
+/// prediction below and above it): the tension in σ (0 inside) and the
+/// signed relative distance from μN (positive: the observation asks for a
+/// larger μ). `scale` multiplies the observation's own σ.
+fn tension_against(o: &Obs, mu: f64, sigma_mu: (f64, f64), scale: f64) -> (f64, f64) {
+    let (n, lo, hi) = limits(o);
+    let pred = mu * n;
+    let mut t = (0.0, 0.0);
+    if let Some((l, s)) = lo {
+        // The observation asks for a larger μ: the prediction's upper side.
+        let z = (l - pred) / (s * scale).hypot(sigma_mu.1 * n);
+        if z > t.0 {
+            t = (z, l / pred - 1.0);
+        }
+    }
+    if let Some((u, s)) = hi {
+        let z = (pred - u) / (s * scale).hypot(sigma_mu.0 * n);
+        if z > t.0 {
+            t = (z, u / pred - 1.0);
+        }
+    }
+    t
+}
+
+/// Tension between two observations' own limits on μ (σ, 0 if they overlap).
+fn pair_tension(a: &Obs, b: &Obs) -> f64 {
+    let (na, la, ua) = limits(a);
+    let (nb, lb, ub) = limits(b);
+    let one = |l: Option<(f64, f64)>, nl: f64, u: Option<(f64, f64)>, nu: f64| match (l, u) {
+        (Some((l, sl)), Some((u, su))) => (l / nl - u / nu) / (sl / nl).hypot(su / nu),
+        _ => 0.0,
+    };
+    one(la, na, ub, nb).max(one(lb, nb, ua, na)).max(0.0)
+}
+
+/// The tension of observation `k` against the fit of the other kept
+/// observations: (tension in σ, its 3σ threshold, signed relative size, μ
+/// of the others). The scale of the points is the others' own scatter (σ
+/// inflated by their Birge ratio, Student's t with their n − 1 degrees of
+/// freedom). None when the others measure nothing.
+fn loo(obs: &[Obs], kept: &[bool], k: usize) -> Option<(f64, f64, f64, f64)> {
+    let others: Vec<Obs> = obs
+        .iter()
+        .zip(kept)
+        .enumerate()
+        .filter(|&(i, (_, &keep))| keep && i != k)
+        .map(|(_, (o, _))| *o)
+        .collect();
+    let (mu, (lo, hi), inflate, _) = fit_mu(&others)?;
+    let pts = point_obs(&others).len();
+    let (q, dof) = if inflate > 1.0 {
+        (t975(pts - 1), pts - 1)
+    } else {
+        (t975(0), 0)
+    };
+    let sigma_mu = ((mu - lo) / q, (hi - mu) / q);
+    let (t, rel) = tension_against(&obs[k], mu, sigma_mu, inflate);
+    Some((t, t9973(dof), rel, mu))
+}
+
+/// Dixon's Q test at 99 % on the measured points' R/N among the kept
+/// observations: is point `k` the extreme value with a gap to its nearest
+/// neighbour larger than the critical fraction of the range (3 to 10
+/// points; Rorabacher 1991)? Scale-free, so it still finds a log far off
+/// the others when those scatter beyond their own σ and are too few to
+/// estimate that scatter well; the gap must also exceed 3σ of the two
+/// points' own σ.
+fn dixon_outlier(obs: &[Obs], kept: &[bool], k: usize) -> bool {
+    const Q99: [f64; 8] = [0.994, 0.926, 0.821, 0.740, 0.680, 0.634, 0.598, 0.568];
+    let Obs::Point { n, r, s } = obs[k] else {
+        return false;
+    };
+    let x = r / n;
+    let pts: Vec<(f64, f64)> = (0..obs.len())
+        .filter(|&i| kept[i] && i != k)
+        .filter_map(|i| match obs[i] {
+            Obs::Point { n, r, s } => Some((r / n, s / n)),
+            _ => None,
+        })
+        .collect();
+    let m = pts.len() + 1;
+    if !(3..=10).contains(&m) {
+        return false;
+    }
+    let lo = pts.iter().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let hi = pts.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    let (near, range) = if x > hi {
+        (pts.iter().copied().find(|p| p.0 == hi), x - lo)
+    } else if x < lo {
+        (pts.iter().copied().find(|p| p.0 == lo), hi - x)
+    } else {
+        return false;
+    };
+    let Some((xn, sn)) = near else { return false };
+    let gap = (x - xn).abs();
+    range > 0.0 && gap / range > Q99[m - 3] && gap > 3.0 * (s / n).hypot(sn)
+}
+
+/// A contradiction between logs of the batch.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Conflict {
+    /// `mu_s` or `mu_d`.
+    pub quantity: &'static str,
+    /// `point` (a measured value far off the others), `never-sticks bound`,
+    /// `stuck bound` (a bound against the others' values) or `scatter`
+    /// (the measured values scatter beyond their intervals).
+    pub kind: &'static str,
+    /// The logs: the one that disagrees first, then those it disagrees with.
+    pub logs: Vec<PathBuf>,
+    /// Size in σ of the combined uncertainty (for `scatter`: the Birge ratio).
+    pub size_sigma: f64,
+    /// Size relative to the others' μN (for `scatter`: the relative RMS
+    /// spread of the points' R/N).
+    pub size_rel: f64,
+    /// The first log was set aside from the robust estimate.
+    pub set_aside: bool,
+    /// The conflict in words.
+    pub what: String,
+}
+
+/// Relative doubt a log's own fit casts on its observation: how far its
+/// equation-error and output-error estimates lie apart, in σ of their
+/// combined 95 % intervals (0 when only one exists).
+fn estimate_disagreement(
+    ee: f64,
+    ee_iv: Option<(f64, f64)>,
+    oe: Option<(f64, Option<(f64, f64)>)>,
+) -> f64 {
+    let Some((oe, oe_iv)) = oe else { return 0.0 };
+    match (half_width(ee, ee_iv), half_width(oe, oe_iv)) {
+        (Some(a), Some(b)) if a.hypot(b) > 0.0 && ee.is_finite() && oe.is_finite() => {
+            (ee - oe).abs() / (a.hypot(b) / 1.96)
+        }
+        _ => 0.0,
+    }
+}
+
+/// Is observation `k` in conflict with the other kept ones: beyond the 3σ
+/// quantile of [`loo`], or a Dixon outlier ([`dixon_outlier`])?
+fn in_conflict(obs: &[Obs], kept: &[bool], k: usize) -> bool {
+    loo(obs, kept, k).is_some_and(|(t, thr, ..)| t > thr) || dixon_outlier(obs, kept, k)
+}
+
+/// The robust selection: which observations to set aside so that the rest
+/// agree. Repeatedly, among the observations in tension with the others
+/// (beyond 3σ of the others' own scatter), the one whose removal leaves the
+/// least misfit (−2 log-likelihood of the rest at its maximum, own σ) is
+/// set aside (candidates: those observations and the ones
+/// they contradict one to one); where two removals are equally good, the
+/// log whose own fit is most doubtful (its equation-error and output-error
+/// estimates disagree, significant at 95 %) goes,
+/// else a bound before a measured point; when nothing tells them apart,
+/// nothing more is set aside (the conflict stays, named, and the scatter
+/// inflation carries it). At least one point and more than half of the
+/// observations always stay.
+fn robust_keep(obs: &[Obs], doubt: &[f64]) -> (Vec<bool>, bool) {
+    let n = obs.len();
+    let mut kept = vec![true; n];
+    let max_out = (n.saturating_sub(1)) / 2;
+    // The misfit left by a set: −2 × its log-likelihood at its own
+    // maximum, with the observations' own σ (a χ² for points).
+    let excess = |kept: &[bool]| -> f64 {
+        let rest: Vec<Obs> = (0..n).filter(|&i| kept[i]).map(|i| obs[i]).collect();
+        let Some(top) = rest
+            .iter()
+            .map(|o| {
+                let (n, lo, hi) = limits(o);
+                hi.or(lo).map_or(0.0, |x| x.0 / n)
+            })
+            .reduce(f64::max)
+        else {
+            return 0.0;
+        };
+        let mu = golden(0.0, 4.0 * top.max(1e-12), 200, |m| -loglik(&rest, m, 1.0));
+        -2.0 * loglik(&rest, mu, 1.0)
+    };
+    let mut resolved = true;
+    for _ in 0..max_out {
+        let flagged: Vec<usize> = (0..n)
+            .filter(|&i| kept[i])
+            .filter(|&i| in_conflict(obs, &kept, i))
+            .collect();
+        if flagged.is_empty() {
+            break;
+        }
+        // The candidates: the flagged observations and those they
+        // contradict one to one (a pair of points is symmetric even when
+        // only one side crosses the threshold against the fit of the rest).
+        let mut candidates = flagged.clone();
+        for j in 0..n {
+            if kept[j]
+                && !candidates.contains(&j)
+                && flagged
+                    .iter()
+                    .any(|&i| pair_tension(&obs[i], &obs[j]) > 3.0)
+            {
+                candidates.push(j);
+            }
+        }
+        let mut options: Vec<(usize, f64)> = candidates
+            .iter()
+            .filter_map(|&i| {
+                let mut k = kept.clone();
+                k[i] = false;
+                let pts = (0..n)
+                    .filter(|&j| k[j] && matches!(obs[j], Obs::Point { .. }))
+                    .count();
+                (pts > 0).then(|| (i, excess(&k)))
+            })
+            .collect();
+        if options.is_empty() {
+            resolved = false;
+            break;
+        }
+        options.sort_by(|a, b| a.1.total_cmp(&b.1));
+        let best = options[0].1;
+        let tied: Vec<usize> = options
+            .iter()
+            .filter(|o| o.1 <= best + (0.05 * best).max(1.0))
+            .map(|o| o.0)
+            .collect();
+        let pick = if tied.len() == 1 {
+            Some(tied[0])
+        } else {
+            // Doubt from the log's own fit (its two estimates disagree,
+            // significant at 95 %).
+            let d = |i: usize| if doubt[i] > 1.96 { doubt[i] } else { 0.0 };
+            let top = tied.iter().map(|&i| d(i)).fold(0.0, f64::max);
+            let doubted: Vec<usize> = tied.iter().copied().filter(|&i| d(i) == top).collect();
+            if top > 0.0 && doubted.len() == 1 {
+                Some(doubted[0])
+            } else {
+                let bounds: Vec<usize> = tied
+                    .iter()
+                    .copied()
+                    .filter(|&i| !matches!(obs[i], Obs::Point { .. }))
+                    .collect();
+                (bounds.len() == 1).then(|| bounds[0])
+            }
+        };
+        match pick {
+            Some(i) => kept[i] = false,
+            None => {
+                resolved = false;
+                break;
+            }
+        }
+    }
+    if (0..n).any(|i| kept[i] && in_conflict(obs, &kept, i)) {
+        resolved = false;
+    }
+    (kept, resolved)
 }
 
 // ------------------------------------------------------------- observations
@@ -698,6 +1035,7 @@ fn split_sigma(
 /// output-error refinement has no such split.
 fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
     let e = &f.fit;
+    let oe = f.output_error.as_ref();
     let n = f.normal_force_n;
     let (rd_sigma, rd_cal) = split_sigma(e.law.rd_n, e.stat.rd, f.equation_error.rd_n);
     let rd = if !e.stuck && e.law.rd_n.is_finite() {
@@ -772,6 +1110,27 @@ fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
         model_rho_s: f64::NAN,
         worst: None,
         consistent: None,
+        estimate_disagreement: (
+            if matches!(static_obs, StaticObs::Point { .. }) {
+                estimate_disagreement(
+                    e.law.rs_n,
+                    f.equation_error.rs_n,
+                    oe.map(|o| (o.law.rs_n, o.intervals.rs_n)),
+                )
+            } else {
+                0.0
+            },
+            if rd.is_some() {
+                estimate_disagreement(
+                    e.law.rd_n,
+                    f.equation_error.rd_n,
+                    oe.map(|o| (o.law.rd_n, o.intervals.rd_n)),
+                )
+            } else {
+                0.0
+            },
+        ),
+        set_aside: (false, false),
     }
 }
 
@@ -811,22 +1170,148 @@ fn common_calibration(items: &[(f64, f64, Option<f64>)]) -> f64 {
     }
 }
 
-/// Fits μs (censored) and μd of the logs; fills each log's consistency.
+/// The coefficients of a batch: robust (conflicting logs set aside) and
+/// from every log, with the conflicts found.
+struct Coefficients {
+    mu_s: MuFit,
+    mu_d: MuFit,
+    mu_s_all: MuFit,
+    mu_d_all: MuFit,
+    conflicts: Vec<Conflict>,
+}
+
+/// The kind name of an observation in a conflict.
+fn obs_kind(o: &Obs) -> &'static str {
+    match o {
+        Obs::Point { .. } => "point",
+        Obs::Above { .. } => "stuck bound",
+        Obs::Between { .. } => "never-sticks bound",
+    }
+}
+
+/// The conflicts of one quantity among `obs` (log `idx[i]` for each), with
+/// `kept` from [`robust_keep`].
+fn find_conflicts(
+    quantity: &'static str,
+    obs: &[Obs],
+    idx: &[usize],
+    logs: &[BatchLog],
+    kept: &[bool],
+) -> Vec<Conflict> {
+    let n = obs.len();
+    let all = vec![true; n];
+    let name = |i: usize| {
+        logs[idx[i]].log.file_name().map_or_else(
+            || logs[idx[i]].log.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        )
+    };
+    let sym = if quantity == "mu_s" { "μs" } else { "μd" };
+    let r = if quantity == "mu_s" { "Rs" } else { "Rd" };
+    let mut out: Vec<Conflict> = Vec::new();
+    for k in 0..n {
+        let Some((t, _, rel, mu)) = loo(obs, &all, k) else {
+            continue;
+        };
+        if !in_conflict(obs, &all, k) {
+            continue;
+        }
+        let mut against: Vec<usize> = (0..n)
+            .filter(|&j| j != k && pair_tension(&obs[k], &obs[j]) > 3.0)
+            .collect();
+        if against.is_empty() {
+            against = (0..n)
+                .filter(|&j| j != k && matches!(obs[j], Obs::Point { .. }))
+                .collect();
+        }
+        let mut set: Vec<usize> = against.clone();
+        set.push(k);
+        set.sort_unstable();
+        let (nk, lo, hi) = limits(&obs[k]);
+        let says = match obs[k] {
+            Obs::Point { .. } => format!(
+                "{r} = {:.4} N ({r}/N = {:.4})",
+                lo.map_or(f64::NAN, |x| x.0),
+                lo.map_or(f64::NAN, |x| x.0) / nk
+            ),
+            Obs::Above { .. } => format!(
+                "stuck, so {r} > {:.4} N ({r}/N > {:.4})",
+                lo.map_or(f64::NAN, |x| x.0),
+                lo.map_or(f64::NAN, |x| x.0) / nk
+            ),
+            Obs::Between { .. } => format!(
+                "never sticks, so {:.4} N ≤ {r} < {:.4} N ({r}/N in [{:.4}, {:.4}])",
+                lo.map_or(f64::NAN, |x| x.0),
+                hi.map_or(f64::NAN, |x| x.0),
+                lo.map_or(f64::NAN, |x| x.0) / nk,
+                hi.map_or(f64::NAN, |x| x.0) / nk
+            ),
+        };
+        let names: Vec<String> = against.iter().map(|&j| name(j)).collect();
+        let what = format!(
+            "{}: {says}; the other logs ({}) give {sym} = {mu:.4}, {r} = {:.4} N at its {nk:.3} N: {t:.1}σ apart ({:+.1} %){}",
+            name(k),
+            names.join(", "),
+            mu * nk,
+            100.0 * rel,
+            if kept[k] { "" } else { "; set aside" }
+        );
+        let mut logs_v = vec![logs[idx[k]].log.clone()];
+        logs_v.extend(against.iter().map(|&j| logs[idx[j]].log.clone()));
+        // A pair found from both sides is one conflict: keep the side set aside.
+        if let Some(pos) = out.iter().position(|c| {
+            let mut v: Vec<usize> = c
+                .logs
+                .iter()
+                .filter_map(|p| idx.iter().position(|&q| &logs[q].log == p))
+                .collect();
+            v.sort_unstable();
+            v == set && c.kind == obs_kind(&obs[k])
+        }) {
+            if !kept[k] {
+                out[pos] = Conflict {
+                    quantity,
+                    kind: obs_kind(&obs[k]),
+                    logs: logs_v,
+                    size_sigma: t,
+                    size_rel: rel,
+                    set_aside: true,
+                    what,
+                };
+            }
+            continue;
+        }
+        out.push(Conflict {
+            quantity,
+            kind: obs_kind(&obs[k]),
+            logs: logs_v,
+            size_sigma: t,
+            size_rel: rel,
+            set_aside: !kept[k],
+            what,
+        });
+    }
+    out
+}
+
+/// Fits μs (censored) and μd of the logs, robustly: logs in conflict with
+/// the others are found ([`find_conflicts`]) and set aside where the data
+/// say which one is off ([`robust_keep`]); the fits from every log are
+/// kept beside. Fills each log's consistency and set-aside flags.
 fn fit_coefficients(
     logs: &mut [BatchLog],
     normal_gain_u: f64,
     warnings: &mut Vec<String>,
-) -> Result<(MuFit, MuFit)> {
+) -> Result<Coefficients> {
     let batch_err = |msg: String| Error::Input {
         path: PathBuf::from("batch"),
         msg,
     };
     let rel = typical_rel_sigma(logs);
-    let mut obs_s = Vec::new();
-    let mut obs_d = Vec::new();
-    let mut cal_s = Vec::new();
-    let mut cal_d = Vec::new();
-    for l in logs.iter() {
+    // (log index, observation, calibration) per quantity.
+    let mut obs_s: Vec<(usize, Obs, Option<f64>)> = Vec::new();
+    let mut obs_d: Vec<(usize, Obs, Option<f64>)> = Vec::new();
+    for (i, l) in logs.iter().enumerate() {
         let n = l.normal_force_n;
         if !(n.is_finite() && n > 0.0) {
             warnings.push(format!(
@@ -836,35 +1321,44 @@ fn fit_coefficients(
             continue;
         }
         match l.static_obs {
-            StaticObs::Point { rs_n, sigma_n } => {
-                obs_s.push(Obs::Point {
+            StaticObs::Point { rs_n, sigma_n } => obs_s.push((
+                i,
+                Obs::Point {
                     n,
                     r: rs_n,
                     s: sigma_n,
-                });
-                cal_s.push((n, sigma_n, l.calibration_rel.0));
-            }
-            StaticObs::Above { bound_n } => obs_s.push(Obs::Above {
-                n,
-                lb: bound_n,
-                s: (bound_n * rel).max(1e-9),
-            }),
+                },
+                l.calibration_rel.0,
+            )),
+            StaticObs::Above { bound_n } => obs_s.push((
+                i,
+                Obs::Above {
+                    n,
+                    lb: bound_n,
+                    s: (bound_n * rel).max(1e-9),
+                },
+                None,
+            )),
             StaticObs::Between {
                 low_n,
                 low_sigma_n,
                 high_n,
             } => {
                 if high_n > low_n {
-                    obs_s.push(Obs::Between {
-                        n,
-                        lo: low_n,
-                        slo: low_sigma_n.max(1e-9),
-                        hi: high_n,
-                        shi: (high_n * rel).max(1e-9),
-                    });
+                    obs_s.push((
+                        i,
+                        Obs::Between {
+                            n,
+                            lo: low_n,
+                            slo: low_sigma_n.max(1e-9),
+                            hi: high_n,
+                            shi: (high_n * rel).max(1e-9),
+                        },
+                        None,
+                    ));
                 } else {
                     warnings.push(format!(
-                        "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): left out of μs",
+                        "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
                         l.log.display()
                     ));
                 }
@@ -873,24 +1367,40 @@ fn fit_coefficients(
         }
         if let Some((r, s)) = l.rd_n {
             if s > 0.0 {
-                obs_d.push(Obs::Point { n, r, s });
-                cal_d.push((n, s, l.calibration_rel.1));
+                obs_d.push((i, Obs::Point { n, r, s }, l.calibration_rel.1));
             }
         }
     }
-    let n_points_s = obs_s
-        .iter()
-        .filter(|o| matches!(o, Obs::Point { .. }))
-        .count();
+    for l in logs.iter() {
+        for (q, z) in [
+            ("Rs", l.estimate_disagreement.0),
+            ("Rd", l.estimate_disagreement.1),
+        ] {
+            if z > 1.96 {
+                warnings.push(format!(
+                    "{}: its equation-error and output-error {q} differ by {z:.1}σ: the log's {q} is in doubt",
+                    l.log.display()
+                ));
+            }
+        }
+    }
     let gain_n = 1.96 * normal_gain_u / 3f64.sqrt();
-    let mk = |obs: &[Obs], cal: &[(f64, f64, Option<f64>)], name: &str| -> Result<MuFit> {
-        let (mu, stat, birge, chi2) = fit_mu(obs).ok_or_else(|| {
+    let mk = |items: &[&(usize, Obs, Option<f64>)], name: &str| -> Result<MuFit> {
+        let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+        let cal: Vec<(f64, f64, Option<f64>)> = items
+            .iter()
+            .filter_map(|x| match x.1 {
+                Obs::Point { n, s, .. } => Some((n, s, x.2)),
+                _ => None,
+            })
+            .collect();
+        let (mu, stat, birge, chi2) = fit_mu(&obs).ok_or_else(|| {
             batch_err(format!(
                 "no log measures {name} (every log only bounds it, or none has an interval): cannot fit it"
             ))
         })?;
-        let sys = common_calibration(cal).hypot(gain_n);
-        let points = point_obs(obs);
+        let sys = common_calibration(&cal).hypot(gain_n);
+        let points = point_obs(&obs);
         Ok(MuFit {
             mu,
             interval: with_systematic(mu, stat, sys),
@@ -903,8 +1413,90 @@ fn fit_coefficients(
             free: free_fit(&points),
         })
     };
-    let mu_s = mk(&obs_s, &cal_s, "the static friction Rs")?;
-    let mu_d = mk(&obs_d, &cal_d, "the sliding friction Rd")?;
+    let mut conflicts = Vec::new();
+    let mut fits = Vec::new();
+    for (quantity, items, name) in [
+        ("mu_s", &obs_s, "the static friction Rs"),
+        ("mu_d", &obs_d, "the sliding friction Rd"),
+    ] {
+        let all_refs: Vec<&(usize, Obs, Option<f64>)> = items.iter().collect();
+        let all = mk(&all_refs, name)?;
+        let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+        let idx: Vec<usize> = items.iter().map(|x| x.0).collect();
+        let doubt: Vec<f64> = idx
+            .iter()
+            .map(|&i| {
+                if quantity == "mu_s" {
+                    logs[i].estimate_disagreement.0
+                } else {
+                    logs[i].estimate_disagreement.1
+                }
+            })
+            .collect();
+        let (kept, resolved) = robust_keep(&obs, &doubt);
+        let found = find_conflicts(quantity, &obs, &idx, logs, &kept);
+        let kept_refs: Vec<&(usize, Obs, Option<f64>)> = items
+            .iter()
+            .zip(&kept)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| x)
+            .collect();
+        let robust = mk(&kept_refs, name)?;
+        for (k, &i) in kept.iter().zip(&idx) {
+            if !k {
+                if quantity == "mu_s" {
+                    logs[i].set_aside.0 = true;
+                } else {
+                    logs[i].set_aside.1 = true;
+                }
+            }
+        }
+        let sym = if quantity == "mu_s" { "μs" } else { "μd" };
+        if !found.is_empty() && !resolved {
+            warnings.push(format!(
+                "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
+            ));
+        }
+        if kept.iter().any(|k| !k) {
+            warnings.push(format!(
+                "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
+                robust.mu, robust.interval.0, robust.interval.1, all.mu, all.interval.0, all.interval.1
+            ));
+        }
+        let mut found = found;
+        if robust.birge > 1.5 {
+            let pts: Vec<usize> = (0..obs.len())
+                .filter(|&i| kept[i] && matches!(obs[i], Obs::Point { .. }))
+                .collect();
+            let rels: Vec<f64> = pts
+                .iter()
+                .map(|&i| match obs[i] {
+                    Obs::Point { n, r, .. } => r / n / robust.mu - 1.0,
+                    _ => 0.0,
+                })
+                .collect();
+            let rms = (rels.iter().map(|x| x * x).sum::<f64>() / rels.len().max(1) as f64).sqrt();
+            found.push(Conflict {
+                quantity,
+                kind: "scatter",
+                logs: pts.iter().map(|&i| logs[idx[i]].log.clone()).collect(),
+                size_sigma: robust.birge,
+                size_rel: rms,
+                set_aside: false,
+                what: format!(
+                    "{sym}: the measured logs scatter {:.1}× more than their own intervals say ({:.2} % RMS about {sym} = {:.4}): σ inflated by that factor",
+                    robust.birge,
+                    100.0 * rms,
+                    robust.mu
+                ),
+            });
+        }
+        conflicts.extend(found);
+        fits.push((robust, all));
+    }
+    let (mu_d, mu_d_all) = fits.pop().expect("two fits");
+    let (mu_s, mu_s_all) = fits.pop().expect("two fits");
+    let n_points_s = mu_s.points;
     if n_points_s < 2 {
         warnings.push(format!(
             "μs rests on {n_points_s} measured log(s) (the others only bound it): its interval is wide"
@@ -918,12 +1510,9 @@ fn fit_coefficients(
                 ));
             }
         }
-        if m.birge > 1.5 {
-            warnings.push(format!(
-                "{name}: the logs scatter {:.1}× more than their own intervals say (σ inflated)",
-                m.birge
-            ));
-        }
+    }
+    for c in &conflicts {
+        warnings.push(format!("conflict: {}", c.what));
     }
     if mu_d.mu > mu_s.mu {
         warnings.push(format!(
@@ -952,7 +1541,13 @@ fn fit_coefficients(
             ));
         }
     }
-    Ok((mu_s, mu_d))
+    Ok(Coefficients {
+        mu_s,
+        mu_d,
+        mu_s_all,
+        mu_d_all,
+        conflicts,
+    })
 }
 
 // ------------------------------------------------------------ worst case
@@ -1262,8 +1857,13 @@ pub fn batch_with_progress(
         .iter()
         .map(|(p, f)| log_obs(p, f, &mut warnings))
         .collect();
-    let (mu_s, mu_d) =
-        fit_coefficients(&mut logs, opts.normal_force_gain_uncertainty, &mut warnings)?;
+    let Coefficients {
+        mu_s,
+        mu_d,
+        mu_s_all,
+        mu_d_all,
+        conflicts,
+    } = fit_coefficients(&mut logs, opts.normal_force_gain_uncertainty, &mut warnings)?;
 
     // μd/μs: the common calibration cancels; statistical parts in quadrature.
     let ratio = (mu_d.mu / mu_s.mu).min(1.0);
@@ -1326,15 +1926,22 @@ pub fn batch_with_progress(
         mu_s.interval.0 / mu_s.mu * (1.0 - t),
         mu_s.interval.1 / mu_s.mu * (1.0 + t),
     );
+    // A box wider than this factor is not searched for (the grid would be
+    // meaningless); the batch then says so instead of recommending.
+    const MAX_BOX: f64 = 1e3;
+    let box_ok = fa > 0.0 && fb.is_finite() && fb / fa <= MAX_BOX;
     let measured_max = logs
         .iter()
         .map(|l| l.model_rho_s)
         .filter(|r| r.is_finite())
         .fold(0.0f64, f64::max);
     let rho_min = opts.rho_min;
-    let rho_max = opts
-        .rho_max
-        .unwrap_or_else(|| (1.1 * measured_max).max(3.0));
+    // The default grid covers every measured setting (at least ρs = 3) and
+    // room for a few candidates whose whole box fits.
+    let rho_max = opts.rho_max.unwrap_or_else(|| {
+        let need = if box_ok { 8.0 * rho_min * fb / fa } else { 0.0 };
+        (1.1 * measured_max).max(3.0).max(need)
+    });
     if rho_max <= rho_min {
         return Err(batch_err(format!(
             "rho-max {rho_max} is not above rho-min {rho_min}"
@@ -1381,147 +1988,196 @@ pub fn batch_with_progress(
             }
         }
     }
-    // Stage 2: the region of good candidates (coarse robust value at the
-    // estimated ratio within 25 % of the best), over their whole boxes and
-    // one coarse step beyond, on the finer grid with every ratio.
-    let coarse_rob: Vec<Option<f64>> = coarse
+    let mu_words = format!(
+        "μs = {:.4} with the 95 % interval [{:.4}, {:.4}]",
+        mu_s.mu, mu_s.interval.0, mu_s.interval.1
+    );
+    let unresolved = conflicts
         .iter()
-        .map(|r| table.robust(r * fa, r * fb, true))
-        .collect();
-    let Some(rmin) = coarse_rob.iter().flatten().copied().min_by(f64::total_cmp) else {
-        return Err(batch_err(format!(
-            "the ρs grid [{rho_min}, {rho_max}] is too narrow for the uncertainty box (×{fa:.3} … ×{fb:.3}): widen it"
-        )));
-    };
-    let q = (rho_max / rho_min).powf(1.0 / steps as f64);
-    let (fine_steps, factor) = if opts.refine {
-        (steps * REFINE, REFINE)
-    } else {
-        (steps, 1)
-    };
-    let mut region: Vec<usize> = Vec::new();
-    for (i, r) in coarse_rob.iter().enumerate() {
-        if r.is_some_and(|v| v <= 1.25 * rmin) {
-            let rho = coarse[i];
-            let (a, b) = (rho * fa / q, rho * fb * q);
-            let ka = ((a / rho_min).ln() / (rho_max / rho_min).ln() * fine_steps as f64).floor();
-            let kb = ((b / rho_min).ln() / (rho_max / rho_min).ln() * fine_steps as f64).ceil();
-            let ka = ka.max(0.0) as usize;
-            let kb = (kb.max(0.0) as usize).min(fine_steps);
-            region.extend(ka..=kb);
-        }
-    }
-    region.sort_unstable();
-    region.dedup();
-    let fine: Vec<f64> = region
-        .iter()
-        .map(|&k| {
-            if k % factor == 0 {
-                coarse[k / factor]
+        .any(|c| c.quantity == "mu_s" && c.kind != "scatter" && !c.set_aside);
+    let outcome: std::result::Result<(Recommendation, Option<Cliff>), String> = 'rec: {
+        if !box_ok {
+            let why = if unresolved {
+                " (the logs contradict each other on Rs and the data do not say which is off: see the conflicts)"
             } else {
-                geom_node(rho_min, rho_max, fine_steps, k)
+                ""
+            };
+            break 'rec Err(if fa <= 0.0 || !fb.is_finite() {
+                format!(
+                    "{mu_words}{why} reaches down to zero or is unbounded: the logs do not pin down the static friction, so no normal force can be shown to keep the main mass quiet; add logs at normal forces where the absorber sticks and slips"
+                )
+            } else {
+                format!(
+                    "{mu_words}{why} spans a factor of {:.0}: any normal force could be anywhere from sliding freely to stuck; add logs at normal forces where the absorber sticks and slips",
+                    mu_s.interval.1 / mu_s.interval.0
+                )
+            });
+        }
+        // Stage 2: the region of good candidates (coarse robust value at the
+        // estimated ratio within 25 % of the best), over their whole boxes and
+        // one coarse step beyond, on the finer grid with every ratio.
+        let coarse_rob: Vec<Option<f64>> = coarse
+            .iter()
+            .map(|r| table.robust(r * fa, r * fb, true))
+            .collect();
+        let Some(rmin) = coarse_rob.iter().flatten().copied().min_by(f64::total_cmp) else {
+            break 'rec Err(format!(
+                "no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}, setting ±{:.0} %) inside the grid; widen --rho-min/--rho-max",
+                100.0 * t
+            ));
+        };
+        let q = (rho_max / rho_min).powf(1.0 / steps as f64);
+        let (fine_steps, factor) = if opts.refine {
+            (steps * REFINE, REFINE)
+        } else {
+            (steps, 1)
+        };
+        let mut region: Vec<usize> = Vec::new();
+        for (i, r) in coarse_rob.iter().enumerate() {
+            if r.is_some_and(|v| v <= 1.25 * rmin) {
+                let rho = coarse[i];
+                let (a, b) = (rho * fa / q, rho * fb * q);
+                let ka =
+                    ((a / rho_min).ln() / (rho_max / rho_min).ln() * fine_steps as f64).floor();
+                let kb = ((b / rho_min).ln() / (rho_max / rho_min).ln() * fine_steps as f64).ceil();
+                let ka = ka.max(0.0) as usize;
+                let kb = (kb.max(0.0) as usize).min(fine_steps);
+                region.extend(ka..=kb);
             }
-        })
-        .collect();
-    table.add(&fine, true).map_err(sim_err)?;
+        }
+        region.sort_unstable();
+        region.dedup();
+        let fine: Vec<f64> = region
+            .iter()
+            .map(|&k| {
+                if k % factor == 0 {
+                    coarse[k / factor]
+                } else {
+                    geom_node(rho_min, rho_max, fine_steps, k)
+                }
+            })
+            .collect();
+        if let Err(e) = table.add(&fine, true) {
+            return Err(sim_err(e));
+        }
+        let robust_all = |table: &Table<'_>| -> Vec<Option<f64>> {
+            table
+                .nodes
+                .iter()
+                .map(|(r, _)| table.robust(r * fa, r * fb, false))
+                .collect()
+        };
+        let rob = robust_all(&table);
+        let Some(best) = rob
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| r.map(|v| (i, v)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(i, _)| i)
+        else {
+            break 'rec Err(format!(
+                "no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}) evaluated; widen --rho-min/--rho-max"
+            ));
+        };
+        let rho_rec = table.nodes[best].0;
+        let (box_a, box_b) = (rho_rec * fa, rho_rec * fb);
+        // The box ends, evaluated directly (every ratio).
+        if let Err(e) = table.add(&[box_a, box_b], true) {
+            return Err(sim_err(e));
+        }
+        let in_box: Vec<f64> = table
+            .nodes
+            .iter()
+            .filter(|(x, _)| *x >= box_a * (1.0 - 1e-12) && *x <= box_b * (1.0 + 1e-12))
+            .flat_map(|(_, w)| w.iter().map(|w| w.amplitude1))
+            .collect();
+        let worst_interval = (
+            in_box.iter().copied().fold(f64::INFINITY, f64::min),
+            in_box.iter().copied().fold(0.0, f64::max),
+        );
+        let best = table.find(rho_rec).expect("node present");
+        let w_rec = table.nodes[best].1[0];
+        // Window of settings within `window` of the robust optimum.
+        let rob = robust_all(&table);
+        let limit = worst_interval.1 * (1.0 + opts.window);
+        let ok = |i: usize| rob[i].is_some_and(|v| v <= limit);
+        let (mut lo_i, mut hi_i) = (best, best);
+        while lo_i > 0 && ok(lo_i - 1) {
+            lo_i -= 1;
+        }
+        while hi_i + 1 < rob.len() && ok(hi_i + 1) {
+            hi_i += 1;
+        }
+        let recommendation = Recommendation {
+            normal_force_n: n_of(rho_rec),
+            interval_n: (n_of(table.nodes[lo_i].0), n_of(table.nodes[hi_i].0)),
+            rho_s: rho_rec,
+            rho_d: ratio * rho_rec,
+            worst: w_rec,
+            worst_interval,
+            rho_s_box: (box_a, box_b),
+        };
+        if rob[..best].iter().all(Option::is_none) || rob[best + 1..].iter().all(Option::is_none) {
+            warnings.push(
+                "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max".into(),
+            );
+        }
 
-    let robust_all = |table: &Table<'_>| -> Vec<Option<f64>> {
+        // The cliff: the largest ρs below the recommendation with W > 2·W_rec.
+        let threshold = 2.0 * w_rec.amplitude1;
+        let mut cliff = None;
+        let above = (0..best).rev().find(|&i| table.w(i) > threshold);
+        match above {
+            Some(i) => {
+                let (mut bad, mut good) = (table.nodes[i].0, table.nodes[i + 1].0);
+                let mut w_bad = table.nodes[i].1[0];
+                for _ in 0..7 {
+                    let m = (bad * good).sqrt();
+                    let w = worst_case(&ab, m, ratio * m, &etas, &opts.steady).map_err(sim_err)?;
+                    table.evaluations += 1;
+                    tick(1);
+                    if w.amplitude1 > threshold {
+                        bad = m;
+                        w_bad = w;
+                    } else {
+                        good = m;
+                    }
+                }
+                let rho_c = (bad * good).sqrt();
+                cliff = Some(Cliff {
+                    rho_s: rho_c,
+                    bracket: (bad, good),
+                    normal_force_n: n_of(rho_c),
+                    threshold,
+                    worst_below: w_bad,
+                    margin_rho_s: rho_rec - rho_c,
+                    margin_n: n_of(rho_rec) - n_of(rho_c),
+                    margin_rel: rho_rec / rho_c - 1.0,
+                });
+            }
+            None => warnings.push(format!(
+                "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {rho_min}"
+            )),
+        }
+        Ok((recommendation, cliff))
+    };
+    let (recommendation, cliff, recommendation_reason) = match outcome {
+        Ok((r, c)) => (Some(r), c, None),
+        Err(reason) => {
+            warnings.push(format!("no normal force recommended: {reason}"));
+            (None, None, Some(reason))
+        }
+    };
+
+    let rob: Vec<Option<f64>> = if box_ok {
         table
             .nodes
             .iter()
             .map(|(r, _)| table.robust(r * fa, r * fb, false))
             .collect()
+    } else {
+        vec![None; table.nodes.len()]
     };
-    let rob = robust_all(&table);
-    let best = rob
-        .iter()
-        .enumerate()
-        .filter_map(|(i, r)| r.map(|v| (i, v)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .map(|(i, _)| i)
-        .ok_or_else(|| {
-            batch_err("no candidate setting has its whole uncertainty box on the grid".into())
-        })?;
-    let rho_rec = table.nodes[best].0;
-    let (box_a, box_b) = (rho_rec * fa, rho_rec * fb);
-    // The box ends, evaluated directly (every ratio).
-    table.add(&[box_a, box_b], true).map_err(sim_err)?;
-    let in_box: Vec<f64> = table
-        .nodes
-        .iter()
-        .filter(|(x, _)| *x >= box_a * (1.0 - 1e-12) && *x <= box_b * (1.0 + 1e-12))
-        .flat_map(|(_, w)| w.iter().map(|w| w.amplitude1))
-        .collect();
-    let worst_interval = (
-        in_box.iter().copied().fold(f64::INFINITY, f64::min),
-        in_box.iter().copied().fold(0.0, f64::max),
-    );
-    let best = table.find(rho_rec).expect("node present");
-    let w_rec = table.nodes[best].1[0];
-    // Window of settings within `window` of the robust optimum.
-    let rob = robust_all(&table);
-    let limit = worst_interval.1 * (1.0 + opts.window);
-    let ok = |i: usize| rob[i].is_some_and(|v| v <= limit);
-    let (mut lo_i, mut hi_i) = (best, best);
-    while lo_i > 0 && ok(lo_i - 1) {
-        lo_i -= 1;
-    }
-    while hi_i + 1 < rob.len() && ok(hi_i + 1) {
-        hi_i += 1;
-    }
-    let recommendation = Recommendation {
-        normal_force_n: n_of(rho_rec),
-        interval_n: (n_of(table.nodes[lo_i].0), n_of(table.nodes[hi_i].0)),
-        rho_s: rho_rec,
-        rho_d: ratio * rho_rec,
-        worst: w_rec,
-        worst_interval,
-        rho_s_box: (box_a, box_b),
-    };
-    if rob[..best].iter().all(Option::is_none) || rob[best + 1..].iter().all(Option::is_none) {
-        warnings.push(
-            "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max".into(),
-        );
-    }
-
-    // The cliff: the largest ρs below the recommendation with W > 2·W_rec.
-    let threshold = 2.0 * w_rec.amplitude1;
-    let mut cliff = None;
-    let above = (0..best).rev().find(|&i| table.w(i) > threshold);
-    match above {
-        Some(i) => {
-            let (mut bad, mut good) = (table.nodes[i].0, table.nodes[i + 1].0);
-            let mut w_bad = table.nodes[i].1[0];
-            for _ in 0..7 {
-                let m = (bad * good).sqrt();
-                let w = worst_case(&ab, m, ratio * m, &etas, &opts.steady).map_err(sim_err)?;
-                table.evaluations += 1;
-                tick(1);
-                if w.amplitude1 > threshold {
-                    bad = m;
-                    w_bad = w;
-                } else {
-                    good = m;
-                }
-            }
-            let rho_c = (bad * good).sqrt();
-            cliff = Some(Cliff {
-                rho_s: rho_c,
-                bracket: (bad, good),
-                normal_force_n: n_of(rho_c),
-                threshold,
-                worst_below: w_bad,
-                margin_rho_s: rho_rec - rho_c,
-                margin_n: n_of(rho_rec) - n_of(rho_c),
-                margin_rel: rho_rec / rho_c - 1.0,
-            });
-        }
-        None => warnings.push(format!(
-            "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {rho_min}"
-        )),
-    }
-
-    let rob = robust_all(&table);
     let curve: Vec<CurvePoint> = table
         .nodes
         .iter()
@@ -1546,6 +2202,9 @@ pub fn batch_with_progress(
         logs,
         mu_s,
         mu_d,
+        mu_s_all,
+        mu_d_all,
+        conflicts,
         ratio,
         ratio_interval,
         absorber: ab,
@@ -1559,6 +2218,7 @@ pub fn batch_with_progress(
         window: opts.window,
         curve,
         recommendation,
+        recommendation_reason,
         cliff,
         evaluations: table.evaluations,
         warnings,
@@ -1589,10 +2249,6 @@ mod tests {
             );
         }
         assert!(ln_norm_cdf(12.0) < 0.0 && ln_norm_cdf(12.0) > -1e-30);
-        assert!((ln_norm_diff(1.0, -1.0) - 0.682_689_492_137f64.ln()).abs() < 1e-6);
-        // Upper tail without cancellation: Φ(9) − Φ(8) = Φ(−8) − Φ(−9)
-        // = 6.22096057427e−16 − 1.12858840595e−19.
-        assert!((ln_norm_diff(9.0, 8.0) - 6.219_831_985_866e-16f64.ln()).abs() < 1e-6);
     }
 
     /// Exact points: the estimate is the common ratio; a consistent stuck
@@ -1645,6 +2301,118 @@ mod tests {
         // The free fit recovers a zero intercept.
         let (s, a, hw) = free_fit(&pts).unwrap();
         assert!((s - 0.42).abs() < 1e-12 && a.abs() < 1e-12 && hw > 0.0);
+    }
+
+    /// A never-sticks bound that contradicts the points (its Rd far above
+    /// μN) keeps the likelihood finite (it was −∞ with the difference
+    /// form, which produced a μ interval of [0, 2e18]); the robust
+    /// selection sets the bound aside, not the two points that agree.
+    #[test]
+    fn contradicting_bound_is_set_aside() {
+        let obs = [
+            Obs::Point {
+                n: 3.2,
+                r: 0.42 * 3.2,
+                s: 0.005,
+            },
+            Obs::Point {
+                n: 3.6,
+                r: 0.42 * 3.6 * 1.002,
+                s: 0.005,
+            },
+            Obs::Between {
+                n: 1.2,
+                lo: 0.60 * 1.2,
+                slo: 0.002,
+                hi: 3.0,
+                shi: 0.01,
+            },
+        ];
+        // With every observation: a compromise with a wide (Birge-inflated)
+        // but finite interval.
+        let (mu, (lo, hi), ..) = fit_mu(&obs).unwrap();
+        assert!(
+            mu > 0.42 && mu < 0.6 && lo >= 0.0 && hi < 2.0,
+            "{mu} [{lo}, {hi}]"
+        );
+        let all = [true; 3];
+        let (t, thr, rel, _) = loo(&obs, &all, 2).unwrap();
+        assert!(t > thr && rel > 0.3, "{t} {thr} {rel}");
+        let (kept, resolved) = robust_keep(&obs, &[0.0; 3]);
+        assert_eq!(kept, vec![true, true, false]);
+        assert!(resolved);
+        let (mu2, ..) = fit_mu(&obs[..2]).unwrap();
+        assert!((mu2 / 0.42 - 1.0).abs() < 0.002, "{mu2}");
+    }
+
+    /// A measured point of another pad among points that scatter beyond
+    /// their own σ (as real logs do): the outlier goes, not a good point.
+    #[test]
+    fn outlier_among_scattered_points() {
+        let obs = [
+            Obs::Point {
+                n: 1.21,
+                r: 0.71,
+                s: 0.001,
+            },
+            Obs::Point {
+                n: 2.22,
+                r: 0.34 * 2.22,
+                s: 0.0005,
+            },
+            Obs::Point {
+                n: 3.22,
+                r: 0.34 * 3.22 * 1.01,
+                s: 0.0006,
+            },
+            Obs::Point {
+                n: 3.62,
+                r: 0.34 * 3.62 * 0.995,
+                s: 0.0007,
+            },
+        ];
+        let all = [true; 4];
+        assert!(dixon_outlier(&obs, &all, 0));
+        assert!((1..4).all(|k| !dixon_outlier(&obs, &all, k)));
+        let (kept, resolved) = robust_keep(&obs, &[0.0; 4]);
+        assert_eq!(kept, vec![false, true, true, true]);
+        assert!(resolved);
+    }
+
+    /// Two measured points that contradict each other, and nothing else:
+    /// the data cannot say which is off (with three observations one may
+    /// go). Only when one log's own estimates disagree is it set aside.
+    #[test]
+    fn symmetric_pair_needs_a_reason() {
+        let obs = [
+            Obs::Point {
+                n: 3.0,
+                r: 0.36 * 3.0,
+                s: 0.01,
+            },
+            Obs::Point {
+                n: 3.5,
+                r: 0.42 * 3.5,
+                s: 0.01,
+            },
+            Obs::Above {
+                n: 8.0,
+                lb: 0.2 * 8.0,
+                s: 0.01,
+            },
+        ];
+        let (kept, resolved) = robust_keep(&obs, &[0.0; 3]);
+        assert_eq!(kept, vec![true; 3]);
+        assert!(!resolved);
+        let (kept, resolved) = robust_keep(&obs, &[2.5, 0.5, 0.0]);
+        assert_eq!(kept, vec![false, true, true]);
+        assert!(resolved);
+        // The pair tension is symmetric.
+        let (a, b) = (
+            pair_tension(&obs[0], &obs[1]),
+            pair_tension(&obs[1], &obs[0]),
+        );
+        assert!((a - b).abs() < 1e-12 && a > 3.0, "{a} {b}");
     }
 
     /// Scattered points inflate σ (Birge) and the interval grows with it;
