@@ -60,6 +60,36 @@
 //! 493/522 in ρ, D* (equation error alone: 412/522), and the family is
 //! right in 171/174 (the equation-error criterion alone: 135/174).
 //!
+//! ## Stick or no stick, adequacy, parsimony (issue 14)
+//!
+//! * The segmentation's never-sticks verdict is not final: the output-error
+//!   refinement always tries the static-dynamic family (a screen of
+//!   thresholds above the Coulomb optimum finds the narrow basin of short
+//!   sticks at reversal), and where the simulated law sticks (≥ 0.5 % of
+//!   the compared samples in ≥ 4 phases, with a criterion better than every
+//!   stick-free family by more than 10) ρs is measured and `never_sticks`
+//!   is false ([`LogFit::never_sticks`]); the reversal bound, which assumed
+//!   no stick, is dropped. The positions decide (x2 flat while sticking),
+//!   not the noisy velocity.
+//! * Adequacy ([`LogFit::adequate`], `output_error::Adequacy`): residuals of
+//!   x1, x2 against the noise measured in the same log, binned against
+//!   drive phase, velocity, position and time. An inadequate law gets the
+//!   numbers in `warnings` and its statistical half-widths multiplied by
+//!   the misfit (largest residual/noise ratio or √(χ²/dof)). Bounds that
+//!   contradict each other give no interval (never an inverted one) and
+//!   make the fit inadequate. The force residual of the equation-error fit
+//!   is not part of the verdict (its noise is not measured separately).
+//! * Parsimony: the simplest family within a BIC difference of 2; a family
+//!   whose extra parameter's interval holds the nested value (D* = 0,
+//!   Rs = Rd) gives way to Coulomb; the BIC difference to the best other
+//!   family is reported (`law_evidence`).
+//! * ρ is the physics' ratio R/(A·K2) with the amplitude the drive really
+//!   moved: the output error sees it free of sensor gains. Forces in
+//!   newtons are ρ·A_measured·K2 and carry the drive gain (budget in their
+//!   intervals). The tables above and the tests compare ρ with the true A.
+//! * A log without a velocity channel: ẋ2 from x2 (`contact`), with a
+//!   warning.
+//!
 //! ## Calibration budget
 //!
 //! Sensor gain errors are systematic: no resampling sees them. The budget

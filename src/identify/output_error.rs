@@ -50,11 +50,21 @@
 //!   lacks) from the best of the equation-error law and, for the richer
 //!   families, the Coulomb optimum (nested starts).
 //! * **Family selection**: each simple family (Coulomb, `decreasing`,
-//!   static-dynamic; not static-dynamic where M2 never sticks) is refined;
+//!   static-dynamic) is refined, static-dynamic also where the
+//!   segmentation saw no stick (from the best of a screen of thresholds
+//!   above the Coulomb optimum: the simulator says where sticks happen);
 //!   the criterion is BIC, `n_eff·ln(S/N) + k·ln(n_eff)` (k law
 //!   parameters), with the honest effective sample size n_eff = n/τ_int,
 //!   τ_int the integrated autocorrelation time of the richest family's
-//!   residuals within segments.
+//!   residuals within segments. The simplest family within 2 of the lowest
+//!   BIC is chosen, and one whose extra parameter's interval holds the
+//!   nested value gives way to Coulomb. A threshold the segmentation did
+//!   not see must beat every stick-free family by more than 10.
+//! * **Adequacy** ([`Adequacy`]): the chosen law's residuals against the
+//!   sensor noise (ratio ≤ 2) and binned against drive phase, velocity,
+//!   position and time (flagged when z > 3.7 and the structure exceeds half
+//!   the noise); an inadequate law's statistical half-widths are multiplied
+//!   by the misfit.
 //! * **Intervals**: a cluster-robust sandwich over segments (each segment
 //!   has its own start, so segments are the independent units):
 //!   `Cov = H⁻¹ (Σ_k g_k g_kᵀ) H⁻¹ · K/(K − p)` with `H = JᵀJ`,
@@ -749,6 +759,9 @@ fn tau_int(seg: &[u32], r: &[f64]) -> f64 {
 /// A BIC difference below this is no evidence either way (Kass–Raftery).
 const BIC_WEAK: f64 = 2.0;
 
+/// A BIC difference above this is very strong evidence (Kass–Raftery).
+const BIC_STRONG: f64 = 10.0;
+
 /// Simulated stick time (fraction of the compared samples) above which a
 /// law is said to stick in a log the segmentation called never-sticking.
 const MIN_STICK_FRACTION: f64 = 0.005;
@@ -1302,21 +1315,16 @@ impl Refinement {
                     _ => {}
                 }
             }
-            let mut result = self.minimise(kind, &cands, &step);
             if let (LawKind::StaticDynamic, Some(tc)) = (kind, &coulomb) {
                 // Short sticks at reversal hide in a narrow basin of the
                 // threshold (the sticks appear only above the reversal
-                // force): a screen of thresholds above the Coulomb level,
-                // then a second refinement from the best one.
+                // force): the best of a screen of thresholds above the
+                // Coulomb level is one more start.
                 if let Some(g) = self.screen_thresholds(tc) {
-                    if let Ok(other) = self.minimise(kind, &[g], &step) {
-                        let better = result.as_ref().map_or(true, |r| other.1 < r.1);
-                        if better {
-                            result = Ok(other);
-                        }
-                    }
+                    cands.push(g);
                 }
             }
+            let result = self.minimise(kind, &cands, &step);
             match result {
                 Ok((th, cost, it, proj)) => {
                     start_rms.push((kind, th_ee));
@@ -1376,6 +1384,19 @@ impl Refinement {
                     .then(families[a].bic.total_cmp(&families[b].bic))
             })
             .expect("non-empty");
+        // Overruling the segmentation's never-sticks verdict takes very
+        // strong evidence: a static threshold is kept only if it beats
+        // every stick-free family by more than BIC_STRONG.
+        if self.never_sticks && families[best].law.kind == LawKind::StaticDynamic {
+            let other = (0..families.len())
+                .filter(|&a| families[a].law.kind != LawKind::StaticDynamic)
+                .min_by(|&a, &b| families[a].bic.total_cmp(&families[b].bic));
+            if let Some(o) = other {
+                if families[o].bic - families[best].bic < BIC_STRONG {
+                    best = o;
+                }
+            }
+        }
         let mut notes = Vec::new();
         let sticks_of = |f: &FamilyFit| {
             !self.never_sticks || (f.stick_fraction > MIN_STICK_FRACTION && f.stick_runs >= 4)
