@@ -462,7 +462,7 @@ fn issue14_round_trips_small() {
 /// The large study (`just studies`; `STUDY_N` cases from `STUDY_FIRST`,
 /// default 60 from 1).
 #[test]
-#[ignore = "study: issue-14 regimes (about 3 minutes in release)"]
+#[ignore = "study: issue-14 regimes (60 logs; 40 took 12 min in a debug build on the loaded 2-core machine)"]
 fn issue14_round_trip_study() {
     let n = std::env::var("STUDY_N")
         .ok()

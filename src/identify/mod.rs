@@ -329,6 +329,9 @@ pub struct LogFit {
     pub adequacy: Option<output_error::Adequacy>,
     /// Contradictions found among the bounds (each makes the fit inadequate).
     pub contradictions: Vec<String>,
+    /// A sliding log whose law was not tested against the positions (the
+    /// equation-error estimate: the Stribeck type, or a failed refinement).
+    untested: bool,
     /// The final never-sticks verdict (segmentation, overruled by the
     /// output-error simulation where that finds sticks).
     no_stick: bool,
@@ -376,11 +379,16 @@ impl LogFit {
     }
     /// The law explains the log down to its sensor noise, without
     /// structured residuals, and its bounds do not contradict each other.
-    /// Only the output-error estimate is tested; a stuck log (nothing
-    /// slides) and the equation-error Stribeck estimate count as adequate
-    /// unless a contradiction was found.
+    /// Only the output-error estimate is tested: a stuck log (nothing
+    /// slides) counts as adequate unless a contradiction was found; the
+    /// equation-error estimate of a sliding log (the Stribeck type, a
+    /// failed refinement) is not shown adequate, so it is not.
     pub fn adequate(&self) -> bool {
-        self.contradictions.is_empty() && self.adequacy.as_ref().is_none_or(|a| a.adequate)
+        self.contradictions.is_empty()
+            && match &self.adequacy {
+                Some(a) => a.adequate,
+                None => !self.untested,
+            }
     }
 }
 
@@ -613,6 +621,13 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         (Some(o), Estimate::OutputError) => Some(o.adequacy.clone()),
         _ => None,
     };
+    let untested = adequacy.is_none() && !ef.stuck;
+    if untested {
+        warnings.push(format!(
+            "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
+            law.kind.as_str()
+        ));
+    }
     if let Some(a) = &adequacy {
         if !a.adequate {
             let worst = a
@@ -702,6 +717,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         warnings,
         adequacy,
         contradictions,
+        untested,
         no_stick,
         fit: ef,
     })

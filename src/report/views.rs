@@ -254,6 +254,8 @@ pub fn adequacy_flag(f: &LogFit) -> String {
             s.push_str(&format!("; intervals widened ×{:.2}", a.inflation));
         }
     } else if f.adequate() {
+        s.push_str(" (stuck: nothing slides to test)");
+    } else {
         s.push_str(" (not tested: equation-error estimate)");
     }
     if !f.contradictions.is_empty() {
