@@ -15,6 +15,7 @@ bench:
     cargo bench --bench engine
     cargo bench --bench sweep
     cargo bench --bench ingest
+    cargo bench --bench fit
     cargo run --release -- bench
 
 # The main job: the whole pipeline on the bundled data set's plan
@@ -44,6 +45,7 @@ figures:
 studies:
     cargo test --release --test fit_synth -- --ignored --nocapture
     cargo test --release --test identify_roundtrip -- --ignored --nocapture
+    cargo test --release --test identify_issue14 -- --ignored --nocapture
 
 # Mutation-fuzz the ingest parsers and the channel-map parser, 300 s each
 # (seeded from datasets/; cargo-fuzz would need a nightly toolchain).

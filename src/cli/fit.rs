@@ -177,9 +177,14 @@ fn summary(log: &Path, f: &LogFit) -> String {
     if e.stuck {
         s.push_str(&format!(", stuck (rho_s >= {})", fmt(f.rho_s_lower_bound)));
     }
-    if e.never_sticks {
+    if f.never_sticks() {
         s.push_str(", never sticks");
     }
+    s.push_str(if f.adequate() {
+        ", adequate"
+    } else {
+        ", NOT ADEQUATE"
+    });
     for w in &f.warnings {
         s.push_str(&format!("\n  warning: {w}"));
     }

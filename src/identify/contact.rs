@@ -316,6 +316,16 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
     let half = ((rs.rate_hz / drive.frequency_hz / 60.0).round() as usize).max(2);
 
     let dx2 = savgol(&x2, dt, half, 3, 1);
+    // A log without a velocity channel: ẋ2 from x2 (a cubic
+    // Savitzky–Golay derivative over the same window; no lag, no offset).
+    let v2_raw = if run.has_velocity() {
+        v2_raw
+    } else {
+        warnings.push(format!(
+            "no velocity channel: ẋ2 derived from x2 (Savitzky–Golay derivative over ±{half} samples); its noise sets the stick detection threshold"
+        ));
+        dx2.clone()
+    };
     // Time offset of v2 against the derivative of x2.
     let mut v2 = v2_raw.clone();
     let mut v2_lag_s = 0.0;

@@ -9,6 +9,13 @@
 //! characteristic R(ẋ2) about the law); the output-error residuals are
 //! `output_error.rms_x1_m`, `rms_x2_m` and its criteria
 //! `output_error.criteria`. `bias_n` is the estimate used's.
+//!
+//! `adequate` (interface key, [`LogFit::adequate`]) with its numbers under
+//! `adequacy` (residual/noise ratios of x1, x2, the structure tests, the
+//! interval inflation; null where only the equation-error estimate was
+//! computed), `contradictions` (bounds that contradict each other) and
+//! `law_evidence` (the BIC difference to the best other family and its
+//! Kass–Raftery grade).
 
 use super::{Estimate, Intervals, LogFit, SiLaw};
 use serde_json::{json, Value};
@@ -55,7 +62,7 @@ impl LogFit {
     /// A law with its intervals (Rs NaN where only bounded).
     fn estimate_json(&self, l: &SiLaw, iv: &Intervals) -> Value {
         let mut l = *l;
-        if self.fit.never_sticks {
+        if self.never_sticks() {
             l.rs_n = f64::NAN;
         }
         let mut v = self.law_json(&l);
@@ -120,6 +127,8 @@ impl LogFit {
                             json!({
                                 "law": f.law.kind.as_str(),
                                 "bic": num(f.bic),
+                                "stick_fraction": num(f.stick_fraction),
+                                "stick_phases": f.stick_runs,
                                 "rms_x1_m": num(f.rms_m.0),
                                 "rms_x2_m": num(f.rms_m.1),
                             })
@@ -152,7 +161,34 @@ impl LogFit {
             "stuck": e.stuck,
             "rho_s_lower_bound": opt(self.rho_s_lower_bound),
             "r_s_lower_bound_n": opt(self.rs_lower_bound_n),
-            "never_sticks": e.never_sticks,
+            "never_sticks": self.never_sticks(),
+            "adequate": self.adequate(),
+            "adequacy": self.adequacy.as_ref().map_or(Value::Null, |a| json!({
+                "noise_ratio_x1": num(a.noise_ratio.0),
+                "noise_ratio_x2": num(a.noise_ratio.1),
+                "robust_ratio_x1": num(a.robust_ratio.0),
+                "robust_ratio_x2": num(a.robust_ratio.1),
+                "max_noise_ratio": num(super::output_error::MAX_NOISE_RATIO),
+                "max_structure_z": num(super::output_error::MAX_STRUCTURE_Z),
+                "max_structure_effect": num(super::output_error::MAX_STRUCTURE_EFFECT),
+                "interval_inflation": num(a.inflation),
+                "structure": a.structure.iter().map(|s| json!({
+                    "channel": s.channel,
+                    "against": s.against,
+                    "chi2_per_dof": num(s.chi2_per_dof),
+                    "z": num(s.z),
+                    "effect": num(s.effect),
+                })).collect::<Vec<_>>(),
+            })),
+            "contradictions": self.contradictions,
+            "law_evidence": match (&self.output_error, self.estimate) {
+                (Some(o), Estimate::OutputError) => o.evidence.map_or(Value::Null, |ev| json!({
+                    "against": ev.against.as_str(),
+                    "delta_bic": num(ev.delta_bic),
+                    "strength": ev.strength(),
+                })),
+                _ => Value::Null,
+            },
             "drive_amplitude_m": num(self.drive.amplitude_m),
             "residual_rms": num(e.residual_rms_n / fs),
             "residual_rms_n": num(e.residual_rms_n),

@@ -60,6 +60,36 @@
 //! 493/522 in ρ, D* (equation error alone: 412/522), and the family is
 //! right in 171/174 (the equation-error criterion alone: 135/174).
 //!
+//! ## Stick or no stick, adequacy, parsimony (issue 14)
+//!
+//! * The segmentation's never-sticks verdict is not final: the output-error
+//!   refinement always tries the static-dynamic family (a screen of
+//!   thresholds above the Coulomb optimum finds the narrow basin of short
+//!   sticks at reversal), and where the simulated law sticks (≥ 0.5 % of
+//!   the compared samples in ≥ 4 phases, with a criterion better than every
+//!   stick-free family by more than 10) ρs is measured and `never_sticks`
+//!   is false ([`LogFit::never_sticks`]); the reversal bound, which assumed
+//!   no stick, is dropped. The positions decide (x2 flat while sticking),
+//!   not the noisy velocity.
+//! * Adequacy ([`LogFit::adequate`], `output_error::Adequacy`): residuals of
+//!   x1, x2 against the noise measured in the same log, binned against
+//!   drive phase, velocity, position and time. An inadequate law gets the
+//!   numbers in `warnings` and its statistical half-widths multiplied by
+//!   the misfit (largest residual/noise ratio or √(χ²/dof)). Bounds that
+//!   contradict each other give no interval (never an inverted one) and
+//!   make the fit inadequate. The force residual of the equation-error fit
+//!   is not part of the verdict (its noise is not measured separately).
+//! * Parsimony: the simplest family within a BIC difference of 2; a family
+//!   whose extra parameter's interval holds the nested value (D* = 0,
+//!   Rs = Rd) gives way to Coulomb; the BIC difference to the best other
+//!   family is reported (`law_evidence`).
+//! * ρ is the physics' ratio R/(A·K2) with the amplitude the drive really
+//!   moved: the output error sees it free of sensor gains. Forces in
+//!   newtons are ρ·A_measured·K2 and carry the drive gain (budget in their
+//!   intervals). The tables above and the tests compare ρ with the true A.
+//! * A log without a velocity channel: ẋ2 from x2 (`contact`), with a
+//!   warning.
+//!
 //! ## Calibration budget
 //!
 //! Sensor gain errors are systematic: no resampling sees them. The budget
@@ -295,6 +325,16 @@ pub struct LogFit {
     pub notes: Vec<String>,
     /// Warnings (ingest, contact, fit).
     pub warnings: Vec<String>,
+    /// The adequacy verdict of the law used (see [`LogFit::adequate`]).
+    pub adequacy: Option<output_error::Adequacy>,
+    /// Contradictions found among the bounds (each makes the fit inadequate).
+    pub contradictions: Vec<String>,
+    /// A sliding log whose law was not tested against the positions (the
+    /// equation-error estimate: the Stribeck type, or a failed refinement).
+    untested: bool,
+    /// The final never-sticks verdict (segmentation, overruled by the
+    /// output-error simulation where that finds sticks).
+    no_stick: bool,
 }
 
 impl LogFit {
@@ -331,9 +371,24 @@ impl LogFit {
     pub fn stuck(&self) -> bool {
         self.fit.stuck
     }
-    /// M2 never stuck: Rs is only bounded.
+    /// M2 never stuck: Rs is only bounded. The segmentation's verdict,
+    /// unless the output-error simulation of the chosen law finds sticks
+    /// (short sticks at reversal the velocity could not show).
     pub fn never_sticks(&self) -> bool {
-        self.fit.never_sticks
+        self.no_stick
+    }
+    /// The law explains the log down to its sensor noise, without
+    /// structured residuals, and its bounds do not contradict each other.
+    /// Only the output-error estimate is tested: a stuck log (nothing
+    /// slides) counts as adequate unless a contradiction was found; the
+    /// equation-error estimate of a sliding log (the Stribeck type, a
+    /// failed refinement) is not shown adequate, so it is not.
+    pub fn adequate(&self) -> bool {
+        self.contradictions.is_empty()
+            && match &self.adequacy {
+                Some(a) => a.adequate,
+                None => !self.untested,
+            }
     }
 }
 
@@ -361,7 +416,7 @@ fn quantities(f: &EquationFit, a: f64, k2: f64, ss: f64) -> [f64; 8] {
 /// (bootstrap over periods combined with the calibration budget).
 pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     let base = characteristic(run, &Gains::default())?;
-    let ef =
+    let mut ef =
         fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|msg| Error::Input {
             path: run.source.clone(),
             msg,
@@ -438,8 +493,10 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     let rho_d_iv = combine(q0[4], ef.stat.rd, fs, 4);
     // Never sticking: Rs ≥ Rd (its interval's low end), Rs ≤ the reversal bound.
     let ub = ef.rs_upper_bound_n.map(|b| b + cal(7));
+    // An interval is never inverted: bounds that contradict each other
+    // give none (and a contradiction, below).
     let bounds = |rd: Option<Interval>| match (rd, ub) {
-        (Some((lo, _)), Some(ub)) => Some((lo, ub)),
+        (Some((lo, _)), Some(ub)) if lo <= ub => Some((lo, ub)),
         _ => None,
     };
     let equation_error = Intervals {
@@ -485,19 +542,50 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             )),
         }
     }
+    // The evidence decides stick or no stick: the simulated law sticks
+    // where the segmentation saw none (short sticks at reversal).
+    let mut no_stick = ef.never_sticks;
+    if let Some(o) = output_error
+        .as_ref()
+        .filter(|o| ef.never_sticks && o.sticks_found)
+    {
+        let c = &o.chosen;
+        let per_run = c.stick_fraction * o.samples as f64 / c.stick_runs.max(1) as f64
+            * opts.oe.stride as f64
+            * base.contact.dt;
+        warnings.push(format!(
+            "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
+            c.law.kind.as_str(),
+            100.0 * c.stick_fraction,
+            c.stick_runs,
+            per_run * 1e3
+        ));
+        no_stick = false;
+        warnings.retain(|w| !w.starts_with("M2 never sticks in this log"));
+        // The reversal bound assumed no stick there: it does not hold.
+        ef.rs_upper_bound_n = None;
+    }
+    let mut contradictions = Vec::new();
+    if let Some(o) = output_error.as_ref() {
+        warnings.extend(o.notes.iter().cloned());
+    }
     let (estimate, mut law, used) = match &mut output_error {
         Some(o) => {
             let iv = &o.intervals;
+            let rs_bounds = bounds(iv.rd_n);
+            if no_stick && rs_bounds.is_none() {
+                if let (Some((lo, _)), Some(ub)) = (iv.rd_n, ub) {
+                    contradictions.push(format!(
+                        "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N; no stick-free law explains this log"
+                    ));
+                }
+            }
             let used = Intervals {
-                rs_n: if ef.never_sticks {
-                    bounds(iv.rd_n)
-                } else {
-                    iv.rs_n
-                },
+                rs_n: if no_stick { rs_bounds } else { iv.rs_n },
                 rd_n: iv.rd_n,
                 slope_n_s_per_m: iv.slope_n_s_per_m,
-                rho_s: if ef.never_sticks {
-                    bounds(iv.rd_n).map(|(l, h)| (l / fs, h / fs))
+                rho_s: if no_stick {
+                    rs_bounds.map(|(l, h)| (l / fs, h / fs))
                 } else {
                     iv.rho_s
                 },
@@ -516,9 +604,53 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         }
         None => (Estimate::EquationError, ef.law, equation_error),
     };
-    if ef.never_sticks {
+    if no_stick {
         law.rs_n = f64::NAN;
     }
+    if estimate == Estimate::EquationError
+        && ef.never_sticks
+        && bounds(equation_error.rd_n).is_none()
+    {
+        if let (Some((lo, _)), Some(ub)) = (equation_error.rd_n, ub) {
+            contradictions.push(format!(
+                "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N"
+            ));
+        }
+    }
+    let adequacy = match (&output_error, estimate) {
+        (Some(o), Estimate::OutputError) => Some(o.adequacy.clone()),
+        _ => None,
+    };
+    let untested = adequacy.is_none() && !ef.stuck;
+    if untested {
+        warnings.push(format!(
+            "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
+            law.kind.as_str()
+        ));
+    }
+    if let Some(a) = &adequacy {
+        if !a.adequate {
+            let worst = a
+                .structure
+                .iter()
+                .max_by(|p, q| p.effect.total_cmp(&q.effect))
+                .map_or(String::new(), |st| {
+                    format!(
+                        "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
+                        st.channel, st.against, st.effect, st.chi2_per_dof, st.z
+                    )
+                });
+            warnings.push(format!(
+                "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
+                law.kind.as_str(),
+                a.noise_ratio.0,
+                a.noise_ratio.1,
+                output_error::MAX_NOISE_RATIO,
+                a.inflation
+            ));
+        }
+    }
+    warnings.extend(contradictions.iter().cloned());
 
     let normal_force_n = run
         .resampled
@@ -583,6 +715,10 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         drive: base.contact.drive,
         notes,
         warnings,
+        adequacy,
+        contradictions,
+        untested,
+        no_stick,
         fit: ef,
     })
 }

@@ -50,11 +50,21 @@
 //!   lacks) from the best of the equation-error law and, for the richer
 //!   families, the Coulomb optimum (nested starts).
 //! * **Family selection**: each simple family (Coulomb, `decreasing`,
-//!   static-dynamic; not static-dynamic where M2 never sticks) is refined;
+//!   static-dynamic) is refined, static-dynamic also where the
+//!   segmentation saw no stick (from the best of a screen of thresholds
+//!   above the Coulomb optimum: the simulator says where sticks happen);
 //!   the criterion is BIC, `n_eff·ln(S/N) + k·ln(n_eff)` (k law
 //!   parameters), with the honest effective sample size n_eff = n/τ_int,
 //!   τ_int the integrated autocorrelation time of the richest family's
-//!   residuals within segments.
+//!   residuals within segments. The simplest family within 2 of the lowest
+//!   BIC is chosen, and one whose extra parameter's interval holds the
+//!   nested value gives way to Coulomb. A threshold the segmentation did
+//!   not see must beat every stick-free family by more than 10.
+//! * **Adequacy** ([`Adequacy`]): the chosen law's residuals against the
+//!   sensor noise (ratio ≤ 2) and binned against drive phase, velocity,
+//!   position and time (flagged when z > 3.7 and the structure exceeds half
+//!   the noise); an inadequate law's statistical half-widths are multiplied
+//!   by the misfit.
 //! * **Intervals**: a cluster-robust sandwich over segments (each segment
 //!   has its own start, so segments are the independent units):
 //!   `Cov = H⁻¹ (Σ_k g_k g_kᵀ) H⁻¹ · K/(K − p)` with `H = JᵀJ`,
@@ -151,6 +161,10 @@ pub struct FamilyFit {
     pub rms_m: (f64, f64),
     /// Nelder–Mead iterations.
     pub iterations: u64,
+    /// Fraction of the compared samples at which the simulated M2 sticks.
+    pub stick_fraction: f64,
+    /// Number of simulated stick phases among the compared samples.
+    pub stick_runs: usize,
 }
 
 /// What the refinement found.
@@ -180,6 +194,16 @@ pub struct OutputErrorFit {
     pub drive: DriveModel,
     /// Wall time (s).
     pub seconds: f64,
+    /// The simulated law sticks (always true where the segmentation saw
+    /// sticks; else at least 0.5 % of the time in four or more phases):
+    /// ρs is measured, not only bounded.
+    pub sticks_found: bool,
+    /// The adequacy verdict of the chosen law.
+    pub adequacy: Adequacy,
+    /// How strongly the data prefer the chosen family (None: one family).
+    pub evidence: Option<Evidence>,
+    /// Notes on the choice (parsimony).
+    pub notes: Vec<String>,
 }
 
 /// A shooting start.
@@ -261,6 +285,10 @@ struct Problem<'a> {
     never_sticks: bool,
     stride: usize,
     evals: &'a std::cell::Cell<usize>,
+    /// Simulated stick samples and stick runs since the last reset.
+    sticks: std::cell::Cell<(usize, usize)>,
+    /// When set, the sample index of every compared sample is recorded.
+    idx: std::cell::RefCell<Option<Vec<usize>>>,
 }
 
 /// Residuals of one evaluation: (segment, r1, r2) per compared sample.
@@ -328,7 +356,14 @@ impl Problem<'_> {
         let fs = d.a * rig.k2;
         let ss = rig.k2 / rig.omega;
         let rd = law.rd_n / fs;
-        let rs = if self.never_sticks { rd } else { law.rs_n / fs };
+        // A log the segmentation calls never-sticking is still fitted with
+        // a free static threshold in the static-dynamic family: the
+        // simulator says where sticks happen.
+        let rs = if self.never_sticks && self.kind != LawKind::StaticDynamic {
+            rd
+        } else {
+            law.rs_n / fs
+        };
         if rd < 0.0 {
             return None;
         }
@@ -413,6 +448,9 @@ impl Problem<'_> {
             g: cx.g,
             off: cx.off,
             buf,
+            sticks: (0, 0),
+            sticking: false,
+            idx: self.idx.borrow().is_some().then(Vec::new),
         };
         let dur = (d.t[end] - d.t[i]) * w;
         let status = match &cx.sim {
@@ -435,6 +473,12 @@ impl Problem<'_> {
                 sim.run(init, dur, &mut obs).status
             }
         };
+        let sticks = obs.sticks;
+        if let (Some(v), Some(o)) = (self.idx.borrow_mut().as_mut(), obs.idx.as_ref()) {
+            v.extend_from_slice(o);
+        }
+        let c = self.sticks.get();
+        self.sticks.set((c.0 + sticks.0, c.1 + sticks.1));
         (status == Status::Completed).then_some(())
     }
 
@@ -631,6 +675,12 @@ struct Collect<'a, 'o> {
     g: (f64, f64),
     off: (f64, f64),
     buf: &'o mut Vec<f64>,
+    /// Compared samples at which the simulated M2 sticks (ζ2' = 0 exactly)
+    /// and the number of stick runs among them.
+    sticks: (usize, usize),
+    sticking: bool,
+    /// Indices of the compared samples, when recorded.
+    idx: Option<Vec<usize>>,
 }
 
 impl Observer for Collect<'_, '_> {
@@ -645,13 +695,24 @@ impl Observer for Collect<'_, '_> {
         }
         None
     }
-    fn sample(&mut self, _tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
+    fn sample(&mut self, _tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
         let d = self.d;
         let j = self.next;
         self.buf
             .push((d.x1[j] / self.g.0 - self.off.0 - d.a * x[0]) / d.sig.0);
         self.buf
             .push((d.x2[j] / self.g.1 - self.off.1 - d.a * x[2]) / d.sig.1);
+        let stuck = x[3] == 0.0 && dx[3] == 0.0;
+        if stuck {
+            self.sticks.0 += 1;
+            if !self.sticking {
+                self.sticks.1 += 1;
+            }
+        }
+        self.sticking = stuck;
+        if let Some(v) = self.idx.as_mut() {
+            v.push(j);
+        }
         self.next += self.stride;
     }
     fn wants_extremes(&self) -> bool {
@@ -693,6 +754,191 @@ fn student_t975(nu: f64) -> f64 {
 /// Integrated autocorrelation time of residuals within segments.
 fn tau_int(seg: &[u32], r: &[f64]) -> f64 {
     super::smooth::tau_int(r, usize::MAX, 20, |k, lag| seg[k + lag] == seg[k])
+}
+
+/// A BIC difference below this is no evidence either way (Kass–Raftery).
+const BIC_WEAK: f64 = 2.0;
+
+/// A BIC difference above this is very strong evidence (Kass–Raftery).
+const BIC_STRONG: f64 = 10.0;
+
+/// Simulated stick time (fraction of the compared samples) above which a
+/// law is said to stick in a log the segmentation called never-sticking.
+const MIN_STICK_FRACTION: f64 = 0.005;
+
+/// Largest residual/noise ratio of an adequate law. The noise comes from
+/// second differences, which see white noise only: on the public logs the
+/// right law leaves x2 at 1.2–1.4 times it (correlated sensor noise).
+pub const MAX_NOISE_RATIO: f64 = 2.0;
+
+/// Largest standardised structure statistic of an adequate law (the
+/// Wilson–Hilferty z of a binned χ²; 3.7 ≈ p = 1e-4 per test, about 1e-3
+/// over the eight tests).
+pub const MAX_STRUCTURE_Z: f64 = 3.7;
+
+/// Smallest structure (RMS of the bin means over the noise) that counts:
+/// the binned χ² is exquisitely sensitive with thousands of samples, and
+/// residuals correlated beyond the estimated autocorrelation time make it
+/// significant without mattering (the public in-family logs show effects
+/// up to 0.25 of the noise).
+pub const MAX_STRUCTURE_EFFECT: f64 = 0.5;
+
+/// Bins of each structure test.
+const STRUCTURE_BINS: usize = 12;
+
+/// How strongly the data prefer the chosen family.
+#[derive(Debug, Clone, Copy)]
+pub struct Evidence {
+    /// The best other family.
+    pub against: LawKind,
+    /// Its BIC minus the chosen one's (positive: the chosen is better;
+    /// 2–6 positive, 6–10 strong, > 10 very strong evidence).
+    pub delta_bic: f64,
+}
+
+impl Evidence {
+    /// The verbal grade of the difference (Kass–Raftery).
+    pub fn strength(&self) -> &'static str {
+        let d = self.delta_bic;
+        if d < 0.0 {
+            "simpler law preferred (slightly worse criterion)"
+        } else if d < 2.0 {
+            "weak"
+        } else if d < 6.0 {
+            "positive"
+        } else if d < 10.0 {
+            "strong"
+        } else {
+            "very strong"
+        }
+    }
+}
+
+/// One structure test: binned residual means against their noise.
+#[derive(Debug, Clone, Copy)]
+pub struct Structure {
+    /// `x1` or `x2`.
+    pub channel: &'static str,
+    /// `drive phase`, `velocity`, `position` or `time`.
+    pub against: &'static str,
+    /// χ² of the bin means per degree of freedom (≈ 1 without structure).
+    pub chi2_per_dof: f64,
+    /// Wilson–Hilferty standard score of that χ².
+    pub z: f64,
+    /// Size of the structure: RMS of the bin means in units of the noise,
+    /// less what the noise alone gives (0 when within the noise).
+    pub effect: f64,
+}
+
+impl Structure {
+    /// Significant (z above [`MAX_STRUCTURE_Z`]) and large (effect above
+    /// [`MAX_STRUCTURE_EFFECT`]).
+    pub fn flagged(&self) -> bool {
+        self.z > MAX_STRUCTURE_Z && self.effect > MAX_STRUCTURE_EFFECT
+    }
+}
+
+/// The adequacy verdict of a refined law.
+#[derive(Debug, Clone)]
+pub struct Adequacy {
+    /// RMS residual of x1, x2 over the sensor noise measured in the log
+    /// (second differences): ≈ 1 when the law explains the log.
+    pub noise_ratio: (f64, f64),
+    /// Robust (MAD) residual/noise ratios of x1, x2.
+    pub robust_ratio: (f64, f64),
+    /// The structure tests.
+    pub structure: Vec<Structure>,
+    /// Residuals at the noise (ratio ≤ [`MAX_NOISE_RATIO`]) and without
+    /// structure (no test [`Structure::flagged`]).
+    pub adequate: bool,
+    /// Factor applied to the statistical half-widths (1 when adequate,
+    /// else the largest of the noise ratios and √(χ²/dof)).
+    pub inflation: f64,
+}
+
+/// The adequacy of residuals `res` (in noise units) at samples `idx`.
+fn adequacy_of(d: &Data, res: &Res, idx: &[usize]) -> Adequacy {
+    let n = res.len() as f64;
+    let seg: Vec<u32> = res.iter().map(|r| r.0).collect();
+    let chans: [(&'static str, Vec<f64>); 2] = [
+        ("x1", res.iter().map(|r| r.1).collect()),
+        ("x2", res.iter().map(|r| r.2).collect()),
+    ];
+    let ratio = |r: &[f64]| (r.iter().map(|x| x * x).sum::<f64>() / n).sqrt();
+    let noise_ratio = (ratio(&chans[0].1), ratio(&chans[1].1));
+    let w = 2.0 * PI * d.freq;
+    let keys: [(&'static str, Vec<f64>); 4] = [
+        (
+            "drive phase",
+            idx.iter()
+                .map(|&j| (w * d.t[j] - d.phase).rem_euclid(2.0 * PI))
+                .collect(),
+        ),
+        ("velocity", idx.iter().map(|&j| d.v2s[j]).collect()),
+        ("position", idx.iter().map(|&j| d.x2s[j]).collect()),
+        ("time", idx.iter().map(|&j| d.t[j]).collect()),
+    ];
+    let mut structure = Vec::new();
+    for (name, r) in &chans {
+        let tau = tau_int(&seg, r).max(1.0);
+        let var = r.iter().map(|x| x * x).sum::<f64>() / n;
+        for (against, key) in &keys {
+            // Equal-count bins by the key's rank.
+            let mut order: Vec<usize> = (0..key.len()).filter(|&i| key[i].is_finite()).collect();
+            order.sort_by(|&a, &b| key[a].total_cmp(&key[b]));
+            let m = order.len();
+            if m < 10 * STRUCTURE_BINS {
+                continue;
+            }
+            let mut sums = [0.0f64; STRUCTURE_BINS];
+            let mut cnt = [0usize; STRUCTURE_BINS];
+            for (rank, &i) in order.iter().enumerate() {
+                let b = rank * STRUCTURE_BINS / m;
+                sums[b] += r[i];
+                cnt[b] += 1;
+            }
+            let chi2: f64 = (0..STRUCTURE_BINS)
+                .map(|b| {
+                    let c = cnt[b] as f64;
+                    let mean = sums[b] / c;
+                    mean * mean / (var * tau / c)
+                })
+                .sum();
+            let k = (STRUCTURE_BINS - 1) as f64;
+            let c = 2.0 / (9.0 * k);
+            let z = ((chi2 / k).cbrt() - (1.0 - c)) / c.sqrt();
+            let ms: f64 = (0..STRUCTURE_BINS)
+                .map(|b| sums[b] * sums[b] / cnt[b] as f64)
+                .sum::<f64>()
+                / m as f64;
+            let expected = var * tau * STRUCTURE_BINS as f64 / m as f64;
+            structure.push(Structure {
+                channel: name,
+                against,
+                chi2_per_dof: chi2 / k,
+                z,
+                effect: (ms - expected).max(0.0).sqrt(),
+            });
+        }
+    }
+    let worst_ratio = noise_ratio.0.max(noise_ratio.1);
+    let worst_chi = structure
+        .iter()
+        .map(|s| s.chi2_per_dof)
+        .fold(1.0f64, f64::max);
+    let adequate = worst_ratio <= MAX_NOISE_RATIO && !structure.iter().any(Structure::flagged);
+    let inflation = if adequate {
+        1.0
+    } else {
+        worst_ratio.max(worst_chi.sqrt()).max(1.0)
+    };
+    Adequacy {
+        noise_ratio,
+        robust_ratio: (mad_sigma(&chans[0].1), mad_sigma(&chans[1].1)),
+        structure,
+        adequate,
+        inflation,
+    }
 }
 
 /// The prepared refinement of one log.
@@ -918,6 +1164,8 @@ impl Refinement {
             never_sticks: self.never_sticks,
             stride: self.stride,
             evals: &self.evals,
+            sticks: std::cell::Cell::new((0, 0)),
+            idx: std::cell::RefCell::new(None),
         }
     }
 
@@ -997,6 +1245,11 @@ impl Refinement {
     /// Refines the families of `starts` (each with its equation-error law),
     /// chooses among them by the criterion unless `forced`, and computes
     /// the chosen law's intervals with the calibration budget `u`.
+    ///
+    /// The static-dynamic family (a static threshold above the sliding
+    /// level) is tried whatever the segmentation saw: where it found no
+    /// stick, the family starts from the Coulomb optimum with thresholds
+    /// 3–25 % above it, and the simulator decides where sticks happen.
     pub fn run(
         &self,
         starts: &[SiLaw],
@@ -1009,7 +1262,6 @@ impl Refinement {
         let mut start_rms = Vec::new();
         let kinds: Vec<LawKind> = match forced {
             Some(k) => vec![k],
-            None if self.never_sticks => vec![LawKind::Coulomb, LawKind::Decreasing],
             None => vec![
                 LawKind::Coulomb,
                 LawKind::Decreasing,
@@ -1018,16 +1270,32 @@ impl Refinement {
         };
         let mut last_err = String::from("no family to refine");
         for kind in kinds {
-            let Some(l) = starts.iter().find(|l| l.kind == kind) else {
-                continue;
+            let coulomb = fits
+                .iter()
+                .find(|f| f.0 == LawKind::Coulomb)
+                .map(|f| f.1.clone());
+            let law = match starts.iter().find(|l| l.kind == kind) {
+                Some(l) => *l,
+                // No equation-error start (a never-sticking segmentation):
+                // a threshold above the Coulomb optimum.
+                None => match (kind, &coulomb) {
+                    (LawKind::StaticDynamic, Some(tc)) => SiLaw {
+                        kind,
+                        rs_n: 1.1 * tc[0],
+                        rd_n: tc[0],
+                        slope_n_s_per_m: 0.0,
+                        vs_m_per_s: None,
+                    },
+                    _ => continue,
+                },
             };
-            let (th_ee, step) = Self::start(kind, l, bias);
+            let (th_ee, step) = Self::start(kind, &law, bias);
             // Nested starts: the richer families also start from the
             // Coulomb optimum (their law at its boundary, and with the
             // equation-error law's extra parameter), so a richer family
             // never ends worse than the simpler one it contains.
             let mut cands = vec![th_ee.clone()];
-            if let Some((_, tc, ..)) = fits.iter().find(|f| f.0 == LawKind::Coulomb) {
+            if let Some(tc) = &coulomb {
                 let r = tc[0];
                 let nuis = &tc[1..];
                 let mut push = |law: &[f64]| {
@@ -1047,7 +1315,17 @@ impl Refinement {
                     _ => {}
                 }
             }
-            match self.minimise(kind, &cands, &step) {
+            if let (LawKind::StaticDynamic, Some(tc)) = (kind, &coulomb) {
+                // Short sticks at reversal hide in a narrow basin of the
+                // threshold (the sticks appear only above the reversal
+                // force): the best of a screen of thresholds above the
+                // Coulomb level is one more start.
+                if let Some(g) = self.screen_thresholds(tc) {
+                    cands.push(g);
+                }
+            }
+            let result = self.minimise(kind, &cands, &step);
+            match result {
                 Ok((th, cost, it, proj)) => {
                     start_rms.push((kind, th_ee));
                     fits.push((kind, th, cost, it, proj));
@@ -1074,12 +1352,15 @@ impl Refinement {
         let tau = tau_int(&seg, &r1).max(tau_int(&seg, &r2));
         let n_eff = (n as f64 / tau).max(2.0);
         let mut families: Vec<FamilyFit> = Vec::new();
-        for (kind, th, cost, it, _) in &fits {
+        for (kind, th, cost, it, proj) in &fits {
             let prob = self.problem(&self.data, *kind);
             let (law, b, g1, g2) = prob.unpack(th);
             let k = law_params(*kind) as f64;
             let bic = n_eff * (cost / (2 * n) as f64).ln() + k * n_eff.ln();
             let rms = self.rms(&prob, th);
+            prob.sticks.set((0, 0));
+            let m = prob.eval(th, Some(proj), None).map_or(0, |_| n);
+            let (ss, runs) = prob.sticks.get();
             families.push(FamilyFit {
                 law,
                 bias_n: b,
@@ -1088,21 +1369,99 @@ impl Refinement {
                 bic,
                 rms_m: rms,
                 iterations: *it,
+                stick_fraction: if m > 0 { ss as f64 / m as f64 } else { 0.0 },
+                stick_runs: runs,
             });
         }
-        let best = (0..families.len())
-            .min_by(|&a, &b| families[a].bic.total_cmp(&families[b].bic))
+        // Parsimony: the simplest family within 2 of the lowest criterion
+        // (a difference below 2 is no evidence either way).
+        let bmin = families.iter().map(|f| f.bic).fold(f64::INFINITY, f64::min);
+        let mut best = (0..families.len())
+            .filter(|&a| families[a].bic <= bmin + BIC_WEAK)
+            .min_by(|&a, &b| {
+                law_params(families[a].law.kind)
+                    .cmp(&law_params(families[b].law.kind))
+                    .then(families[a].bic.total_cmp(&families[b].bic))
+            })
             .expect("non-empty");
-        let (kind, th, _, _, proj) = &fits[best];
+        // Overruling the segmentation's never-sticks verdict takes very
+        // strong evidence: a static threshold is kept only if it beats
+        // every stick-free family by more than BIC_STRONG.
+        if self.never_sticks && families[best].law.kind == LawKind::StaticDynamic {
+            let other = (0..families.len())
+                .filter(|&a| families[a].law.kind != LawKind::StaticDynamic)
+                .min_by(|&a, &b| families[a].bic.total_cmp(&families[b].bic));
+            if let Some(o) = other {
+                if families[o].bic - families[best].bic < BIC_STRONG {
+                    best = o;
+                }
+            }
+        }
+        let mut notes = Vec::new();
+        let sticks_of = |f: &FamilyFit| {
+            !self.never_sticks || (f.stick_fraction > MIN_STICK_FRACTION && f.stick_runs >= 4)
+        };
+        let mut adequacy = self.adequacy(fits[best].0, &fits[best].1, &fits[best].4)?;
+        let mut intervals = self
+            .intervals(
+                fits[best].0,
+                &fits[best].1,
+                &fits[best].4,
+                u,
+                sticks_of(&families[best]),
+                adequacy.inflation,
+            )
+            .ok_or("too few shooting segments for intervals")?;
+        // Parsimony, second rule: an extra parameter whose interval holds
+        // its nested value (D* = 0; ρs = ρd) is not supported by the data.
+        if forced.is_none() && families[best].law.kind != LawKind::Coulomb {
+            let l = families[best].law;
+            let nested = match l.kind {
+                LawKind::Decreasing => intervals
+                    .slope_n_s_per_m
+                    .is_some_and(|(lo, hi)| lo <= 0.0 && 0.0 <= hi),
+                LawKind::StaticDynamic => intervals.rs_n.is_some_and(|(lo, _)| lo <= l.rd_n),
+                _ => false,
+            };
+            if let Some(c) = fits.iter().position(|f| f.0 == LawKind::Coulomb) {
+                if nested {
+                    notes.push(format!(
+                        "the {} family's extra parameter is consistent with Coulomb friction (its 95 % interval holds the nested value): Coulomb chosen",
+                        l.kind.as_str()
+                    ));
+                    best = c;
+                    adequacy = self.adequacy(fits[c].0, &fits[c].1, &fits[c].4)?;
+                    intervals = self
+                        .intervals(
+                            fits[c].0,
+                            &fits[c].1,
+                            &fits[c].4,
+                            u,
+                            sticks_of(&families[c]),
+                            adequacy.inflation,
+                        )
+                        .ok_or("too few shooting segments for intervals")?;
+                }
+            }
+        }
+        let (kind, _, _, _, _) = &fits[best];
         let chosen = families[best].clone();
+        // How strongly the data prefer the chosen family over the best
+        // other one (BIC difference, Kass–Raftery scale).
+        let evidence = families
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != best)
+            .min_by(|a, b| a.1.bic.total_cmp(&b.1.bic))
+            .map(|(_, f)| Evidence {
+                against: f.law.kind,
+                delta_bic: f.bic - chosen.bic,
+            });
         let start_th = &start_rms.iter().find(|s| s.0 == *kind).expect("kept").1;
         let start_rms_m = self.rms(&self.problem(&self.data, *kind), start_th);
-        // Without honest intervals the refinement is not used.
-        let intervals = self
-            .intervals(*kind, th, proj, u)
-            .ok_or("too few shooting segments for intervals")?;
         Ok(OutputErrorFit {
             law: chosen.law,
+            sticks_found: sticks_of(&chosen),
             chosen,
             families,
             start_rms_m,
@@ -1113,7 +1472,52 @@ impl Refinement {
             evaluations: self.evals.get(),
             drive: self.data.drive,
             seconds: t0.elapsed().as_secs_f64(),
+            adequacy,
+            evidence,
+            notes,
         })
+    }
+
+    /// The best static-dynamic start on a grid of thresholds ρs above and
+    /// sliding levels ρd at or below the Coulomb optimum `tc` (θ of the
+    /// Coulomb family), costs taken with the start-state projection of the
+    /// Coulomb optimum (one simulation of the log per grid point).
+    fn screen_thresholds(&self, tc: &[f64]) -> Option<Vec<f64>> {
+        let prob = self.problem(&self.data, LawKind::StaticDynamic);
+        let r = tc[0];
+        let mut base = vec![r, r];
+        base.extend_from_slice(&tc[1..]);
+        let proj = prob.projection(&base, None)?;
+        let proj = prob.projection(&base, Some(&proj.corrected()))?;
+        let mut best: Option<(f64, Vec<f64>)> = None;
+        for fs in [1.02, 1.05, 1.08, 1.12, 1.17, 1.23, 1.3, 1.4, 1.55] {
+            for fd in [1.0, 0.98, 0.96, 0.93, 0.9, 0.86] {
+                let mut th = vec![fs * r, fd * r];
+                th.extend_from_slice(&tc[1..]);
+                if let Some(c) = prob.eval(&th, Some(&proj), None) {
+                    if best.as_ref().is_none_or(|b| c < b.0) {
+                        best = Some((c, th));
+                    }
+                }
+            }
+        }
+        best.map(|b| b.1)
+    }
+
+    /// The adequacy of a refined law: residuals of x1, x2 against the
+    /// sensor noise of the same log, and their structure against drive
+    /// phase, velocity, position along the stroke and time in the log.
+    fn adequacy(&self, kind: LawKind, th: &[f64], proj: &Proj) -> Result<Adequacy, String> {
+        let prob = self.problem(&self.data, kind);
+        let mut res = Res::new();
+        prob.idx.replace(Some(Vec::new()));
+        let ok = prob.eval(th, Some(proj), Some(&mut res));
+        let idx = prob.idx.take().unwrap_or_default();
+        ok.ok_or("the refined law cannot be simulated")?;
+        if idx.len() != res.len() || res.is_empty() {
+            return Err("residual bookkeeping failed".into());
+        }
+        Ok(adequacy_of(&self.data, &res, &idx))
     }
 
     /// RMS residuals (m) of x1 and x2 at θ, simulated from the measured
@@ -1130,7 +1534,15 @@ impl Refinement {
     }
 
     /// Sandwich intervals over segments plus the calibration budget.
-    fn intervals(&self, kind: LawKind, th: &[f64], proj: &Proj, u: f64) -> Option<Intervals> {
+    fn intervals(
+        &self,
+        kind: LawKind,
+        th: &[f64],
+        proj: &Proj,
+        u: f64,
+        rs_known: bool,
+        inflation: f64,
+    ) -> Option<Intervals> {
         let prob = self.problem(&self.data, kind);
         let p = th.len();
         let mut r0 = Res::new();
@@ -1298,10 +1710,11 @@ impl Refinement {
             }
             // Student t with K − p degrees of freedom for the sandwich part
             // (few clusters); the calibration part is a bound (normal).
-            let hw = (t975 * t975 * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
+            // An inadequate law: the statistical part widened by the misfit.
+            let ts = t975 * inflation;
+            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
             Some((q0[k] - hw, q0[k] + hw))
         };
-        let rs_known = !self.never_sticks;
         Some(Intervals {
             rs_n: iv(0, rs_known),
             rd_n: iv(1, true),

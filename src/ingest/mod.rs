@@ -117,12 +117,10 @@ impl Quantity {
         }
     }
 
-    /// Whether a log without it is refused (x0, x1, x2, v2).
+    /// Whether a log without it is refused (x0, x1, x2; the velocity v2
+    /// may be absent: identification then derives ẋ2 from x2).
     pub fn required(self) -> bool {
-        matches!(
-            self,
-            Quantity::X0 | Quantity::X1 | Quantity::X2 | Quantity::V2
-        )
+        matches!(self, Quantity::X0 | Quantity::X1 | Quantity::X2)
     }
 
     /// Whether it is a position channel (these set the common time base).

@@ -77,7 +77,7 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         .schema()
         .map_err(|e| pq_err(path, "unreadable Parquet schema", e))?;
     let names: Vec<String> = schema.iter_names().map(|n| n.to_string()).collect();
-    for q in ["t", "x0", "x1", "x2", "v2"] {
+    for q in ["t", "x0", "x1", "x2"] {
         if !names.iter().any(|n| n == q) {
             return Err(IngestError::invalid(
                 path,

@@ -120,7 +120,8 @@ pub struct Resampled {
     pub x1: Vec<f64>,
     /// Absorber mass displacement x2 (m).
     pub x2: Vec<f64>,
-    /// Absorber mass velocity (m/s).
+    /// Absorber mass velocity (m/s); all NaN when the log has no velocity
+    /// channel ([`Run::has_velocity`]).
     pub v2: Vec<f64>,
     /// Absorber mass acceleration (m/s²), if recorded.
     pub a2: Option<Vec<f64>>,
@@ -184,6 +185,10 @@ pub struct Run {
 }
 
 impl Run {
+    /// Whether the log has a velocity channel (v2 is optional).
+    pub fn has_velocity(&self) -> bool {
+        self.resampled.v2.iter().any(|v| v.is_finite())
+    }
     /// The recorded channel of a quantity.
     pub fn channel(&self, q: Quantity) -> Option<&Channel> {
         self.channels.iter().find(|c| c.quantity == q)
@@ -313,6 +318,10 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         match q {
             Quantity::A2 => warnings.push(
                 "no accelerometer channel (a2): acceleration must be derived from velocity"
+                    .to_string(),
+            ),
+            Quantity::V2 => warnings.push(
+                "no velocity channel (v2): identification derives the velocity of M2 from x2"
                     .to_string(),
             ),
             _ => warnings.push(format!("no {} channel", q.name())),

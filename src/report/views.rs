@@ -23,9 +23,10 @@ pub fn fit_view(
     if e.stuck {
         flags.push("stuck: only a lower bound on Rs".into());
     }
-    if e.never_sticks {
+    if f.never_sticks() {
         flags.push("never sticks: Rs only bounded".into());
     }
+    flags.push(adequacy_flag(f));
     flags.push(format!("N = {:.3} N", f.normal_force_n));
     flags.push(format!(
         "A = {:.4} mm (measured)",
@@ -225,4 +226,40 @@ pub fn law_text(l: &crate::model::Law) -> String {
         crate::model::Law::Stribeck { v_s, .. } => format!("{base}, v_s = {v_s:.4}"),
         _ => base,
     }
+}
+
+/// The adequacy verdict of a fit, as one flag of the report.
+pub fn adequacy_flag(f: &LogFit) -> String {
+    let mut s = if f.adequate() {
+        "adequate".to_string()
+    } else {
+        "NOT ADEQUATE".to_string()
+    };
+    if let Some(a) = &f.adequacy {
+        s.push_str(&format!(
+            ": residual/noise x1 {:.2}, x2 {:.2}",
+            a.noise_ratio.0, a.noise_ratio.1
+        ));
+        if let Some(st) = a
+            .structure
+            .iter()
+            .max_by(|p, q| p.effect.total_cmp(&q.effect))
+        {
+            s.push_str(&format!(
+                "; largest structure {:.2} of the noise ({} vs {}, z {:.1})",
+                st.effect, st.channel, st.against, st.z
+            ));
+        }
+        if a.inflation > 1.0 {
+            s.push_str(&format!("; intervals widened ×{:.2}", a.inflation));
+        }
+    } else if f.adequate() {
+        s.push_str(" (stuck: nothing slides to test)");
+    } else {
+        s.push_str(" (not tested: equation-error estimate)");
+    }
+    if !f.contradictions.is_empty() {
+        s.push_str("; contradicting bounds");
+    }
+    s
 }

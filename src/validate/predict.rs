@@ -283,7 +283,7 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
         });
     }
     let mut central = fit.law();
-    if f.never_sticks {
+    if fit.never_sticks() {
         central.rs_n = central.rd_n;
     }
     let u = if fit.gain_uncertainty.is_finite() {
@@ -326,7 +326,7 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
         } else {
             1.0
         };
-        if f.never_sticks {
+        if fit.never_sticks() {
             // The bounds (newtons) already hold the calibration margin.
             l.rd_n *= char_gain;
             let (lo, hi) = fit.rs_interval_n.unwrap_or((l.rd_n, l.rd_n));
