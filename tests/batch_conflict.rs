@@ -339,6 +339,17 @@ fn duplicates_count_once() {
 }
 
 /// Logs of two rigs: refused with one error line, accepted with the flag.
+/// The one `error: …` line of a failed command's stderr (asserted to be
+/// exactly one).
+fn single_error(stderr: &str) -> &str {
+    let errors: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("error: "))
+        .collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    errors[0]
+}
+
 #[test]
 fn mixed_rigs_refused_unless_allowed() {
     let dir = tempfile::tempdir().unwrap();
@@ -353,18 +364,14 @@ fn mixed_rigs_refused_unless_allowed() {
     let logs = vec![data("char_N4.mcap"), data("char_N7.2.mcap"), other.clone()];
     let (code, _, stderr) = batch(&logs, &[]);
     assert_eq!(code, Some(1), "{stderr}");
-    let errors: Vec<&str> = stderr
-        .lines()
-        .filter(|l| l.starts_with("error: "))
-        .collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
+    let error = single_error(&stderr);
     assert!(
-        errors[0].contains("k2_700.mcap")
-            && errors[0].contains("char_N4.mcap")
-            && errors[0].contains("K2")
-            && errors[0].contains("--allow-mixed-rigs"),
+        error.contains("k2_700.mcap")
+            && error.contains("char_N4.mcap")
+            && error.contains("K2")
+            && error.contains("--allow-mixed-rigs"),
         "{}",
-        errors[0]
+        error
     );
     assert!(!stderr.contains("panicked"));
     // Accepted with the flag, with the difference as a warning.
@@ -385,12 +392,8 @@ fn mixed_rigs_refused_unless_allowed() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
-    let errors: Vec<&str> = stderr
-        .lines()
-        .filter(|l| l.starts_with("error: "))
-        .collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("K2") && errors[0].contains("sweep_stepped_N4.mcap"));
+    let error = single_error(&stderr);
+    assert!(error.contains("K2") && error.contains("sweep_stepped_N4.mcap"));
     // run: a plan with both rigs.
     let plan = dir.path().join("plan.toml");
     std::fs::write(
@@ -408,12 +411,8 @@ fn mixed_rigs_refused_unless_allowed() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{stderr}");
-    let errors: Vec<&str> = stderr
-        .lines()
-        .filter(|l| l.starts_with("error: "))
-        .collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("K2") && errors[0].contains("k2_700.mcap"));
+    let error = single_error(&stderr);
+    assert!(error.contains("K2") && error.contains("k2_700.mcap"));
 }
 
 /// Two logs of two pads, one measured Rs each, 67 % apart: nothing says
