@@ -128,10 +128,13 @@ fn short_sticks_at_reversal_are_found_without_accelerometer() {
     assert!(rel(f.rho_s(), rs) < 0.03, "ρs {:?} vs {rs}", f.rho_s());
     assert!(rel(f.rho_d(), rd) < 0.03, "ρd {:?} vs {rd}", f.rho_d());
     // The forces' intervals (newtons, calibration budget included) hold
-    // the truth. The ρ intervals are far narrower (ρd ±0.009 %): on this
-    // seed the ρd interval misses the truth by 0.005 % (ρd −0.024 %), as a
-    // 95 % interval does on one log in twenty (fit_synth's repeatability
-    // study: 10 of 200); asserted here: within two half-widths.
+    // the truth. The ρ intervals are far narrower (ρd ±0.02 %) and hold
+    // the truth as often as a 95 % interval should: over 20 sensor draws
+    // of this case (`short_stick_repeatability`, release) the half-widths
+    // are 0.108 % (ρs) and 0.021 % (ρd) against 1.96 sd of the estimates,
+    // 0.101 % and 0.019 %, and each held 19 of 20. On this seed ρd misses
+    // by 0.005 % (the one in twenty); asserted here for the single log:
+    // within two half-widths (about 4 σ).
     let near = |iv: Option<Interval>, x: f64| {
         let (lo, hi) = iv.expect("interval");
         let (c, hw) = (0.5 * (lo + hi), 0.5 * (hi - lo));
@@ -340,6 +343,39 @@ struct Tally {
     report: Vec<String>,
 }
 
+/// The fit of the log at `path` as `stickslip fit --json` reports it: by
+/// the library, or by the binary `STUDY_BIN` when set (the same study run
+/// against an earlier build: the before/after comparison).
+fn fit_json(path: &Path) -> Result<serde_json::Value, String> {
+    match std::env::var_os("STUDY_BIN") {
+        Some(bin) => {
+            let out = std::process::Command::new(bin)
+                .arg("fit")
+                .arg(path)
+                .arg("--json")
+                .output()
+                .map_err(|e| e.to_string())?;
+            if !out.status.success() {
+                return Err(String::from_utf8_lossy(&out.stderr).trim().to_string());
+            }
+            let v: serde_json::Value =
+                serde_json::from_slice(&out.stdout).map_err(|e| e.to_string())?;
+            Ok(v["fits"][0].clone())
+        }
+        None => {
+            let run = ingest::read(path, &IngestOptions::default()).map_err(|e| e.to_string())?;
+            let f =
+                identify::fit_log(&run, &IdentifyOptions::default()).map_err(|e| e.to_string())?;
+            Ok(f.to_json(path))
+        }
+    }
+}
+
+/// `[low, high]` of a JSON interval.
+fn json_interval(v: &serde_json::Value) -> Option<Interval> {
+    Some((v.get(0)?.as_f64()?, v.get(1)?.as_f64()?))
+}
+
 fn study(first: u64, n: u64) -> Tally {
     let dir = tempfile::tempdir().unwrap();
     let mut t = Tally::default();
@@ -349,8 +385,10 @@ fn study(first: u64, n: u64) -> Tally {
         let sf = log.truth["stick_fraction"].as_f64().unwrap();
         let path = dir.path().join(format!("s{seed}.mcap"));
         synth::write(&log, &path).expect("write");
-        let run = ingest::read(&path, &IngestOptions::default()).expect("ingest");
-        let f = match identify::fit_log(&run, &IdentifyOptions::default()) {
+        let clock = std::time::Instant::now();
+        let fitted = fit_json(&path);
+        let seconds = clock.elapsed().as_secs_f64();
+        let f = match fitted {
             Ok(f) => f,
             Err(e) => {
                 t.report.push(format!("{label}: error {e}"));
@@ -360,26 +398,25 @@ fn study(first: u64, n: u64) -> Tally {
         t.cases += 1;
         let fr = &cfg.friction;
         let ss = (cfg.rig.k2_n_per_m * cfg.rig.m2_kg).sqrt();
+        let never_sticks = f["never_sticks"].as_bool() == Some(true);
+        let stuck = f["stuck"].as_bool() == Some(true);
+        // Builds before the adequacy check flag nothing.
+        let adequate = f["adequate"].as_bool() != Some(false);
         let mut line = format!(
-            "{label} sf {sf:.4} → {} ns {} stuck {} adequate {} ΔBIC {:?}",
-            f.law().kind.as_str(),
-            f.never_sticks(),
-            f.stuck(),
-            f.adequate(),
-            f.output_error
-                .as_ref()
-                .and_then(|o| o.evidence)
-                .map(|e| (e.against, e.delta_bic))
+            "{label} sf {sf:.4} → {} ns {never_sticks} stuck {stuck} adequate {} ΔBIC {} ({seconds:.2} s)",
+            f["law"].as_str().unwrap_or("?"),
+            f["adequate"],
+            f["law_evidence"]["delta_bic"]
         );
-        if f.never_sticks() && sf > 0.02 {
+        if never_sticks && sf > 0.02 {
             t.misclaims += 1;
             line.push_str(" NEVER-STICKS MISCLAIM");
         }
         let mut any_big = false;
-        let checks: [(Option<Interval>, f64, Option<f64>); 3] = if f.stuck() {
+        let checks: [(Option<Interval>, f64, Option<f64>); 3] = if stuck {
             [
                 (
-                    f.rs_lower_bound_n.map(|b| (b, f64::INFINITY)),
+                    f["r_s_lower_bound_n"].as_f64().map(|b| (b, f64::INFINITY)),
                     fr.rs_n,
                     None,
                 ),
@@ -388,9 +425,21 @@ fn study(first: u64, n: u64) -> Tally {
             ]
         } else {
             [
-                (f.rs_interval_n, fr.rs_n, Some(f.law().rs_n)),
-                (f.rd_interval_n, fr.rd_n, Some(f.law().rd_n)),
-                (f.dstar_interval, fr.slope_n_s_per_m / ss, f.dstar()),
+                (
+                    json_interval(&f["r_s_interval_n"]),
+                    fr.rs_n,
+                    f["r_s_n"].as_f64(),
+                ),
+                (
+                    json_interval(&f["r_d_interval_n"]),
+                    fr.rd_n,
+                    f["r_d_n"].as_f64(),
+                ),
+                (
+                    json_interval(&f["slope_interval"]),
+                    fr.slope_n_s_per_m / ss,
+                    f["slope"].as_f64(),
+                ),
             ]
         };
         // Stribeck pads: Rs and Rd are the law's; D* is not comparable
@@ -404,23 +453,24 @@ fn study(first: u64, n: u64) -> Tally {
             t.cover[k][0] += usize::from(held);
             if !held {
                 line.push_str(&format!(" miss[{k}] {iv:?} vs {x:.4}"));
-                if let (Some((lo, hi)), Some(e)) = (iv, est) {
-                    let hw = 0.5 * (hi - lo);
-                    if e.is_finite() && (e - x).abs() > 2.0 * hw {
-                        any_big = true;
+                match (iv, est) {
+                    (Some((lo, hi)), Some(e)) if lo <= hi => {
+                        let hw = 0.5 * (hi - lo);
+                        if (e - x).abs() > 2.0 * hw {
+                            any_big = true;
+                        }
                     }
-                } else {
-                    any_big = true;
+                    _ => any_big = true,
                 }
             }
         }
         if any_big {
             t.big_misses[0] += 1;
-            t.big_misses[1] += usize::from(!f.adequate());
+            t.big_misses[1] += usize::from(!adequate);
         }
         if in_family {
             t.in_family[0] += 1;
-            t.in_family[1] += usize::from(f.adequate());
+            t.in_family[1] += usize::from(adequate);
         }
         t.report.push(line);
     }
@@ -462,7 +512,7 @@ fn issue14_round_trips_small() {
 /// The large study (`just studies`; `STUDY_N` cases from `STUDY_FIRST`,
 /// default 60 from 1).
 #[test]
-#[ignore = "study: issue-14 regimes (60 logs; 40 took 12 min in a debug build on the loaded 2-core machine)"]
+#[ignore = "study: issue-14 regimes (60 logs, about 2.5 min in release)"]
 fn issue14_round_trip_study() {
     let n = std::env::var("STUDY_N")
         .ok()
@@ -472,5 +522,73 @@ fn issue14_round_trip_study() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1);
-    print(&study(first, n));
+    let t = study(first, n);
+    print(&t);
+    if std::env::var_os("STUDY_BIN").is_some() {
+        return; // an earlier build: numbers only
+    }
+    // The issue's targets: each interval holds the truth in ≥ 90 % of the
+    // cases; no never-sticks misclaim; every big miss flagged; ≥ 90 % of
+    // the in-family logs adequate.
+    let at_least_90 = |[held, of]: [usize; 2]| 10 * held >= 9 * of;
+    for (k, name) in ["Rs", "Rd", "D*"].iter().enumerate() {
+        assert!(at_least_90(t.cover[k]), "{name} {:?}", t.cover[k]);
+    }
+    assert_eq!(t.misclaims, 0);
+    assert_eq!(t.big_misses[0], t.big_misses[1]);
+    assert!(at_least_90(t.in_family), "{:?}", t.in_family);
+}
+
+/// Repeatability of the short-stick case under new sensor draws
+/// (`STUDY_N` draws, default 20): the spread of ρs, ρd against the
+/// reported half-widths, and how often the ρ and force intervals hold the
+/// truth.
+#[test]
+#[ignore = "study: 20 fits of the short-stick case (about 1 min in release)"]
+fn short_stick_repeatability() {
+    let n: u64 = std::env::var("STUDY_N")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20);
+    let dir = tempfile::tempdir().unwrap();
+    let friction = FrictionSpec {
+        rs_n: 1.008,
+        rd_n: 0.816,
+        slope_n_s_per_m: 0.0,
+        stribeck_velocity_m_per_s: None,
+    };
+    let (mut rho, mut hw, mut held) = ([vec![], vec![]], [vec![], vec![]], [0usize; 4]);
+    let rig = other_rig();
+    let fs = rig.drive_amplitude_true_m * rig.k2_n_per_m;
+    let truth = [friction.rs_n / fs, friction.rd_n / fs];
+    for seed in 100..100 + n {
+        let cfg = config(rig, friction, 2.4, sensors(seed, 1e-3, false), seed);
+        let (f, _) = fit(&cfg, dir.path(), None, false);
+        let ivs = [f.rho_s_interval, f.rho_d_interval];
+        let fivs = [
+            (f.rs_interval_n, friction.rs_n),
+            (f.rd_interval_n, friction.rd_n),
+        ];
+        for k in 0..2 {
+            let (lo, hi) = ivs[k].unwrap_or((f64::NAN, f64::NAN));
+            rho[k].push(0.5 * (lo + hi) / truth[k] - 1.0);
+            hw[k].push(0.5 * (hi - lo) / truth[k]);
+            held[k] += usize::from(inside(ivs[k], truth[k]));
+            held[2 + k] += usize::from(inside(fivs[k].0, fivs[k].1));
+        }
+    }
+    for (k, name) in ["ρs", "ρd"].iter().enumerate() {
+        let m = rho[k].iter().sum::<f64>() / n as f64;
+        let sd = (rho[k].iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n as f64 - 1.0)).sqrt();
+        let h = hw[k].iter().sum::<f64>() / n as f64;
+        eprintln!(
+            "{name}: mean error {:+.4} %, sd {:.4} %, mean half-width {:.4} % (≈ 1.96 sd would be {:.4} %); ρ interval held {}/{n}, force interval held {}/{n}",
+            100.0 * m,
+            100.0 * sd,
+            100.0 * h,
+            196.0 * sd,
+            held[k],
+            held[2 + k]
+        );
+    }
 }

@@ -106,6 +106,10 @@ pub struct Contact {
     pub a2_offset: f64,
     /// Lag removed from v2 relative to x2 (s; positive: v2 was late).
     pub v2_lag_s: f64,
+    /// The accelerometer alone (offset and lag removed; NaN where it has no
+    /// data), if there is one: the model-adequacy test compares it with
+    /// the simulated acceleration.
+    pub a2_sensor: Option<Vec<f64>>,
     /// Lag removed from a2 relative to v2 (s), if there is an accelerometer.
     pub a2_lag_s: Option<f64>,
     /// Where ẍ2 came from: `accelerometer` or `savitzky-golay`.
@@ -352,6 +356,7 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
     let dv2 = savgol(&v2, dt, half, 3, 1);
 
     let mut a2_offset = 0.0;
+    let mut a2_sensor = None;
     let (a2, a2_lag_s, source) = match &rs.a2 {
         Some(a) if run.has_acceleration => {
             let mut a_raw = scale(a, g.a2);
@@ -395,6 +400,7 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
                     "{filled} samples without accelerometer data use the differentiated velocity"
                 ));
             }
+            a2_sensor = Some(a_sh);
             (merged, Some(lag), "accelerometer")
         }
         _ => (dv2, None, "savitzky-golay"),
@@ -422,6 +428,7 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
         drive,
         v2_offset,
         a2_offset,
+        a2_sensor,
         v2_lag_s,
         a2_lag_s,
         acceleration_source: source,

@@ -657,7 +657,6 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         (plain_rss(&chosen.coef, chosen.kind, chosen.vs) / samples.len() as f64).sqrt();
     let candidates: Vec<SiLaw> = cands
         .iter()
-        .filter(|c| c.kind != LawKind::Stribeck)
         .map(to_law)
         .filter(|l| l.rd_n.is_finite() && l.rs_n.is_finite())
         .collect();

@@ -168,6 +168,8 @@ impl LogFit {
                 "noise_ratio_x2": num(a.noise_ratio.1),
                 "robust_ratio_x1": num(a.robust_ratio.0),
                 "robust_ratio_x2": num(a.robust_ratio.1),
+                "noise_ratio_force": a.force_ratio.map_or(Value::Null, num),
+                "robust_ratio_force": a.robust_force_ratio.map_or(Value::Null, num),
                 "max_noise_ratio": num(super::output_error::MAX_NOISE_RATIO),
                 "max_structure_z": num(super::output_error::MAX_STRUCTURE_Z),
                 "max_structure_effect": num(super::output_error::MAX_STRUCTURE_EFFECT),

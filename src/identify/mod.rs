@@ -521,12 +521,12 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     warnings.extend(base.contact.warnings.iter().cloned());
     warnings.extend(ef.warnings.iter().cloned());
 
-    // Output-error refinement (not for a stuck log: nothing slides; not
-    // for the Stribeck type: no closed form, and it is reported as a law
-    // the simple families do not describe).
+    // Output-error refinement (not for a stuck log: nothing slides). The
+    // Stribeck family is refined there only where no simple family
+    // explains the log, or when it is asked for.
     let mut output_error = None;
-    if opts.output_error && !ef.stuck && ef.law.kind != LawKind::Stribeck {
-        let forced = opts.fit.law.filter(|k| *k != LawKind::Stribeck);
+    if opts.output_error && !ef.stuck {
+        let forced = opts.fit.law;
         match output_error::Refinement::new(
             &base.contact,
             &run.resampled.x0,
@@ -641,10 +641,12 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                     )
                 });
             warnings.push(format!(
-                "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
+                "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
                 law.kind.as_str(),
                 a.noise_ratio.0,
                 a.noise_ratio.1,
+                a.force_ratio
+                    .map_or(String::new(), |r| format!(", force {r:.2}")),
                 output_error::MAX_NOISE_RATIO,
                 a.inflation
             ));

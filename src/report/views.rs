@@ -240,6 +240,9 @@ pub fn adequacy_flag(f: &LogFit) -> String {
             ": residual/noise x1 {:.2}, x2 {:.2}",
             a.noise_ratio.0, a.noise_ratio.1
         ));
+        if let Some(r) = a.force_ratio {
+            s.push_str(&format!(", force {r:.2}"));
+        }
         if let Some(st) = a
             .structure
             .iter()
