@@ -51,3 +51,9 @@ studies:
 # (seeded from datasets/; cargo-fuzz would need a nightly toolchain).
 fuzz:
     STICKSLIP_FUZZ_SECS=300 cargo test --release --test fuzz -- --nocapture
+
+# The golden record of every command's --json on datasets/ (issue 15):
+# compare with tests/golden/ (GOLDEN_RECORD=1 re-makes it, GOLDEN_RTOL
+# loosens the comparison to list numeric changes).
+golden:
+    cargo test --release --test golden -- --ignored --test-threads 2
