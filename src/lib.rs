@@ -2,29 +2,47 @@
 //!
 //! Turns rig logs of a passive vibration absorber with dry friction into
 //! validated friction models (Hartung, Schmieg & Vielsack, *Passive vibration
-//! absorber with dry friction*).
+//! absorber with dry friction*; where the model and the paper part:
+//! `docs/paper-and-model.md`).
 //!
-//! The crate is a pipeline; each stage is one module with one door
-//! (`run(input, config) -> Result<output>` on small typed structs):
+//! The crate is a pipeline. Data flow one way, through small typed structs:
 //!
 //! ```text
-//! log ──ingest──▶ Run ──identify──▶ Characteristic ──fit──▶ FittedLaw
-//! sweep log ──ingest──▶ Run ──measure──▶ MeasuredFrc         │
-//!                                           │         sim (exact engine)
-//!                                           ▼                │
-//!                                  validate: Score ◀── PredictedFrc ── report
+//! characteristic log ─ingest::read─▶ Run ─identify::fit_log─▶ LogFit ─┬─▶ batch::batch ─▶ Batch
+//!                                                                     │
+//! sweep log ─────────── ingest::read─▶ Run ──────┬──── validate::validate ─▶ Validation
+//!                                                │    (measured FRC against the FRC the
+//!                                                │     sim engine predicts from LogFit)
+//!                                                ▼
+//!                                 report (HTML page and figures of all of it)
 //! ```
 //!
-//! * [`ingest`]: rig logs (MCAP, CSV + channel map, Parquet) into one clean `Run`.
-//! * [`identify`]: contact force (eq. 7), stick/slip, friction-law fit with intervals.
+//! The stage doors:
+//!
+//! * [`ingest`]: [`ingest::read`] turns a rig log (MCAP, CSV + channel map,
+//!   Parquet) into one clean [`ingest::Run`].
+//! * [`identify`]: [`identify::fit_log`] gives the friction law of a
+//!   characteristic log with 95 % intervals and an adequacy verdict
+//!   ([`identify::LogFit`]); [`identify::characteristic`] the contact force
+//!   R(ẋ2) (eq. 7) and the stick/slip segmentation.
+//! * [`sim`]: the exact event-driven engine ([`sim::Sim`]), the numerical
+//!   engine, the paper's RK4, steady states and frequency-response curves
+//!   ([`sim::sweep`]).
+//! * [`validate`]: [`validate::validate`] scores a measured sweep against
+//!   the prediction of a fitted law ([`validate::Validation`]).
+//! * [`batch`]: [`batch::batch`] compares the logs of one pad at several
+//!   normal forces: μs, μd, conflicts, the worst case and the recommended
+//!   normal force ([`batch::Batch`]).
+//! * [`report`]: HTML pages and figures (plotters).
 //! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
-//! * [`sim`]: the exact event-driven engine, the paper's RK4 and closed forms.
 //! * [`synth`]: a virtual rig writing logs with known truth from the simulator.
-//! * [`cli`]: the thin command-line layer over the library.
+//! * [`cli`]: the command-line layer (parse, call the doors, print).
+//! * [`io`], [`error`]: atomic writes; the crate's error type.
 //!
 //! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
 //! ρ = R/(A·K2); SI units appear only at the edges (ingest, reports).
 
+pub mod batch;
 pub mod cli;
 pub mod error;
 pub mod identify;

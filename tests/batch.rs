@@ -19,9 +19,9 @@
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use stickslip::batch::{default_eta_range, drive_etas, worst_case};
 use stickslip::model::Absorber;
 use stickslip::sim::sweep::SteadyConfig;
-use stickslip::validate::batch::{default_eta_range, drive_etas, worst_case};
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

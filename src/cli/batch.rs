@@ -2,7 +2,7 @@
 //! log (in parallel), estimates μs and μd through the origin (stuck and
 //! never-sticking logs as censored data), and recommends the normal force
 //! whose worst-case main-mass amplitude over the drive range, robust to its
-//! own uncertainty, is smallest (see [`crate::validate::batch`]). A log that
+//! own uncertainty, is smallest (see [`crate::batch`]). A log that
 //! cannot be read or fitted gives its `error:` line and an entry with
 //! `error`; the batch is computed from the others and the exit status is 1.
 //! Logs whose rig constants differ by more than 1 % are refused unless
@@ -10,10 +10,10 @@
 //! same test in another format) counts once, with a warning. Conflicting
 //! logs are named in `conflicts` and μ is reported with and without them.
 
+use crate::batch::{self as vb, Batch, BatchOptions, MuFit, Worst};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, RigMeta};
 use crate::report::{batch_plot, batch_view, html, views};
-use crate::validate::batch::{self as vb, Batch, BatchOptions, MuFit, Worst};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;

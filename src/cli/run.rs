@@ -15,10 +15,10 @@
 //! Every log is read and fitted once, in parallel; a log that fails gives
 //! its `error:` line and the rest completes (exit 1 at the end).
 
+use crate::batch as vb;
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, Run};
 use crate::report::{batch_plot, batch_view, html, views};
-use crate::validate::batch as vb;
 use crate::validate::{self, ValidateOptions, Validation};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};

@@ -217,7 +217,7 @@ pub fn write_parquet(run: &Run, target: &Path) -> crate::Result<()> {
 
 /// Writes a rig table atomically: column `t` (s), then the named value
 /// columns (`None` written as null), with `meta` as the file's key-value
-/// metadata (the layout [`read`] and the Parquet ingest expect).
+/// metadata (the layout the Parquet ingest, [`crate::ingest::read`], expects).
 pub fn write_table(
     target: &Path,
     t: &[f64],

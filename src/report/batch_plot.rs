@@ -5,8 +5,8 @@
 //! with its window and the cliff where the η1 peak returns marked.
 
 use super::plot::{colour, plot_err, register_font};
+use crate::batch::{Batch, StaticObs};
 use crate::error::Result;
-use crate::validate::batch::{Batch, StaticObs};
 use plotters::prelude::*;
 use std::path::Path;
 

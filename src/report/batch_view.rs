@@ -3,11 +3,11 @@
 //! of the normal-force settings, the figure, warnings).
 
 use super::html::{fmt, fmt_interval, BatchView, KeyValue};
-use crate::validate::batch::{Batch, StaticObs};
+use crate::batch::{Batch, StaticObs};
 
 /// The headline lines of a batch (also printed by `stickslip batch`).
 pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
-    let mu = |m: &crate::validate::batch::MuFit| {
+    let mu = |m: &crate::batch::MuFit| {
         let mut s = format!(
             "{:.4}, 95 % {} (statistical {}, common calibration ±{:.1} %)",
             m.mu,
@@ -23,7 +23,7 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
         }
         s
     };
-    let aside = |pick: fn(&crate::validate::batch::BatchLog) -> bool| -> Vec<String> {
+    let aside = |pick: fn(&crate::batch::BatchLog) -> bool| -> Vec<String> {
         b.logs
             .iter()
             .filter(|l| pick(l))
@@ -147,7 +147,7 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
 /// The batch section of the report (settings ordered by normal force);
 /// `figure` is the figure's file name.
 pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
-    let mut logs: Vec<&crate::validate::batch::BatchLog> = b.logs.iter().collect();
+    let mut logs: Vec<&crate::batch::BatchLog> = b.logs.iter().collect();
     logs.sort_by(|x, y| x.normal_force_n.total_cmp(&y.normal_force_n));
     let header = [
         "log",

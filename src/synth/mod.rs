@@ -5,7 +5,7 @@
 //! ([`TestSpec`]: a characteristic test at one frequency after a warm-up, a
 //! stepped sweep with dwells and 0.5 s ramps, or a continuous linear chirp),
 //! samples the **exact** trajectory at each sensor's own sample times and
-//! passes it through a sensor model per channel ([`SensorModel`]). [`write`]
+//! passes it through a sensor model per channel ([`SensorModel`]). [`write()`]
 //! then writes the log as MCAP, DAQ CSV + channel map, or Parquet (the
 //! formats of `docs/rig-log-format.md`), atomically, and the ground
 //! truth into `truth.json` beside it.

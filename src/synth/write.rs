@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-/// The files [`write`] produced.
+/// The files [`write()`] produced.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Written {
     /// The log.

@@ -11,7 +11,6 @@
 //! * `batch`: friction coefficients from several normal-force settings of one
 //!   pad (censored where a log only bounds ρs) and the recommended setting.
 
-pub mod batch;
 pub mod frc;
 pub mod predict;
 

@@ -1,0 +1,552 @@
+//! What each fitted log says about μs and μd (points, bounds, their
+//! uncertainties) and the coefficient fit over the logs.
+
+use super::*;
+
+/// Half-width of an interval around `est`: mean of both sides.
+pub(super) fn half_width(est: f64, iv: Option<(f64, f64)>) -> Option<f64> {
+    let (l, h) = iv?;
+    let w = 0.5 * ((est - l).abs() + (h - est).abs());
+    (w.is_finite() && est.is_finite()).then_some(w)
+}
+
+/// Statistical σ and relative calibration half-width of one estimate from
+/// its bootstrap interval and its combined (bootstrap ⊕ calibration)
+/// interval. Without a bootstrap the combined interval stands in for σ.
+pub(super) fn split_sigma(
+    est: f64,
+    stat: Option<(f64, f64)>,
+    combined: Option<(f64, f64)>,
+) -> (Option<f64>, Option<f64>) {
+    let hs = half_width(est, stat);
+    let hc = half_width(est, combined);
+    match (hs, hc) {
+        (Some(s), Some(c)) if s > 0.0 => {
+            let cal = (c * c - s * s).max(0.0).sqrt();
+            (Some(s / 1.96), Some(cal / est.abs()))
+        }
+        (_, Some(c)) if c > 0.0 => (Some(c / 1.96), None),
+        _ => (None, None),
+    }
+}
+
+/// One log's observations. The batch reads the *equation-error* estimate
+/// and its intervals: its bootstrap separates the statistical part (which
+/// averages over logs) from the calibration part (common to the batch); the
+/// output-error refinement has no such split.
+pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
+    let e = &f.fit;
+    let oe = f.output_error.as_ref();
+    let n = f.normal_force_n;
+    let (rd_sigma, rd_cal) = split_sigma(e.law.rd_n, e.stat.rd, f.equation_error.rd_n);
+    let rd = if !e.stuck && e.law.rd_n.is_finite() {
+        rd_sigma.map(|s| (e.law.rd_n, s))
+    } else {
+        None
+    };
+    let mut rs_cal = None;
+    let static_obs = if e.stuck {
+        match e.rs_lower_bound_n {
+            Some(lb) if lb.is_finite() => StaticObs::Above { bound_n: lb },
+            _ => StaticObs::Unknown,
+        }
+    } else if e.never_sticks {
+        match (rd, e.rs_upper_bound_n) {
+            (Some((rdv, rds)), Some(ub)) if ub.is_finite() => StaticObs::Between {
+                low_n: rdv,
+                low_sigma_n: rds,
+                high_n: ub,
+            },
+            _ => StaticObs::Unknown,
+        }
+    } else {
+        let (s, c) = split_sigma(e.law.rs_n, e.stat.rs, f.equation_error.rs_n);
+        rs_cal = c;
+        match s {
+            Some(sigma) if e.law.rs_n.is_finite() && sigma > 0.0 => StaticObs::Point {
+                rs_n: e.law.rs_n,
+                sigma_n: sigma,
+            },
+            _ => StaticObs::Unknown,
+        }
+    };
+    if matches!(static_obs, StaticObs::Unknown) {
+        warnings.push(format!(
+            "{}: no usable static-friction information (no estimate, bound or interval)",
+            path.display()
+        ));
+    }
+    if !e.stuck && rd.is_none() {
+        warnings.push(format!(
+            "{}: no usable sliding level with an interval: left out of μd",
+            path.display()
+        ));
+    }
+    let ratio = |x: f64| (x.is_finite() && n > 0.0).then(|| x / n);
+    let mu_s = match static_obs {
+        StaticObs::Point { rs_n, .. } => (ratio(rs_n), None, None),
+        StaticObs::Above { .. } => (None, f.rs_lower_bound_n.and_then(ratio), None),
+        StaticObs::Between { .. } => (
+            None,
+            f.equation_error.rs_n.and_then(|i| ratio(i.0)),
+            f.equation_error.rs_n.and_then(|i| ratio(i.1)),
+        ),
+        StaticObs::Unknown => (None, None, None),
+    };
+    BatchLog {
+        log: path.to_path_buf(),
+        normal_force_n: n,
+        static_obs,
+        rd_n: rd,
+        calibration_rel: (rs_cal, rd_cal),
+        drive_amplitude_m: f.drive.amplitude_m,
+        rho_s: {
+            let r = e.law.rs_n / f.force_scale_n;
+            r.is_finite().then_some(r)
+        },
+        rho_s_lower_bound: f.rho_s_lower_bound,
+        rho_s_interval: f.equation_error.rho_s,
+        mu_s,
+        mu_d: rd.and_then(|(r, _)| ratio(r)),
+        model_rho_s: f64::NAN,
+        worst: None,
+        consistent: None,
+        estimate_disagreement: (
+            if matches!(static_obs, StaticObs::Point { .. }) {
+                estimate_disagreement(
+                    e.law.rs_n,
+                    f.equation_error.rs_n,
+                    oe.map(|o| (o.law.rs_n, o.intervals.rs_n)),
+                )
+            } else {
+                0.0
+            },
+            if rd.is_some() {
+                estimate_disagreement(
+                    e.law.rd_n,
+                    f.equation_error.rd_n,
+                    oe.map(|o| (o.law.rd_n, o.intervals.rd_n)),
+                )
+            } else {
+                0.0
+            },
+        ),
+        set_aside: (false, false),
+    }
+}
+
+/// Median of the relative σ of the Rs points (the precision given to bounds).
+pub(super) fn typical_rel_sigma(logs: &[BatchLog]) -> f64 {
+    let mut v: Vec<f64> = logs
+        .iter()
+        .filter_map(|l| match l.static_obs {
+            StaticObs::Point { rs_n, sigma_n } => Some(sigma_n / rs_n),
+            _ => None,
+        })
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .collect();
+    if v.is_empty() {
+        return 0.02;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Fit-weighted mean of the relative calibration half-widths.
+pub(super) fn common_calibration(items: &[(f64, f64, Option<f64>)]) -> f64 {
+    let (mut sw, mut s) = (0.0, 0.0);
+    for &(n, sigma, cal) in items {
+        if let Some(c) = cal {
+            let w = (n / sigma).powi(2);
+            if w.is_finite() && c.is_finite() {
+                sw += w;
+                s += w * c;
+            }
+        }
+    }
+    if sw > 0.0 {
+        s / sw
+    } else {
+        0.0
+    }
+}
+
+/// The coefficients of a batch: robust (conflicting logs set aside) and
+/// from every log, with the conflicts found.
+pub(super) struct Coefficients {
+    pub(super) mu_s: MuFit,
+    pub(super) mu_d: MuFit,
+    pub(super) mu_s_all: MuFit,
+    pub(super) mu_d_all: MuFit,
+    pub(super) conflicts: Vec<Conflict>,
+}
+
+/// The kind name of an observation in a conflict.
+pub(super) fn obs_kind(o: &Obs) -> &'static str {
+    match o {
+        Obs::Point { .. } => "point",
+        Obs::Above { .. } => "stuck bound",
+        Obs::Between { .. } => "never-sticks bound",
+    }
+}
+
+/// The conflicts of one quantity among `obs` (log `idx[i]` for each), with
+/// `kept` from [`robust_keep`].
+pub(super) fn find_conflicts(
+    quantity: &'static str,
+    obs: &[Obs],
+    idx: &[usize],
+    logs: &[BatchLog],
+    kept: &[bool],
+) -> Vec<Conflict> {
+    let n = obs.len();
+    let all = vec![true; n];
+    let name = |i: usize| {
+        logs[idx[i]].log.file_name().map_or_else(
+            || logs[idx[i]].log.display().to_string(),
+            |f| f.to_string_lossy().into_owned(),
+        )
+    };
+    let sym = if quantity == "mu_s" { "μs" } else { "μd" };
+    let r = if quantity == "mu_s" { "Rs" } else { "Rd" };
+    let mut out: Vec<Conflict> = Vec::new();
+    for k in 0..n {
+        let Some((t, _, rel, mu)) = loo(obs, &all, k) else {
+            continue;
+        };
+        if !in_conflict(obs, &all, k) {
+            continue;
+        }
+        let mut against: Vec<usize> = (0..n)
+            .filter(|&j| j != k && pair_tension(&obs[k], &obs[j]) > 3.0)
+            .collect();
+        if against.is_empty() {
+            against = (0..n)
+                .filter(|&j| j != k && matches!(obs[j], Obs::Point { .. }))
+                .collect();
+        }
+        let mut set: Vec<usize> = against.clone();
+        set.push(k);
+        set.sort_unstable();
+        let (nk, lo, hi) = limits(&obs[k]);
+        let says = match obs[k] {
+            Obs::Point { .. } => format!(
+                "{r} = {:.4} N ({r}/N = {:.4})",
+                lo.map_or(f64::NAN, |x| x.0),
+                lo.map_or(f64::NAN, |x| x.0) / nk
+            ),
+            Obs::Above { .. } => format!(
+                "stuck, so {r} > {:.4} N ({r}/N > {:.4})",
+                lo.map_or(f64::NAN, |x| x.0),
+                lo.map_or(f64::NAN, |x| x.0) / nk
+            ),
+            Obs::Between { .. } => format!(
+                "never sticks, so {:.4} N ≤ {r} < {:.4} N ({r}/N in [{:.4}, {:.4}])",
+                lo.map_or(f64::NAN, |x| x.0),
+                hi.map_or(f64::NAN, |x| x.0),
+                lo.map_or(f64::NAN, |x| x.0) / nk,
+                hi.map_or(f64::NAN, |x| x.0) / nk
+            ),
+        };
+        let names: Vec<String> = against.iter().map(|&j| name(j)).collect();
+        let what = format!(
+            "{}: {says}; the other logs ({}) give {sym} = {mu:.4}, {r} = {:.4} N at its {nk:.3} N: {t:.1}σ apart ({:+.1} %){}",
+            name(k),
+            names.join(", "),
+            mu * nk,
+            100.0 * rel,
+            if kept[k] { "" } else { "; set aside" }
+        );
+        let mut logs_v = vec![logs[idx[k]].log.clone()];
+        logs_v.extend(against.iter().map(|&j| logs[idx[j]].log.clone()));
+        // A pair found from both sides is one conflict: keep the side set aside.
+        if let Some(pos) = out.iter().position(|c| {
+            let mut v: Vec<usize> = c
+                .logs
+                .iter()
+                .filter_map(|p| idx.iter().position(|&q| &logs[q].log == p))
+                .collect();
+            v.sort_unstable();
+            v == set && c.kind == obs_kind(&obs[k])
+        }) {
+            if !kept[k] {
+                out[pos] = Conflict {
+                    quantity,
+                    kind: obs_kind(&obs[k]),
+                    logs: logs_v,
+                    size_sigma: t,
+                    size_rel: rel,
+                    set_aside: true,
+                    what,
+                };
+            }
+            continue;
+        }
+        out.push(Conflict {
+            quantity,
+            kind: obs_kind(&obs[k]),
+            logs: logs_v,
+            size_sigma: t,
+            size_rel: rel,
+            set_aside: !kept[k],
+            what,
+        });
+    }
+    out
+}
+
+/// Fits μs (censored) and μd of the logs, robustly: logs in conflict with
+/// the others are found ([`find_conflicts`]) and set aside where the data
+/// say which one is off ([`robust_keep`]); the fits from every log are
+/// kept beside. Fills each log's consistency and set-aside flags.
+pub(super) fn fit_coefficients(
+    logs: &mut [BatchLog],
+    normal_gain_u: f64,
+    warnings: &mut Vec<String>,
+) -> Result<Coefficients> {
+    let batch_err = |msg: String| Error::Input {
+        path: PathBuf::from("batch"),
+        msg,
+    };
+    let rel = typical_rel_sigma(logs);
+    // (log index, observation, calibration) per quantity.
+    let mut obs_s: Vec<(usize, Obs, Option<f64>)> = Vec::new();
+    let mut obs_d: Vec<(usize, Obs, Option<f64>)> = Vec::new();
+    for (i, l) in logs.iter().enumerate() {
+        let n = l.normal_force_n;
+        if !(n.is_finite() && n > 0.0) {
+            warnings.push(format!(
+                "{}: measured normal force {n} N is not positive: left out of the fits",
+                l.log.display()
+            ));
+            continue;
+        }
+        match l.static_obs {
+            StaticObs::Point { rs_n, sigma_n } => obs_s.push((
+                i,
+                Obs::Point {
+                    n,
+                    r: rs_n,
+                    s: sigma_n,
+                },
+                l.calibration_rel.0,
+            )),
+            StaticObs::Above { bound_n } => obs_s.push((
+                i,
+                Obs::Above {
+                    n,
+                    lb: bound_n,
+                    s: (bound_n * rel).max(1e-9),
+                },
+                None,
+            )),
+            StaticObs::Between {
+                low_n,
+                low_sigma_n,
+                high_n,
+            } => {
+                if high_n > low_n {
+                    obs_s.push((
+                        i,
+                        Obs::Between {
+                            n,
+                            lo: low_n,
+                            slo: low_sigma_n.max(1e-9),
+                            hi: high_n,
+                            shi: (high_n * rel).max(1e-9),
+                        },
+                        None,
+                    ));
+                } else {
+                    warnings.push(format!(
+                        "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
+                        l.log.display()
+                    ));
+                }
+            }
+            StaticObs::Unknown => {}
+        }
+        if let Some((r, s)) = l.rd_n {
+            if s > 0.0 {
+                obs_d.push((i, Obs::Point { n, r, s }, l.calibration_rel.1));
+            }
+        }
+    }
+    for l in logs.iter() {
+        for (q, z) in [
+            ("Rs", l.estimate_disagreement.0),
+            ("Rd", l.estimate_disagreement.1),
+        ] {
+            if z > 1.96 {
+                warnings.push(format!(
+                    "{}: its equation-error and output-error {q} differ by {z:.1}σ: the log's {q} is in doubt",
+                    l.log.display()
+                ));
+            }
+        }
+    }
+    let gain_n = 1.96 * normal_gain_u / 3f64.sqrt();
+    let mk = |items: &[&(usize, Obs, Option<f64>)], name: &str| -> Result<MuFit> {
+        let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+        let cal: Vec<(f64, f64, Option<f64>)> = items
+            .iter()
+            .filter_map(|x| match x.1 {
+                Obs::Point { n, s, .. } => Some((n, s, x.2)),
+                _ => None,
+            })
+            .collect();
+        let (mu, stat, birge, chi2) = fit_mu(&obs).ok_or_else(|| {
+            batch_err(format!(
+                "no log measures {name} (every log only bounds it, or none has an interval): cannot fit it"
+            ))
+        })?;
+        let sys = common_calibration(&cal).hypot(gain_n);
+        let points = point_obs(&obs);
+        Ok(MuFit {
+            mu,
+            interval: with_systematic(mu, stat, sys),
+            stat_interval: stat,
+            systematic_rel: sys,
+            birge,
+            chi2_per_dof: chi2,
+            points: points.len(),
+            censored: obs.len() - points.len(),
+            free: free_fit(&points),
+        })
+    };
+    let mut conflicts = Vec::new();
+    let mut fits = Vec::new();
+    for (quantity, items, name) in [
+        ("mu_s", &obs_s, "the static friction Rs"),
+        ("mu_d", &obs_d, "the sliding friction Rd"),
+    ] {
+        let all_refs: Vec<&(usize, Obs, Option<f64>)> = items.iter().collect();
+        let all = mk(&all_refs, name)?;
+        let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+        let idx: Vec<usize> = items.iter().map(|x| x.0).collect();
+        let doubt: Vec<f64> = idx
+            .iter()
+            .map(|&i| {
+                if quantity == "mu_s" {
+                    logs[i].estimate_disagreement.0
+                } else {
+                    logs[i].estimate_disagreement.1
+                }
+            })
+            .collect();
+        let (kept, resolved) = robust_keep(&obs, &doubt);
+        let found = find_conflicts(quantity, &obs, &idx, logs, &kept);
+        let kept_refs: Vec<&(usize, Obs, Option<f64>)> = items
+            .iter()
+            .zip(&kept)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| x)
+            .collect();
+        let robust = mk(&kept_refs, name)?;
+        for (k, &i) in kept.iter().zip(&idx) {
+            if !k {
+                if quantity == "mu_s" {
+                    logs[i].set_aside.0 = true;
+                } else {
+                    logs[i].set_aside.1 = true;
+                }
+            }
+        }
+        let sym = if quantity == "mu_s" { "μs" } else { "μd" };
+        if !found.is_empty() && !resolved {
+            warnings.push(format!(
+                "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
+            ));
+        }
+        if kept.iter().any(|k| !k) {
+            warnings.push(format!(
+                "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
+                robust.mu, robust.interval.0, robust.interval.1, all.mu, all.interval.0, all.interval.1
+            ));
+        }
+        let mut found = found;
+        if robust.birge > 1.5 {
+            let pts: Vec<usize> = (0..obs.len())
+                .filter(|&i| kept[i] && matches!(obs[i], Obs::Point { .. }))
+                .collect();
+            let rels: Vec<f64> = pts
+                .iter()
+                .map(|&i| match obs[i] {
+                    Obs::Point { n, r, .. } => r / n / robust.mu - 1.0,
+                    _ => 0.0,
+                })
+                .collect();
+            let rms = (rels.iter().map(|x| x * x).sum::<f64>() / rels.len().max(1) as f64).sqrt();
+            found.push(Conflict {
+                quantity,
+                kind: "scatter",
+                logs: pts.iter().map(|&i| logs[idx[i]].log.clone()).collect(),
+                size_sigma: robust.birge,
+                size_rel: rms,
+                set_aside: false,
+                what: format!(
+                    "{sym}: the measured logs scatter {:.1}× more than their own intervals say ({:.2} % RMS about {sym} = {:.4}): σ inflated by that factor",
+                    robust.birge,
+                    100.0 * rms,
+                    robust.mu
+                ),
+            });
+        }
+        conflicts.extend(found);
+        fits.push((robust, all));
+    }
+    let (mu_d, mu_d_all) = fits.pop().expect("two fits");
+    let (mu_s, mu_s_all) = fits.pop().expect("two fits");
+    let n_points_s = mu_s.points;
+    if n_points_s < 2 {
+        warnings.push(format!(
+            "μs rests on {n_points_s} measured log(s) (the others only bound it): its interval is wide"
+        ));
+    }
+    for (name, m) in [("μs", &mu_s), ("μd", &mu_d)] {
+        if let Some((_, a, hw)) = m.free {
+            if a.abs() > hw {
+                warnings.push(format!(
+                    "{name}: the free fit's intercept {a:.4} N is significant (95 % half-width {hw:.4} N): the forces are not proportional to the measured normal force (normal-force offset?)"
+                ));
+            }
+        }
+    }
+    for c in &conflicts {
+        warnings.push(format!("conflict: {}", c.what));
+    }
+    if mu_d.mu > mu_s.mu {
+        warnings.push(format!(
+            "μd = {:.4} exceeds μs = {:.4}: the recommendation uses ρd = ρs",
+            mu_d.mu, mu_s.mu
+        ));
+    }
+    // Censored logs: do their bounds agree with the fitted μs?
+    for l in logs.iter_mut() {
+        let n = l.normal_force_n;
+        let (lo, hi) = (mu_s.interval.0 * n, mu_s.interval.1 * n);
+        l.consistent = match l.static_obs {
+            StaticObs::Above { .. } => l.mu_s.1.map(|b| hi >= b * n),
+            StaticObs::Between { .. } => match (l.mu_s.1, l.mu_s.2) {
+                (Some(a), Some(b)) => Some(hi >= a * n && lo <= b * n),
+                _ => None,
+            },
+            _ => None,
+        };
+        if l.consistent == Some(false) {
+            warnings.push(format!(
+                "{}: its bound on Rs disagrees with the fitted μs interval [{:.4}, {:.4}]",
+                l.log.display(),
+                mu_s.interval.0,
+                mu_s.interval.1
+            ));
+        }
+    }
+    Ok(Coefficients {
+        mu_s,
+        mu_d,
+        mu_s_all,
+        mu_d_all,
+        conflicts,
+    })
+}
