@@ -1,6 +1,7 @@
-//! # Validate: measured frequency response, predictions, scores, batches
+//! # Validate: measured frequency response, predictions, scores
 //!
-//! This stage owns everything after a fitted law exists:
+//! This stage owns the comparison of a fitted law with a measured sweep
+//! (the comparison of several normal-force settings is [`crate::batch`]):
 //!
 //! * `frc`: the measured frequency-response curve of a sweep log (stepped
 //!   or continuous), with the data's own call whether each step settled and
@@ -8,8 +9,6 @@
 //! * `predict`: the steady-state prediction at the measured η and the replay
 //!   of the sweep as it was run, each with a 95 % band from the fit's
 //!   uncertainty; the score against the measured response.
-//! * `batch`: friction coefficients from several normal-force settings of one
-//!   pad (censored where a log only bounds ρs) and the recommended setting.
 
 pub mod frc;
 pub mod predict;
