@@ -8,6 +8,7 @@ test:
 lint:
     cargo clippy --all-targets -- -D warnings
     cargo fmt --all -- --check
+    cargo check --lib --no-default-features
 
 # Criterion benchmarks (engine, Fig. 3 family, ingest) and the
 # work-precision study.

@@ -36,13 +36,16 @@
 //! * [`report`]: HTML pages and figures (plotters).
 //! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
 //! * [`synth`]: a virtual rig writing logs with known truth from the simulator.
-//! * [`cli`]: the command-line layer (parse, call the doors, print).
+//! * `cli` (feature `cli`, on by default): the command-line layer (parse,
+//!   call the doors, print); `cargo build --lib --no-default-features`
+//!   builds the library without clap and indicatif.
 //! * [`io`], [`error`]: atomic writes; the crate's error type.
 //!
 //! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
 //! ρ = R/(A·K2); SI units appear only at the edges (ingest, reports).
 
 pub mod batch;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
 pub mod identify;
