@@ -16,27 +16,15 @@
 //! ratio variants) and 100 bootstrap replicates so the debug build stays
 //! fast; the μ fits do not depend on the grid.
 
+mod common;
+
+use common::{data, f, truth};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 use stickslip::batch::{default_eta_range, drive_etas, worst_case};
 use stickslip::model::Absorber;
 use stickslip::sim::sweep::SteadyConfig;
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("datasets")
-        .join(name)
-}
-
-fn truth() -> Value {
-    let text = std::fs::read_to_string(data("truth.json")).expect("truth.json");
-    serde_json::from_str(&text).expect("truth.json parses")
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
-}
 
 fn pair(v: &Value) -> (f64, f64) {
     (f(&v[0]), f(&v[1]))

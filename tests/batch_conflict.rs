@@ -23,19 +23,12 @@
 //!   `error:` line naming the logs and the constant) and accepted by
 //!   `batch` with `--allow-mixed-rigs`.
 
+mod common;
+
+use common::{data, f};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("datasets")
-        .join(name)
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
-}
 
 /// Sensors of the other rig: typical noise, velocity noise 1 mm/s, no
 /// accelerometer, small gain and offset errors.

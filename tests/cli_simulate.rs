@@ -1,11 +1,9 @@
 //! `stickslip simulate` through the binary: the interface's JSON keys, the
 //! exit codes, and the event/trajectory files.
 
-use std::process::Command;
+mod common;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stickslip"))
-}
+use common::bin;
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
     let d = std::env::temp_dir().join(format!("stickslip-test-{}-{name}", std::process::id()));

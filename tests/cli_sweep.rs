@@ -1,12 +1,11 @@
 //! `stickslip sweep` and `merge` through the binary: the interface's JSON,
 //! figures, and a sharded study merged back to exactly the unsharded table.
 
+mod common;
+
+use common::bin;
 use std::process::Command;
 use stickslip::report::table::read_frc;
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_stickslip"))
-}
 
 #[test]
 fn json_curves_have_the_interface_keys() {

@@ -12,28 +12,12 @@
 //! measured one, so ρ truths here are `rs_n / (A_true·K2)` (truth.json's
 //! `rho_s_true_amplitude`), and the force checks use newtons.
 
+mod common;
+
+use common::{data, f, truth};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("datasets")
-        .join(name)
-}
-
-fn truth() -> &'static Value {
-    static T: OnceLock<Value> = OnceLock::new();
-    T.get_or_init(|| {
-        let text = std::fs::read_to_string(data("truth.json")).expect("truth.json");
-        serde_json::from_str(&text).expect("truth.json parses")
-    })
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
-}
 
 /// Every public characteristic log (CSV and Parquet copies included).
 fn characteristic_logs() -> Vec<String> {

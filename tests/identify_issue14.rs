@@ -103,6 +103,15 @@ fn inside(iv: Option<Interval>, x: f64) -> bool {
     matches!(iv, Some((lo, hi)) if lo <= x && x <= hi)
 }
 
+/// The static/dynamic pad that sticks briefly at every reversal on the
+/// other rig at 2.4 Hz.
+const SHORT_STICK_PAD: FrictionSpec = FrictionSpec {
+    rs_n: 1.008,
+    rd_n: 0.816,
+    slope_n_s_per_m: 0.0,
+    stribeck_velocity_m_per_s: None,
+};
+
 /// Short sticks at reversal (about 7 % of the time, 10–20 ms each), no
 /// accelerometer, 1 mm/s of velocity noise: the velocity alone shows no
 /// stick; the output-error simulation finds them, measures ρs and ρd
@@ -110,12 +119,7 @@ fn inside(iv: Option<Interval>, x: f64) -> bool {
 #[test]
 fn short_sticks_at_reversal_are_found_without_accelerometer() {
     let dir = tempfile::tempdir().unwrap();
-    let friction = FrictionSpec {
-        rs_n: 1.008,
-        rd_n: 0.816,
-        slope_n_s_per_m: 0.0,
-        stribeck_velocity_m_per_s: None,
-    };
+    let friction = SHORT_STICK_PAD;
     let cfg = config(other_rig(), friction, 2.4, sensors(7, 1e-3, false), 7);
     let (f, sf) = fit(&cfg, dir.path(), None, false);
     eprintln!("stick fraction {sf:.3}; {:?}", f.warnings);
@@ -551,12 +555,7 @@ fn short_stick_repeatability() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
     let dir = tempfile::tempdir().unwrap();
-    let friction = FrictionSpec {
-        rs_n: 1.008,
-        rd_n: 0.816,
-        slope_n_s_per_m: 0.0,
-        stribeck_velocity_m_per_s: None,
-    };
+    let friction = SHORT_STICK_PAD;
     let (mut rho, mut hw, mut held) = ([vec![], vec![]], [vec![], vec![]], [0usize; 4]);
     let rig = other_rig();
     let fs = rig.drive_amplitude_true_m * rig.k2_n_per_m;

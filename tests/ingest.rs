@@ -3,32 +3,16 @@
 //! ground truth of every file). The CLI is exercised through the built
 //! binary; numeric comparisons use the library's `ingest::read`.
 
+mod common;
+
+use common::{data, f, truth};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-use std::sync::OnceLock;
 use stickslip::ingest::{self, IngestOptions, Quantity, Run};
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("datasets")
-        .join(name)
-}
-
-fn truth() -> &'static Value {
-    static T: OnceLock<Value> = OnceLock::new();
-    T.get_or_init(|| {
-        let text = std::fs::read_to_string(data("truth.json")).expect("truth.json");
-        serde_json::from_str(&text).expect("truth.json parses")
-    })
-}
 
 fn entry(file: &str) -> &'static Value {
     &truth()["files"][file]
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }
 
 fn u(v: &Value) -> usize {

@@ -3,14 +3,11 @@
 //! text, never as markup; the report opens offline, leaves no temporary
 //! files, and refuses to overwrite an input.
 
+mod common;
+
+use common::data;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("datasets")
-        .join(name)
-}
 
 /// A copy of the CSV characteristic log whose `notes` hold a script.
 fn log_with_script(dir: &Path) -> PathBuf {

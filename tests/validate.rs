@@ -13,32 +13,16 @@
 //! * the HTML report: written, escaped, offline; `stickslip run` on the
 //!   bundled plan.
 
+mod common;
+
+use common::{data, f, truth};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-use std::sync::OnceLock;
 use stickslip::identify::{LawKind, SiLaw};
 use stickslip::ingest::{self, IngestOptions};
 use stickslip::validate::frc::{self, FrcOptions};
 use stickslip::validate::predict::{predict_with, PredictOptions};
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("datasets")
-        .join(name)
-}
-
-fn truth() -> &'static Value {
-    static T: OnceLock<Value> = OnceLock::new();
-    T.get_or_init(|| {
-        let text = std::fs::read_to_string(data("truth.json")).expect("truth.json");
-        serde_json::from_str(&text).expect("truth.json parses")
-    })
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
-}
 
 /// The true law of a truth entry, in SI.
 fn true_law(t: &Value) -> SiLaw {

@@ -12,11 +12,10 @@
 
 use crate::batch::{self as vb, Batch, BatchOptions, MuFit, Worst};
 use crate::identify::{self, IdentifyOptions, LogFit};
-use crate::ingest::{self, IngestOptions, RigMeta};
+use crate::ingest::RigMeta;
 use crate::report::{batch_plot, batch_view, html, views};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use rayon::prelude::*;
 use serde_json::{json, Value};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -359,21 +358,6 @@ pub fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
     o
 }
 
-/// Reads and fits one log; a panic becomes an error naming the log.
-fn read_fit(log: &Path, opts: &IdentifyOptions) -> crate::Result<(RigMeta, LogFit)> {
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        let run = ingest::read(log, &IngestOptions::default())?;
-        let f = identify::fit_log(&run, opts)?;
-        Ok((run.rig, f))
-    }));
-    r.unwrap_or_else(|_| {
-        Err(crate::Error::Input {
-            path: log.to_path_buf(),
-            msg: "internal error while fitting this log".into(),
-        })
-    })
-}
-
 /// Writes the report directory: the batch section with its figure and one
 /// section per fit.
 fn write_report(
@@ -441,12 +425,9 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
     bar.set_message("fitting logs");
     let fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = args
         .logs
-        .par_iter()
-        .map(|p| {
-            let r = read_fit(p, &iopts);
-            bar.inc(1);
-            (p.clone(), r)
-        })
+        .iter()
+        .cloned()
+        .zip(identify::fit_logs(&args.logs, &iopts, &|| bar.inc(1)))
         .collect();
     let mut errors = Vec::new();
     let mut good: Vec<(PathBuf, LogFit)> = Vec::new();

@@ -3,7 +3,6 @@
 //! the others complete, and the exit status is 1 at the end.
 
 use crate::identify::{self, IdentifyOptions, LawKind, LogFit};
-use crate::ingest::{self, IngestOptions};
 use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
@@ -92,59 +91,24 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
         output_error: args.estimate == EstimateChoice::OutputError,
         ..Default::default()
     };
-    let one = |log: &PathBuf| -> crate::Result<LogFit> {
-        let run = ingest::read(log, &IngestOptions::default())?;
-        identify::fit_log(&run, &opts)
-    };
-    // Parallel over logs, at most as many threads as cores.
-    let threads = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .min(args.logs.len())
-        .max(1);
-    let mut results: Vec<Option<crate::Result<LogFit>>> =
-        (0..args.logs.len()).map(|_| None).collect();
-    let next = std::sync::atomic::AtomicUsize::new(0);
-    let slots: Vec<std::sync::Mutex<Option<crate::Result<LogFit>>>> = (0..args.logs.len())
-        .map(|_| std::sync::Mutex::new(None))
-        .collect();
-    std::thread::scope(|s| {
-        for _ in 0..threads {
-            s.spawn(|| loop {
-                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                if i >= args.logs.len() {
-                    break;
-                }
-                let r =
-                    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| one(&args.logs[i])))
-                        .unwrap_or_else(|_| {
-                            Err(crate::Error::Input {
-                                path: args.logs[i].clone(),
-                                msg: "internal error while fitting this log".into(),
-                            })
-                        });
-                *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
-            });
-        }
-    });
-    for (r, s) in results.iter_mut().zip(slots) {
-        *r = s.into_inner().unwrap_or_else(|e| e.into_inner());
-    }
+    // Parallel over logs, each panic-guarded (one failing log does not
+    // stop the others).
+    let results = identify::fit_logs(&args.logs, &opts, &|| {});
     let mut failed = false;
     let mut fits = Vec::new();
     for (log, r) in args.logs.iter().zip(results) {
         match r {
-            Some(Ok(f)) => {
+            Ok((_, f)) => {
                 if !args.json {
                     eprintln!("{}", summary(log, &f));
                 }
                 fits.push(entry(log, &f));
             }
-            Some(Err(e)) => {
+            Err(e) => {
                 eprintln!("error: {e}");
                 failed = true;
                 fits.push(json!({"log": log.display().to_string(), "error": e.to_string()}));
             }
-            None => unreachable!("every slot is filled"),
         }
     }
     let out = json!({ "fits": fits });

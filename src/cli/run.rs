@@ -170,17 +170,26 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     }
     bar.set_message("fitting friction laws");
     let opts = IdentifyOptions::default();
+    // The logs that were read are fitted (in parallel, panic-guarded);
+    // the others keep their read error.
+    let read: Vec<&Run> = chars
+        .iter()
+        .filter_map(|p| runs[*p].as_ref().ok())
+        .collect();
+    let mut fitted = identify::fit_runs(&read, &opts, &|| bar.inc(1)).into_iter();
     let fits: BTreeMap<PathBuf, crate::Result<LogFit>> = chars
-        .par_iter()
+        .iter()
         .map(|p| {
             let f = match &runs[*p] {
-                Ok(run) => identify::fit_log(run, &opts),
-                Err(e) => Err(crate::Error::Input {
-                    path: (*p).clone(),
-                    msg: format!("not read: {e}"),
-                }),
+                Ok(_) => fitted.next().expect("one fit per log read"),
+                Err(e) => {
+                    bar.inc(1);
+                    Err(crate::Error::Input {
+                        path: (*p).clone(),
+                        msg: format!("not read: {e}"),
+                    })
+                }
             };
-            bar.inc(1);
             ((*p).clone(), f)
         })
         .collect();

@@ -144,7 +144,9 @@ pub use output_error::{OeOptions, OutputErrorFit};
 pub use segment::Segmentation;
 
 use crate::error::{Error, Result};
-use crate::ingest::{Run, TestKind};
+use crate::ingest::{RigMeta, Run, TestKind};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
 
 /// Half-width (samples) of the velocity smoothing used for segmentation.
 const SMOOTH_DEGREE: usize = 3;
@@ -410,6 +412,55 @@ fn quantities(f: &EquationFit, a: f64, k2: f64, ss: f64) -> [f64; 8] {
         f.rs_lower_bound_n.unwrap_or(f64::NAN),
         f.rs_upper_bound_n.unwrap_or(f64::NAN),
     ]
+}
+
+/// Runs `f` for the log at `path`; a panic inside it becomes that log's
+/// error (naming it) instead of ending the program.
+fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|_| {
+        Err(Error::Input {
+            path: path.to_path_buf(),
+            msg: "internal error while fitting this log".into(),
+        })
+    })
+}
+
+/// Reads and fits several logs in parallel (rayon; results in the order
+/// of `paths`, the same whatever the thread count). A log that cannot be
+/// read or fitted, or whose fit panics, gives its own error; the others
+/// complete. `tick` is called once per log done (progress).
+pub fn fit_logs(
+    paths: &[PathBuf],
+    opts: &IdentifyOptions,
+    tick: &(dyn Fn() + Sync),
+) -> Vec<Result<(RigMeta, LogFit)>> {
+    paths
+        .par_iter()
+        .map(|p| {
+            let r = guarded(p, || {
+                let run = crate::ingest::read(p, &crate::ingest::IngestOptions::default())?;
+                let f = fit_log(&run, opts)?;
+                Ok((run.rig, f))
+            });
+            tick();
+            r
+        })
+        .collect()
+}
+
+/// Fits logs already read, in parallel, panic-guarded as [`fit_logs`].
+pub fn fit_runs(
+    runs: &[&Run],
+    opts: &IdentifyOptions,
+    tick: &(dyn Fn() + Sync),
+) -> Vec<Result<LogFit>> {
+    runs.par_iter()
+        .map(|run| {
+            let r = guarded(&run.source, || fit_log(run, opts));
+            tick();
+            r
+        })
+        .collect()
 }
 
 /// Fits the friction law of one characteristic log with 95 % intervals

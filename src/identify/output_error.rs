@@ -1962,21 +1962,28 @@ mod tests {
     use crate::ingest::{self, IngestOptions};
     use crate::synth::{self, FrictionSpec, Sensors, SynthConfig, TestSpec};
 
-    /// `stickslip synth --ideal-sensors` of a law, read back and fitted.
-    fn ideal_fit(friction: FrictionSpec) -> (SynthConfig, super::super::LogFit) {
+    /// `stickslip synth --ideal-sensors` of a law (`duration_s` logged at
+    /// 1.72 Hz), read back.
+    fn ideal_run(friction: FrictionSpec, duration_s: f64) -> (SynthConfig, crate::ingest::Run) {
         let mut cfg = SynthConfig::paper(3);
         cfg.sensors = Sensors::ideal();
         cfg.friction = friction;
         cfg.test = TestSpec::Characteristic {
             frequency_hz: 1.72,
             warmup_s: 20.0,
-            duration_s: 12.0,
+            duration_s,
         };
         let log = synth::generate(&cfg).expect("generate");
         let dir = tempfile::tempdir().expect("tempdir");
         let path = dir.path().join("ideal.mcap");
         synth::write(&log, &path).expect("write");
         let run = ingest::read(&path, &IngestOptions::default()).expect("ingest");
+        (cfg, run)
+    }
+
+    /// The same, fitted (12 s logged).
+    fn ideal_fit(friction: FrictionSpec) -> (SynthConfig, super::super::LogFit) {
+        let (cfg, run) = ideal_run(friction, 12.0);
         let fit = fit_log(&run, &IdentifyOptions::default()).expect("fit");
         (cfg, fit)
     }
@@ -1987,24 +1994,13 @@ mod tests {
     /// compared sample (drive phase, time origin and velocity scale agree).
     #[test]
     fn the_numerical_path_reproduces_the_exact_one() {
-        let mut cfg = SynthConfig::paper(3);
-        cfg.sensors = Sensors::ideal();
-        cfg.friction = FrictionSpec {
+        let friction = FrictionSpec {
             rs_n: 1.2,
             rd_n: 1.2,
             slope_n_s_per_m: -3.0,
             stribeck_velocity_m_per_s: None,
         };
-        cfg.test = TestSpec::Characteristic {
-            frequency_hz: 1.72,
-            warmup_s: 20.0,
-            duration_s: 6.0,
-        };
-        let log = synth::generate(&cfg).expect("generate");
-        let dir = tempfile::tempdir().expect("tempdir");
-        let path = dir.path().join("ideal.mcap");
-        synth::write(&log, &path).expect("write");
-        let run = ingest::read(&path, &IngestOptions::default()).expect("ingest");
+        let (_, run) = ideal_run(friction, 6.0);
         let ch = crate::identify::characteristic(&run, &Gains::default()).expect("contact");
         let r = Refinement::new(
             &ch.contact,

@@ -1,0 +1,35 @@
+//! Helpers shared by the integration tests. Each test crate includes this
+//! module (`mod common;`) and uses what it needs, so some helpers are
+//! unused in some crates.
+#![allow(dead_code)]
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// A file of the bundled data set (`datasets/`).
+pub fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("datasets")
+        .join(name)
+}
+
+/// `datasets/truth.json`, parsed once per test crate.
+pub fn truth() -> &'static Value {
+    static T: OnceLock<Value> = OnceLock::new();
+    T.get_or_init(|| {
+        let text = std::fs::read_to_string(data("truth.json")).expect("truth.json");
+        serde_json::from_str(&text).expect("truth.json parses")
+    })
+}
+
+/// The `stickslip` binary of this build.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_stickslip"))
+}
+
+/// A JSON number (panics with the value otherwise).
+pub fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
