@@ -54,6 +54,7 @@ pub mod io;
 pub mod model;
 pub mod report;
 pub mod sim;
+pub mod stats;
 pub mod synth;
 pub mod validate;
 

@@ -4,14 +4,9 @@
 use super::*;
 
 /// The two-sided 99.73 % ("3σ") quantile of Student's t with `dof` degrees
-/// of freedom (3 for dof = 0, meaning σ known).
+/// of freedom (the normal 3.0 for dof = 0, meaning σ known).
 pub(super) fn t9973(dof: usize) -> f64 {
-    const T: [f64; 10] = [235.8, 19.21, 9.22, 6.62, 5.51, 4.90, 4.53, 4.28, 4.09, 3.96];
-    match dof {
-        0 => 3.0,
-        d if d <= 10 => T[d - 1],
-        d => 3.0 + 9.6 / d as f64,
-    }
+    crate::stats::student_t_quantile(0.998_65, dof as f64)
 }
 
 /// A limit on R (value, σ), in newtons, if there is one.

@@ -96,16 +96,7 @@ pub(super) fn bisect(mut good: f64, mut bad: f64, iters: usize, pred: impl Fn(f6
 /// The 97.5 % quantile of Student's t with `dof` degrees of freedom (the
 /// normal 1.96 for dof = 0, meaning σ known).
 pub(super) fn t975(dof: usize) -> f64 {
-    const T: [f64; 30] = [
-        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
-        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
-        2.052, 2.048, 2.045, 2.042,
-    ];
-    match dof {
-        0 => 1.959_964,
-        d if d <= 30 => T[d - 1],
-        _ => 1.959_964,
-    }
+    crate::stats::student_t_quantile(0.975, dof as f64)
 }
 
 /// Weighted straight line R = a + μN with the intercept's 95 % half-width
