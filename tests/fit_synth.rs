@@ -9,6 +9,9 @@
 //! Logs whose absorber never slides or never sticks are skipped (they only
 //! bound ρs; their semantics are tested on the public data set).
 
+mod common;
+
+use common::env_or;
 use std::path::Path;
 use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
@@ -283,14 +286,8 @@ fn synth_round_trips_cover_the_truth() {
 #[test]
 #[ignore = "study: 200 random round trips (about 2 minutes in release)"]
 fn synth_round_trip_study() {
-    let n = std::env::var("STUDY_N")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(200);
-    let first = std::env::var("STUDY_FIRST")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
+    let n = env_or("STUDY_N", 200);
+    let first = env_or("STUDY_FIRST", 1);
     let t = study(first, n);
     for r in &t.report {
         eprintln!("{r}");
@@ -321,10 +318,7 @@ fn synth_round_trip_study() {
 #[ignore = "study: repeatability under new sensor draws"]
 fn synth_repeatability_study() {
     let dir = tempfile::tempdir().unwrap();
-    let n: u64 = std::env::var("STUDY_N")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(20);
+    let n: u64 = env_or("STUDY_N", 20);
     let (mut e_s, mut e_d, mut miss) = (Vec::new(), Vec::new(), [0, 0]);
     for seed in 0..n {
         let mut cfg = SynthConfig::paper(seed);

@@ -11,6 +11,9 @@
 //! and the forces in newtons, ρ·A_measured·K2, carry the drive gain in
 //! their intervals: see docs/interface.md).
 
+mod common;
+
+use common::env_or;
 use std::path::Path;
 use stickslip::identify::fit::LawKind;
 use stickslip::identify::smooth::Rng;
@@ -518,14 +521,8 @@ fn issue14_round_trips_small() {
 #[test]
 #[ignore = "study: issue-14 regimes (60 logs, about 2.5 min in release)"]
 fn issue14_round_trip_study() {
-    let n = std::env::var("STUDY_N")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(60);
-    let first = std::env::var("STUDY_FIRST")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(1);
+    let n = env_or("STUDY_N", 60);
+    let first = env_or("STUDY_FIRST", 1);
     let t = study(first, n);
     print(&t);
     if std::env::var_os("STUDY_BIN").is_some() {
@@ -550,10 +547,7 @@ fn issue14_round_trip_study() {
 #[test]
 #[ignore = "study: 20 fits of the short-stick case (about 1 min in release)"]
 fn short_stick_repeatability() {
-    let n: u64 = std::env::var("STUDY_N")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(20);
+    let n: u64 = env_or("STUDY_N", 20);
     let dir = tempfile::tempdir().unwrap();
     let friction = SHORT_STICK_PAD;
     let (mut rho, mut hw, mut held) = ([vec![], vec![]], [vec![], vec![]], [0usize; 4]);
