@@ -684,6 +684,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             let worst = a
                 .structure
                 .iter()
+                .filter(|s| s.counted())
                 .max_by(|p, q| p.effect.total_cmp(&q.effect))
                 .map_or(String::new(), |st| {
                     format!(

@@ -896,6 +896,11 @@ impl Structure {
     pub fn flagged(&self) -> bool {
         self.z > MAX_STRUCTURE_Z && self.effect > MAX_STRUCTURE_EFFECT
     }
+    /// Counted in the verdict: the positions' tests are, the force's
+    /// (accelerometer) tests are reported only.
+    pub fn counted(&self) -> bool {
+        self.channel != "force"
+    }
 }
 
 /// The adequacy verdict of a refined law.
@@ -1058,7 +1063,7 @@ fn adequacy_of(d: &Data, res: &Res, idx: &[(usize, f64)]) -> Adequacy {
     // counting the force's structure tests marked 3 of 45 in-family logs
     // of the issue-14 study inadequate whose positions are explained.
     let worst_ratio = noise_ratio.0.max(noise_ratio.1);
-    let counted = |s: &&Structure| s.channel != "force";
+    let counted = |s: &&Structure| s.counted();
     let adequate =
         worst_ratio <= MAX_NOISE_RATIO && !structure.iter().filter(counted).any(Structure::flagged);
     let worst_chi = structure

@@ -246,6 +246,7 @@ pub fn adequacy_flag(f: &LogFit) -> String {
         if let Some(st) = a
             .structure
             .iter()
+            .filter(|s| s.counted())
             .max_by(|p, q| p.effect.total_cmp(&q.effect))
         {
             s.push_str(&format!(
