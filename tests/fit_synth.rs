@@ -16,7 +16,7 @@ use std::path::Path;
 use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
 use stickslip::ingest::{self, IngestOptions};
-use stickslip::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
+use stickslip::synth::{self, FrictionSpec, RigSpec, Sensors, SynthConfig, TestSpec};
 
 /// Uniform deviate in [a, b) from the project's SplitMix64 generator
 /// (deterministic cases).
@@ -90,11 +90,7 @@ fn random_case(seed: u64) -> (SynthConfig, String) {
             duration_s: 20.0,
         },
         sensors,
-        seed,
-        format: LogFormat::Mcap,
-        table_rate_hz: 1000.0,
-        csv_shift_s: Default::default(),
-        rtol: 1e-10,
+        ..SynthConfig::paper(seed)
     };
     let label = format!(
         "seed {seed}: {name} Rs {rs:.3} Rd {rd:.3} D* {:+.3} (ρs {:.2}), η {eta:.3}, noise ×{noise:.2}, accel {accel}",

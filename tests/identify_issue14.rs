@@ -64,11 +64,17 @@ fn config(
             duration_s: 20.0,
         },
         sensors,
-        seed,
-        format: LogFormat::Mcap,
-        table_rate_hz: 1000.0,
-        csv_shift_s: Default::default(),
-        rtol: 1e-10,
+        ..SynthConfig::paper(seed)
+    }
+}
+
+/// A pad without slope or Stribeck peak: static Rs, sliding Rd (N).
+fn pad(rs_n: f64, rd_n: f64) -> FrictionSpec {
+    FrictionSpec {
+        rs_n,
+        rd_n,
+        slope_n_s_per_m: 0.0,
+        stribeck_velocity_m_per_s: None,
     }
 }
 
@@ -169,12 +175,7 @@ fn short_sticks_at_reversal_are_found_without_accelerometer() {
 #[test]
 fn a_coulomb_pad_is_named_coulomb() {
     let dir = tempfile::tempdir().unwrap();
-    let friction = FrictionSpec {
-        rs_n: 0.95,
-        rd_n: 0.95,
-        slope_n_s_per_m: 0.0,
-        stribeck_velocity_m_per_s: None,
-    };
+    let friction = pad(0.95, 0.95);
     let cfg = config(other_rig(), friction, 2.2, sensors(3, 1e-3, false), 3);
     let (f, sf) = fit(&cfg, dir.path(), None, false);
     eprintln!("stick fraction {sf:.3}; {:?}", f.warnings);
@@ -237,12 +238,7 @@ fn a_wrong_law_is_flagged_and_its_intervals_carry_the_misfit() {
 #[test]
 fn a_log_without_velocity_is_fitted_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();
-    let friction = FrictionSpec {
-        rs_n: 1.2,
-        rd_n: 0.95,
-        slope_n_s_per_m: 0.0,
-        stribeck_velocity_m_per_s: None,
-    };
+    let friction = pad(1.2, 0.95);
     let cfg = config(other_rig(), friction, 2.2, sensors(11, 4e-4, false), 11);
     let (f, sf) = fit(&cfg, dir.path(), None, true);
     eprintln!("stick fraction {sf:.3}; {:?}", f.warnings);
