@@ -420,15 +420,25 @@ impl Problem<'_> {
         };
         // The exact engine where the law is linear in each phase; the
         // numerical engine (same event logic) for a Stribeck law.
-        let sim = match (d.drive, law) {
-            (DriveModel::Harmonic, Law::Linear { .. }) => {
-                Some(Sim::new(&model, 2.0 * PI * d.freq / rig.omega).ok()?)
+        // Both set up once per parameter vector; each segment only sets
+        // the drive's phase.
+        let eta = 2.0 * PI * d.freq / rig.omega;
+        let (sim, numeric) = match (d.drive, law) {
+            (DriveModel::Harmonic, Law::Linear { .. }) => (Some(Sim::new(&model, eta).ok()?), None),
+            (DriveModel::Harmonic, _) => {
+                let drive = Drive::Harmonic {
+                    eta,
+                    phase: 0.0,
+                    amplitude: 1.0,
+                };
+                (None, Some(NumericSim::new(&model, drive, NUMERIC).ok()?))
             }
-            _ => None,
+            (DriveModel::Sampled, _) => (None, None),
         };
         let (p1, p2) = self.offsets(bias, g1, g2);
         Some(Ctx {
             sim,
+            numeric,
             model,
             rs: rs.max(rd),
             g: (g1, g2),
@@ -501,13 +511,11 @@ impl Problem<'_> {
         let status = match (&cx.sim, d.drive) {
             (Some(sim), _) => sim.run_span(init, phase, 1.0, dur, &mut obs).status,
             (None, DriveModel::Harmonic) => {
-                let drive = Drive::Harmonic {
-                    eta: 2.0 * PI * d.freq / w,
-                    phase,
-                    amplitude: 1.0,
-                };
-                let sim = NumericSim::new(&cx.model, drive, NUMERIC).ok()?;
-                sim.run(init, dur, &mut obs).status
+                cx.numeric
+                    .as_ref()?
+                    .with_phase(phase)?
+                    .run(init, dur, &mut obs)
+                    .status
             }
             (None, DriveModel::Sampled) => {
                 let hi = (end + 3).min(d.x0.len());
@@ -680,7 +688,10 @@ struct Refined {
 
 /// The model and offsets of one parameter vector.
 struct Ctx {
+    /// The exact engine (harmonic drive, linear law).
     sim: Option<Sim>,
+    /// The numerical engine (harmonic drive, Stribeck law), drive phase 0.
+    numeric: Option<NumericSim>,
     model: Model,
     /// Static threshold used (dimensionless).
     rs: f64,

@@ -122,6 +122,23 @@ impl NumericSim {
         })
     }
 
+    /// The same engine with its harmonic drive's phase set to `phase`,
+    /// keeping the per-model set-up (modal rates, step bound); `None` for
+    /// other drives.
+    pub fn with_phase(&self, phase: f64) -> Option<Self> {
+        match self.drive {
+            Drive::Harmonic { eta, amplitude, .. } => Some(Self {
+                drive: Drive::Harmonic {
+                    eta,
+                    phase,
+                    amplitude,
+                },
+                ..self.clone()
+            }),
+            _ => None,
+        }
+    }
+
     fn rhs(&self, mode: Mode, t: f64, x: &[f64; 4]) -> [f64; 4] {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
