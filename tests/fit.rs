@@ -464,3 +464,27 @@ fn the_output_error_estimate_is_used_and_both_are_reported() {
         );
     }
 }
+
+#[test]
+fn law_names_are_the_contract_spelling() {
+    // `--law` takes `auto` or a law name as the `law` key spells it; any
+    // other spelling is refused by the parser, with the names listed.
+    let res = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args(["fit", "--law", "static_dynamic"])
+        .arg(data("char_N4.mcap"))
+        .output()
+        .unwrap();
+    assert_eq!(res.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&res.stderr);
+    for name in ["auto", "coulomb", "decreasing", "static-dynamic", "stribeck"] {
+        assert!(stderr.contains(name), "{name} not listed: {stderr}");
+    }
+    let res = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        .args(["fit", "--json", "--bootstrap", "0", "--law", "coulomb"])
+        .arg(data("char_N4.mcap"))
+        .output()
+        .unwrap();
+    assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
+    let v: Value = serde_json::from_slice(&res.stdout).unwrap();
+    assert_eq!(v["fits"][0]["law"], "coulomb");
+}

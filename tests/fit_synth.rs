@@ -156,7 +156,7 @@ fn round_trip(seed: u64, dir: &Path) -> Option<Outcome> {
     let xr = [f.rs_n / fs, f.rd_n / fs, f.slope_n_s_per_m / ss];
     let ivr = [fit.rho_s_interval, fit.rho_d_interval, fit.dstar_interval];
     let rho_hits = [0, 1, 2].map(|k| inside(ivr[k], xr[k]));
-    let law = fit.law();
+    let law = fit.law().expect("a sliding law");
     let report = format!(
         "{label} a {:.3}\n    {} {}: Rs {:.4} {:?} Rd {:.4} {:?} a {:.3} {:?} | EE {} Rs {:.4} Rd {:.4} a {:.3} {:?} OE {:?}",
         f.slope_n_s_per_m,

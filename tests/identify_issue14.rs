@@ -15,10 +15,10 @@ mod common;
 
 use common::env_or;
 use std::path::Path;
-use stickslip::identify::fit::LawKind;
 use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
 use stickslip::ingest::{self, IngestOptions};
+use stickslip::model::LawKind;
 use stickslip::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
 
 /// The other rig of the issue (other masses and springs, drive 2 mm).
@@ -134,7 +134,7 @@ fn short_sticks_at_reversal_are_found_without_accelerometer() {
     eprintln!("stick fraction {sf:.3}; {:?}", f.warnings);
     assert!(sf > 0.02 && sf < 0.15, "the case must stick briefly: {sf}");
     assert!(!f.never_sticks(), "{:?}", f.warnings);
-    assert_eq!(f.law().kind, LawKind::StaticDynamic, "{:?}", f.warnings);
+    assert_eq!(f.kind(), LawKind::StaticDynamic, "{:?}", f.warnings);
     let fs = cfg.rig.drive_amplitude_true_m * cfg.rig.k2_n_per_m;
     let (rs, rd) = (friction.rs_n / fs, friction.rd_n / fs);
     let rel = |x: Option<f64>, t: f64| (x.expect("value") / t - 1.0).abs();
@@ -179,7 +179,7 @@ fn a_coulomb_pad_is_named_coulomb() {
     let cfg = config(other_rig(), friction, 2.2, sensors(3, 1e-3, false), 3);
     let (f, sf) = fit(&cfg, dir.path(), None, false);
     eprintln!("stick fraction {sf:.3}; {:?}", f.warnings);
-    assert_eq!(f.law().kind, LawKind::Coulomb, "{:?}", f.output_error);
+    assert_eq!(f.kind(), LawKind::Coulomb, "{:?}", f.output_error);
     assert!(
         inside(f.rd_interval_n, friction.rd_n),
         "{:?}",
@@ -204,7 +204,7 @@ fn a_wrong_law_is_flagged_and_its_intervals_carry_the_misfit() {
     };
     let cfg = config(other_rig(), friction, 2.2, sensors(5, 4e-4, true), 5);
     let (f, _) = fit(&cfg, dir.path(), Some(LawKind::Coulomb), false);
-    assert_eq!(f.law().kind, LawKind::Coulomb);
+    assert_eq!(f.kind(), LawKind::Coulomb);
     assert!(!f.adequate(), "{:?}", f.adequacy);
     let json = f.to_json(Path::new("x.mcap"));
     assert_eq!(json["adequate"], false);
@@ -218,12 +218,12 @@ fn a_wrong_law_is_flagged_and_its_intervals_carry_the_misfit() {
     ideal.sensors = Sensors::ideal();
     ideal.sensors.a2 = None;
     let (g, _) = fit(&ideal, dir.path(), Some(LawKind::Coulomb), false);
-    let best = g.law().rd_n;
+    let best = g.law().expect("a sliding law").rd_n;
     let holds = inside(f.rd_interval_n, best);
     let says = f.warnings.iter().any(|w| w.contains("cannot"));
     eprintln!(
         "forced Coulomb {:.4} N {:?}; ideal-sensor best {best:.4} N",
-        f.law().rd_n,
+        f.law().expect("a sliding law").rd_n,
         f.rd_interval_n
     );
     assert!(
@@ -247,7 +247,7 @@ fn a_log_without_velocity_is_fitted_with_a_warning() {
         "{:?}",
         f.warnings
     );
-    assert_eq!(f.law().kind, LawKind::StaticDynamic);
+    assert_eq!(f.kind(), LawKind::StaticDynamic);
     assert!(
         inside(f.rs_interval_n, friction.rs_n),
         "{:?}",

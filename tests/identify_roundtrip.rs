@@ -227,8 +227,6 @@ fn known_laws_are_recovered_within_tolerance_and_intervals() {
     for (i, (law, accel, family)) in cases.iter().enumerate() {
         let run = synth(law, *accel, 100 + i as u64);
         let fit = identify::fit_log(&run, &IdentifyOptions::default()).expect("fit");
-        // The estimate used downstream (the output-error refinement).
-        let e = fit.law();
         let label = format!("case {i} ({family}, accel {accel})");
         assert!(
             !fit.stuck() && !fit.never_sticks(),
@@ -237,6 +235,8 @@ fn known_laws_are_recovered_within_tolerance_and_intervals() {
             fit.never_sticks(),
             fit.notes
         );
+        // The estimate used downstream (the output-error refinement).
+        let e = fit.law().expect("a sliding law");
         assert_eq!(fit.estimate, identify::Estimate::OutputError, "{label}");
         assert_eq!(
             e.kind.as_str(),
@@ -309,7 +309,7 @@ fn a_distorted_drive_is_simulated_as_sampled() {
     let o = fit.output_error.as_ref().expect("refined");
     assert_eq!(o.drive.as_str(), "sampled");
     assert_eq!(fit.estimate, identify::Estimate::OutputError);
-    let l = fit.law();
+    let l = fit.law().expect("a sliding law");
     assert_eq!(l.kind.as_str(), "static-dynamic", "{:?}", o.families);
     for (name, x, t, iv) in [
         ("Rs", l.rs_n, law.rs, fit.rs_interval_n),
@@ -397,7 +397,7 @@ fn random_coverage(first: u64, n: u64) -> (usize, usize, usize, Vec<String>) {
             } else {
                 report.push(format!(
                     "case {case} (family {family}, accel {accel}, noise ×{noise:.2}) {name}: {iv:?} vs {x}; law {} D* {:?} vs {}",
-                    fit.law().kind.as_str(),
+                    fit.kind().as_str(),
                     fit.dstar(),
                     law.a / ss
                 ));

@@ -19,8 +19,8 @@ use common::{data, f, truth};
 use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
-use stickslip::identify::{LawKind, SiLaw};
 use stickslip::ingest::{self, IngestOptions};
+use stickslip::model::{LawKind, SiLaw};
 use stickslip::validate::frc::{self, FrcOptions};
 use stickslip::validate::predict::{predict_with, PredictOptions};
 
@@ -439,8 +439,14 @@ fn band_draws_share_the_drive_gains() {
     let rel =
         |iv: Option<(f64, f64)>, c: f64| iv.map(|(lo, hi)| 0.5 * (hi - lo) / c / 1.96).unwrap();
     let (ss, sd_) = (
-        rel(fit.rho_s_interval, fit.law().rs_n / fit.force_scale_n),
-        rel(fit.rho_d_interval, fit.law().rd_n / fit.force_scale_n),
+        rel(
+            fit.rho_s_interval,
+            fit.law().expect("a sliding law").rs_n / fit.force_scale_n,
+        ),
+        rel(
+            fit.rho_d_interval,
+            fit.law().expect("a sliding law").rd_n / fit.force_scale_n,
+        ),
     );
     let ratio_expected = ss.hypot(sd_);
     let level_expected = (fit.gain_uncertainty.powi(2) * 2.0 / 3.0 + sd_ * sd_).sqrt();

@@ -85,7 +85,7 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> Ba
     let ratio = |x: f64| (x.is_finite() && n > 0.0).then(|| x / n);
     let mu_s = match static_obs {
         StaticObs::Point { rs_n, .. } => (ratio(rs_n), None, None),
-        StaticObs::Above { .. } => (None, f.rs_lower_bound_n.and_then(ratio), None),
+        StaticObs::Above { .. } => (None, f.rs_lower_bound_n().and_then(ratio), None),
         StaticObs::Between { .. } => (
             None,
             f.equation_error.rs_n.and_then(|i| ratio(i.0)),
@@ -104,7 +104,7 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> Ba
             let r = e.law.rs_n / f.force_scale_n;
             r.is_finite().then_some(r)
         },
-        rho_s_lower_bound: f.rho_s_lower_bound,
+        rho_s_lower_bound: f.rho_s_lower_bound(),
         rho_s_interval: f.equation_error.rho_s,
         mu_s,
         mu_d: rd.and_then(|(r, _)| ratio(r)),

@@ -120,6 +120,8 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
                 bias_n: bias,
                 law,
                 law_label: "fitted",
+                // The equation-error law's Rs is NaN where only bounded.
+                threshold: true,
                 alternative,
                 alternative_label: "alternative",
             },

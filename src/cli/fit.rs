@@ -2,24 +2,22 @@
 //! parallel; a bad log gives its `error:` line and an entry with `error`,
 //! the others complete, and the exit status is 1 at the end.
 
-use crate::identify::{self, IdentifyOptions, LawKind, LogFit};
+use crate::identify::{self, IdentifyOptions, LogFit};
+use crate::model::LawKind;
 use clap::{Args, ValueEnum};
 use serde_json::{json, Value};
 use std::path::{Path, PathBuf};
 
-/// `--law` choices.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum LawChoice {
-    /// Choose by information criterion.
-    Auto,
-    /// ρd = ρs, no slope.
-    Coulomb,
-    /// ρd = ρs plus a linear slope of either sign.
-    Decreasing,
-    /// ρd < ρs.
-    StaticDynamic,
-    /// Stribeck-type law.
-    Stribeck,
+/// `--law`: a family, or `auto` (None: choose by information criterion).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LawPick(pub Option<LawKind>);
+
+/// The `--law` parser: `auto` or a [`LawKind`] name (the help and the
+/// error list the names).
+pub fn law_pick() -> impl clap::builder::TypedValueParser<Value = LawPick> {
+    let names = std::iter::once("auto").chain(LawKind::ALL.map(LawKind::as_str));
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(names).map(|s: String| LawPick(LawKind::parse(&s)))
 }
 
 /// `--estimate` choices.
@@ -39,8 +37,8 @@ pub struct FitArgs {
     #[arg(required = true)]
     pub logs: Vec<PathBuf>,
     /// Law family.
-    #[arg(long, value_enum, default_value_t = LawChoice::Auto)]
-    pub law: LawChoice,
+    #[arg(long, default_value = "auto", value_parser = law_pick())]
+    pub law: LawPick,
     /// Write the JSON result to this file (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -77,13 +75,7 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
     crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
     let opts = IdentifyOptions {
         fit: identify::FitOptions {
-            law: match args.law {
-                LawChoice::Auto => None,
-                LawChoice::Coulomb => Some(LawKind::Coulomb),
-                LawChoice::Decreasing => Some(LawKind::Decreasing),
-                LawChoice::StaticDynamic => Some(LawKind::StaticDynamic),
-                LawChoice::Stribeck => Some(LawKind::Stribeck),
-            },
+            law: args.law.0,
             bootstrap: args.bootstrap,
             ..Default::default()
         },
@@ -129,17 +121,20 @@ fn summary(log: &Path, f: &LogFit) -> String {
     let mut s = format!(
         "{}: law {}, rho_s {}, rho_d {}, D* {}, Rs {} N, Rd {} N, A {:.4} mm ({} estimate)",
         log.display(),
-        law.kind.as_str(),
+        f.kind().as_str(),
         fmt(f.rho_s()),
         fmt(f.rho_d()),
         fmt(f.dstar()),
-        fmt(law.rs_n.is_finite().then_some(law.rs_n)),
-        fmt(law.rd_n.is_finite().then_some(law.rd_n)),
+        fmt(f.rs_n()),
+        fmt(law.map(|l| l.rd_n)),
         f.drive.amplitude_m * 1e3,
         f.estimate.as_str()
     );
     if e.stuck {
-        s.push_str(&format!(", stuck (rho_s >= {})", fmt(f.rho_s_lower_bound)));
+        s.push_str(&format!(
+            ", stuck (rho_s >= {})",
+            fmt(f.rho_s_lower_bound())
+        ));
     }
     if f.never_sticks() {
         s.push_str(", never sticks");

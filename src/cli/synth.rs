@@ -2,6 +2,7 @@
 //! [`SynthConfig`], runs [`synth::generate`] and writes the log (and
 //! `truth.json` beside it) atomically.
 
+use crate::model::LawKind;
 use crate::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -33,19 +34,6 @@ pub enum TestArg {
     Continuous,
 }
 
-/// Friction law family.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum LawArg {
-    /// Rd = Rs, no slope.
-    Coulomb,
-    /// Rd = Rs with a negative slope a.
-    Decreasing,
-    /// Rd < Rs, no slope.
-    StaticDynamic,
-    /// Rd + (Rs − Rd) exp(−(v/vs)²) + a v.
-    Stribeck,
-}
-
 /// Arguments of `stickslip synth`.
 #[derive(Debug, Args)]
 pub struct SynthArgs {
@@ -66,8 +54,8 @@ pub struct SynthArgs {
     )]
     pub normal_force: f64,
     /// Friction law family.
-    #[arg(long, value_enum, default_value_t = LawArg::StaticDynamic)]
-    pub law: LawArg,
+    #[arg(long, value_enum, default_value_t = LawKind::StaticDynamic)]
+    pub law: LawKind,
     /// Static friction coefficient (Rs = mu_s·N unless --rs-n).
     #[arg(long = "mu-s", default_value_t = 0.42, allow_hyphen_values = true)]
     pub mu_s: f64,
@@ -202,25 +190,25 @@ impl SynthArgs {
         let rs = self.rs_n.unwrap_or(self.mu_s * n);
         let rd_given = self.rd_n.unwrap_or(self.mu_d * n);
         let friction = match self.law {
-            LawArg::Coulomb => FrictionSpec {
+            LawKind::Coulomb => FrictionSpec {
                 rs_n: rs,
                 rd_n: rs,
                 slope_n_s_per_m: 0.0,
                 stribeck_velocity_m_per_s: None,
             },
-            LawArg::Decreasing => FrictionSpec {
+            LawKind::Decreasing => FrictionSpec {
                 rs_n: rs,
                 rd_n: rs,
                 slope_n_s_per_m: self.slope.unwrap_or(-3.0),
                 stribeck_velocity_m_per_s: None,
             },
-            LawArg::StaticDynamic => FrictionSpec {
+            LawKind::StaticDynamic => FrictionSpec {
                 rs_n: rs,
                 rd_n: rd_given,
                 slope_n_s_per_m: self.slope.unwrap_or(0.0),
                 stribeck_velocity_m_per_s: None,
             },
-            LawArg::Stribeck => FrictionSpec {
+            LawKind::Stribeck => FrictionSpec {
                 rs_n: rs,
                 rd_n: rd_given,
                 slope_n_s_per_m: self.slope.unwrap_or(0.0),

@@ -157,9 +157,8 @@ pub(crate) fn fit_section(
     let (law, law_label, alternative, alternative_label) = if e.stuck {
         (None, "fitted", None, "alternative")
     } else if f.estimate == identify::Estimate::OutputError {
-        let used = f.law();
         (
-            Some(used),
+            f.law(),
             "output error (used)",
             Some(e.law),
             "equation error",
@@ -182,6 +181,7 @@ pub(crate) fn fit_section(
             bias_n: bias,
             law,
             law_label,
+            threshold: !f.never_sticks(),
             alternative,
             alternative_label,
         },

@@ -41,58 +41,7 @@ use super::contact::Contact;
 use super::segment::Segmentation;
 use super::smooth::{golden, mad_sigma, median, quantile, savgol, Normal, Rng};
 
-/// The law families `fit` can choose from (names as in `interface.md`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum LawKind {
-    /// ρd = ρs, no slope.
-    Coulomb,
-    /// ρd = ρs with a linear slope D* of either sign.
-    Decreasing,
-    /// ρd < ρs, no slope.
-    StaticDynamic,
-    /// ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
-    Stribeck,
-}
-
-impl LawKind {
-    /// The name used in options and in the `law` key.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            LawKind::Coulomb => "coulomb",
-            LawKind::Decreasing => "decreasing",
-            LawKind::StaticDynamic => "static-dynamic",
-            LawKind::Stribeck => "stribeck",
-        }
-    }
-
-    /// Parses a law name.
-    pub fn parse(s: &str) -> Option<Self> {
-        [
-            LawKind::Coulomb,
-            LawKind::Decreasing,
-            LawKind::StaticDynamic,
-            LawKind::Stribeck,
-        ]
-        .into_iter()
-        .find(|k| k.as_str() == s)
-    }
-}
-
-/// A friction law in SI: g(v) = Rd + (Rs − Rd)·exp(−(v/v_s)²) + a·v for the
-/// Stribeck type, Rd + a·v (threshold Rs) otherwise.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct SiLaw {
-    /// Family.
-    pub kind: LawKind,
-    /// Static threshold Rs (N).
-    pub rs_n: f64,
-    /// Dynamic level Rd (N).
-    pub rd_n: f64,
-    /// Slope a (N·s/m).
-    pub slope_n_s_per_m: f64,
-    /// Stribeck velocity (m/s), Stribeck type only.
-    pub vs_m_per_s: Option<f64>,
-}
+use crate::model::{LawKind, SiLaw};
 
 /// Options of the equation-error fit.
 #[derive(Debug, Clone)]

@@ -138,8 +138,9 @@ pub mod output_error;
 pub mod segment;
 pub mod smooth;
 
+use crate::model::{LawKind, SiLaw};
 pub use contact::{Contact, DriveFit, Gains};
-pub use fit::{EquationFit, FitOptions, LawKind, SiLaw, StatIntervals};
+pub use fit::{EquationFit, FitOptions, StatIntervals};
 pub use output_error::{OeOptions, OutputErrorFit};
 pub use segment::Segmentation;
 
@@ -290,9 +291,8 @@ pub struct LogFit {
     pub output_error: Option<OutputErrorFit>,
     /// Which estimate the law and the flat intervals below are.
     pub estimate: Estimate,
-    /// The law used (the chosen estimate's; Rs NaN where only bounded,
-    /// everything NaN for a stuck log).
-    law: SiLaw,
+    /// What the log measured of the law used (the chosen estimate's).
+    pub measured: Measured,
     /// The drive fit (measured amplitude and frequency).
     pub drive: DriveFit,
     /// Normal force (N): median of the normal-force channel, else the metadata.
@@ -317,10 +317,6 @@ pub struct LogFit {
     pub rho_d_interval: Option<Interval>,
     /// D* interval of the estimate used.
     pub dstar_interval: Option<Interval>,
-    /// Lower bound on Rs of a stuck log (N), calibration margin included.
-    pub rs_lower_bound_n: Option<f64>,
-    /// The same in ρ.
-    pub rho_s_lower_bound: Option<f64>,
     /// Relative gain uncertainty used in the budget.
     pub gain_uncertainty: f64,
     /// Characteristic details (noise, lags, offsets) for reports.
@@ -334,17 +330,47 @@ pub struct LogFit {
     /// A sliding log whose law was not tested against the positions (the
     /// equation-error estimate: the Stribeck type, or a failed refinement).
     untested: bool,
-    /// The final never-sticks verdict (segmentation, overruled by the
-    /// output-error simulation where that finds sticks).
-    no_stick: bool,
+}
+
+/// What a log measured of its friction law.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Measured {
+    /// M2 sticks and slips: every parameter of the law is measured.
+    StickSlip(SiLaw),
+    /// M2 never sticks: the sliding law is measured, Rs only bounded (the
+    /// bounds are the `rs_interval_n`). The law carries Rs = Rd, the lowest
+    /// threshold the bounds allow, so that it is a law one can simulate.
+    /// The segmentation's verdict, unless the output-error simulation finds
+    /// sticks (short sticks at reversal the velocity could not show).
+    NeverSticks(SiLaw),
+    /// M2 never slid: no sliding law, only a lower bound on Rs.
+    Stuck {
+        /// The family the fit was asked for (or the default) — no family
+        /// is measured.
+        kind: LawKind,
+        /// Lower bound on Rs (N), calibration margin included.
+        rs_lower_bound_n: f64,
+        /// The same in ρ.
+        rho_s_lower_bound: f64,
+    },
 }
 
 impl LogFit {
     /// The law used downstream (SI): the output-error law where that is
-    /// the estimate, else the equation-error one. Rs is NaN where only
-    /// bounded (never sticks); every parameter is NaN for a stuck log.
-    pub fn law(&self) -> SiLaw {
-        self.law
+    /// the estimate, else the equation-error one. None for a stuck log;
+    /// for a never-sticking log Rs = Rd (see [`Measured::NeverSticks`]).
+    pub fn law(&self) -> Option<SiLaw> {
+        match self.measured {
+            Measured::StickSlip(l) | Measured::NeverSticks(l) => Some(l),
+            Measured::Stuck { .. } => None,
+        }
+    }
+    /// The family reported in `law` (a stuck log: the family asked for).
+    pub fn kind(&self) -> LawKind {
+        match self.measured {
+            Measured::StickSlip(l) | Measured::NeverSticks(l) => l.kind,
+            Measured::Stuck { kind, .. } => kind,
+        }
     }
     /// The intervals of the estimate used.
     pub fn intervals(&self) -> Intervals {
@@ -357,27 +383,50 @@ impl LogFit {
             dstar: self.dstar_interval,
         }
     }
+    /// Rs (N), where measured.
+    pub fn rs_n(&self) -> Option<f64> {
+        match self.measured {
+            Measured::StickSlip(l) => Some(l.rs_n),
+            _ => None,
+        }
+    }
     /// ρs (None where only bounded).
     pub fn rho_s(&self) -> Option<f64> {
-        finite(self.law.rs_n / self.force_scale_n)
+        self.rs_n().map(|r| r / self.force_scale_n)
     }
-    /// ρd.
+    /// ρd (None for a stuck log).
     pub fn rho_d(&self) -> Option<f64> {
-        finite(self.law.rd_n / self.force_scale_n)
+        self.law().map(|l| l.rd_n / self.force_scale_n)
     }
-    /// D*.
+    /// D* (None for a stuck log).
     pub fn dstar(&self) -> Option<f64> {
-        finite(self.law.slope_n_s_per_m / self.slope_scale)
+        self.law().map(|l| l.slope_n_s_per_m / self.slope_scale)
     }
     /// The M2 never slid: only a lower bound on Rs is known.
     pub fn stuck(&self) -> bool {
-        self.fit.stuck
+        matches!(self.measured, Measured::Stuck { .. })
     }
-    /// M2 never stuck: Rs is only bounded. The segmentation's verdict,
-    /// unless the output-error simulation of the chosen law finds sticks
-    /// (short sticks at reversal the velocity could not show).
+    /// M2 never stuck: Rs is only bounded (see [`Measured::NeverSticks`]).
     pub fn never_sticks(&self) -> bool {
-        self.no_stick
+        matches!(self.measured, Measured::NeverSticks(_))
+    }
+    /// Lower bound on Rs of a stuck log (N), calibration margin included.
+    pub fn rs_lower_bound_n(&self) -> Option<f64> {
+        match self.measured {
+            Measured::Stuck {
+                rs_lower_bound_n, ..
+            } => Some(rs_lower_bound_n),
+            _ => None,
+        }
+    }
+    /// The same in ρ.
+    pub fn rho_s_lower_bound(&self) -> Option<f64> {
+        match self.measured {
+            Measured::Stuck {
+                rho_s_lower_bound, ..
+            } => Some(rho_s_lower_bound),
+            _ => None,
+        }
     }
     /// The law explains the log down to its sensor noise, without
     /// structured residuals, and its bounds do not contradict each other.
@@ -392,10 +441,6 @@ impl LogFit {
                 None => !self.untested,
             }
     }
-}
-
-fn finite(x: f64) -> Option<f64> {
-    x.is_finite().then_some(x)
 }
 
 /// The quantities whose calibration sensitivity is propagated.
@@ -620,7 +665,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     if let Some(o) = output_error.as_ref() {
         warnings.extend(o.notes.iter().cloned());
     }
-    let (estimate, mut law, used) = match &mut output_error {
+    let (estimate, law, used) = match &mut output_error {
         Some(o) => {
             let iv = &o.intervals;
             let rs_bounds = bounds(iv.rd_n);
@@ -655,9 +700,6 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         }
         None => (Estimate::EquationError, ef.law, equation_error),
     };
-    if no_stick {
-        law.rs_n = f64::NAN;
-    }
     if estimate == Estimate::EquationError
         && ef.never_sticks
         && bounds(equation_error.rd_n).is_none()
@@ -706,6 +748,22 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     }
     warnings.extend(contradictions.iter().cloned());
 
+    let measured = if ef.stuck {
+        // The fit returns a lower bound for every stuck log.
+        let lb = rs_lower_bound_n.unwrap_or(0.0);
+        Measured::Stuck {
+            kind: law.kind,
+            rs_lower_bound_n: lb,
+            rho_s_lower_bound: lb / fs,
+        }
+    } else if no_stick {
+        Measured::NeverSticks(SiLaw {
+            rs_n: law.rd_n,
+            ..law
+        })
+    } else {
+        Measured::StickSlip(law)
+    };
     let normal_force_n = run
         .resampled
         .normal_force
@@ -762,9 +820,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         equation_error,
         output_error,
         estimate,
-        law,
-        rho_s_lower_bound: rs_lower_bound_n.map(|x| x / fs),
-        rs_lower_bound_n,
+        measured,
         gain_uncertainty: u,
         drive: base.contact.drive,
         notes,
@@ -772,7 +828,6 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         adequacy,
         contradictions,
         untested,
-        no_stick,
         fit: ef,
     })
 }

@@ -94,12 +94,12 @@
 //! within 0.0001 on the public logs; the equation-error law is its start.
 
 use super::contact::{Contact, Gains};
-use super::fit::{LawKind, SiLaw};
 use super::segment::Segmentation;
 use super::smooth::{mad_sigma, savgol, solve_small};
 use super::Intervals;
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Drive, Law, Model};
+use crate::model::{LawKind, SiLaw};
 use crate::sim::engine::{Init, Mode, Observer, Sim};
 use crate::sim::numeric::{NumericOptions, NumericSim};
 use crate::sim::Status;
@@ -306,55 +306,17 @@ struct Problem<'a> {
 type Res = Vec<(u32, f64, f64)>;
 
 /// Number of law parameters of a family in θ.
-fn law_params(kind: LawKind) -> usize {
-    match kind {
-        LawKind::Coulomb => 1,
-        LawKind::Stribeck => 4,
-        _ => 2,
-    }
-}
-
-/// Families with a static threshold of their own (free above the
-/// sliding level, even where the segmentation saw no stick).
-fn has_threshold(kind: LawKind) -> bool {
-    matches!(kind, LawKind::StaticDynamic | LawKind::Stribeck)
+fn n_params(kind: LawKind) -> usize {
+    kind.family().params().len()
 }
 
 impl Problem<'_> {
-    /// Unpacks θ = [law…, bias, g1, g2].
+    /// Unpacks θ = [law…, bias, g1, g2] (the law's parameters as its
+    /// [`crate::model::Family`] orders them).
     fn unpack(&self, th: &[f64]) -> (SiLaw, f64, f64, f64) {
-        let k = law_params(self.kind);
-        let law = match self.kind {
-            LawKind::Coulomb => SiLaw {
-                kind: self.kind,
-                rs_n: th[0],
-                rd_n: th[0],
-                slope_n_s_per_m: 0.0,
-                vs_m_per_s: None,
-            },
-            LawKind::Decreasing => SiLaw {
-                kind: self.kind,
-                rs_n: th[0],
-                rd_n: th[0],
-                slope_n_s_per_m: th[1],
-                vs_m_per_s: None,
-            },
-            LawKind::Stribeck => SiLaw {
-                kind: self.kind,
-                rs_n: th[0],
-                rd_n: th[1],
-                slope_n_s_per_m: th[2],
-                vs_m_per_s: Some(th[3]),
-            },
-            _ => SiLaw {
-                kind: self.kind,
-                rs_n: th[0],
-                rd_n: th[1],
-                slope_n_s_per_m: 0.0,
-                vs_m_per_s: None,
-            },
-        };
-        (law, th[k], th[k + 1], th[k + 2])
+        let family = self.kind.family();
+        let k = family.params().len();
+        (family.unpack(th), th[k], th[k + 1], th[k + 2])
     }
 
     /// Offsets p1, p2 (m) for a bias and gains (mean of M1's equation).
@@ -384,7 +346,7 @@ impl Problem<'_> {
         // A log the segmentation calls never-sticking is still fitted with
         // a free static threshold in the static-dynamic family: the
         // simulator says where sticks happen.
-        let rs = if self.never_sticks && !has_threshold(self.kind) {
+        let rs = if self.never_sticks && !self.kind.family().has_threshold() {
             rd
         } else {
             law.rs_n / fs
@@ -1571,7 +1533,7 @@ impl Refinement {
         // The criterion: n_eff from the residuals of the richest fit.
         let richest = fits
             .iter()
-            .max_by_key(|f| law_params(f.kind))
+            .max_by_key(|f| n_params(f.kind))
             .expect("non-empty");
         let mut res = Res::new();
         self.problem(&self.data, richest.kind)
@@ -1595,7 +1557,7 @@ impl Refinement {
         {
             let prob = self.problem(&self.data, *kind);
             let (law, b, g1, g2) = prob.unpack(th);
-            let k = law_params(*kind) as f64;
+            let k = n_params(*kind) as f64;
             let bic = n_eff * (cost / (2 * n) as f64).ln() + k * n_eff.ln();
             let rms = self.rms(&prob, th);
             prob.sticks.set((0, 0));
@@ -1619,17 +1581,17 @@ impl Refinement {
         let mut best = (0..families.len())
             .filter(|&a| families[a].bic <= bmin + BIC_WEAK)
             .min_by(|&a, &b| {
-                law_params(families[a].law.kind)
-                    .cmp(&law_params(families[b].law.kind))
+                n_params(families[a].law.kind)
+                    .cmp(&n_params(families[b].law.kind))
                     .then(families[a].bic.total_cmp(&families[b].bic))
             })
             .expect("non-empty");
         // Overruling the segmentation's never-sticks verdict takes very
         // strong evidence: a static threshold is kept only if it beats
         // every stick-free family by more than BIC_STRONG.
-        if self.never_sticks && has_threshold(families[best].law.kind) {
+        if self.never_sticks && families[best].law.kind.family().has_threshold() {
             let other = (0..families.len())
-                .filter(|&a| !has_threshold(families[a].law.kind))
+                .filter(|&a| !families[a].law.kind.family().has_threshold())
                 .min_by(|&a, &b| families[a].bic.total_cmp(&families[b].bic));
             if let Some(o) = other {
                 if families[o].bic - families[best].bic < BIC_STRONG {
@@ -1789,7 +1751,7 @@ impl Refinement {
         let m = r0.len();
         // Jacobian by central differences (2m rows: r1 and r2 per sample).
         let (law, _, _, _) = prob.unpack(th);
-        let kl = law_params(kind);
+        let kl = n_params(kind);
         let mut jac = vec![vec![0.0; p]; 2 * m];
         for j in 0..p {
             let h = if j < kl {

@@ -320,24 +320,35 @@ impl RigMeta {
         map
     }
 
+    /// The rig's constants (masses, springs, damper).
+    pub fn constants(&self) -> crate::model::RigConstants {
+        crate::model::RigConstants {
+            m1_kg: self.m1_kg,
+            m2_kg: self.m2_kg,
+            k1_n_per_m: self.k1_n_per_m,
+            k2_n_per_m: self.k2_n_per_m,
+            d_n_s_per_m: self.d_n_s_per_m,
+        }
+    }
+
     /// Mass ratio m = M1/M2.
     pub fn mass_ratio(&self) -> f64 {
-        self.m1_kg / self.m2_kg
+        self.constants().absorber().m
     }
 
     /// Stiffness ratio k = K1/K2.
     pub fn stiffness_ratio(&self) -> f64 {
-        self.k1_n_per_m / self.k2_n_per_m
+        self.constants().absorber().k
     }
 
     /// Dimensionless damping D = d/sqrt(K2·M2).
     pub fn damping_ratio(&self) -> f64 {
-        self.d_n_s_per_m / (self.k2_n_per_m * self.m2_kg).sqrt()
+        self.constants().absorber().damping
     }
 
     /// Reference angular frequency sqrt(K2/M2) (rad/s): τ = t·omega_ref.
     pub fn omega_ref(&self) -> f64 {
-        (self.k2_n_per_m / self.m2_kg).sqrt()
+        self.constants().omega_ref()
     }
 
     /// Time scale sqrt(M2/K2) (s).

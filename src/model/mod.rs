@@ -17,9 +17,10 @@
 //! ζ0(τ) is the base motion divided by A: `cos(ητ)` for the paper's drive.
 
 mod drive;
+mod law;
 
 pub use drive::{Drive, Schedule, Segment};
-use std::fmt;
+pub use law::{Coulomb, Decreasing, Family, Law, LawKind, Scales, SiLaw, StaticDynamic, Stribeck};
 
 /// A parameter that describes no physical absorber.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -105,199 +106,54 @@ impl Absorber {
     }
 }
 
-/// The friction characteristic of the pad, dimensionless (forces / (A·K2),
-/// velocities in units of A·√(K2/M2)).
-///
-/// The static threshold is ρs; while sliding at speed v > 0 the friction
-/// magnitude is `g(v)`. The paper's three laws (Fig. 2) are [`Law::Linear`];
-/// [`Law::Stribeck`] is a fitted law of another shape (nonlinear in v), which
-/// the engine integrates numerically within slip phases.
+/// The rig's constants in SI: the two masses, the two springs and the
+/// damper between the masses. The one place where they become the
+/// dimensionless absorber and the time and slope scales.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Law {
-    /// `g(v) = ρd + D*·v`: Coulomb (ρd = ρs, D* = 0), decreasing
-    /// characteristic (ρd = ρs, D* < 0; or increasing/viscous D* > 0), and
-    /// static > dynamic (ρd < ρs).
-    Linear {
-        /// Static threshold ρs (may be +∞: never slides).
-        rho_s: f64,
-        /// Dynamic level ρd ≤ ρs.
-        rho_d: f64,
-        /// Slope D* = a/√(K2·M2) of the characteristic.
-        slope: f64,
-    },
-    /// `g(v) = ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v` (g(0+) = ρs).
-    Stribeck {
-        /// Static threshold ρs = g(0+).
-        rho_s: f64,
-        /// Dynamic level ρd ≤ ρs.
-        rho_d: f64,
-        /// Slope D*.
-        slope: f64,
-        /// Stribeck velocity v_s > 0.
-        v_s: f64,
-    },
+pub struct RigConstants {
+    /// Main mass M1 (kg).
+    pub m1_kg: f64,
+    /// Absorber mass M2 (kg).
+    pub m2_kg: f64,
+    /// Spring K1, base to M1 (N/m).
+    pub k1_n_per_m: f64,
+    /// Spring K2, M1 to M2 (N/m).
+    pub k2_n_per_m: f64,
+    /// Viscous damping d between the masses (N·s/m).
+    pub d_n_s_per_m: f64,
 }
 
-impl Law {
-    /// Coulomb's law, ρd = ρs (Fig. 2a). For ρs = ∞ (never slides) the
-    /// unused dynamic level is set to 0.
-    pub fn coulomb(rho_s: f64) -> Self {
-        Law::Linear {
-            rho_s,
-            rho_d: if rho_s.is_finite() { rho_s } else { 0.0 },
-            slope: 0.0,
+impl RigConstants {
+    /// The paper's rig: M1 = 8.35 kg, M2 = 2.0875 kg, K1 = K2 = 670 N/m,
+    /// D = 0.003.
+    pub fn paper() -> Self {
+        let (m2, k2) = (2.0875, 670.0);
+        Self {
+            m1_kg: 8.35,
+            m2_kg: m2,
+            k1_n_per_m: 670.0,
+            k2_n_per_m: k2,
+            d_n_s_per_m: 0.003 * (k2 * m2).sqrt(),
         }
     }
 
-    /// Static threshold ρs.
-    pub fn rho_s(&self) -> f64 {
-        match *self {
-            Law::Linear { rho_s, .. } | Law::Stribeck { rho_s, .. } => rho_s,
+    /// ω = √(K2/M2) (rad/s): τ = ω·t.
+    pub fn omega_ref(&self) -> f64 {
+        (self.k2_n_per_m / self.m2_kg).sqrt()
+    }
+
+    /// √(K2·M2) (N·s/m): D = d/√(K2·M2), D* = a/√(K2·M2).
+    pub fn slope_scale(&self) -> f64 {
+        (self.k2_n_per_m * self.m2_kg).sqrt()
+    }
+
+    /// The dimensionless absorber: m = M1/M2, k = K1/K2, D = d/√(K2·M2).
+    pub fn absorber(&self) -> Absorber {
+        Absorber {
+            m: self.m1_kg / self.m2_kg,
+            k: self.k1_n_per_m / self.k2_n_per_m,
+            damping: self.d_n_s_per_m / self.slope_scale(),
         }
-    }
-
-    /// Dynamic level ρd.
-    pub fn rho_d(&self) -> f64 {
-        match *self {
-            Law::Linear { rho_d, .. } | Law::Stribeck { rho_d, .. } => rho_d,
-        }
-    }
-
-    /// Slope D*.
-    pub fn slope(&self) -> f64 {
-        match *self {
-            Law::Linear { slope, .. } | Law::Stribeck { slope, .. } => slope,
-        }
-    }
-
-    /// Sliding friction magnitude g(v) at speed v ≥ 0 (may be negative for
-    /// a falling characteristic at high speed: the engine interrupts there).
-    #[inline]
-    pub fn sliding(&self, v: f64) -> f64 {
-        match *self {
-            Law::Linear { rho_d, slope, .. } => rho_d + slope * v,
-            Law::Stribeck {
-                rho_s,
-                rho_d,
-                slope,
-                v_s,
-            } => {
-                let r = v / v_s;
-                rho_d + (rho_s - rho_d) * (-r * r).exp() + slope * v
-            }
-        }
-    }
-
-    /// dg/dv at speed v ≥ 0.
-    #[inline]
-    pub fn sliding_slope(&self, v: f64) -> f64 {
-        match *self {
-            Law::Linear { slope, .. } => slope,
-            Law::Stribeck {
-                rho_s,
-                rho_d,
-                slope,
-                v_s,
-            } => {
-                let r = v / v_s;
-                slope - 2.0 * r / v_s * (rho_s - rho_d) * (-r * r).exp()
-            }
-        }
-    }
-
-    /// `Some((ρd, D*))` when g is affine in v, so slip phases are linear ODEs
-    /// with a closed-form solution.
-    pub fn affine(&self) -> Option<(f64, f64)> {
-        match *self {
-            Law::Linear { rho_d, slope, .. } => Some((rho_d, slope)),
-            Law::Stribeck { .. } => None,
-        }
-    }
-
-    /// True when there is no friction at all (ρs = 0 and so ρd = 0).
-    pub fn is_frictionless(&self) -> bool {
-        self.rho_s() == 0.0 && self.slope() == 0.0
-    }
-
-    /// True when M2 can never slide (ρs = +∞).
-    pub fn is_always_stuck(&self) -> bool {
-        self.rho_s() == f64::INFINITY
-    }
-
-    /// Checks the law: ρs ≥ 0 (may be +∞), 0 ≤ ρd ≤ ρs finite, D* finite,
-    /// v_s > 0 finite.
-    pub fn validate(&self) -> Result<(), ParamError> {
-        let (rs, rd, sl) = (self.rho_s(), self.rho_d(), self.slope());
-        check(
-            "rho-s",
-            rs,
-            !rs.is_nan() && rs >= 0.0,
-            "must be >= 0 (inf allowed)",
-        )?;
-        check(
-            "rho-d",
-            rd,
-            rd.is_finite() && rd >= 0.0,
-            "must be finite and >= 0",
-        )?;
-        check(
-            "rho-d",
-            rd,
-            rd <= rs,
-            "must not exceed rho-s (dynamic > static friction)",
-        )?;
-        check("slope", sl, sl.is_finite(), "must be finite")?;
-        if rs == 0.0 {
-            check(
-                "slope",
-                sl,
-                sl >= 0.0,
-                "a negative slope without friction is an active damper",
-            )?;
-        }
-        if let Law::Stribeck { v_s, .. } = *self {
-            check(
-                "v-s",
-                v_s,
-                v_s.is_finite() && v_s > 0.0,
-                "must be finite and > 0",
-            )?;
-        }
-        Ok(())
-    }
-
-    /// The law's name in the interface (`coulomb`, `decreasing`,
-    /// `static-dynamic`, `stribeck`).
-    pub fn name(&self) -> &'static str {
-        match *self {
-            Law::Stribeck { .. } => "stribeck",
-            Law::Linear {
-                rho_s,
-                rho_d,
-                slope,
-            } => {
-                if rho_d < rho_s {
-                    "static-dynamic"
-                } else if slope != 0.0 {
-                    "decreasing"
-                } else {
-                    "coulomb"
-                }
-            }
-        }
-    }
-}
-
-impl fmt::Display for Law {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} (rho_s={}, rho_d={}, slope={})",
-            self.name(),
-            self.rho_s(),
-            self.rho_d(),
-            self.slope()
-        )
     }
 }
 
@@ -412,28 +268,5 @@ mod tests {
             assert!(l.validate().is_err(), "{l:?}");
         }
         assert!(Law::coulomb(f64::INFINITY).validate().is_ok());
-    }
-
-    #[test]
-    fn law_names() {
-        assert_eq!(Law::coulomb(0.3).name(), "coulomb");
-        assert_eq!(
-            Law::Linear {
-                rho_s: 0.3,
-                rho_d: 0.3,
-                slope: -0.04
-            }
-            .name(),
-            "decreasing"
-        );
-        assert_eq!(
-            Law::Linear {
-                rho_s: 0.3,
-                rho_d: 0.15,
-                slope: 0.0
-            }
-            .name(),
-            "static-dynamic"
-        );
     }
 }

@@ -5,7 +5,8 @@
 
 use super::plot::{plot_err, register_font};
 use crate::error::Result;
-use crate::identify::{Contact, SiLaw};
+use crate::identify::Contact;
+use crate::model::SiLaw;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -24,6 +25,9 @@ pub struct CharacteristicFigure<'a> {
     pub law: Option<SiLaw>,
     /// Legend name of `law` (e.g. "fitted", "output error (used)").
     pub law_label: &'a str,
+    /// `law`'s static threshold is measured (false where Rs is only
+    /// bounded: the threshold is not drawn).
+    pub threshold: bool,
     /// A second law drawn dashed (e.g. the Stribeck alternative).
     pub alternative: Option<SiLaw>,
     /// Legend name of `alternative`.
@@ -125,7 +129,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
     // Right: R against ẋ2 over the whole log.
     let (vlo, vhi) = range(v.iter().copied());
     let mut rr = range(r.iter().copied());
-    if let Some(l) = fig.law {
+    if let Some(l) = fig.law.filter(|_| fig.threshold) {
         if l.rs_n.is_finite() {
             rr = (rr.0.min(-1.05 * l.rs_n), rr.1.max(1.05 * l.rs_n));
         }
@@ -157,7 +161,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
         .map_err(e)?
         .label("measured")
         .legend(move |(x, y)| Circle::new((x + 10, y), 3, blue.filled()));
-    let curve = |l: &SiLaw| -> Vec<(f64, f64)> {
+    let curve = |l: &SiLaw, threshold: bool| -> Vec<(f64, f64)> {
         let m = 300;
         let mut pts = Vec::with_capacity(2 * m + 4);
         for k in 0..=m {
@@ -166,7 +170,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
                 pts.push((u, law_force(l, u)));
             }
         }
-        if l.rs_n.is_finite() {
+        if threshold && l.rs_n.is_finite() {
             pts.push((0.0, -l.rs_n));
             pts.push((0.0, l.rs_n));
         }
@@ -180,13 +184,16 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
     };
     if let Some(l) = fig.law {
         chart
-            .draw_series(LineSeries::new(curve(&l), BLACK.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                curve(&l, fig.threshold),
+                BLACK.stroke_width(2),
+            ))
             .map_err(e)?
             .label(format!("{}: {}", fig.law_label, l.kind.as_str()))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
     }
     if let Some(l) = fig.alternative {
-        let pts = curve(&l);
+        let pts = curve(&l, true);
         let dashed = DashedLineSeries::new(pts, 6, 4, red.stroke_width(2));
         chart
             .draw_series(dashed)

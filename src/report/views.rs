@@ -17,7 +17,7 @@ pub fn fit_view(
     let e = &f.fit;
     let law = f.law();
     let mut flags = vec![
-        format!("law: {}", law.kind.as_str()),
+        format!("law: {}", f.kind().as_str()),
         format!("{} estimate", f.estimate.as_str()),
     ];
     if e.stuck {
@@ -44,14 +44,14 @@ pub fn fit_view(
         });
     };
     if e.stuck {
-        row("Rs lower bound", f.rs_lower_bound_n, None, "N", 4);
-        row("ρs lower bound", f.rho_s_lower_bound, None, "–", 4);
+        row("Rs lower bound", f.rs_lower_bound_n(), None, "N", 4);
+        row("ρs lower bound", f.rho_s_lower_bound(), None, "–", 4);
     } else {
-        row("Rs", finite(law.rs_n), f.rs_interval_n, "N", 4);
-        row("Rd", finite(law.rd_n), f.rd_interval_n, "N", 4);
+        row("Rs", f.rs_n(), f.rs_interval_n, "N", 4);
+        row("Rd", law.map(|l| l.rd_n), f.rd_interval_n, "N", 4);
         row(
             "slope a",
-            finite(law.slope_n_s_per_m),
+            law.map(|l| l.slope_n_s_per_m),
             f.slope_interval_n_s_per_m,
             "N·s/m",
             3,
@@ -203,7 +203,7 @@ pub fn validation_view(
     ValidationView {
         sweep: sweep.display().to_string(),
         characteristic: characteristic.display().to_string(),
-        law: f.law().kind.as_str().to_string(),
+        law: f.kind().as_str().to_string(),
         estimate: estimate.to_string(),
         amplitude: format!("{:.4} mm", v.measured.drive_amplitude_m * 1e3),
         scores,

@@ -52,7 +52,7 @@ pub mod rng;
 mod write;
 
 use crate::ingest::{Quantity, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
-use crate::model::{Absorber, Drive, Law, Model, Schedule, Segment};
+use crate::model::{Absorber, Drive, Law, LawKind, Model, RigConstants, Scales, Schedule, Segment};
 use crate::sim::engine::{Event, EventKind, Init, Observer, RunEnd, Sim, Status};
 use crate::sim::numeric::{NumericOptions, NumericSim};
 use crate::sim::schedule::{run_schedule, SegmentObserver};
@@ -137,18 +137,25 @@ impl RigSpec {
         }
     }
 
+    /// The rig's constants (masses, springs, damper).
+    pub fn constants(&self) -> RigConstants {
+        RigConstants {
+            m1_kg: self.m1_kg,
+            m2_kg: self.m2_kg,
+            k1_n_per_m: self.k1_n_per_m,
+            k2_n_per_m: self.k2_n_per_m,
+            d_n_s_per_m: self.d_n_s_per_m,
+        }
+    }
+
     /// ω = √(K2/M2) (rad/s): τ = ω·t.
     pub fn omega_ref(&self) -> f64 {
-        (self.k2_n_per_m / self.m2_kg).sqrt()
+        self.constants().omega_ref()
     }
 
     /// The dimensionless absorber (m, k, D).
     pub fn absorber(&self) -> Absorber {
-        Absorber {
-            m: self.m1_kg / self.m2_kg,
-            k: self.k1_n_per_m / self.k2_n_per_m,
-            damping: self.d_n_s_per_m / (self.k2_n_per_m * self.m2_kg).sqrt(),
-        }
+        self.constants().absorber()
     }
 
     /// Checks every constant.
@@ -163,7 +170,9 @@ impl RigSpec {
     }
 }
 
-/// Family of a friction law (names as in the public `truth.json`).
+/// Family of a friction law as the truth files spell it (`static_dynamic`,
+/// plus `linear` for any other affine law). Test data keep their spelling;
+/// everything else speaks [`LawKind`] ([`LawFamily::kind`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LawFamily {
@@ -180,6 +189,17 @@ pub enum LawFamily {
 }
 
 impl LawFamily {
+    /// The shared family (None for `linear`, which has no family of its own).
+    pub fn kind(self) -> Option<LawKind> {
+        match self {
+            LawFamily::Coulomb => Some(LawKind::Coulomb),
+            LawFamily::Decreasing => Some(LawKind::Decreasing),
+            LawFamily::StaticDynamic => Some(LawKind::StaticDynamic),
+            LawFamily::Stribeck => Some(LawKind::Stribeck),
+            LawFamily::Linear => None,
+        }
+    }
+
     /// The family's name.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -223,11 +243,12 @@ impl FrictionSpec {
     }
 
     /// The dimensionless law for the rig, with forces divided by A·K2 for
-    /// amplitude `a_m` and velocities by A·ω.
+    /// amplitude `a_m` and velocities by A·ω (unchecked: the model checks
+    /// it).
     pub fn law(&self, rig: &RigSpec, a_m: f64) -> Law {
-        let f = a_m * rig.k2_n_per_m;
-        let (rho_s, rho_d) = (self.rs_n / f, self.rd_n / f);
-        let slope = self.slope_n_s_per_m / (rig.k2_n_per_m * rig.m2_kg).sqrt();
+        let s = Scales::from_rig(&rig.constants(), a_m);
+        let (rho_s, rho_d) = (self.rs_n / s.force_n, self.rd_n / s.force_n);
+        let slope = self.slope_n_s_per_m / s.slope_n_s_per_m;
         match self.stribeck_velocity_m_per_s {
             None => Law::Linear {
                 rho_s,
@@ -238,7 +259,7 @@ impl FrictionSpec {
                 rho_s,
                 rho_d,
                 slope,
-                v_s: vs / (a_m * rig.omega_ref()),
+                v_s: vs / s.velocity_m_per_s,
             },
         }
     }

@@ -26,9 +26,9 @@
 
 use super::frc::{MeasuredFrc, SweepKind};
 use crate::identify::smooth::Rng;
-use crate::identify::{Estimate, LawKind, LogFit, SiLaw};
+use crate::identify::{Estimate, LogFit};
 use crate::ingest::RigMeta;
-use crate::model::{Absorber, Law, Model, Schedule, Segment};
+use crate::model::{Absorber, Law, LawKind, Model, Scales, Schedule, Segment, SiLaw};
 use crate::sim::engine::{Event, Init, Observer};
 use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
@@ -37,61 +37,9 @@ use crate::{Error, Result};
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
-/// The scales that make an SI law dimensionless for one log.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Scales {
-    /// A·K2 (N): ρ = R/(A·K2).
-    pub force_n: f64,
-    /// √(K2·M2) (N·s/m): D* = a/√(K2·M2).
-    pub slope_n_s_per_m: f64,
-    /// A·√(K2/M2) (m/s): the unit of a dimensionless velocity.
-    pub velocity_m_per_s: f64,
-}
-
-impl Scales {
-    /// Scales of a rig driven with amplitude `amplitude_m`.
-    pub fn new(rig: &RigMeta, amplitude_m: f64) -> Self {
-        Self {
-            force_n: amplitude_m * rig.k2_n_per_m,
-            slope_n_s_per_m: (rig.k2_n_per_m * rig.m2_kg).sqrt(),
-            velocity_m_per_s: amplitude_m * rig.omega_ref(),
-        }
-    }
-
-    /// The dimensionless law of an SI law (None if a parameter is unknown).
-    pub fn law(&self, l: &SiLaw) -> Option<Law> {
-        let (rs, rd, a) = (
-            l.rs_n / self.force_n,
-            l.rd_n / self.force_n,
-            l.slope_n_s_per_m / self.slope_n_s_per_m,
-        );
-        if !(rs.is_finite() && rd.is_finite() && a.is_finite()) {
-            return None;
-        }
-        let law = match (l.kind, l.vs_m_per_s) {
-            (LawKind::Stribeck, Some(vs)) => Law::Stribeck {
-                rho_s: rs,
-                rho_d: rd,
-                slope: a,
-                v_s: vs / self.velocity_m_per_s,
-            },
-            _ => Law::Linear {
-                rho_s: rs,
-                rho_d: rd.min(rs),
-                slope: a,
-            },
-        };
-        law.validate().ok().map(|_| law)
-    }
-}
-
 /// The absorber (m, k, D) of a rig.
 pub fn absorber(rig: &RigMeta) -> Absorber {
-    Absorber {
-        m: rig.mass_ratio(),
-        k: rig.stiffness_ratio(),
-        damping: rig.damping_ratio(),
-    }
+    rig.constants().absorber()
 }
 
 /// Default period budget of the fitted law's steady state per point.
@@ -275,17 +223,14 @@ fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
 ///
 /// A stuck log has no sliding level: an error (nothing to predict with).
 pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>)> {
-    let f = &fit.fit;
-    if f.stuck {
+    // A never-sticking log's law carries Rs = Rd (Measured::NeverSticks);
+    // the draws take Rs from its bounds.
+    let Some(central) = fit.law() else {
         return Err(Error::Input {
             path: std::path::PathBuf::new(),
             msg: "the characteristic log never slid: only a lower bound on the static friction is known, no sliding level to predict with".into(),
         });
-    }
-    let mut central = fit.law();
-    if fit.never_sticks() {
-        central.rs_n = central.rd_n;
-    }
+    };
     let u = if fit.gain_uncertainty.is_finite() {
         fit.gain_uncertainty.clamp(0.0, 0.5)
     } else {
@@ -671,11 +616,11 @@ pub fn predict_with(
             msg: "the sweep has no measured points".into(),
         });
     }
-    let scales = Scales::new(rig, frc.drive_amplitude_m);
+    let scales = Scales::from_rig(&rig.constants(), frc.drive_amplitude_m);
     let absorber = absorber(rig);
     let mut warnings = Vec::new();
     let to_model = |l: &SiLaw| {
-        scales.law(l).map(|law| Model {
+        l.to_rho(&scales).map(|law| Model {
             absorber,
             law,
             stop_below: None,
