@@ -15,6 +15,36 @@ pub enum Error {
     /// A rig log could not be ingested.
     #[error(transparent)]
     Ingest(#[from] crate::ingest::IngestError),
+    /// The friction law of a characteristic log could not be identified.
+    #[error("{}: {source}", path.display())]
+    Identify {
+        /// The log.
+        path: PathBuf,
+        /// Why.
+        source: crate::identify::IdentifyError,
+    },
+    /// A sweep could not be validated against a fitted law.
+    #[error("{}: {source}", path.display())]
+    Validate {
+        /// The log concerned (the sweep, or the characteristic log).
+        path: PathBuf,
+        /// Why.
+        source: crate::validate::ValidateError,
+    },
+    /// The batch comparison could not be made.
+    #[error("batch: {0}")]
+    Batch(#[from] crate::batch::BatchError),
+    /// A stage did not run on an input because an earlier stage failed on
+    /// it (that failure is reported on its own as well).
+    #[error("{}: {stage}: {cause}", path.display())]
+    Skipped {
+        /// The input.
+        path: PathBuf,
+        /// What was not done (`not read`, `not validated`).
+        stage: &'static str,
+        /// The earlier failure, as reported.
+        cause: String,
+    },
     /// A file could not be read or written.
     #[error("{}: {source}", path.display())]
     Io {

@@ -34,12 +34,16 @@
 //!   normal forces: μs, μd, conflicts, the worst case and the recommended
 //!   normal force ([`batch::Batch`]).
 //! * [`report`]: HTML pages and figures (plotters).
-//! * [`model`]: the dimensionless absorber (m, k, D), friction laws, drives.
+//! * [`model`]: the dimensionless absorber (m, k, D), the rig's constants,
+//!   drives, and the one friction-law vocabulary ([`model::LawKind`],
+//!   [`model::Family`], [`model::SiLaw`], [`model::Law`], [`model::Scales`]).
 //! * [`synth`]: a virtual rig writing logs with known truth from the simulator.
 //! * `cli` (feature `cli`, on by default): the command-line layer (parse,
 //!   call the doors, print); `cargo build --lib --no-default-features`
 //!   builds the library without clap and indicatif.
-//! * [`io`], [`error`]: atomic writes; the crate's error type.
+//! * [`io`], [`error`], [`guard`], [`stats`]: atomic writes (and the Parquet
+//!   table writer); the crate's error type; panic containment around
+//!   third-party decoders; shared statistics (Student t, normal quantiles).
 //!
 //! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
 //! ρ = R/(A·K2); SI units appear only at the edges (ingest, reports).
@@ -48,6 +52,7 @@ pub mod batch;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod error;
+pub mod guard;
 pub mod identify;
 pub mod ingest;
 pub mod io;

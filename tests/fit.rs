@@ -476,7 +476,13 @@ fn law_names_are_the_contract_spelling() {
         .unwrap();
     assert_eq!(res.status.code(), Some(2));
     let stderr = String::from_utf8_lossy(&res.stderr);
-    for name in ["auto", "coulomb", "decreasing", "static-dynamic", "stribeck"] {
+    for name in [
+        "auto",
+        "coulomb",
+        "decreasing",
+        "static-dynamic",
+        "stribeck",
+    ] {
         assert!(stderr.contains(name), "{name} not listed: {stderr}");
     }
     let res = Command::new(env!("CARGO_BIN_EXE_stickslip"))
@@ -484,7 +490,11 @@ fn law_names_are_the_contract_spelling() {
         .arg(data("char_N4.mcap"))
         .output()
         .unwrap();
-    assert!(res.status.success(), "{}", String::from_utf8_lossy(&res.stderr));
+    assert!(
+        res.status.success(),
+        "{}",
+        String::from_utf8_lossy(&res.stderr)
+    );
     let v: Value = serde_json::from_slice(&res.stdout).unwrap();
     assert_eq!(v["fits"][0]["law"], "coulomb");
 }

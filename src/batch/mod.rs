@@ -146,7 +146,7 @@ use crate::model::{Absorber, Law, Model};
 use crate::sim::engine::Init;
 use crate::sim::sweep::{curve, steady_state, Direction, SteadyConfig};
 use crate::sim::SimError;
-use crate::{Error, Result};
+use crate::Result;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -223,6 +223,44 @@ impl Default for BatchOptions {
             },
         }
     }
+}
+
+/// Why the batch comparison could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BatchError {
+    /// An option is out of range (what is wrong).
+    #[error("{0}")]
+    Options(String),
+    /// No log of the batch was fitted.
+    #[error("no fitted log in the batch")]
+    Empty,
+    /// The rig's constants describe no absorber.
+    #[error("rig: {0}")]
+    Rig(crate::model::ParamError),
+    /// The force scale A·K2 is not positive.
+    #[error("drive amplitude {amplitude_m} m or K2 {k2_n_per_m} N/m is not positive")]
+    Scale {
+        /// Drive amplitude A (m).
+        amplitude_m: f64,
+        /// K2 (N/m).
+        k2_n_per_m: f64,
+    },
+    /// The ρ grid is empty.
+    #[error("rho-max {max} is not above rho-min {min}")]
+    RhoRange {
+        /// Lower end.
+        min: f64,
+        /// Upper end.
+        max: f64,
+    },
+    /// No log measures a coefficient (μs or μd).
+    #[error(
+        "no log measures {0} (every log only bounds it, or none has an interval): cannot fit it"
+    )]
+    Unmeasured(&'static str),
+    /// The worst-case simulation failed.
+    #[error("worst-case simulation: {0}")]
+    Sim(SimError),
 }
 
 impl BatchOptions {
@@ -524,13 +562,9 @@ pub fn batch_with_progress(
     opts: &BatchOptions,
     tick: &(dyn Fn(u64) + Sync),
 ) -> Result<Batch> {
-    let batch_err = |msg: String| Error::Input {
-        path: PathBuf::from("batch"),
-        msg,
-    };
-    opts.check().map_err(batch_err)?;
+    opts.check().map_err(BatchError::Options)?;
     if fits.is_empty() {
-        return Err(batch_err("no fitted log in the batch".into()));
+        return Err(BatchError::Empty.into());
     }
     let mut warnings = Vec::new();
     let mut logs: Vec<BatchLog> = fits
@@ -551,17 +585,18 @@ pub fn batch_with_progress(
     let rr = rel(&mu_s).hypot(rel(&mu_d));
     let ratio_interval = ((ratio * (1.0 - rr)).max(0.0), (ratio * (1.0 + rr)).min(1.0));
 
-    let ab = crate::validate::predict::absorber(rig);
-    ab.validate().map_err(|e| batch_err(format!("rig: {e}")))?;
+    let ab = rig.constants().absorber();
+    ab.validate().map_err(BatchError::Rig)?;
     let (amp, amp_source) = match opts.drive_amplitude_m {
         Some(a) => (a, "option"),
         None => (rig.drive_amplitude_m, "nominal"),
     };
     if !(amp.is_finite() && amp > 0.0 && rig.k2_n_per_m > 0.0) {
-        return Err(batch_err(format!(
-            "drive amplitude {amp} m or K2 {} N/m is not positive",
-            rig.k2_n_per_m
-        )));
+        return Err(BatchError::Scale {
+            amplitude_m: amp,
+            k2_n_per_m: rig.k2_n_per_m,
+        }
+        .into());
     }
     let fs = amp * rig.k2_n_per_m;
     let mut measured: Vec<f64> = logs
@@ -623,9 +658,11 @@ pub fn batch_with_progress(
         (1.1 * measured_max).max(3.0).max(need)
     });
     if rho_max <= rho_min {
-        return Err(batch_err(format!(
-            "rho-max {rho_max} is not above rho-min {rho_min}"
-        )));
+        return Err(BatchError::RhoRange {
+            min: rho_min,
+            max: rho_max,
+        }
+        .into());
     }
     let mut table = Table {
         ab,
@@ -636,7 +673,7 @@ pub fn batch_with_progress(
         evaluations: 0,
         tick,
     };
-    let sim_err = |e: SimError| batch_err(format!("worst-case simulation: {e}"));
+    let sim_err = BatchError::Sim;
     // Stage 1: the coarse grid at the estimated ratio, and the measured
     // settings.
     let steps = opts.rho_points - 1;
@@ -738,7 +775,7 @@ pub fn batch_with_progress(
             })
             .collect();
         if let Err(e) = table.add(&fine, true) {
-            return Err(sim_err(e));
+            return Err(sim_err(e).into());
         }
         let robust_all = |table: &Table<'_>| -> Vec<Option<f64>> {
             table
@@ -763,7 +800,7 @@ pub fn batch_with_progress(
         let (box_a, box_b) = (rho_rec * fa, rho_rec * fb);
         // The box ends, evaluated directly (every ratio).
         if let Err(e) = table.add(&[box_a, box_b], true) {
-            return Err(sim_err(e));
+            return Err(sim_err(e).into());
         }
         let in_box: Vec<f64> = table
             .nodes

@@ -304,10 +304,6 @@ pub(super) fn fit_coefficients(
     normal_gain_u: f64,
     warnings: &mut Vec<String>,
 ) -> Result<Coefficients> {
-    let batch_err = |msg: String| Error::Input {
-        path: PathBuf::from("batch"),
-        msg,
-    };
     let rel = typical_rel_sigma(logs);
     // (log index, observation, calibration) per quantity.
     let mut obs_s: Vec<(usize, Obs, Option<f64>)> = Vec::new();
@@ -386,7 +382,7 @@ pub(super) fn fit_coefficients(
         }
     }
     let gain_n = 1.96 * normal_gain_u / 3f64.sqrt();
-    let mk = |items: &[&(usize, Obs, Option<f64>)], name: &str| -> Result<MuFit> {
+    let mk = |items: &[&(usize, Obs, Option<f64>)], name: &'static str| -> Result<MuFit> {
         let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
         let cal: Vec<(f64, f64, Option<f64>)> = items
             .iter()
@@ -395,11 +391,7 @@ pub(super) fn fit_coefficients(
                 _ => None,
             })
             .collect();
-        let (mu, stat, birge, chi2) = fit_mu(&obs).ok_or_else(|| {
-            batch_err(format!(
-                "no log measures {name} (every log only bounds it, or none has an interval): cannot fit it"
-            ))
-        })?;
+        let (mu, stat, birge, chi2) = fit_mu(&obs).ok_or(super::BatchError::Unmeasured(name))?;
         let sys = common_calibration(&cal).hypot(gain_n);
         let points = point_obs(&obs);
         Ok(MuFit {

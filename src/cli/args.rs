@@ -3,6 +3,24 @@
 use crate::model::{Absorber, Law, Model};
 use clap::Args;
 
+/// Parser of a relative gain uncertainty: a finite fraction in [0, 0.5).
+pub fn gain_fraction(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))?;
+    if v.is_finite() && (0.0..0.5).contains(&v) {
+        Ok(v)
+    } else {
+        Err("must be a finite fraction in [0, 0.5)".into())
+    }
+}
+
+/// Parser of a period budget: 1 to 1e8 periods.
+pub fn periods() -> clap::builder::RangedU64ValueParser<u64> {
+    clap::value_parser!(u64).range(1..=100_000_000)
+}
+
 /// The model options shared by `simulate` and `sweep` (all but ρs, ρd).
 #[derive(Debug, Clone, Args)]
 pub struct ShapeArgs {

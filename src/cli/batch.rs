@@ -36,10 +36,10 @@ pub struct BatchArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Relative gain uncertainty of each motion sensor in the calibration budget.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub gain_uncertainty: f64,
     /// Relative gain uncertainty of the normal-force sensor (common to the batch).
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub normal_force_gain_uncertainty: f64,
     /// Bootstrap replicates over drive periods (per log).
     #[arg(long, default_value_t = 400)]
@@ -84,7 +84,7 @@ pub struct BatchArgs {
     #[arg(long)]
     pub drive_amplitude_mm: Option<f64>,
     /// Period budget of the time-marching fallback per steady state.
-    #[arg(long, default_value_t = vb::DEFAULT_MAX_PERIODS)]
+    #[arg(long, default_value_t = vb::DEFAULT_MAX_PERIODS, value_parser = super::args::periods())]
     pub max_periods: u64,
     /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
@@ -102,15 +102,6 @@ fn arg_err(name: &str, msg: &str) -> crate::Error {
 }
 
 fn options(a: &BatchArgs) -> crate::Result<BatchOptions> {
-    if !(a.gain_uncertainty.is_finite() && (0.0..0.5).contains(&a.gain_uncertainty)) {
-        return Err(arg_err(
-            "--gain-uncertainty",
-            "must be a finite fraction in [0, 0.5)",
-        ));
-    }
-    if a.max_periods == 0 {
-        return Err(arg_err("--max-periods", "must be at least 1"));
-    }
     let d = BatchOptions::default();
     let o = BatchOptions {
         eta_range: a.eta_min.zip(a.eta_max),

@@ -43,7 +43,7 @@ pub struct FitArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Relative gain uncertainty of each sensor in the calibration budget.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub gain_uncertainty: f64,
     /// Bootstrap replicates over drive periods.
     #[arg(long, default_value_t = 400)]
@@ -66,12 +66,6 @@ pub fn entry(log: &Path, f: &LogFit) -> Value {
 
 /// Runs `fit`; `Ok(false)` when some log failed (its error line is printed).
 pub fn run(args: FitArgs) -> crate::Result<bool> {
-    if !(args.gain_uncertainty.is_finite() && (0.0..0.5).contains(&args.gain_uncertainty)) {
-        return Err(crate::Error::Input {
-            path: PathBuf::from("--gain-uncertainty"),
-            msg: "must be a finite fraction in [0, 0.5)".into(),
-        });
-    }
     crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
     let opts = IdentifyOptions {
         fit: identify::FitOptions {

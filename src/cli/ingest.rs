@@ -111,7 +111,7 @@ pub fn run(args: IngestArgs) -> crate::Result<()> {
     };
     let run = ingest::read(&args.log, &opts)?;
     if let Some(out) = &args.out {
-        ingest::write_parquet(&run, out)?;
+        crate::io::write_parquet(&run, out)?;
     }
     if args.json {
         super::print_json(&report(&run, args.out.as_deref()));

@@ -184,9 +184,10 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
                 Ok(_) => fitted.next().expect("one fit per log read"),
                 Err(e) => {
                     bar.inc(1);
-                    Err(crate::Error::Input {
+                    Err(crate::Error::Skipped {
                         path: (*p).clone(),
-                        msg: format!("not read: {e}"),
+                        stage: "not read",
+                        cause: e.to_string(),
                     })
                 }
             };
@@ -204,7 +205,8 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     }
     for r in fits.values() {
         if let Err(e) = r {
-            if !matches!(e, crate::Error::Input { msg, .. } if msg.starts_with("not read")) {
+            // A log that was not read is reported once, by its read error.
+            if !matches!(e, crate::Error::Skipped { .. }) {
                 errors.push(format!("{e}"));
             }
         }
@@ -226,10 +228,13 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
                     &runs[&pair.sweep],
                 ) {
                     (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, cr, sr, &vopts),
-                    (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => Err(crate::Error::Input {
-                        path: pair.sweep.clone(),
-                        msg: format!("not validated: {e}"),
-                    }),
+                    (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => {
+                        Err(crate::Error::Skipped {
+                            path: pair.sweep.clone(),
+                            stage: "not validated",
+                            cause: e.to_string(),
+                        })
+                    }
                 };
                 bar.inc(1);
                 (pair.clone(), r)

@@ -30,11 +30,11 @@ pub struct ValidateArgs {
     #[arg(long, default_value_t = 40)]
     pub samples: usize,
     /// Relative gain uncertainty of each sensor in the calibration budget.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub gain_uncertainty: f64,
     /// Period budget of the fitted law's steady state at each point (points
     /// with no periodic response by then are reported without one).
-    #[arg(long, default_value_t = validate::predict::DEFAULT_STEADY_PERIODS)]
+    #[arg(long, default_value_t = validate::predict::DEFAULT_STEADY_PERIODS, value_parser = super::args::periods())]
     pub max_periods: u64,
     /// Use a characteristic log and a sweep whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
@@ -226,18 +226,6 @@ pub(crate) fn validation_section(
 
 /// Runs `validate`.
 pub fn run(args: ValidateArgs) -> crate::Result<()> {
-    if !(args.gain_uncertainty.is_finite() && (0.0..0.5).contains(&args.gain_uncertainty)) {
-        return Err(crate::Error::Input {
-            path: PathBuf::from("--gain-uncertainty"),
-            msg: "must be a finite fraction in [0, 0.5)".into(),
-        });
-    }
-    if args.max_periods == 0 {
-        return Err(crate::Error::Input {
-            path: PathBuf::from("--max-periods"),
-            msg: "must be at least 1".into(),
-        });
-    }
     crate::io::ensure_not_inputs(
         [args.characteristic.as_path(), args.sweep.as_path()],
         args.out.as_deref(),

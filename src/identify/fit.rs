@@ -235,7 +235,11 @@ fn bic(rss: f64, n: usize, n_eff: f64, k: usize) -> f64 {
 }
 
 /// Fits the friction law of one log (equation error).
-pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<EquationFit, String> {
+pub fn fit(
+    c: &Contact,
+    seg: &Segmentation,
+    opts: &FitOptions,
+) -> Result<EquationFit, super::IdentifyError> {
     let n = c.r.len();
     let half = c.half_window;
     let f_drive = c.drive.frequency_hz;
@@ -455,7 +459,7 @@ pub fn fit(c: &Contact, seg: &Segmentation, opts: &FitOptions) -> Result<Equatio
         }
     }
     if cands.is_empty() {
-        return Err("the slip samples do not determine a friction law".into());
+        return Err(super::IdentifyError::Undetermined);
     }
     let richest = cands.last().expect("non-empty");
     let tau = tau_int(&richest.res, &idx);

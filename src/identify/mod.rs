@@ -163,17 +163,43 @@ pub struct Characteristic {
     pub segmentation: Segmentation,
 }
 
+/// Why a characteristic log gives no friction law (the doors,
+/// [`characteristic`] and [`fit_log`], name the log).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentifyError {
+    /// The log is a sweep.
+    #[error("not a characteristic test (rig test = sweep): fit needs a fixed-frequency characteristic log")]
+    NotCharacteristic,
+    /// No drive sinusoid fits the drive channel.
+    #[error("the drive channel does not determine a drive sinusoid")]
+    NoDriveSinusoid,
+    /// Less than two drive periods of usable data.
+    #[error("only {usable_s:.3} s of usable data (x1, x2, v2 together); a characteristic needs at least two drive periods ({needed_s:.3} s)")]
+    TooShort {
+        /// Usable data (s).
+        usable_s: f64,
+        /// Two drive periods (s).
+        needed_s: f64,
+    },
+    /// The slip samples do not determine a law.
+    #[error("the slip samples do not determine a friction law")]
+    Undetermined,
+    /// The fit panicked (a bug): the log is reported, the others go on.
+    #[error("internal error while fitting this log")]
+    Internal,
+}
+
 /// Computes the friction characteristic of `run` (sensor gains `gains`).
 pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
-    let bad = |msg: &str| Error::Input {
+    let bad = |source: IdentifyError| Error::Identify {
         path: run.source.clone(),
-        msg: msg.to_string(),
+        source,
     };
     if run.rig.test != TestKind::Characteristic {
-        return Err(bad("not a characteristic test (rig test = sweep): fit needs a fixed-frequency characteristic log"));
+        return Err(bad(IdentifyError::NotCharacteristic));
     }
-    let mut contact = contact::compute(run, gains)
-        .ok_or_else(|| bad("the drive channel does not determine a drive sinusoid"))?;
+    let mut contact =
+        contact::compute(run, gains).ok_or_else(|| bad(IdentifyError::NoDriveSinusoid))?;
     // At least two drive periods of usable data: less cannot tell a stuck
     // mass from a log that is simply too short.
     let usable = (0..contact.r.len())
@@ -182,10 +208,10 @@ pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
         * contact.dt;
     let period = 1.0 / contact.drive.frequency_hz;
     if usable < 2.0 * period || !period.is_finite() {
-        return Err(bad(&format!(
-            "only {usable:.3} s of usable data (x1, x2, v2 together); a characteristic needs at least two drive periods ({:.3} s)",
-            2.0 * period
-        )));
+        return Err(bad(IdentifyError::TooShort {
+            usable_s: usable,
+            needed_s: 2.0 * period,
+        }));
     }
     let seg = segment::segment(
         &contact.v2,
@@ -463,9 +489,9 @@ fn quantities(f: &EquationFit, a: f64, k2: f64, ss: f64) -> [f64; 8] {
 /// error (naming it) instead of ending the program.
 fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|_| {
-        Err(Error::Input {
+        Err(Error::Identify {
             path: path.to_path_buf(),
-            msg: "internal error while fitting this log".into(),
+            source: IdentifyError::Internal,
         })
     })
 }
@@ -512,11 +538,12 @@ pub fn fit_runs(
 /// (bootstrap over periods combined with the calibration budget).
 pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     let base = characteristic(run, &Gains::default())?;
-    let mut ef =
-        fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|msg| Error::Input {
+    let mut ef = fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|source| {
+        Error::Identify {
             path: run.source.clone(),
-            msg,
-        })?;
+            source,
+        }
+    })?;
     let rig = &run.rig;
     let k2 = rig.k2_n_per_m;
     let ss = (rig.k2_n_per_m * rig.m2_kg).sqrt();

@@ -22,7 +22,6 @@ mod run;
 
 use std::path::{Path, PathBuf};
 
-pub use parquet::{write_parquet, write_table};
 pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
 pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
 

@@ -1,10 +1,10 @@
 //! Parquet tables: columns `t`, `x0`, `x1`, `x2`, `v2` and optionally `a2`,
 //! `normal_force`, `setpoint_hz` (SI, common time base, null = dropout), with
 //! the `rig` metadata as the file's key-value metadata. The same layout is
-//! what [`write_parquet`] writes for a canonical [`Run`].
+//! what [`crate::io::write_parquet`] writes for a canonical [`Run`](super::Run).
 
 use super::rig::RigMeta;
-use super::run::{median_interval, Run, Setpoint};
+use super::run::{median_interval, Setpoint};
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
 use polars::prelude::*;
 use std::collections::BTreeMap;
@@ -24,7 +24,7 @@ fn pq_err(path: &Path, what: &str, e: PolarsError) -> IngestError {
 /// (found by `tests/fuzz.rs`): such a panic is caught and reported as a
 /// corrupt file, never shown to the user as a crash.
 pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
-    match crate::io::guarded(|| read_inner(path)) {
+    match crate::guard::guarded(|| read_inner(path)) {
         Ok(r) => r,
         Err(msg) => Err(IngestError::invalid(
             path,
@@ -194,56 +194,4 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         setpoints,
         warnings: Vec::new(),
     })
-}
-
-/// Writes the canonical table of `run` (columns `t`, `x0`, `x1`, `x2`,
-/// `v2` and, where present, `a2`, `normal_force`, `setpoint_hz`; NaN written
-/// as null) with the rig metadata as key-value metadata, atomically.
-pub fn write_parquet(run: &Run, target: &Path) -> crate::Result<()> {
-    let r = &run.resampled;
-    let to_col =
-        |v: &[f64]| -> Vec<Option<f64>> { v.iter().map(|x| x.is_finite().then_some(*x)).collect() };
-    let mut cols = Vec::new();
-    for q in Quantity::ALL {
-        if let Some(v) = r.column(q) {
-            cols.push((q.name(), to_col(v)));
-        }
-    }
-    if let Some(v) = &r.setpoint_hz {
-        cols.push(("setpoint_hz", to_col(v)));
-    }
-    write_table(target, &r.t, &cols, &run.rig.to_map())
-}
-
-/// Writes a rig table atomically: column `t` (s), then the named value
-/// columns (`None` written as null), with `meta` as the file's key-value
-/// metadata (the layout the Parquet ingest, [`crate::ingest::read`], expects).
-pub fn write_table(
-    target: &Path,
-    t: &[f64],
-    columns: &[(&str, Vec<Option<f64>>)],
-    meta: &BTreeMap<String, String>,
-) -> crate::Result<()> {
-    let fail = |e: PolarsError| crate::Error::Input {
-        path: target.to_path_buf(),
-        msg: format!("cannot write Parquet: {e}"),
-    };
-    let mut cols = vec![Column::new("t".into(), t.to_vec())];
-    for (name, v) in columns {
-        if v.len() != t.len() {
-            return Err(crate::Error::Input {
-                path: target.to_path_buf(),
-                msg: format!("column {name} has {} rows, t has {}", v.len(), t.len()),
-            });
-        }
-        cols.push(Column::new((*name).into(), v.clone()));
-    }
-    let mut df = DataFrame::new(t.len(), cols).map_err(fail)?;
-    let kv: Vec<(String, String)> = meta.clone().into_iter().collect();
-    let mut out = crate::io::AtomicFile::create(target)?;
-    ParquetWriter::new(out.writer())
-        .with_key_value_metadata(Some(KeyValueMetadata::from_static(kv)))
-        .finish(&mut df)
-        .map_err(fail)?;
-    out.commit()
 }

@@ -328,5 +328,5 @@ fn write_parquet(log: &SynthLog, path: &Path) -> Result<()> {
         .channels
         .iter()
         .all(|c| c.buffers.len() == 1 && c.buffers[0].t0_ns == LOG_START_NS));
-    crate::ingest::write_table(path, &t, &cols, &log.rig_record)
+    crate::io::write_table(path, &t, &cols, &log.rig_record)
 }

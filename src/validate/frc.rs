@@ -171,9 +171,9 @@ impl Default for FrcOptions {
 }
 
 fn bad(run: &Run, msg: impl Into<String>) -> Error {
-    Error::Input {
+    Error::Validate {
         path: run.source.clone(),
-        msg: msg.into(),
+        source: super::ValidateError::Sweep(msg.into()),
     }
 }
 

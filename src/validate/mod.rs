@@ -41,6 +41,28 @@ pub struct Validation {
     pub warnings: Vec<String>,
 }
 
+/// Why a sweep could not be validated (the door, [`validate`], names the
+/// log concerned).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ValidateError {
+    /// The characteristic log never slid: no sliding level to predict with.
+    #[error("the mass never slid in this characteristic log: only a lower bound on the static friction is known, no sliding level to predict a sweep with")]
+    NeverSlid,
+    /// The sweep log does not give a frequency response (what is wrong
+    /// with it).
+    #[error("{0}")]
+    Sweep(String),
+    /// The sweep's frequency plan has no segment.
+    #[error("the sweep's frequency plan is empty")]
+    EmptyPlan,
+    /// The sweep has no measured point.
+    #[error("the sweep has no measured points")]
+    NoPoints,
+    /// The fitted law is not a friction law at the sweep's amplitude.
+    #[error("the fitted law is not a valid friction law at the sweep's drive amplitude")]
+    InvalidLaw,
+}
+
 /// Relative difference above which the rig constants of the characteristic
 /// log and the sweep are reported as different rigs.
 const RIG_MISMATCH: f64 = 0.01;
@@ -54,10 +76,10 @@ pub fn validate(
     sweep: &Run,
     opts: &ValidateOptions,
 ) -> Result<Validation> {
-    if fit.fit.stuck {
-        return Err(crate::Error::Input {
+    if fit.stuck() {
+        return Err(crate::Error::Validate {
             path: characteristic.source.clone(),
-            msg: "the mass never slid in this characteristic log: only a lower bound on the static friction is known, no sliding level to predict a sweep with".into(),
+            source: ValidateError::NeverSlid,
         });
     }
     let fit_rig = &characteristic.rig;
@@ -78,11 +100,11 @@ pub fn validate(
     }
     let prediction =
         predict::predict(fit, &rig, &measured, &opts.predict).map_err(|e| match e {
-            crate::Error::Input { msg, .. } => crate::Error::Input {
+            predict::PredictError::Validate(source) => crate::Error::Validate {
                 path: sweep.source.clone(),
-                msg,
+                source,
             },
-            other => other,
+            predict::PredictError::Sim(e) => e.into(),
         })?;
     warnings.extend(measured.warnings.iter().cloned());
     warnings.extend(prediction.warnings.iter().cloned());

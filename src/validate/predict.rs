@@ -25,6 +25,7 @@
 //! re-scaled ([`Scales`]).
 
 use super::frc::{MeasuredFrc, SweepKind};
+use super::ValidateError;
 use crate::identify::smooth::Rng;
 use crate::identify::{Estimate, LogFit};
 use crate::ingest::RigMeta;
@@ -33,7 +34,19 @@ use crate::sim::engine::{Event, Init, Observer};
 use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
 use crate::sim::sweep::{steady_state, SteadyConfig};
-use crate::{Error, Result};
+use crate::sim::SimError;
+
+/// Why a prediction failed: a [`ValidateError`] of the inputs, or the
+/// simulation.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum PredictError {
+    /// The inputs do not give a prediction.
+    #[error(transparent)]
+    Validate(#[from] ValidateError),
+    /// The simulation failed.
+    #[error(transparent)]
+    Sim(#[from] SimError),
+}
 use rayon::prelude::*;
 use std::f64::consts::PI;
 
@@ -222,14 +235,11 @@ fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
 /// Rs = Rd; a static-dynamic draw keeps Rd ≤ Rs.
 ///
 /// A stuck log has no sliding level: an error (nothing to predict with).
-pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>)> {
+pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>), PredictError> {
     // A never-sticking log's law carries Rs = Rd (Measured::NeverSticks);
     // the draws take Rs from its bounds.
     let Some(central) = fit.law() else {
-        return Err(Error::Input {
-            path: std::path::PathBuf::new(),
-            msg: "the characteristic log never slid: only a lower bound on the static friction is known, no sliding level to predict with".into(),
-        });
+        return Err(ValidateError::NeverSlid.into());
     };
     let u = if fit.gain_uncertainty.is_finite() {
         fit.gain_uncertainty.clamp(0.0, 0.5)
@@ -293,7 +303,7 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
 
 /// The measured frequency plan as a dimensionless [`Schedule`] (τ = ω_ref·t,
 /// ζ0 = x0/A). The rig's x0 = A·sin φ is the engine's cos(φ − π/2).
-pub fn schedule(frc: &MeasuredFrc) -> Result<Schedule> {
+pub fn schedule(frc: &MeasuredFrc) -> Result<Schedule, PredictError> {
     let w = frc.omega_ref_rad_s;
     let eta = |f: f64| 2.0 * PI * f / w;
     let mut segments = Vec::with_capacity(frc.plan.len());
@@ -316,10 +326,7 @@ pub fn schedule(frc: &MeasuredFrc) -> Result<Schedule> {
         segments.push(seg);
     }
     if segments.is_empty() {
-        return Err(Error::Input {
-            path: std::path::PathBuf::new(),
-            msg: "the sweep's frequency plan is empty".into(),
-        });
+        return Err(ValidateError::EmptyPlan.into());
     }
     Ok(Schedule {
         segments,
@@ -596,7 +603,7 @@ pub fn predict(
     rig: &RigMeta,
     frc: &MeasuredFrc,
     opts: &PredictOptions,
-) -> Result<Prediction> {
+) -> Result<Prediction, PredictError> {
     let (central, draws) = draw_laws(fit, opts.samples, opts.seed)?;
     predict_with(&central, &draws, rig, frc, opts)
 }
@@ -609,12 +616,9 @@ pub fn predict_with(
     rig: &RigMeta,
     frc: &MeasuredFrc,
     opts: &PredictOptions,
-) -> Result<Prediction> {
+) -> Result<Prediction, PredictError> {
     if frc.points.is_empty() {
-        return Err(Error::Input {
-            path: std::path::PathBuf::new(),
-            msg: "the sweep has no measured points".into(),
-        });
+        return Err(ValidateError::NoPoints.into());
     }
     let scales = Scales::from_rig(&rig.constants(), frc.drive_amplitude_m);
     let absorber = absorber(rig);
@@ -627,10 +631,7 @@ pub fn predict_with(
         })
     };
     let Some(model) = to_model(central) else {
-        return Err(Error::Input {
-            path: std::path::PathBuf::new(),
-            msg: "the fitted law is not a valid friction law at the sweep's drive amplitude".into(),
-        });
+        return Err(ValidateError::InvalidLaw.into());
     };
     let models: Vec<Model> = draws.iter().filter_map(to_model).collect();
     if models.len() < draws.len() {

@@ -1,6 +1,10 @@
 //! Output helpers shared by the stages: atomic file writes, so a failed or
 //! interrupted job never leaves a partial file or clobbers the user's data.
 
+mod parquet;
+
+pub use parquet::{write_parquet, write_table};
+
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -120,32 +124,4 @@ pub fn ensure_not_inputs<'a>(
         }
     }
     Ok(())
-}
-
-/// Number of [`guarded`] regions running (in any thread: a decoder's own
-/// worker threads panic too, and their messages must not reach the user).
-static QUIET_PANICS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-
-/// Runs `f`, turning a panic inside it (e.g. in a third-party decoder fed a
-/// corrupt file) into `Err(message)`; panic messages are not printed while
-/// a guarded region runs. Panics outside still print as usual.
-pub fn guarded<T>(f: impl FnOnce() -> T) -> std::result::Result<T, String> {
-    static HOOK: std::sync::Once = std::sync::Once::new();
-    HOOK.call_once(|| {
-        let prev = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if QUIET_PANICS.load(std::sync::atomic::Ordering::SeqCst) == 0 {
-                prev(info)
-            }
-        }));
-    });
-    QUIET_PANICS.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-    let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(f));
-    QUIET_PANICS.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
-    r.map_err(|e| {
-        e.downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| e.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "internal panic".into())
-    })
 }
