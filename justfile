@@ -1,8 +1,9 @@
 # stickslip task runner (https://github.com/casey/just)
 
-# Run the whole test suite (what CI runs first).
+# Run the whole test suite (what CI runs first; --all-targets skips doctests).
 test:
     cargo test --all-targets
+    cargo test --doc
 
 # Lint and format checks.
 lint:

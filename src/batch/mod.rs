@@ -547,6 +547,34 @@ pub struct Batch {
 /// worst-case curve, the recommended normal force and the cliff below it.
 /// `rig` gives m, k, D and the nominal drive amplitude (see
 /// [`rig_warnings`] for checking that the logs share it).
+///
+/// ```
+/// use stickslip::batch::{batch, BatchOptions};
+/// use stickslip::identify::{fit_logs, FitOptions, IdentifyOptions};
+/// use std::path::PathBuf;
+/// let paths: Vec<PathBuf> = ["char_N2.2.mcap", "char_N4.mcap", "char_N7.2.mcap"]
+///     .iter()
+///     .map(|f| PathBuf::from("datasets").join(f))
+///     .collect();
+/// let opts = IdentifyOptions {
+///     fit: FitOptions { bootstrap: 0, ..Default::default() },
+///     ..Default::default()
+/// };
+/// let mut fits = Vec::new();
+/// let mut rig = None;
+/// for (p, r) in paths.iter().zip(fit_logs(&paths, &opts, &|| {})) {
+///     let (meta, fit) = r?;
+///     rig.get_or_insert(meta);
+///     fits.push((p.clone(), fit));
+/// }
+/// // A coarse grid keeps the example short.
+/// let bopts = BatchOptions { eta_points: 41, rho_points: 8, refine: false, ..Default::default() };
+/// let b = batch(&fits, &rig.unwrap(), &bopts)?;
+/// // One pad: μs ≥ μd, each with an interval around it.
+/// let (lo, hi) = b.mu_s.interval;
+/// assert!(lo <= b.mu_s.mu && b.mu_s.mu <= hi && b.mu_d.mu <= b.mu_s.mu);
+/// # Ok::<(), stickslip::Error>(())
+/// ```
 pub fn batch(fits: &[(PathBuf, LogFit)], rig: &RigMeta, opts: &BatchOptions) -> Result<Batch> {
     batch_with_progress(fits, rig, opts, &|_| {})
 }

@@ -536,6 +536,24 @@ pub fn fit_runs(
 
 /// Fits the friction law of one characteristic log with 95 % intervals
 /// (bootstrap over periods combined with the calibration budget).
+///
+/// ```
+/// use stickslip::identify::{fit_log, FitOptions, IdentifyOptions};
+/// use stickslip::ingest::{read, IngestOptions};
+/// let run = read("datasets/char_N4.mcap".as_ref(), &IngestOptions::default())?;
+/// let opts = IdentifyOptions {
+///     fit: FitOptions { bootstrap: 0, ..Default::default() },
+///     ..Default::default()
+/// };
+/// let fit = fit_log(&run, &opts)?;
+/// // A static-dynamic pad that sticks and slips: ρs measured, with an
+/// // interval around it, and the law explains the positions.
+/// assert!(!fit.stuck() && !fit.never_sticks());
+/// let (rho_s, (lo, hi)) = (fit.rho_s().unwrap(), fit.rho_s_interval.unwrap());
+/// assert!(lo <= rho_s && rho_s <= hi);
+/// assert!(fit.rho_d().unwrap() <= rho_s);
+/// # Ok::<(), stickslip::Error>(())
+/// ```
 pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     let base = characteristic(run, &Gains::default())?;
     let mut ef = fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|source| {

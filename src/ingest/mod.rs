@@ -238,6 +238,15 @@ pub(crate) struct RawLog {
 ///
 /// The format is chosen by the file extension. A CSV's channel map is
 /// `opts.map`, or `NAME.map.toml` beside `NAME.csv`.
+///
+/// ```
+/// use stickslip::ingest::{read, IngestOptions, TestKind};
+/// let run = read("datasets/char_N4.mcap".as_ref(), &IngestOptions::default())?;
+/// assert_eq!(run.rig.test, TestKind::Characteristic);
+/// assert!((run.rig.k2_n_per_m - 670.0).abs() < 1e-9);
+/// assert!(run.resampled.t.len() > 1000);
+/// # Ok::<(), stickslip::ingest::IngestError>(())
+/// ```
 pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     let ext = path
         .extension()

@@ -159,6 +159,16 @@ pub struct Page {
 }
 
 /// Renders the page to HTML.
+///
+/// ```
+/// use stickslip::report::html::{render, Page};
+/// // Everything from a log is auto-escaped.
+/// let page = Page { title: "pad <b>A</b>".into(), ..Default::default() };
+/// let html = render(&page)?;
+/// assert!(html.contains("<h1>pad &lt;b&gt;A&lt;&#x2f;b&gt;</h1>"));
+/// assert!(!html.contains("<b>A"));
+/// # Ok::<(), stickslip::Error>(())
+/// ```
 pub fn render(page: &Page) -> Result<String> {
     let mut env = minijinja::Environment::new();
     env.add_template("index.html", TEMPLATE)

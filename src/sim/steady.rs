@@ -235,6 +235,18 @@ impl<O: Observer> Observer for Tracker<'_, O> {
 }
 
 /// Runs a `simulate` job: `opts.periods` periods, or until steady.
+///
+/// ```
+/// use stickslip::model::{Absorber, Law, Model};
+/// use stickslip::sim::{simulate, Sim, SimOptions};
+/// // The paper's absorber (m = 4, k = 1, D = 0.005), Coulomb ρ = 0.5, η = 1.
+/// let model = Model { absorber: Absorber::default(), law: Law::coulomb(0.5), stop_below: None };
+/// let sim = Sim::new(&model, 1.0)?;
+/// let s = simulate(&sim, &SimOptions::default(), &mut ());
+/// assert!(s.steady);
+/// assert!(s.amplitude1.unwrap() > 0.0 && s.stick_fraction > 0.0);
+/// # Ok::<(), stickslip::sim::SimError>(())
+/// ```
 pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summary {
     let model = sim.model();
     let eta = sim.eta();

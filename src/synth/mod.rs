@@ -1223,6 +1223,20 @@ fn drives_of(cfg: &SynthConfig, w: f64) -> (Drives, Option<Schedule>, Vec<SynthS
 }
 
 /// Runs the virtual rig: the whole log in memory with its truth.
+///
+/// ```
+/// use stickslip::synth::{generate, SynthConfig, TestSpec};
+/// // The paper's rig and a static-dynamic pad at 2.2 N, 2 s logged at 2.5 Hz.
+/// let cfg = SynthConfig {
+///     test: TestSpec::Characteristic { frequency_hz: 2.5, warmup_s: 4.0, duration_s: 2.0 },
+///     ..SynthConfig::paper(7)
+/// };
+/// let log = generate(&cfg)?;
+/// // The truth the log was made with travels with it.
+/// assert_eq!(log.truth["law"]["family"], "static_dynamic");
+/// assert!(!log.channels.is_empty());
+/// # Ok::<(), stickslip::synth::SynthError>(())
+/// ```
 pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     cfg.validate()?;
     let rig = &cfg.rig;

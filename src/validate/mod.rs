@@ -70,6 +70,26 @@ const RIG_MISMATCH: f64 = 0.01;
 /// Validates the law fitted on a characteristic log (`fit` of the log
 /// `characteristic`) against a sweep log: measures the sweep's response
 /// and predicts it (steady state and replay, with bands).
+///
+/// ```
+/// use stickslip::identify::{fit_log, FitOptions, IdentifyOptions};
+/// use stickslip::ingest::{read, IngestOptions};
+/// use stickslip::validate::{validate, ValidateOptions};
+/// let read = |p: &str| read(p.as_ref(), &IngestOptions::default());
+/// let (char_log, sweep) = (read("datasets/char_N4.mcap")?, read("datasets/sweep_stepped_N4.mcap")?);
+/// let opts = IdentifyOptions {
+///     fit: FitOptions { bootstrap: 0, ..Default::default() },
+///     ..Default::default()
+/// };
+/// let fit = fit_log(&char_log, &opts)?;
+/// let mut vopts = ValidateOptions::default();
+/// vopts.predict.samples = 0; // no bands: central prediction only
+/// let v = validate(&fit, &char_log, &sweep, &vopts)?;
+/// // Normalised RMS error of the predicted amplitudes of M1 and M2.
+/// assert!(v.prediction.score.nrms_amplitude1.unwrap() < 0.2);
+/// assert!(v.prediction.score.nrms_amplitude2.unwrap() < 0.2);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn validate(
     fit: &LogFit,
     characteristic: &Run,
