@@ -1,0 +1,198 @@
+//! Intervals of the refined law: a sandwich over shooting segments,
+//! Student t, and the calibration budget.
+
+use super::*;
+
+impl Refinement {
+    /// Sandwich intervals over segments plus the calibration budget.
+    pub(super) fn intervals(
+        &self,
+        kind: LawKind,
+        th: &[f64],
+        proj: &Proj,
+        u: f64,
+        rs_known: bool,
+        inflation: f64,
+    ) -> Option<Intervals> {
+        let prob = self.problem(&self.data, kind);
+        let p = th.len();
+        let mut r0 = Res::new();
+        prob.eval(th, Some(proj), Some(&mut r0))?;
+        let m = r0.len();
+        // Jacobian by central differences (2m rows: r1 and r2 per sample).
+        let (law, _, _, _) = prob.unpack(th);
+        let kl = n_params(kind);
+        let mut jac = vec![vec![0.0; p]; 2 * m];
+        for j in 0..p {
+            let h = if j < kl {
+                match (kind, j) {
+                    (LawKind::Decreasing, 1) | (LawKind::Stribeck, 2) => 0.02,
+                    (LawKind::Stribeck, 3) => 0.01 * law.vs_m_per_s.unwrap_or(0.0),
+                    _ => 2e-3 * law.rd_n.abs().max(1e-2),
+                }
+            } else if j == kl {
+                2e-3 * law.rd_n.abs().max(1e-2)
+            } else {
+                3e-4
+            };
+            let mut rp = Res::new();
+            let mut rm = Res::new();
+            let mut tp = th.to_vec();
+            tp[j] += h;
+            prob.eval(&tp, Some(proj), Some(&mut rp))?;
+            let mut tm = th.to_vec();
+            tm[j] -= h;
+            prob.eval(&tm, Some(proj), Some(&mut rm))?;
+            if rp.len() != m || rm.len() != m {
+                return None;
+            }
+            for i in 0..m {
+                jac[2 * i][j] = (rp[i].1 - rm[i].1) / (2.0 * h);
+                jac[2 * i + 1][j] = (rp[i].2 - rm[i].2) / (2.0 * h);
+            }
+        }
+        // H = JᵀJ and the per-segment scores g_k = J_kᵀ r_k.
+        let nseg = self.data.segs.len();
+        let mut hm = vec![vec![0.0; p]; p];
+        let mut g = vec![vec![0.0; p]; nseg];
+        for i in 0..m {
+            let s = r0[i].0 as usize;
+            for (row, r) in [(2 * i, r0[i].1), (2 * i + 1, r0[i].2)] {
+                let jr = &jac[row];
+                for a in 0..p {
+                    g[s][a] += jr[a] * r;
+                    for b in 0..p {
+                        hm[a][b] += jr[a] * jr[b];
+                    }
+                }
+            }
+        }
+        let hinv: Vec<Vec<f64>> = (0..p)
+            .map(|k| {
+                let mut e = vec![0.0; p];
+                e[k] = 1.0;
+                solve_small(&hm, &e)
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let used = g.iter().filter(|v| v.iter().any(|x| *x != 0.0)).count();
+        if used <= p + 1 {
+            return None;
+        }
+        let mut meat = vec![vec![0.0; p]; p];
+        for gk in &g {
+            for a in 0..p {
+                for b in 0..p {
+                    meat[a][b] += gk[a] * gk[b];
+                }
+            }
+        }
+        let corr = used as f64 / (used - p) as f64;
+        let t975 = student_t975((used - p) as f64);
+        let mut cov = vec![vec![0.0; p]; p];
+        for a in 0..p {
+            for b in 0..p {
+                let mut s = 0.0;
+                for c in 0..p {
+                    for d in 0..p {
+                        s += hinv[a][c] * meat[c][d] * hinv[d][b];
+                    }
+                }
+                cov[a][b] = s * corr;
+            }
+        }
+        // The reported quantities as functions of θ (and the amplitude).
+        let k2 = self.rig.k2;
+        let ss = k2 / self.rig.omega;
+        let quantities = |th: &[f64], a: f64| -> [f64; 6] {
+            let (l, _, _, _) = prob.unpack(th);
+            let fs = a * k2;
+            [
+                l.rs_n,
+                l.rd_n,
+                l.slope_n_s_per_m,
+                l.rs_n / fs,
+                l.rd_n / fs,
+                l.slope_n_s_per_m / ss,
+            ]
+        };
+        let q0 = quantities(th, self.data.a);
+        // Statistical variance of each quantity (linear in θ for fixed A).
+        let mut var_stat = [0.0f64; 6];
+        for (qi, v) in var_stat.iter_mut().enumerate() {
+            let grad: Vec<f64> = (0..p)
+                .map(|j| {
+                    let mut t = th.to_vec();
+                    let h = 1e-6 * (1.0 + th[j].abs());
+                    t[j] += h;
+                    (quantities(&t, self.data.a)[qi] - q0[qi]) / h
+                })
+                .collect();
+            let mut s = 0.0;
+            for a in 0..p {
+                for b in 0..p {
+                    s += grad[a] * cov[a][b] * grad[b];
+                }
+            }
+            *v = s.max(0.0);
+        }
+        // Calibration: linear response to each sensor's gain at 1 + u.
+        let mut var_cal = [0.0f64; 6];
+        if u > 0.0 {
+            for gk in 0..4 {
+                let mut gains = Gains::default();
+                match gk {
+                    0 => gains.x0 = 1.0 + u,
+                    1 => gains.x1 = 1.0 + u,
+                    2 => gains.x2 = 1.0 + u,
+                    _ => gains.v2 = 1.0 + u,
+                }
+                let dp = self.data.scaled(&gains);
+                let pp = self.problem(&dp, kind);
+                let mut rp = Res::new();
+                pp.eval(th, Some(proj), Some(&mut rp))?;
+                if rp.len() != m {
+                    return None;
+                }
+                // Δθ = −H⁻¹ Jᵀ Δr.
+                let mut jtr = vec![0.0; p];
+                for i in 0..m {
+                    let (d1, d2) = (rp[i].1 - r0[i].1, rp[i].2 - r0[i].2);
+                    for a in 0..p {
+                        jtr[a] += jac[2 * i][a] * d1 + jac[2 * i + 1][a] * d2;
+                    }
+                }
+                let mut t = th.to_vec();
+                for a in 0..p {
+                    t[a] -= (0..p).map(|b| hinv[a][b] * jtr[b]).sum::<f64>();
+                }
+                let q = quantities(&t, dp.a);
+                for k in 0..6 {
+                    let dq = q[k] - q0[k];
+                    if dq.is_finite() {
+                        // Rectangular ±u: σ = |δ|/√3.
+                        var_cal[k] += dq * dq / 3.0;
+                    }
+                }
+            }
+        }
+        let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
+            if !present || !q0[k].is_finite() {
+                return None;
+            }
+            // Student t with K − p degrees of freedom for the sandwich part
+            // (few clusters); the calibration part is a bound (normal).
+            // An inadequate law: the statistical part widened by the misfit.
+            let ts = t975 * inflation;
+            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
+            Some((q0[k] - hw, q0[k] + hw))
+        };
+        Some(Intervals {
+            rs_n: iv(0, rs_known),
+            rd_n: iv(1, true),
+            slope_n_s_per_m: iv(2, true),
+            rho_s: iv(3, rs_known),
+            rho_d: iv(4, true),
+            dstar: iv(5, true),
+        })
+    }
+}

@@ -1,0 +1,507 @@
+//! The output-error problem of one family: θ ↦ simulated positions ↦
+//! residuals, the start-velocity projection, and the cost argmin minimises.
+
+use super::*;
+
+/// Rig constants the model needs.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Rig {
+    pub(super) absorber: Absorber,
+    pub(super) k1: f64,
+    pub(super) k2: f64,
+    pub(super) omega: f64,
+}
+
+/// One family's cost over the prepared data.
+pub(super) struct Problem<'a> {
+    pub(super) d: &'a Data,
+    pub(super) rig: Rig,
+    pub(super) kind: LawKind,
+    pub(super) never_sticks: bool,
+    pub(super) stride: usize,
+    pub(super) evals: &'a std::cell::Cell<usize>,
+    /// Simulated stick samples and stick runs since the last reset.
+    pub(super) sticks: std::cell::Cell<(usize, usize)>,
+    /// When set, the sample index of every compared sample is recorded.
+    /// Compared samples and the simulated ẍ2 (m/s²) there, when recorded.
+    pub(super) idx: std::cell::RefCell<Option<Vec<(usize, f64)>>>,
+}
+
+/// Residuals of one evaluation: (segment, r1, r2) per compared sample.
+pub(super) type Res = Vec<(u32, f64, f64)>;
+
+/// Number of law parameters of a family in θ.
+pub(super) fn n_params(kind: LawKind) -> usize {
+    kind.family().params().len()
+}
+
+impl Problem<'_> {
+    /// Unpacks θ = [law…, bias, g1, g2] (the law's parameters as its
+    /// [`crate::model::Family`] orders them).
+    pub(super) fn unpack(&self, th: &[f64]) -> (SiLaw, f64, f64, f64) {
+        let family = self.kind.family();
+        let k = family.params().len();
+        (family.unpack(th), th[k], th[k + 1], th[k + 2])
+    }
+
+    /// Offsets p1, p2 (m) for a bias and gains (mean of M1's equation).
+    pub(super) fn offsets(&self, bias: f64, g1: f64, g2: f64) -> (f64, f64) {
+        let q = bias / self.rig.k2;
+        let [m1, m2, dy1, dy2, m0] = self.d.means;
+        let (m1, m2) = (m1 / g1, m2 / g2);
+        let p1 = m1 - m0 + (self.rig.k2 * (m1 - m2 - q) + dy1 / g1 - dy2 / g2) / self.rig.k1;
+        (p1, p1 - q)
+    }
+
+    /// The model and offsets of θ (None: outside what can be simulated).
+    pub(super) fn ctx(&self, th: &[f64]) -> Option<Ctx> {
+        self.evals.set(self.evals.get() + 1);
+        if th.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let d = self.d;
+        let rig = &self.rig;
+        let (law, bias, g1, g2) = self.unpack(th);
+        if !(g1 > 0.5 && g1 < 2.0 && g2 > 0.5 && g2 < 2.0) {
+            return None;
+        }
+        let fs = d.a * rig.k2;
+        let ss = rig.k2 / rig.omega;
+        let rd = law.rd_n / fs;
+        // A log the segmentation calls never-sticking is still fitted with
+        // a free static threshold in the static-dynamic family: the
+        // simulator says where sticks happen.
+        let rs = if self.never_sticks && !self.kind.family().has_threshold() {
+            rd
+        } else {
+            law.rs_n / fs
+        };
+        if rd < 0.0 {
+            return None;
+        }
+        // Rd > Rs is outside the family: simulated at Rd = Rs, penalised.
+        let excess = (rd - rs).max(0.0);
+        let (rho_s, rho_d, slope) = (rs.max(rd), rd.min(rs.max(rd)), law.slope_n_s_per_m / ss);
+        let law = match law.vs_m_per_s {
+            Some(vs) if self.kind == LawKind::Stribeck => {
+                if vs.is_nan() || vs <= 0.0 {
+                    return None;
+                }
+                Law::Stribeck {
+                    rho_s,
+                    rho_d,
+                    slope,
+                    v_s: vs / (d.a * rig.omega),
+                }
+            }
+            _ => Law::Linear {
+                rho_s,
+                rho_d,
+                slope,
+            },
+        };
+        let model = Model {
+            absorber: rig.absorber,
+            law,
+            stop_below: None,
+        };
+        // The exact engine where the law is linear in each phase; the
+        // numerical engine (same event logic) for a Stribeck law.
+        // Both set up once per parameter vector; each segment only sets
+        // the drive's phase.
+        let eta = 2.0 * PI * d.freq / rig.omega;
+        let (sim, numeric) = match (d.drive, law) {
+            (DriveModel::Harmonic, Law::Linear { .. }) => (Some(Sim::new(&model, eta).ok()?), None),
+            (DriveModel::Harmonic, _) => {
+                let drive = Drive::Harmonic {
+                    eta,
+                    phase: 0.0,
+                    amplitude: 1.0,
+                };
+                (None, Some(NumericSim::new(&model, drive, NUMERIC).ok()?))
+            }
+            (DriveModel::Sampled, _) => (None, None),
+        };
+        let (p1, p2) = self.offsets(bias, g1, g2);
+        Some(Ctx {
+            sim,
+            numeric,
+            model,
+            rs: rs.max(rd),
+            g: (g1, g2),
+            off: (p1, p2),
+            excess,
+        })
+    }
+
+    /// The measured start of segment `k` plus `dx` (added to ζ1, ζ1', ζ2,
+    /// ζ2'; ζ2 and ζ2' of a stick start are exact and not changed).
+    pub(super) fn init(&self, cx: &Ctx, k: usize, dx: [f64; 4]) -> Init {
+        let d = self.d;
+        let (a, w) = (d.a, self.rig.omega);
+        let (g1, g2) = cx.g;
+        let (p1, p2) = cx.off;
+        let an = d.anchors[d.segs[k].0];
+        let i = an.i;
+        let z1 = (d.x1s[i] / g1 - p1) / a + dx[0];
+        let dz1 = d.v1s[i] / g1 / (a * w) + dx[1];
+        match an.x2_stick {
+            Some(x2) => {
+                let z2 = (x2 / g2 - p2) / a + dx[2];
+                let f = z1 - z2 + self.rig.absorber.damping * dz1;
+                // A start outside the friction cone slides along F.
+                let mode = if f.abs() > cx.rs {
+                    Mode::Slip { dir: f.signum() }
+                } else {
+                    Mode::Stick { z2 }
+                };
+                Init {
+                    x: [z1, dz1, z2, 0.0],
+                    mode,
+                }
+            }
+            None => {
+                let v = d.v2s[i] / g2 / (a * w) + dx[3];
+                Init {
+                    x: [z1, dz1, (d.x2s[i] / g2 - p2) / a + dx[2], v],
+                    mode: Mode::Slip { dir: v.signum() },
+                }
+            }
+        }
+    }
+
+    /// Simulates segment `k` from `init`; its weighted residuals (r1, r2
+    /// interleaved) go to `buf` (cleared first).
+    pub(super) fn simulate(
+        &self,
+        cx: &Ctx,
+        k: usize,
+        init: Init,
+        buf: &mut Vec<f64>,
+    ) -> Option<()> {
+        buf.clear();
+        let d = self.d;
+        let w = self.rig.omega;
+        let (k0, k1) = d.segs[k];
+        let i = d.anchors[k0].i;
+        let end = d.anchors[k1].i;
+        let mut obs = Collect {
+            d,
+            omega: w,
+            i0: i,
+            next: i + self.stride,
+            end,
+            stride: self.stride,
+            g: cx.g,
+            off: cx.off,
+            buf,
+            sticks: (0, 0),
+            sticking: false,
+            idx: self.idx.borrow().is_some().then(Vec::new),
+        };
+        let dur = (d.t[end] - d.t[i]) * w;
+        let phase = 2.0 * PI * d.freq * d.t[i] - d.phase;
+        let status = match (&cx.sim, d.drive) {
+            (Some(sim), _) => sim.run_span(init, phase, 1.0, dur, &mut obs).status,
+            (None, DriveModel::Harmonic) => {
+                cx.numeric
+                    .as_ref()?
+                    .with_phase(phase)?
+                    .run(init, dur, &mut obs)
+                    .status
+            }
+            (None, DriveModel::Sampled) => {
+                let hi = (end + 3).min(d.x0.len());
+                let values: Vec<f64> = d.x0[i..hi].iter().map(|x| x / d.a).collect();
+                let drive = Drive::Sampled {
+                    dt: d.dt * w,
+                    values,
+                };
+                let sim = NumericSim::new(&cx.model, drive, NUMERIC).ok()?;
+                sim.run(init, dur, &mut obs).status
+            }
+        };
+        let sticks = obs.sticks;
+        if let (Some(v), Some(o)) = (self.idx.borrow_mut().as_mut(), obs.idx.as_ref()) {
+            v.extend_from_slice(o);
+        }
+        let c = self.sticks.get();
+        self.sticks.set((c.0 + sticks.0, c.1 + sticks.1));
+        (status == Status::Completed).then_some(())
+    }
+
+    /// Free start directions of segment `k`: ζ1 and ζ1' always, ζ2 and ζ2'
+    /// for a slip start (a stick start has ζ2' = 0 exactly and ζ2 from the
+    /// mean over the stick).
+    pub(super) fn free(&self, k: usize) -> &'static [[f64; 4]] {
+        let d = self.d;
+        if d.anchors[d.segs[k].0].x2_stick.is_some() {
+            &[
+                [DX, 0.0, 0.0, 0.0],
+                [0.0, DX, 0.0, 0.0],
+                [0.0, 0.0, DX, 0.0],
+            ]
+        } else {
+            &[
+                [DX, 0.0, 0.0, 0.0],
+                [0.0, DX, 0.0, 0.0],
+                [0.0, 0.0, DX, 0.0],
+                [0.0, 0.0, 0.0, DX],
+            ]
+        }
+    }
+
+    /// The projection of the start-state errors at θ: per segment, the
+    /// residual change per unit change of each free start component, around
+    /// the measured start plus `dx` (the current start corrections; none:
+    /// the measured start). Also estimates the next start correction (the
+    /// linearised least-squares start of each segment).
+    pub(super) fn projection(&self, th: &[f64], dx: Option<&[[f64; 4]]>) -> Option<Proj> {
+        let cx = self.ctx(th)?;
+        let mut base = Vec::new();
+        let mut pert = Vec::new();
+        let mut segs = Vec::with_capacity(self.d.segs.len());
+        for k in 0..self.d.segs.len() {
+            let x0 = dx.map_or([0.0; 4], |d| d[k]);
+            self.simulate(&cx, k, self.init(&cx, k, x0), &mut base)?;
+            let mut cols: Vec<Vec<f64>> = Vec::new();
+            let mut dirs: Vec<usize> = Vec::new();
+            for &e in self.free(k) {
+                let x = [0, 1, 2, 3].map(|j| x0[j] + e[j]);
+                self.simulate(&cx, k, self.init(&cx, k, x), &mut pert)?;
+                if pert.len() != base.len() {
+                    return None;
+                }
+                let col: Vec<f64> = pert.iter().zip(&base).map(|(p, b)| (p - b) / DX).collect();
+                // A component that changes nothing is not free.
+                if col.iter().any(|x| *x != 0.0) {
+                    cols.push(col);
+                    dirs.push(e.iter().position(|v| *v != 0.0).expect("unit"));
+                }
+            }
+            let m = cols.len();
+            let gram: Vec<Vec<f64>> = (0..m)
+                .map(|a| (0..m).map(|b| dot(&cols[a], &cols[b])).collect())
+                .collect();
+            let inv = (0..m)
+                .map(|j| {
+                    let mut e = vec![0.0; m];
+                    e[j] = 1.0;
+                    solve_small(&gram, &e)
+                })
+                .collect::<Option<Vec<_>>>();
+            let Some(inv) = inv else {
+                segs.push(SegProj {
+                    cols: Vec::new(),
+                    inv: Vec::new(),
+                    dx: x0,
+                    next: x0,
+                });
+                continue;
+            };
+            // Least-squares start change: δ = −G⁻¹ Sᵀ r (kept if small:
+            // a start the data cannot place is left where it was measured).
+            let b: Vec<f64> = cols.iter().map(|c| dot(c, &base)).collect();
+            let mut next = x0;
+            let delta: Vec<f64> = (0..m)
+                .map(|a| -(0..m).map(|j| inv[a][j] * b[j]).sum::<f64>())
+                .collect();
+            if delta.iter().all(|d| d.abs() < MAX_START_CHANGE) {
+                for (a, j) in dirs.iter().enumerate() {
+                    next[*j] += delta[a];
+                }
+            }
+            segs.push(SegProj {
+                cols,
+                inv,
+                dx: x0,
+                next,
+            });
+        }
+        Some(Proj { segs })
+    }
+
+    /// Simulates every segment; returns the sum of squared weighted
+    /// residuals, with the start-velocity directions of `proj` projected
+    /// out, and writes the (projected) residuals to `out` if given. None:
+    /// θ cannot be simulated.
+    pub(super) fn eval(
+        &self,
+        th: &[f64],
+        proj: Option<&Proj>,
+        mut out: Option<&mut Res>,
+    ) -> Option<f64> {
+        let cx = self.ctx(th)?;
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        let mut buf = Vec::new();
+        for k in 0..self.d.segs.len() {
+            let x0 = proj.map_or([0.0; 4], |p| p.segs[k].dx);
+            self.simulate(&cx, k, self.init(&cx, k, x0), &mut buf)?;
+            if let Some(p) = proj {
+                let SegProj { cols, inv, .. } = &p.segs[k];
+                if !cols.is_empty() {
+                    if cols[0].len() != buf.len() {
+                        return None;
+                    }
+                    let b: Vec<f64> = cols.iter().map(|c| dot(c, &buf)).collect();
+                    for (a, ca) in cols.iter().enumerate() {
+                        let coef: f64 = (0..b.len()).map(|j| inv[a][j] * b[j]).sum();
+                        for (r, c) in buf.iter_mut().zip(ca) {
+                            *r -= coef * c;
+                        }
+                    }
+                }
+            }
+            sum += buf.iter().map(|r| r * r).sum::<f64>();
+            n += buf.len() / 2;
+            if let Some(o) = out.as_deref_mut() {
+                o.extend(buf.chunks(2).map(|c| (k as u32, c[0], c[1])));
+            }
+        }
+        let e = cx.excess;
+        Some(sum * (1.0 + 1e3 * e) + 1e3 * e * n as f64)
+    }
+}
+
+/// Change of a start component (dimensionless) for the projection's
+/// finite differences: small against the motion (ζ, ζ' ~ 1), large
+/// against rounding.
+pub(super) const DX: f64 = 1e-3;
+
+pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// One refined family: θ̂, its cost, the Nelder–Mead iterations, the
+/// start-state projection the cost refers to, and its start θ.
+pub(super) struct Refined {
+    pub(super) kind: LawKind,
+    pub(super) th: Vec<f64>,
+    pub(super) cost: f64,
+    pub(super) iterations: u64,
+    pub(super) proj: Proj,
+    pub(super) start: Vec<f64>,
+}
+
+/// The model and offsets of one parameter vector.
+pub(super) struct Ctx {
+    /// The exact engine (harmonic drive, linear law).
+    pub(super) sim: Option<Sim>,
+    /// The numerical engine (harmonic drive, Stribeck law), drive phase 0.
+    pub(super) numeric: Option<NumericSim>,
+    pub(super) model: Model,
+    /// Static threshold used (dimensionless).
+    pub(super) rs: f64,
+    pub(super) g: (f64, f64),
+    pub(super) off: (f64, f64),
+    /// Amount by which ρd exceeds ρs (penalised).
+    pub(super) excess: f64,
+}
+
+/// Tolerances of the numerical engine (sampled drives, Stribeck laws):
+/// 1e-8 relative against sensor noise of about 1e-3 of the stroke.
+pub(super) const NUMERIC: NumericOptions = NumericOptions {
+    rtol: 1e-8,
+    atol: 1e-10,
+};
+
+/// Largest start change (dimensionless) accepted from the data.
+pub(super) const MAX_START_CHANGE: f64 = 0.05;
+
+/// One segment's free start directions.
+pub(super) struct SegProj {
+    /// Residual change per unit change of each free start component
+    /// (columns over the segment's interleaved residuals).
+    pub(super) cols: Vec<Vec<f64>>,
+    /// Inverse of their Gram matrix.
+    pub(super) inv: Vec<Vec<f64>>,
+    /// The start correction the columns were computed at.
+    pub(super) dx: [f64; 4],
+    /// The least-squares start correction there.
+    pub(super) next: [f64; 4],
+}
+
+/// The start-state projection of every segment.
+pub(super) struct Proj {
+    pub(super) segs: Vec<SegProj>,
+}
+
+impl Proj {
+    /// The least-squares start corrections.
+    pub(super) fn corrected(&self) -> Vec<[f64; 4]> {
+        self.segs.iter().map(|s| s.next).collect()
+    }
+    /// The start corrections the projection was computed at.
+    pub(super) fn current(&self) -> Vec<[f64; 4]> {
+        self.segs.iter().map(|s| s.dx).collect()
+    }
+}
+
+/// Collects the residuals of one segment.
+pub(super) struct Collect<'a, 'o> {
+    pub(super) d: &'a Data,
+    pub(super) omega: f64,
+    pub(super) i0: usize,
+    pub(super) next: usize,
+    pub(super) end: usize,
+    pub(super) stride: usize,
+    pub(super) g: (f64, f64),
+    pub(super) off: (f64, f64),
+    pub(super) buf: &'o mut Vec<f64>,
+    /// Compared samples at which the simulated M2 sticks (ζ2' = 0 exactly)
+    /// and the number of stick runs among them.
+    pub(super) sticks: (usize, usize),
+    pub(super) sticking: bool,
+    /// Indices of the compared samples and the simulated ẍ2 (m/s²) there,
+    /// when recorded.
+    pub(super) idx: Option<Vec<(usize, f64)>>,
+}
+
+impl Observer for Collect<'_, '_> {
+    fn next_sample(&mut self) -> Option<f64> {
+        let d = self.d;
+        while self.next <= self.end {
+            let j = self.next;
+            if d.x1[j].is_finite() && d.x2[j].is_finite() {
+                return Some((d.t[j] - d.t[self.i0]) * self.omega);
+            }
+            self.next += self.stride;
+        }
+        None
+    }
+    fn sample(&mut self, _tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
+        let d = self.d;
+        let j = self.next;
+        self.buf
+            .push((d.x1[j] / self.g.0 - self.off.0 - d.a * x[0]) / d.sig.0);
+        self.buf
+            .push((d.x2[j] / self.g.1 - self.off.1 - d.a * x[2]) / d.sig.1);
+        let stuck = x[3] == 0.0 && dx[3] == 0.0;
+        if stuck {
+            self.sticks.0 += 1;
+            if !self.sticking {
+                self.sticks.1 += 1;
+            }
+        }
+        self.sticking = stuck;
+        if let Some(v) = self.idx.as_mut() {
+            v.push((j, d.a * self.omega * self.omega * dx[3]));
+        }
+        self.next += self.stride;
+    }
+    fn wants_extremes(&self) -> bool {
+        false
+    }
+}
+
+pub(super) struct Cost<'a, 'b>(pub(super) &'a Problem<'b>, pub(super) Option<&'a Proj>);
+
+impl CostFunction for Cost<'_, '_> {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, p: &Vec<f64>) -> Result<f64, argmin::core::Error> {
+        // Nelder–Mead sorts by cost: an unsimulable point is just worse.
+        Ok(self.0.eval(p, self.1, None).unwrap_or(1e300))
+    }
+}
