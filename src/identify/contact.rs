@@ -155,7 +155,7 @@ pub fn fit_drive(t: &[f64], x0: &[f64], f0: Option<f64>) -> Option<DriveFit> {
 
 /// Frequency from the mean spacing of upward mean crossings.
 fn estimate_frequency(t: &[f64], x: &[f64]) -> Option<f64> {
-    let m = super::smooth::median(x);
+    let m = crate::stats::median(x);
     let mut ups = Vec::new();
     let mut prev: Option<(f64, f64)> = None;
     for (ti, xi) in t.iter().zip(x) {

@@ -39,7 +39,8 @@
 
 use super::contact::Contact;
 use super::segment::Segmentation;
-use super::smooth::{golden, mad_sigma, median, quantile, savgol, Normal, Rng};
+use super::smooth::{golden, savgol, Normal, Rng};
+use crate::stats::{mad_sigma, median, quantile};
 
 use crate::model::{LawKind, SiLaw};
 

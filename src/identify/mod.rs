@@ -813,7 +813,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         .resampled
         .normal_force
         .as_ref()
-        .map(|v| smooth::median(v))
+        .map(|v| crate::stats::median(v))
         .filter(|v| v.is_finite())
         .unwrap_or(rig.normal_force_n);
     let eta = 2.0 * std::f64::consts::PI * base.contact.drive.frequency_hz / rig.omega_ref();

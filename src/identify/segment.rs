@@ -21,7 +21,8 @@
 //!    smooth start (Coulomb). Reversals without a stick are located as zero
 //!    crossings of the smoothed velocity.
 
-use super::smooth::{mad_sigma, savgol_weights};
+use super::smooth::savgol_weights;
+use crate::stats::mad_sigma;
 
 /// A located stick → slip transition.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -423,7 +424,7 @@ mod tests {
                 .map(|(bk, t)| (bk.at - t).abs())
                 .collect();
             assert_eq!(errs.len(), breaks.len());
-            assert!(super::super::smooth::median(&errs) < 4.0, "{errs:?}");
+            assert!(crate::stats::median(&errs) < 4.0, "{errs:?}");
             assert!(errs.iter().all(|e| *e < 20.0), "{errs:?}");
             assert!(!seg.stuck() && !seg.never_sticks());
         }

@@ -120,48 +120,6 @@ impl Normal {
     }
 }
 
-/// Median of the finite values (NaN if none).
-pub fn median(v: &[f64]) -> f64 {
-    let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if w.is_empty() {
-        return f64::NAN;
-    }
-    let n = w.len();
-    // Selection, not a full sort: O(n).
-    let (lower, hi, _) = w.select_nth_unstable_by(n / 2, f64::total_cmp);
-    let hi = *hi;
-    if n % 2 == 1 {
-        hi
-    } else {
-        let lo = lower.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        0.5 * (lo + hi)
-    }
-}
-
-/// Quantile `q` ∈ [0, 1] of the finite values, linear interpolation (NaN if none).
-pub fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if w.is_empty() {
-        return f64::NAN;
-    }
-    w.sort_by(f64::total_cmp);
-    let pos = q.clamp(0.0, 1.0) * (w.len() - 1) as f64;
-    let i = pos.floor() as usize;
-    let f = pos - i as f64;
-    if i + 1 < w.len() {
-        w[i] * (1.0 - f) + w[i + 1] * f
-    } else {
-        w[i]
-    }
-}
-
-/// Robust standard deviation: 1.4826 × median absolute deviation.
-pub fn mad_sigma(v: &[f64]) -> f64 {
-    let m = median(v);
-    let d: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
-    1.4826 * median(&d)
-}
-
 /// Savitzky–Golay weights for the `deriv`-th derivative at offset 0 of a
 /// polynomial of degree `degree` fitted to samples at integer offsets
 /// `lo..=hi` (lo ≤ 0 ≤ hi), with sample spacing `dt`.
@@ -441,6 +399,7 @@ mod tests {
 
     #[test]
     fn robust_statistics() {
+        use crate::stats::{mad_sigma, median, quantile};
         assert_eq!(median(&[3.0, 1.0, 2.0, f64::NAN]), 2.0);
         assert!((quantile(&[0.0, 1.0, 2.0, 3.0, 4.0], 0.25) - 1.0).abs() < 1e-12);
         let mut rng = Rng::new(1);

@@ -210,15 +210,6 @@ impl Run {
     }
 }
 
-/// Median of a slice (None if empty).
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    Some(v[v.len() / 2])
-}
-
 /// Builds the [`Run`] from what a format reader delivered.
 pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     let RawLog {
@@ -551,7 +542,8 @@ fn step_function(setpoints: &[Setpoint], grid: &[f64]) -> Vec<f64> {
 /// rate rounded to 9 significant digits (time columns written in decimal
 /// carry float noise that would otherwise show as 1000.0000000001 Hz).
 pub(crate) fn median_interval(t: &[f64]) -> Option<f64> {
-    let dt = median(t.windows(2).map(|w| w[1] - w[0]).collect())?;
+    let steps: Vec<f64> = t.windows(2).map(|w| w[1] - w[0]).collect();
+    let dt = crate::stats::median(&steps);
     if !(dt.is_finite() && dt > 0.0) {
         return None;
     }

@@ -31,9 +31,10 @@
 //!   them — not the raw extremes of noisy samples, which are biased upwards
 //!   by about two noise σ.
 
-use crate::identify::smooth::{golden, median, savgol};
+use crate::identify::smooth::{golden, savgol};
 use crate::ingest::{Quantity, Run, SweepKind as LogSweepKind};
 use crate::sim::sweep::Direction;
+use crate::stats::median;
 use crate::{Error, Result};
 use argmin::core::{CostFunction, Executor, State};
 use argmin::solver::neldermead::NelderMead;

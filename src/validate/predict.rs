@@ -35,6 +35,7 @@ use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
 use crate::sim::sweep::{steady_state, SteadyConfig};
 use crate::sim::SimError;
+use crate::stats::quantile_sorted;
 
 /// Why a prediction failed: a [`ValidateError`] of the inputs, or the
 /// simulation.
@@ -538,17 +539,6 @@ fn steady_one(
     out
 }
 
-/// Linear-interpolated percentile of sorted values.
-fn percentile(sorted: &[f64], p: f64) -> f64 {
-    let x = p * (sorted.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x - x.floor());
-    if i + 1 < sorted.len() {
-        sorted[i] * (1.0 - f) + sorted[i + 1] * f
-    } else {
-        sorted[i]
-    }
-}
-
 /// Central values and the 2.5–97.5 % band (over the central run and the
 /// draws) per point. A band needs at least half of the draws.
 fn banded(
@@ -582,10 +572,10 @@ fn banded(
         }
         v1.sort_by(f64::total_cmp);
         v2.sort_by(f64::total_cmp);
-        p.amplitude1_low.push(Some(percentile(&v1, 0.025)));
-        p.amplitude1_high.push(Some(percentile(&v1, 0.975)));
-        p.amplitude2_low.push(Some(percentile(&v2, 0.025)));
-        p.amplitude2_high.push(Some(percentile(&v2, 0.975)));
+        p.amplitude1_low.push(Some(quantile_sorted(&v1, 0.025)));
+        p.amplitude1_high.push(Some(quantile_sorted(&v1, 0.975)));
+        p.amplitude2_low.push(Some(quantile_sorted(&v2, 0.025)));
+        p.amplitude2_high.push(Some(quantile_sorted(&v2, 0.975)));
     }
     p
 }
@@ -844,7 +834,7 @@ pub fn score(
             &m2,
             None,
         ),
-        band_median_rel_halfwidth1: (!half.is_empty()).then(|| percentile(&half, 0.5)),
+        band_median_rel_halfwidth1: (!half.is_empty()).then(|| quantile_sorted(&half, 0.5)),
         steady_points: settled.len(),
     }
 }
@@ -871,10 +861,10 @@ mod tests {
     #[test]
     fn percentiles() {
         let v = [1.0, 2.0, 3.0, 4.0, 5.0];
-        assert_eq!(percentile(&v, 0.5), 3.0);
-        assert_eq!(percentile(&v, 0.0), 1.0);
-        assert_eq!(percentile(&v, 1.0), 5.0);
-        assert!((percentile(&v, 0.025) - 1.1).abs() < 1e-12);
+        assert_eq!(quantile_sorted(&v, 0.5), 3.0);
+        assert_eq!(quantile_sorted(&v, 0.0), 1.0);
+        assert_eq!(quantile_sorted(&v, 1.0), 5.0);
+        assert!((quantile_sorted(&v, 0.025) - 1.1).abs() < 1e-12);
     }
 }
 
@@ -937,7 +927,7 @@ mod replay_tests {
             .map(|_| split_normal(&mut rng, 1.0, Some((0.9, 1.3))))
             .collect();
         v.sort_by(f64::total_cmp);
-        let (lo, hi) = (percentile(&v, 0.025), percentile(&v, 0.975));
+        let (lo, hi) = (quantile_sorted(&v, 0.025), quantile_sorted(&v, 0.975));
         assert!(
             (lo - 0.9).abs() < 0.01 && (hi - 1.3).abs() < 0.01,
             "{lo} {hi}"

@@ -107,7 +107,7 @@ use problem::*;
 
 use super::contact::{Contact, Gains};
 use super::segment::Segmentation;
-use super::smooth::{mad_sigma, savgol, solve_small};
+use super::smooth::{savgol, solve_small};
 use super::Intervals;
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Drive, Law, Model};
@@ -115,6 +115,7 @@ use crate::model::{LawKind, SiLaw};
 use crate::sim::engine::{Init, Mode, Observer, Sim};
 use crate::sim::numeric::{NumericOptions, NumericSim};
 use crate::sim::Status;
+use crate::stats::mad_sigma;
 use argmin::core::{CostFunction, Executor};
 use argmin::solver::neldermead::NelderMead;
 use std::f64::consts::PI;
@@ -369,7 +370,7 @@ impl Refinement {
                 .filter(|&i| x0[i].is_finite())
                 .map(|i| x0[i] - harmonic(c.t[i]))
                 .collect();
-            super::smooth::median(&r)
+            crate::stats::median(&r)
         };
         let x0c: Vec<f64> = (0..n)
             .map(|i| {

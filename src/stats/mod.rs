@@ -1,5 +1,5 @@
-//! Shared statistics: the distribution quantiles every stage uses, from one
-//! implementation (statrs) instead of per-module tables and expansions.
+//! Shared statistics, one implementation each: distribution quantiles
+//! (statrs), sample medians and quantiles, the robust σ.
 
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
@@ -21,6 +21,54 @@ pub fn normal_quantile(p: f64) -> f64 {
         Ok(n) => n.inverse_cdf(p),
         Err(_) => f64::NAN,
     }
+}
+
+/// Median of the finite values (NaN if none).
+pub fn median(v: &[f64]) -> f64 {
+    let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if w.is_empty() {
+        return f64::NAN;
+    }
+    let n = w.len();
+    // Selection, not a full sort: O(n).
+    let (lower, hi, _) = w.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let hi = *hi;
+    if n % 2 == 1 {
+        hi
+    } else {
+        let lo = lower.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        0.5 * (lo + hi)
+    }
+}
+
+/// Quantile `q` ∈ [0, 1] of the finite values, linear interpolation (NaN if none).
+pub fn quantile(v: &[f64], q: f64) -> f64 {
+    let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if w.is_empty() {
+        return f64::NAN;
+    }
+    w.sort_by(f64::total_cmp);
+    quantile_sorted(&w, q)
+}
+
+/// Quantile `q` ∈ [0, 1] of values already sorted ascending (non-empty),
+/// linear interpolation between order statistics.
+pub fn quantile_sorted(sorted: &[f64], q: f64) -> f64 {
+    let pos = q.clamp(0.0, 1.0) * (sorted.len() - 1) as f64;
+    let i = pos.floor() as usize;
+    let f = pos - i as f64;
+    if i + 1 < sorted.len() {
+        sorted[i] * (1.0 - f) + sorted[i + 1] * f
+    } else {
+        sorted[i]
+    }
+}
+
+/// Robust standard deviation: 1.4826 × median absolute deviation.
+pub fn mad_sigma(v: &[f64]) -> f64 {
+    let m = median(v);
+    let d: Vec<f64> = v.iter().map(|x| (x - m).abs()).collect();
+    1.4826 * median(&d)
 }
 
 #[cfg(test)]
