@@ -13,9 +13,9 @@ mod common;
 
 use common::env_or;
 use std::path::Path;
-use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
 use stickslip::ingest::{self, IngestOptions};
+use stickslip::stats::Rng;
 use stickslip::synth::{self, FrictionSpec, RigSpec, Sensors, SynthConfig, TestSpec};
 
 /// Uniform deviate in [a, b) from the project's SplitMix64 generator

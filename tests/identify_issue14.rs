@@ -15,10 +15,10 @@ mod common;
 
 use common::env_or;
 use std::path::Path;
-use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
 use stickslip::ingest::{self, IngestOptions};
 use stickslip::model::LawKind;
+use stickslip::stats::Rng;
 use stickslip::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
 
 /// The other rig of the issue (other masses and springs, drive 2 mm).

@@ -8,9 +8,9 @@
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use stickslip::identify::smooth::Rng;
 use stickslip::identify::{self, IdentifyOptions};
 use stickslip::ingest::{Channel, LogFormat, Quantity, Resampled, RigMeta, Run, TestKind};
+use stickslip::stats::Rng;
 
 struct Law {
     rs: f64,
@@ -106,7 +106,7 @@ fn synth_drive(law: &Law, accel: bool, seed: u64, noise_scale: f64, h2: f64) -> 
     let mut cols: Vec<Vec<f64>> = (0..5).map(|_| Vec::with_capacity(n)).collect();
     for r in &rec {
         for q in 0..5 {
-            cols[q].push(gains[q] * r[q] + offsets[q] + noise_scale * noise[q] * rng.normal_open());
+            cols[q].push(gains[q] * r[q] + offsets[q] + noise_scale * noise[q] * rng.normal());
         }
     }
     let t: Vec<f64> = (0..n).map(|i| i as f64 * 1e-3).collect();

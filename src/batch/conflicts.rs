@@ -201,7 +201,7 @@ pub(super) fn robust_keep(obs: &[Obs], doubt: &[f64]) -> (Vec<bool>, bool) {
         else {
             return 0.0;
         };
-        let mu = golden(0.0, 4.0 * top.max(1e-12), 200, |m| -loglik(&rest, m, 1.0));
+        let mu = golden_section(0.0, 4.0 * top.max(1e-12), 200, |m| -loglik(&rest, m, 1.0));
         -2.0 * loglik(&rest, mu, 1.0)
     };
     let mut resolved = true;

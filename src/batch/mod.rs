@@ -139,18 +139,19 @@
 //!   by bisection (7 steps); the margin is reported in ρs, newtons and
 //!   relative to the recommendation.
 
-use crate::identify::smooth::golden;
 use crate::identify::LogFit;
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Law, Model};
 use crate::sim::engine::Init;
 use crate::sim::sweep::{curve, steady_state, Direction, SteadyConfig};
 use crate::sim::SimError;
+use crate::stats::golden_section;
 use crate::Result;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 mod conflicts;
+mod json;
 mod mu;
 mod observations;
 mod worst;

@@ -172,7 +172,7 @@ pub(super) fn fit_mu(obs: &[Obs]) -> Option<MuEstimate> {
         return None;
     }
     let top = 4.0 * scale;
-    let mle = |inflate: f64| golden(0.0, top, 200, |m| -loglik(obs, m, inflate));
+    let mle = |inflate: f64| golden_section(0.0, top, 200, |m| -loglik(obs, m, inflate));
     let mut mu = mle(1.0);
     let dof = points.len() as f64 - 1.0;
     let chi2: f64 = points

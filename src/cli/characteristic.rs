@@ -133,17 +133,17 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
         super::print_json(&json!({
             "log": args.log.display().to_string(),
             "samples": c.t.len(),
-            "drive_amplitude_m": super::fit::num(c.drive.amplitude_m),
-            "drive_frequency_hz": super::fit::num(c.drive.frequency_hz),
+            "drive_amplitude_m": crate::io::json::num(c.drive.amplitude_m),
+            "drive_frequency_hz": crate::io::json::num(c.drive.frequency_hz),
             "acceleration_source": c.acceleration_source,
             "sticks": seg.sticks.len(),
             "breakaways": seg.breakaways.len(),
             "reversals": seg.reversals.len(),
             "stuck": seg.stuck(),
             "never_sticks": seg.never_sticks(),
-            "velocity_noise_m_per_s": super::fit::num(seg.noise_v_raw),
+            "velocity_noise_m_per_s": crate::io::json::num(seg.noise_v_raw),
             "out": args.out.as_ref().map(|p| p.display().to_string()),
-            "bias_n": super::fit::num(bias),
+            "bias_n": crate::io::json::num(bias),
             "warnings": warnings,
         }));
     } else {

@@ -5,7 +5,7 @@
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::model::LawKind;
 use clap::{Args, ValueEnum};
-use serde_json::{json, Value};
+use serde_json::json;
 use std::path::{Path, PathBuf};
 
 /// `--law`: a family, or `auto` (None: choose by information criterion).
@@ -56,14 +56,6 @@ pub struct FitArgs {
     pub json: bool,
 }
 
-pub(crate) use crate::identify::json::num;
-
-/// The JSON entry of one fitted log (keys fixed by `interface.md`; built by
-/// [`LogFit::to_json`]).
-pub fn entry(log: &Path, f: &LogFit) -> Value {
-    f.to_json(log)
-}
-
 /// Runs `fit`; `Ok(false)` when some log failed (its error line is printed).
 pub fn run(args: FitArgs) -> crate::Result<bool> {
     crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
@@ -88,7 +80,7 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
                 if !args.json {
                     eprintln!("{}", summary(log, &f));
                 }
-                fits.push(entry(log, &f));
+                fits.push(f.to_json(log));
             }
             Err(e) => {
                 eprintln!("error: {e}");

@@ -2,6 +2,7 @@
 //! canonical run as Parquet.
 
 use crate::ingest::{self, IngestOptions, Run};
+use crate::io::json::num;
 use clap::Args;
 use serde_json::{json, Value};
 use std::path::PathBuf;
@@ -20,15 +21,6 @@ pub struct IngestArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
-}
-
-/// A float for JSON: non-finite values become `null`.
-fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
 }
 
 /// The JSON report of an ingested run (keys fixed by `interface.md`).

@@ -329,16 +329,14 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     let fit_entries: Vec<Value> = chars
         .iter()
         .map(|p| match &fits[*p] {
-            Ok(f) => super::fit::entry(p, f),
+            Ok(f) => f.to_json(p),
             Err(e) => json!({"log": p.display().to_string(), "error": e.to_string()}),
         })
         .collect();
     let val_entries: Vec<Value> = validations
         .iter()
         .map(|(pair, r)| match (r, &fits[&pair.characteristic]) {
-            (Ok(v), Ok(f)) => {
-                super::validate::validation_json(&pair.characteristic, &pair.sweep, f, v)
-            }
+            (Ok(v), Ok(f)) => v.to_json(&pair.characteristic, &pair.sweep, f),
             (Err(e), _) | (_, Err(e)) => json!({
                 "characteristic": pair.characteristic.display().to_string(),
                 "sweep": pair.sweep.display().to_string(),
@@ -354,7 +352,7 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     });
     match &batch {
         Some(Ok(b)) => {
-            let mut m = super::batch::batch_json(b);
+            let mut m = b.to_json_map();
             m.insert(
                 "logs".into(),
                 json!(plan

@@ -26,8 +26,9 @@
 //! length in sensor coordinates) is *not* removed here: the fit estimates it
 //! from the symmetry of the slip levels (see `fit`).
 
-use super::smooth::{finite_blocks, golden, savgol};
+use super::smooth::{finite_blocks, savgol};
 use crate::ingest::Run;
+use crate::stats::golden_section;
 
 /// Multipliers applied to the sensor channels before identification: 1 for
 /// the data as logged; the calibration budget re-runs the identification
@@ -143,7 +144,7 @@ pub fn fit_drive(t: &[f64], x0: &[f64], f0: Option<f64>) -> Option<DriveFit> {
     };
     let rss =
         |f: f64| sine_fit(t, x0, 2.0 * std::f64::consts::PI * f).map_or(f64::INFINITY, |r| r.3);
-    let f = golden(0.98 * f0, 1.02 * f0, 40, rss);
+    let f = golden_section(0.98 * f0, 1.02 * f0, 40, rss);
     let (_, a, b, rss, n) = sine_fit(t, x0, 2.0 * std::f64::consts::PI * f)?;
     Some(DriveFit {
         amplitude_m: a.hypot(b),
@@ -231,7 +232,7 @@ fn estimate_lag(y: &[f64], r: &[f64], dt: f64, max_lag: f64) -> Option<(f64, f64
     if !fbest.is_finite() {
         return None;
     }
-    let lag = golden((best - 1) as f64 * dt, (best + 1) as f64 * dt, 30, sse);
+    let lag = golden_section((best - 1) as f64 * dt, (best + 1) as f64 * dt, 30, sse);
     // Only meaningful when the aligned signals agree well: the residual must
     // be small against the reference's own spread (a stuck mass gives two
     // noise records, whose "lag" means nothing).
@@ -445,7 +446,7 @@ mod tests {
     fn drive_fit_recovers_amplitude_and_frequency() {
         let dt = 1e-3;
         let t: Vec<f64> = (0..20000).map(|i| i as f64 * dt).collect();
-        let mut rng = super::super::smooth::Rng::new(3);
+        let mut rng = crate::stats::Rng::new(3);
         let x: Vec<f64> = t
             .iter()
             .map(|&t| {

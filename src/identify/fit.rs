@@ -39,7 +39,9 @@
 
 use super::contact::Contact;
 use super::segment::Segmentation;
-use super::smooth::{golden, savgol, Normal, Rng};
+use super::smooth::{savgol, Normal};
+use crate::stats::golden_section;
+use crate::stats::Rng;
 use crate::stats::{mad_sigma, median, quantile};
 
 use crate::model::{LawKind, SiLaw};
@@ -423,7 +425,7 @@ pub fn fit(
             }
         }
         let step = (b - a) / m as f64;
-        let lv = golden((best.0 - step).max(a), (best.0 + step).min(b), 30, cost);
+        let lv = golden_section((best.0 - step).max(a), (best.0 + step).min(b), 30, cost);
         // At the bounds it is not a Stribeck peak the data resolve.
         if lv > a + 0.5 * step && lv < b - 0.5 * step {
             stribeck_vs = Some(lv.exp());

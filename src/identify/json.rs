@@ -18,28 +18,9 @@
 //! Kass–Raftery grade).
 
 use super::{Estimate, Intervals, LogFit, SiLaw};
+use crate::io::json::{interval, num, opt};
 use serde_json::{json, Value};
 use std::path::Path;
-
-/// A float for JSON: non-finite values become `null`.
-pub fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
-}
-
-fn opt(x: Option<f64>) -> Value {
-    x.map_or(Value::Null, num)
-}
-
-fn interval(i: Option<(f64, f64)>) -> Value {
-    match i {
-        Some((a, b)) if a.is_finite() && b.is_finite() => json!([a, b]),
-        _ => Value::Null,
-    }
-}
 
 impl LogFit {
     /// A law in SI and dimensionless with this log's scales.

@@ -188,7 +188,7 @@ fn hinge_fit(
     if !best.1.is_finite() {
         return None;
     }
-    Some(super::smooth::golden(
+    Some(crate::stats::golden_section(
         best.0 - 1.0,
         best.0 + 1.0,
         25,
@@ -356,8 +356,9 @@ pub fn segment(
 
 #[cfg(test)]
 mod tests {
-    use super::super::smooth::{savgol, Rng};
+    use super::super::smooth::savgol;
     use super::*;
+    use crate::stats::Rng;
 
     /// A velocity record with sticks of known extent plus white noise.
     fn synthetic(noise: f64, seed: u64) -> (Vec<f64>, Vec<(usize, usize)>, Vec<f64>) {

@@ -221,74 +221,6 @@ pub fn savgol(y: &[f64], dt: f64, half: usize, degree: usize, deriv: usize) -> V
     out
 }
 
-/// SplitMix64: a small deterministic generator for the bootstrap.
-#[derive(Debug, Clone)]
-pub struct Rng(u64);
-
-impl Rng {
-    /// A generator from a seed.
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform deviate in the open interval (0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-    }
-    /// Uniform index in `0..n` (n > 0).
-    pub fn below(&mut self, n: usize) -> usize {
-        ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64 * n as f64) as usize % n
-    }
-    /// Standard normal deviate (Box–Muller on two open-interval uniforms).
-    /// [`Rng::normal`] takes its second uniform half-open; both streams are
-    /// kept so that every seeded result reproduces bit for bit.
-    pub fn normal_open(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
-    }
-    /// Standard normal deviate (Box–Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = ((self.next_u64() >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-        let u2 = ((self.next_u64() >> 11) as f64) / (1u64 << 53) as f64;
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
-
-/// Golden-section minimisation of a unimodal `f` on `[a, b]`: at most
-/// `iters` steps, fewer once the bracket is at rounding level.
-pub fn golden(mut a: f64, mut b: f64, iters: usize, f: impl Fn(f64) -> f64) -> f64 {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..iters {
-        if (b - a).abs() <= 1e-14 * (a.abs() + b.abs()) {
-            break;
-        }
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    0.5 * (a + b)
-}
-
 /// Integrated autocorrelation time of residuals `r` (initial positive
 /// sequence: lags are summed until the autocorrelation turns negative),
 /// counting only pairs (k, k + lag) that `same_run` says lie in one
@@ -333,6 +265,7 @@ pub fn tau_int(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stats::Rng;
 
     #[test]
     fn savgol_differentiates_cubics_exactly_interior_and_edges() {

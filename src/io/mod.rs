@@ -1,6 +1,7 @@
 //! Output helpers shared by the stages: atomic file writes, so a failed or
 //! interrupted job never leaves a partial file or clobbers the user's data.
 
+pub mod json;
 mod parquet;
 
 pub use parquet::{write_parquet, write_table};

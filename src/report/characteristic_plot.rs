@@ -5,7 +5,7 @@
 
 use super::plot::{plot_err, register_font};
 use crate::error::Result;
-use crate::identify::Contact;
+use crate::identify::{Characteristic, Contact, Estimate, LogFit};
 use crate::model::SiLaw;
 use plotters::prelude::*;
 use std::path::Path;
@@ -44,6 +44,47 @@ pub fn characteristic_figure(fig: &CharacteristicFigure<'_>, path: &Path) -> Res
         root.present().map_err(|e| plot_err(path, e))?;
     }
     crate::io::write_atomic(path, s.as_bytes())
+}
+
+/// The characteristic figure of a fitted log `log` (its characteristic
+/// `ch`, its fit `f`) to `path`: the law used downstream and, beside it, the
+/// equation-error law (the one fitted to these very points) where the
+/// output error refined it, else the Stribeck alternative. A stuck log
+/// shows no law; a never-sticking one no static threshold.
+pub fn fit_figure(log: &Path, ch: &Characteristic, f: &LogFit, path: &Path) -> Result<()> {
+    let e = &f.fit;
+    let (law, law_label, alternative, alternative_label) = if f.stuck() {
+        (None, "fitted", None, "alternative")
+    } else if f.estimate == Estimate::OutputError {
+        (
+            f.law(),
+            "output error (used)",
+            Some(e.law),
+            "equation error",
+        )
+    } else {
+        let alt = e.stribeck.filter(|s| s.kind != e.law.kind);
+        (Some(e.law), "fitted", alt, "alternative")
+    };
+    let title = format!(
+        "Characteristic of {}",
+        log.file_name()
+            .map_or("log".into(), |n| n.to_string_lossy())
+    );
+    characteristic_figure(
+        &CharacteristicFigure {
+            title: &title,
+            contact: &ch.contact,
+            stick: &ch.segmentation.stick,
+            bias_n: if e.bias_n.is_finite() { e.bias_n } else { 0.0 },
+            law,
+            law_label,
+            threshold: !f.never_sticks(),
+            alternative,
+            alternative_label,
+        },
+        path,
+    )
 }
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;

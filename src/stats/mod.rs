@@ -1,6 +1,13 @@
 //! Shared statistics, one implementation each: distribution quantiles
-//! (statrs), sample medians and quantiles, the robust σ.
+//! (statrs), sample medians and quantiles, the robust σ, the one seeded
+//! random number generator ([`Rng`]) and the one line search
+//! ([`golden_section`], argmin's).
 
+mod rng;
+
+use argmin::core::{CostFunction, Executor};
+use argmin::solver::goldensectionsearch::GoldenSectionSearch;
+pub use rng::Rng;
 use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 
 /// The `p`-quantile of Student's t with `dof` degrees of freedom; the
@@ -71,6 +78,35 @@ pub fn mad_sigma(v: &[f64]) -> f64 {
     1.4826 * median(&d)
 }
 
+/// Golden-section minimisation of a unimodal `f` on `[a, b]` (argmin's
+/// `GoldenSectionSearch`, started at the midpoint): at most `iters`
+/// iterations (one evaluation each), fewer once the bracket is at rounding
+/// level (relative 1e-14). Returns the best point evaluated; the midpoint
+/// where the bracket is empty or not finite, or no cost was finite.
+pub fn golden_section(a: f64, b: f64, iters: u64, f: impl Fn(f64) -> f64) -> f64 {
+    struct Cost<F>(F);
+    impl<F: Fn(f64) -> f64> CostFunction for Cost<F> {
+        type Param = f64;
+        type Output = f64;
+        fn cost(&self, x: &f64) -> Result<f64, argmin::core::Error> {
+            Ok((self.0)(*x))
+        }
+    }
+    let mid = 0.5 * (a + b);
+    if !(a.is_finite() && b.is_finite() && a < b) {
+        return mid;
+    }
+    let Ok(solver) = GoldenSectionSearch::new(a, b).and_then(|s| s.with_tolerance(1e-14)) else {
+        return mid;
+    };
+    Executor::new(Cost(f), solver)
+        .configure(|s| s.param(mid).max_iters(iters))
+        .run()
+        .ok()
+        .and_then(|r| r.state.best_param)
+        .unwrap_or(mid)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -99,5 +135,16 @@ mod tests {
         }
         assert!((normal_quantile(0.975) - 1.959_963_985).abs() < 1e-8);
         assert_eq!(student_t_quantile(0.975, 0.0), normal_quantile(0.975));
+    }
+
+    #[test]
+    fn golden_section_finds_the_minimum_to_rounding() {
+        let x = golden_section(0.0, 3.0, 200, |x| (x - 1.234_567).powi(2) + 2.0);
+        assert!((x - 1.234_567).abs() < 1e-7, "{x}");
+        // A minimum at the bracket's edge.
+        let x = golden_section(0.0, 1.0, 200, |x| x);
+        assert!(x < 1e-7, "{x}");
+        // Empty bracket: its midpoint, f never called.
+        assert_eq!(golden_section(2.0, 2.0, 10, |_| unreachable!()), 2.0);
     }
 }

@@ -48,15 +48,15 @@
 //! Everything random comes from one seed (xoshiro256**, [`rng`]), one stream
 //! per channel: the same configuration and seed give the same bytes.
 
-pub mod rng;
 mod write;
 
 use crate::ingest::{Quantity, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
+use crate::io::json::num;
 use crate::model::{Absorber, Drive, Law, LawKind, Model, RigConstants, Scales, Schedule, Segment};
 use crate::sim::engine::{Event, EventKind, Init, Observer, RunEnd, Sim, Status};
 use crate::sim::numeric::{NumericOptions, NumericSim};
 use crate::sim::schedule::{run_schedule, SegmentObserver};
-use rng::Rng;
+use crate::stats::Rng;
 use serde::{Deserialize, Serialize};
 use serde_json::{json, Value};
 use std::collections::BTreeMap;
@@ -588,7 +588,7 @@ impl Sensors {
     /// gains within ±1 % and offsets drawn from `seed` (a rig whose
     /// calibration errors are unknown to the analyst).
     pub fn typical(seed: u64) -> Self {
-        let mut r = Rng::new(seed, 0xCA11_B8A7);
+        let mut r = Rng::with_stream(seed, 0xCA11_B8A7);
         let mut s = |rate: f64, noise: f64, quant: f64, gain_err: f64, off: f64| SensorModel {
             rate_hz: rate,
             noise,
@@ -1251,7 +1251,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     let sensors = cfg.sensors.channels();
     let mut rngs: Vec<Rng> = sensors
         .iter()
-        .map(|(q, _)| Rng::new(cfg.seed, 1 + *q as u64))
+        .map(|(q, _)| Rng::with_stream(cfg.seed, 1 + *q as u64))
         .collect();
     let plans: Vec<Plan> = sensors
         .iter()
@@ -1488,15 +1488,6 @@ fn rig_record(cfg: &SynthConfig) -> BTreeMap<String, String> {
         extra,
     }
     .to_map()
-}
-
-/// A float for JSON (non-finite: null).
-fn num(x: f64) -> Value {
-    if x.is_finite() {
-        json!(x)
-    } else {
-        Value::Null
-    }
 }
 
 /// (max − min)/2 of the values at times in [t0, t1].

@@ -31,9 +31,10 @@
 //!   them — not the raw extremes of noisy samples, which are biased upwards
 //!   by about two noise σ.
 
-use crate::identify::smooth::{golden, savgol};
+use crate::identify::smooth::savgol;
 use crate::ingest::{Quantity, Run, SweepKind as LogSweepKind};
 use crate::sim::sweep::Direction;
+use crate::stats::golden_section;
 use crate::stats::median;
 use crate::{Error, Result};
 use argmin::core::{CostFunction, Executor, State};
@@ -264,7 +265,7 @@ fn fit_sine(
     let best = (0..=n)
         .map(|k| lo + k as f64 * step)
         .min_by(|p, q| rss(*p).total_cmp(&rss(*q)))?;
-    let f = golden(best - step, best + step, 50, rss);
+    let f = golden_section(best - step, best + step, 50, rss);
     let (c, ca, sb, rss) = lsq_sine(t, x, f, rate, tr)?;
     // c + ca·cos θ + sb·sin θ = c + R·sin(θ + atan2(ca, sb)).
     Some(Sine {

@@ -11,6 +11,7 @@
 //!   uncertainty; the score against the measured response.
 
 pub mod frc;
+mod json;
 pub mod predict;
 
 use crate::identify::LogFit;

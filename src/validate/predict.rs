@@ -26,7 +26,6 @@
 
 use super::frc::{MeasuredFrc, SweepKind};
 use super::ValidateError;
-use crate::identify::smooth::Rng;
 use crate::identify::{Estimate, LogFit};
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Law, LawKind, Model, Scales, Schedule, Segment, SiLaw};
@@ -36,6 +35,7 @@ use crate::sim::schedule::{run_schedule, SegmentObserver};
 use crate::sim::sweep::{steady_state, SteadyConfig};
 use crate::sim::SimError;
 use crate::stats::quantile_sorted;
+use crate::stats::Rng;
 
 /// Why a prediction failed: a [`ValidateError`] of the inputs, or the
 /// simulation.
@@ -114,7 +114,7 @@ impl Default for PredictOptions {
 
 /// A predicted response at the measured points with its 95 % band
 /// (`None` where the model interrupts or does not settle).
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct Predicted {
     /// η of each point.
     pub eta: Vec<f64>,
@@ -135,7 +135,7 @@ pub struct Predicted {
 /// Scores of the predictions against the measured response (steady-state
 /// scores over the steps that reached their steady state; replay scores
 /// over every step; nrms = RMS / measured peak).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct Score {
     /// RMS of predicted − measured A1/A (steady, settled steps).
     pub rms_amplitude1: Option<f64>,
@@ -196,7 +196,7 @@ pub struct Prediction {
 
 /// A draw from a split normal with the interval as its 2.5/97.5 % points.
 fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
-    let z = rng.normal_open();
+    let z = rng.normal();
     match iv {
         Some((lo, hi)) if lo.is_finite() && hi.is_finite() => {
             let s = if z < 0.0 { est - lo } else { hi - est };

@@ -1,0 +1,28 @@
+//! JSON number helpers shared by every output: a non-finite float is
+//! written as `null` (JSON has no NaN or infinity), an interval as a
+//! two-element list.
+
+use serde_json::{json, Value};
+
+/// A float for JSON: non-finite values become `null`.
+pub fn num(x: f64) -> Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        Value::Null
+    }
+}
+
+/// An optional float for JSON (`None` or non-finite: `null`).
+pub fn opt(x: Option<f64>) -> Value {
+    x.map_or(Value::Null, num)
+}
+
+/// An interval for JSON: `[low, high]`, or `null` where absent or not
+/// finite.
+pub fn interval(i: Option<(f64, f64)>) -> Value {
+    match i {
+        Some((a, b)) if a.is_finite() && b.is_finite() => json!([a, b]),
+        _ => Value::Null,
+    }
+}
