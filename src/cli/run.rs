@@ -380,7 +380,7 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         };
         for (pair, r) in &validations {
             if let (Ok(v), Ok(f)) = (r, &fits[&pair.characteristic]) {
-                page.validations.push(super::validate::validation_section(
+                page.validations.push(crate::report::sections::validation_section(
                     &rd,
                     &pair.characteristic,
                     &pair.sweep,
@@ -421,7 +421,7 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         }
         for p in &chars {
             page.fits.push(match (&fits[*p], &runs[*p]) {
-                (Ok(f), Ok(run)) => super::validate::fit_section(&rd, p, run, f)?,
+                (Ok(f), Ok(run)) => crate::report::sections::fit_section(&rd, p, run, f)?,
                 (Err(e), _) | (_, Err(e)) => views::fit_error_view(p, &e.to_string()),
             });
         }

@@ -2,10 +2,10 @@
 //! sweep log's frequency response with it (steady state and replay, with
 //! 95 % bands), score it, and optionally write an HTML report.
 
-use crate::identify::{self, IdentifyOptions, LogFit};
+use crate::identify::{self, IdentifyOptions};
 use crate::ingest::{self, IngestOptions, Run};
-use crate::report::{html, validation_plot, views};
-use crate::validate::{self, ValidateOptions, Validation};
+use crate::report::{html, sections};
+use crate::validate::{self, ValidateOptions};
 use clap::Args;
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -53,55 +53,6 @@ pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
     Ok((ra?, rb?))
 }
 
-/// Writes the characteristic figure of a fitted log (paper Figs. 8–9; what
-/// it shows is [`crate::report::characteristic_plot::fit_figure`]'s call) and
-/// returns its fit section for the report.
-pub(crate) fn fit_section(
-    dir: &html::ReportDir,
-    log: &Path,
-    run: &Run,
-    f: &LogFit,
-) -> crate::Result<html::FitView> {
-    let name = format!("characteristic_{}.svg", html::stem(log));
-    let ch = identify::characteristic(run, &identify::Gains::default())?;
-    crate::report::characteristic_plot::fit_figure(log, &ch, f, &dir.file(&name)?)?;
-    Ok(views::fit_view(
-        log,
-        f,
-        run.rig.notes.as_deref(),
-        Some(name),
-    ))
-}
-
-/// Writes the validation figure and returns its view for the report.
-pub(crate) fn validation_section(
-    dir: &html::ReportDir,
-    char_log: &Path,
-    sweep_log: &Path,
-    f: &LogFit,
-    v: &Validation,
-) -> crate::Result<html::ValidationView> {
-    let name = format!("frc_{}.svg", html::stem(sweep_log));
-    let title = format!(
-        "{} with the law of {}",
-        sweep_log
-            .file_name()
-            .map_or("sweep".into(), |n| n.to_string_lossy()),
-        char_log
-            .file_name()
-            .map_or("log".into(), |n| n.to_string_lossy())
-    );
-    validation_plot::validation_figure(&title, &v.measured, &v.prediction, &dir.file(&name)?)?;
-    Ok(views::validation_view(
-        sweep_log,
-        char_log,
-        f,
-        v,
-        f.estimate.as_str(),
-        name,
-    ))
-}
-
 /// Runs `validate`.
 pub fn run(args: ValidateArgs) -> crate::Result<()> {
     crate::io::ensure_not_inputs(
@@ -143,8 +94,8 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     if let Some(dir) = &args.report {
         let inputs = [args.characteristic.clone(), args.sweep.clone()];
         let rd = html::ReportDir::create(dir, &inputs)?;
-        let section = validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
-        let fv = fit_section(&rd, &args.characteristic, &char_run, &fit)?;
+        let section = sections::validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
+        let fv = sections::fit_section(&rd, &args.characteristic, &char_run, &fit)?;
         let page = html::Page {
             title: format!("Validation of {}", args.sweep.display()),
             version: env!("CARGO_PKG_VERSION").into(),

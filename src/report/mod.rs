@@ -7,6 +7,7 @@ pub mod batch_view;
 pub mod characteristic_plot;
 pub mod html;
 pub mod plot;
+pub mod sections;
 pub mod table;
 pub mod validation_plot;
 pub mod views;
