@@ -57,6 +57,7 @@ pub mod identify;
 pub mod ingest;
 pub mod io;
 pub mod model;
+pub mod pipeline;
 pub mod report;
 pub mod sim;
 pub mod stats;

@@ -235,6 +235,12 @@ pub enum BatchError {
     /// No log of the batch was fitted.
     #[error("no fitted log in the batch")]
     Empty,
+    /// No log of the batch could be read.
+    #[error("no log of the batch could be read")]
+    NothingRead,
+    /// No log of the batch that was read could be fitted.
+    #[error("no log of the batch could be fitted")]
+    NothingFitted,
     /// The rig's constants describe no absorber.
     #[error("rig: {0}")]
     Rig(crate::model::ParamError),

@@ -207,16 +207,16 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
             Err(e) => errors.push(e.to_string()),
         }
     }
-    if let Err(e) = super::refuse_mixed_rigs(&rigs, args.allow_mixed_rigs) {
+    if let Err(e) = crate::pipeline::checks::refuse_mixed_rigs(&rigs, args.allow_mixed_rigs) {
         bar.finish_and_clear();
         return Err(e);
     }
     // The same test given twice counts once.
     let (keep, dup_warnings) = {
-        let ids: Vec<super::TestId<'_>> = good
+        let ids: Vec<crate::pipeline::checks::TestId<'_>> = good
             .iter()
             .zip(&rigs)
-            .map(|((p, f), (_, rig))| super::TestId {
+            .map(|((p, f), (_, rig))| crate::pipeline::checks::TestId {
                 path: p,
                 rig,
                 normal_force_n: f.normal_force_n,
@@ -224,7 +224,7 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
                 drive_frequency_hz: f.drive.frequency_hz,
             })
             .collect();
-        super::find_duplicates(&ids)
+        crate::pipeline::checks::find_duplicates(&ids)
     };
     let duplicates: Vec<String> = good
         .iter()
@@ -238,10 +238,7 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
     rigs.retain(|_| *k.next().unwrap_or(&true));
     // Results.
     let result: crate::Result<Batch> = if good.is_empty() {
-        Err(crate::Error::Input {
-            path: PathBuf::from("batch"),
-            msg: "no log of the batch could be fitted".into(),
-        })
+        Err(crate::batch::BatchError::NothingFitted.into())
     } else {
         let rig = &rigs[0].1;
         bar.set_message("worst-case amplitudes");

@@ -67,7 +67,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     };
     say("reading logs");
     let (char_run, sweep_run) = read_pair(&args.characteristic, &args.sweep)?;
-    super::refuse_mixed_rigs(
+    crate::pipeline::checks::refuse_mixed_rigs(
         &[
             (args.characteristic.clone(), char_run.rig.clone()),
             (args.sweep.clone(), sweep_run.rig.clone()),
@@ -94,7 +94,8 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     if let Some(dir) = &args.report {
         let inputs = [args.characteristic.clone(), args.sweep.clone()];
         let rd = html::ReportDir::create(dir, &inputs)?;
-        let section = sections::validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
+        let section =
+            sections::validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
         let fv = sections::fit_section(&rd, &args.characteristic, &char_run, &fit)?;
         let page = html::Page {
             title: format!("Validation of {}", args.sweep.display()),

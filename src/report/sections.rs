@@ -55,4 +55,3 @@ pub fn validation_section(
         name,
     ))
 }
-

@@ -1,0 +1,119 @@
+//! Checks on a set of logs used together: one rig (constants within 1 %),
+//! and no test counted twice.
+
+use crate::ingest::RigMeta;
+use std::path::{Path, PathBuf};
+
+/// Relative difference of a rig constant (M1, M2, K1, K2, d) above which
+/// two logs count as different rigs.
+pub const RIG_TOLERANCE: f64 = 0.01;
+
+/// Refuses logs whose rig constants (M1, M2, K1, K2, d) differ by more
+/// than 1 % from the first log's, unless `allow` (then `None`): one error
+/// naming both logs and every differing constant.
+pub fn refuse_mixed_rigs(rigs: &[(PathBuf, RigMeta)], allow: bool) -> crate::Result<()> {
+    if allow {
+        return Ok(());
+    }
+    let Some((p0, r0)) = rigs.first() else {
+        return Ok(());
+    };
+    for (p, r) in &rigs[1..] {
+        let diffs: Vec<String> = [
+            ("M1", "kg", r0.m1_kg, r.m1_kg),
+            ("M2", "kg", r0.m2_kg, r.m2_kg),
+            ("K1", "N/m", r0.k1_n_per_m, r.k1_n_per_m),
+            ("K2", "N/m", r0.k2_n_per_m, r.k2_n_per_m),
+            ("d", "N s/m", r0.d_n_s_per_m, r.d_n_s_per_m),
+        ]
+        .iter()
+        .filter(|(_, _, a, b)| (a - b).abs() > RIG_TOLERANCE * a.abs().max(b.abs()))
+        .map(|(name, unit, a, b)| {
+            format!(
+                "{name} = {b} {unit} against {a} {unit} ({:+.1} %)",
+                100.0 * (b / a - 1.0)
+            )
+        })
+        .collect();
+        if !diffs.is_empty() {
+            return Err(crate::Error::Input {
+                path: p.clone(),
+                msg: format!(
+                    "rig constants differ from {} by more than 1 %: {}; logs of different rigs are refused (give --allow-mixed-rigs to use them together)",
+                    p0.display(),
+                    diffs.join(", ")
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// What identifies one test for finding it given twice: the file, its rig
+/// record and what was measured in it.
+pub struct TestId<'a> {
+    /// The log as given.
+    pub path: &'a Path,
+    /// Its rig record.
+    pub rig: &'a RigMeta,
+    /// Measured normal force (N).
+    pub normal_force_n: f64,
+    /// Measured drive amplitude (m).
+    pub drive_amplitude_m: f64,
+    /// Measured drive frequency (Hz).
+    pub drive_frequency_hz: f64,
+}
+
+/// Finds the same test given twice: the same file (after resolving the
+/// path), or the same test in another format (the same rig record, with a
+/// `recorded_at`, and the same measured normal force, drive amplitude and
+/// frequency within 2 %, 1 % and 0.5 %). Returns which entries to keep (the
+/// first of each test) and a warning per duplicate; two logs with the same
+/// record whose data differ are kept, with a warning.
+pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<String>) {
+    let mut keep = vec![true; ids.len()];
+    let mut warnings = Vec::new();
+    let canon: Vec<Option<PathBuf>> = ids
+        .iter()
+        .map(|t| std::fs::canonicalize(t.path).ok())
+        .collect();
+    let close = |a: f64, b: f64, tol: f64| (a - b).abs() <= tol * a.abs().max(b.abs());
+    for j in 0..ids.len() {
+        for i in 0..j {
+            if !keep[i] {
+                continue;
+            }
+            let (a, b) = (&ids[i], &ids[j]);
+            if canon[i].is_some() && canon[i] == canon[j] {
+                keep[j] = false;
+                warnings.push(format!("{} is given twice: counted once", b.path.display()));
+                break;
+            }
+            if a.rig.recorded_at.is_some() && a.rig.to_map() == b.rig.to_map() {
+                if close(a.normal_force_n, b.normal_force_n, 0.02)
+                    && close(a.drive_amplitude_m, b.drive_amplitude_m, 0.01)
+                    && close(a.drive_frequency_hz, b.drive_frequency_hz, 0.005)
+                {
+                    keep[j] = false;
+                    warnings.push(format!(
+                        "{} is the same test as {} (same rig record, recorded_at {}, same measured normal force and drive): counted once",
+                        b.path.display(),
+                        a.path.display(),
+                        a.rig.recorded_at.as_deref().unwrap_or("?")
+                    ));
+                    break;
+                }
+                warnings.push(format!(
+                    "{} and {} carry the same rig record and recorded_at but their data differ (normal force {:.3} / {:.3} N, drive {:.4} / {:.4} mm): kept as two tests",
+                    a.path.display(),
+                    b.path.display(),
+                    a.normal_force_n,
+                    b.normal_force_n,
+                    a.drive_amplitude_m * 1e3,
+                    b.drive_amplitude_m * 1e3
+                ));
+            }
+        }
+    }
+    (keep, warnings)
+}

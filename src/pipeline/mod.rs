@@ -1,0 +1,478 @@
+//! The whole pipeline on an experiment plan: ingest → fit → validate →
+//! batch, with its report. The plan says which logs belong together, which
+//! the logs themselves cannot:
+//!
+//! ```toml
+//! title = "Rig A, pad 1"
+//! # Paths are relative to the plan file.
+//! fit = ["law_coulomb.mcap"]            # characteristic logs fitted on their own
+//! batch = ["char_N1.2.mcap", "char_N4.mcap"]   # one pad at several normal forces
+//! [[validate]]
+//! characteristic = "char_N4.mcap"
+//! sweep = "sweep_stepped_N4.mcap"
+//! ```
+//!
+//! [`Plan::read`] is the plan stage (parse, check, resolve paths);
+//! [`run`] reads and fits every log once, in parallel, then validates and
+//! compares in parallel. A log that fails keeps its error in the
+//! [`PipelineReport`] and the rest completes; results do not depend on the
+//! thread count.
+
+pub mod checks;
+
+use crate::batch::{self as vb, Batch};
+use crate::identify::{self, IdentifyOptions, LogFit};
+use crate::ingest::{self, IngestOptions, RigMeta, Run};
+use crate::report::{batch_plot, batch_view, html, sections, views};
+use crate::validate::{self, ValidateOptions, Validation};
+use rayon::prelude::*;
+use serde::Deserialize;
+use serde_json::{json, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One validation of the plan: a characteristic log's law against a sweep.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Pair {
+    /// The characteristic log whose law predicts the sweep.
+    pub characteristic: PathBuf,
+    /// The sweep log.
+    pub sweep: PathBuf,
+}
+
+/// An experiment plan (paths resolved against the plan's folder).
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plan {
+    /// Report title.
+    #[serde(default)]
+    pub title: Option<String>,
+    /// Characteristic logs fitted on their own.
+    #[serde(default)]
+    pub fit: Vec<PathBuf>,
+    /// One pad at several normal forces.
+    #[serde(default)]
+    pub batch: Vec<PathBuf>,
+    /// Validations.
+    #[serde(default)]
+    pub validate: Vec<Pair>,
+}
+
+fn plan_err(path: &Path, msg: impl Into<String>) -> crate::Error {
+    crate::Error::Input {
+        path: path.to_path_buf(),
+        msg: msg.into(),
+    }
+}
+
+impl Plan {
+    /// Reads and checks the plan at `path`; relative paths become relative
+    /// to the plan's folder.
+    ///
+    /// ```
+    /// let plan = stickslip::pipeline::Plan::read("datasets/plan.toml".as_ref())?;
+    /// assert!(plan.logs().iter().all(|p| p.starts_with("datasets")));
+    /// assert!(!plan.batch.is_empty() && !plan.validate.is_empty());
+    /// # Ok::<(), stickslip::Error>(())
+    /// ```
+    pub fn read(path: &Path) -> crate::Result<Plan> {
+        let text = std::fs::read_to_string(path).map_err(|source| crate::Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let mut plan: Plan = toml::from_str(&text)
+            .map_err(|e| plan_err(path, format!("not a valid plan: {}", e.message())))?;
+        let base = path.parent().unwrap_or(Path::new(""));
+        let fix = |p: &mut PathBuf| {
+            if p.is_relative() {
+                *p = base.join(&*p);
+            }
+        };
+        plan.fit.iter_mut().for_each(fix);
+        plan.batch.iter_mut().for_each(fix);
+        for v in &mut plan.validate {
+            fix(&mut v.characteristic);
+            fix(&mut v.sweep);
+        }
+        if plan.fit.is_empty() && plan.batch.is_empty() && plan.validate.is_empty() {
+            return Err(plan_err(
+                path,
+                "the plan names no logs (keys: fit, batch, [[validate]])",
+            ));
+        }
+        Ok(plan)
+    }
+
+    /// Every log of the plan once, in plan order (batch, fit, validations).
+    pub fn logs(&self) -> Vec<PathBuf> {
+        let mut logs: Vec<PathBuf> = Vec::new();
+        let mut add = |p: &PathBuf| {
+            if !logs.contains(p) {
+                logs.push(p.clone());
+            }
+        };
+        self.batch.iter().for_each(&mut add);
+        self.fit.iter().for_each(&mut add);
+        for v in &self.validate {
+            add(&v.characteristic);
+            add(&v.sweep);
+        }
+        logs
+    }
+
+    /// The logs that are fitted: every log but the sweeps, in plan order.
+    pub fn characteristic_logs(&self) -> Vec<PathBuf> {
+        let sweeps: Vec<&PathBuf> = self.validate.iter().map(|v| &v.sweep).collect();
+        self.logs()
+            .into_iter()
+            .filter(|p| !sweeps.contains(&p))
+            .collect()
+    }
+
+    /// Units of work [`run`] reports to its [`Progress`]: one per log read,
+    /// per fit, per validation, and one for the batch.
+    pub fn steps(&self) -> u64 {
+        (self.logs().len()
+            + self.characteristic_logs().len()
+            + self.validate.len()
+            + usize::from(!self.batch.is_empty())) as u64
+    }
+}
+
+/// Options of [`run`].
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Laws drawn from each fit's uncertainty for the prediction bands.
+    pub samples: usize,
+    /// Use logs whose rig constants differ by more than 1 % together.
+    pub allow_mixed_rigs: bool,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            samples: ValidateOptions::default().predict.samples,
+            allow_mixed_rigs: false,
+        }
+    }
+}
+
+/// Where [`run`] reports its progress (e.g. a progress bar).
+pub trait Progress: Sync {
+    /// A new stage starts.
+    fn stage(&self, _what: &str) {}
+    /// `n` units of work (see [`Plan::steps`]) are done.
+    fn advance(&self, _n: u64) {}
+}
+
+/// No progress display.
+impl Progress for () {}
+
+/// Everything [`run`] produced, per log and per validation, with the
+/// errors of what failed (each reported once).
+#[derive(Debug)]
+pub struct PipelineReport {
+    /// Every log of the plan as read.
+    pub runs: BTreeMap<PathBuf, crate::Result<Run>>,
+    /// The fit of every characteristic log.
+    pub fits: BTreeMap<PathBuf, crate::Result<LogFit>>,
+    /// The validations, in plan order.
+    pub validations: Vec<(Pair, crate::Result<Validation>)>,
+    /// The batch comparison (None: the plan has no batch).
+    pub batch: Option<crate::Result<Batch>>,
+    /// One line per failure (read, fit, validation, batch), each once.
+    pub errors: Vec<String>,
+}
+
+/// Runs the plan: reads every log once, fits every characteristic log
+/// once, then validates and compares (batch) side by side. Fails as a whole
+/// only where the logs that could be read come from different rigs (unless
+/// `opts.allow_mixed_rigs`).
+pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Result<PipelineReport> {
+    let logs = plan.logs();
+    let chars = plan.characteristic_logs();
+    progress.stage("reading logs");
+    let runs: BTreeMap<PathBuf, crate::Result<Run>> = logs
+        .par_iter()
+        .map(|p| {
+            let r = ingest::read(p, &IngestOptions::default()).map_err(crate::Error::from);
+            progress.advance(1);
+            (p.clone(), r)
+        })
+        .collect();
+    // One rig: every log of the plan that could be read.
+    let read_rigs: Vec<(PathBuf, RigMeta)> = logs
+        .iter()
+        .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+        .collect();
+    checks::refuse_mixed_rigs(&read_rigs, opts.allow_mixed_rigs)?;
+
+    progress.stage("fitting friction laws");
+    // The logs that were read are fitted (in parallel, panic-guarded);
+    // the others keep their read error.
+    let read: Vec<&Run> = chars.iter().filter_map(|p| runs[p].as_ref().ok()).collect();
+    let mut fitted =
+        identify::fit_runs(&read, &IdentifyOptions::default(), &|| progress.advance(1)).into_iter();
+    let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = BTreeMap::new();
+    for p in &chars {
+        let f = match (&runs[p], fitted.next()) {
+            (Ok(_), Some(f)) => f,
+            (Err(e), _) => {
+                progress.advance(1);
+                Err(crate::Error::Skipped {
+                    path: p.clone(),
+                    stage: "not read",
+                    cause: e.to_string(),
+                })
+            }
+            (Ok(_), None) => Err(crate::Error::Identify {
+                path: p.clone(),
+                source: identify::IdentifyError::Internal,
+            }),
+        };
+        fits.insert(p.clone(), f);
+    }
+    let mut errors: Vec<String> = runs
+        .values()
+        .filter_map(|r| r.as_ref().err().map(|e| e.to_string()))
+        .collect();
+    // A log that was not read is reported once, by its read error.
+    errors.extend(fits.values().filter_map(|r| match r {
+        Err(crate::Error::Skipped { .. }) | Ok(_) => None,
+        Err(e) => Some(e.to_string()),
+    }));
+
+    // The validations and the batch need nothing from each other: they run
+    // side by side (each collected in order).
+    progress.stage("validating against sweeps; batch: worst-case amplitudes");
+    let mut vopts = ValidateOptions::default();
+    vopts.predict.samples = opts.samples;
+    let validate_all = || -> Vec<(Pair, crate::Result<Validation>)> {
+        plan.validate
+            .par_iter()
+            .map(|pair| {
+                let r = match (
+                    &fits[&pair.characteristic],
+                    &runs[&pair.characteristic],
+                    &runs[&pair.sweep],
+                ) {
+                    (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, cr, sr, &vopts),
+                    (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => {
+                        Err(crate::Error::Skipped {
+                            path: pair.sweep.clone(),
+                            stage: "not validated",
+                            cause: e.to_string(),
+                        })
+                    }
+                };
+                progress.advance(1);
+                (pair.clone(), r)
+            })
+            .collect()
+    };
+    let run_batch = || (!plan.batch.is_empty()).then(|| batch_of(plan, &runs, &fits));
+    let (validations, batch) = rayon::join(validate_all, run_batch);
+    progress.advance(1);
+    errors.extend(
+        validations
+            .iter()
+            .filter_map(|(_, r)| r.as_ref().err().map(|e| e.to_string())),
+    );
+    if let Some(Err(e)) = &batch {
+        errors.push(e.to_string());
+    }
+    Ok(PipelineReport {
+        runs,
+        fits,
+        validations,
+        batch,
+        errors,
+    })
+}
+
+/// The batch of the plan: its logs that were read and fitted, each test
+/// once (a stuck or never-sticking log enters as a bound).
+fn batch_of(
+    plan: &Plan,
+    runs: &BTreeMap<PathBuf, crate::Result<Run>>,
+    fits: &BTreeMap<PathBuf, crate::Result<LogFit>>,
+) -> crate::Result<Batch> {
+    let both: Vec<(PathBuf, &LogFit, &RigMeta)> = plan
+        .batch
+        .iter()
+        .filter_map(|p| match (&fits[p], &runs[p]) {
+            (Ok(f), Ok(r)) => Some((p.clone(), f, &r.rig)),
+            _ => None,
+        })
+        .collect();
+    let (keep, dup_warnings) = checks::find_duplicates(
+        &both
+            .iter()
+            .map(|(p, f, rig)| checks::TestId {
+                path: p,
+                rig,
+                normal_force_n: f.normal_force_n,
+                drive_amplitude_m: f.drive.amplitude_m,
+                drive_frequency_hz: f.drive.frequency_hz,
+            })
+            .collect::<Vec<_>>(),
+    );
+    let kept: Vec<&(PathBuf, &LogFit, &RigMeta)> = both
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(x, _)| x)
+        .collect();
+    let good: Vec<(PathBuf, LogFit)> = kept
+        .iter()
+        .map(|(p, f, _)| (p.clone(), (*f).clone()))
+        .collect();
+    let mut rigs: Vec<(PathBuf, RigMeta)> = kept
+        .iter()
+        .map(|(p, _, r)| (p.clone(), (*r).clone()))
+        .collect();
+    if rigs.is_empty() {
+        rigs = plan
+            .batch
+            .iter()
+            .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+            .collect();
+    }
+    let Some((_, rig)) = rigs.first() else {
+        return Err(vb::BatchError::NothingRead.into());
+    };
+    if good.is_empty() {
+        return Err(vb::BatchError::NothingFitted.into());
+    }
+    let mut b = vb::batch(&good, rig, &vb::BatchOptions::default())?;
+    let mut w = dup_warnings;
+    w.extend(vb::rig_warnings(&rigs));
+    w.append(&mut b.warnings);
+    b.warnings = w;
+    Ok(b)
+}
+
+impl PipelineReport {
+    /// The JSON result of the plan at `plan_path` (`run`'s contract keys).
+    pub fn to_json(&self, plan: &Plan, plan_path: &Path) -> Value {
+        let fit_entries: Vec<Value> = plan
+            .characteristic_logs()
+            .iter()
+            .map(|p| match &self.fits[p] {
+                Ok(f) => f.to_json(p),
+                Err(e) => json!({"log": p.display().to_string(), "error": e.to_string()}),
+            })
+            .collect();
+        let val_entries: Vec<Value> = self
+            .validations
+            .iter()
+            .map(|(pair, r)| match (r, &self.fits[&pair.characteristic]) {
+                (Ok(v), Ok(f)) => v.to_json(&pair.characteristic, &pair.sweep, f),
+                (Err(e), _) | (_, Err(e)) => json!({
+                    "characteristic": pair.characteristic.display().to_string(),
+                    "sweep": pair.sweep.display().to_string(),
+                    "error": e.to_string(),
+                }),
+            })
+            .collect();
+        let mut out = json!({
+            "plan": plan_path.display().to_string(),
+            "fits": fit_entries,
+            "validations": val_entries,
+        });
+        match &self.batch {
+            Some(Ok(b)) => {
+                let mut m = b.to_json_map();
+                m.insert(
+                    "logs".into(),
+                    json!(plan
+                        .batch
+                        .iter()
+                        .map(|p| p.display().to_string())
+                        .collect::<Vec<_>>()),
+                );
+                out["batch"] = Value::Object(m);
+            }
+            Some(Err(e)) => out["batch"] = json!({"error": e.to_string()}),
+            None => {}
+        }
+        out
+    }
+
+    /// Writes the HTML report of the plan into `dir` (index.html and the
+    /// figures; no input is overwritten) and returns the index's path.
+    /// `command` is the command line shown on the page.
+    pub fn write_report(
+        &self,
+        plan: &Plan,
+        plan_path: &Path,
+        dir: &Path,
+        command: &str,
+    ) -> crate::Result<PathBuf> {
+        let logs = plan.logs();
+        let rd = html::ReportDir::create(dir, &logs)?;
+        let mut page = html::Page {
+            title: plan
+                .title
+                .clone()
+                .unwrap_or_else(|| format!("stickslip report: {}", plan_path.display())),
+            version: env!("CARGO_PKG_VERSION").into(),
+            command: command.into(),
+            ..html::Page::default()
+        };
+        for (pair, r) in &self.validations {
+            if let (Ok(v), Ok(f)) = (r, &self.fits[&pair.characteristic]) {
+                page.validations.push(sections::validation_section(
+                    &rd,
+                    &pair.characteristic,
+                    &pair.sweep,
+                    f,
+                    v,
+                )?);
+                let s = &v.prediction.score;
+                let pc = |x: Option<f64>| x.map_or("–".into(), |v| format!("{:.1} %", v * 100.0));
+                page.summary.push(html::KeyValue::new(
+                    format!("{} (law of {})", pair.sweep.display(), pair.characteristic.display()),
+                    format!(
+                        "replay nrms A1 {}, band coverage A1 {}; steady-state nrms A1 {} over {} settled steps",
+                        pc(s.replay_nrms_amplitude1),
+                        pc(s.replay_coverage_amplitude1),
+                        pc(s.nrms_amplitude1),
+                        s.steady_points
+                    ),
+                ));
+            }
+        }
+        if let Some(Ok(b)) = &self.batch {
+            let fig = "batch.svg";
+            batch_plot::batch_figure(
+                b,
+                &format!(
+                    "{}: worst-case amplitude against the normal force",
+                    plan.title.as_deref().unwrap_or("batch")
+                ),
+                &rd.file(fig)?,
+            )?;
+            page.batch = Some(batch_view::batch_view(b, Some(fig.into())));
+            if let Some(kv) = batch_view::batch_summary(b)
+                .into_iter()
+                .find(|kv| kv.key.starts_with("recommended"))
+            {
+                page.summary.push(kv);
+            }
+        }
+        for p in &plan.characteristic_logs() {
+            page.fits.push(match (&self.fits[p], &self.runs[p]) {
+                (Ok(f), Ok(run)) => sections::fit_section(&rd, p, run, f)?,
+                (Err(e), _) | (_, Err(e)) => views::fit_error_view(p, &e.to_string()),
+            });
+        }
+        page.warnings = self.errors.clone();
+        page.inputs = logs
+            .iter()
+            .filter_map(|p| html::input_file(p).ok())
+            .collect();
+        rd.write_page(&page)
+    }
+}
