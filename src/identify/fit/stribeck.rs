@@ -1,0 +1,47 @@
+//! The Stribeck velocity by variable projection: for a given v_s the law
+//! is linear in (b, Rd, Rs − Rd, a), so v_s is found by a coarse scan and a
+//! golden-section search over log v_s of the profiled residual sum.
+
+use super::basis;
+use super::slip::{rss, Sample};
+use crate::identify::smooth::Normal;
+use crate::model::LawKind;
+use crate::stats::golden_section;
+
+/// The Stribeck velocity (m/s) the slip samples resolve, if any: None where
+/// the speeds span less than a factor 4 above `u_min` (the hysteresis
+/// threshold), or where the optimum sits at the scanned range's edge (not
+/// a peak the data resolve).
+pub(super) fn stribeck_velocity(samples: &[Sample], u_min: f64) -> Option<f64> {
+    let umax = samples.iter().map(|s| s.u).fold(0.0, f64::max);
+    let umin = u_min.max(1e-9);
+    if umax <= 4.0 * umin {
+        return None;
+    }
+    let cost = |lv: f64| {
+        let vs = lv.exp();
+        let mut ne = Normal::new(basis(LawKind::Stribeck, &samples[0], vs).len());
+        for smp in samples {
+            ne.add(&basis(LawKind::Stribeck, smp, vs), smp.r, 1.0);
+        }
+        match ne.solve() {
+            Some(c) => rss(samples, &c, None, LawKind::Stribeck, vs),
+            None => f64::INFINITY,
+        }
+    };
+    let (a, b) = ((0.5 * umin).ln(), (0.5 * umax).ln());
+    // Coarse scan, then golden section around the best point.
+    let m = 24;
+    let mut best = (a, f64::INFINITY);
+    for k in 0..=m {
+        let lv = a + (b - a) * k as f64 / m as f64;
+        let f = cost(lv);
+        if f < best.1 {
+            best = (lv, f);
+        }
+    }
+    let step = (b - a) / m as f64;
+    let lv = golden_section((best.0 - step).max(a), (best.0 + step).min(b), 30, cost);
+    // At the bounds it is not a Stribeck peak the data resolve.
+    (lv > a + 0.5 * step && lv < b - 0.5 * step).then(|| lv.exp())
+}
