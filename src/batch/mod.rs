@@ -154,6 +154,7 @@ mod conflicts;
 mod json;
 mod mu;
 mod observations;
+mod recommend;
 mod worst;
 
 use conflicts::*;
@@ -550,6 +551,93 @@ pub struct Batch {
     pub warnings: Vec<String>,
 }
 
+/// The drive amplitude the batch's ρ uses and its force scale A·K2.
+struct DriveScale {
+    amplitude_m: f64,
+    source: &'static str,
+    /// The logs' median measured amplitude (NaN if none).
+    measured_m: f64,
+    force_scale_n: f64,
+}
+
+/// The amplitude for ρ (the option, else the rig's nominal one), with a
+/// warning where the logs' median measured amplitude differs by > 3 %.
+fn drive_scale(
+    rig: &RigMeta,
+    opts: &BatchOptions,
+    logs: &[BatchLog],
+    warnings: &mut Vec<String>,
+) -> Result<DriveScale> {
+    let (amp, amp_source) = match opts.drive_amplitude_m {
+        Some(a) => (a, "option"),
+        None => (rig.drive_amplitude_m, "nominal"),
+    };
+    if !(amp.is_finite() && amp > 0.0 && rig.k2_n_per_m > 0.0) {
+        return Err(BatchError::Scale {
+            amplitude_m: amp,
+            k2_n_per_m: rig.k2_n_per_m,
+        }
+        .into());
+    }
+    let fs = amp * rig.k2_n_per_m;
+    let mut measured: Vec<f64> = logs
+        .iter()
+        .map(|l| l.drive_amplitude_m)
+        .filter(|a| a.is_finite())
+        .collect();
+    measured.sort_by(f64::total_cmp);
+    let measured_amp = measured
+        .get(measured.len() / 2)
+        .copied()
+        .unwrap_or(f64::NAN);
+    if measured_amp.is_finite() && (measured_amp / amp - 1.0).abs() > 0.03 {
+        warnings.push(format!(
+            "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
+            measured_amp * 1e3,
+            amp * 1e3
+        ));
+    }
+    Ok(DriveScale {
+        amplitude_m: amp,
+        source: amp_source,
+        measured_m: measured_amp,
+        force_scale_n: fs,
+    })
+}
+
+/// Stage 1's measured settings: the worst case of each log's model ρs (in
+/// parallel), stored in the log.
+fn settings_worst(
+    logs: &mut [BatchLog],
+    ab: &Absorber,
+    ratio: f64,
+    etas: &[f64],
+    opts: &BatchOptions,
+    tick: &(dyn Fn(u64) + Sync),
+) -> std::result::Result<usize, SimError> {
+    let settings: Vec<f64> = logs
+        .iter()
+        .map(|l| l.model_rho_s)
+        .filter(|r| r.is_finite() && *r > 0.0)
+        .collect();
+    let setting_w: Vec<Worst> = settings
+        .par_iter()
+        .map(|&r| {
+            let w = worst_case(ab, r, ratio * r, etas, &opts.steady);
+            tick(1);
+            w
+        })
+        .collect::<std::result::Result<_, _>>()?;
+    let mut k = 0;
+    for l in logs.iter_mut() {
+        if l.model_rho_s.is_finite() && l.model_rho_s > 0.0 {
+            l.worst = Some(setting_w[k]);
+            k += 1;
+        }
+    }
+    Ok(setting_w.len())
+}
+
 /// The batch comparison: μs, μd with intervals from the fitted logs, the
 /// worst-case curve, the recommended normal force and the cliff below it.
 /// `rig` gives m, k, D and the nominal drive amplitude (see
@@ -591,6 +679,13 @@ const REFINE: usize = 4;
 
 /// [`batch`] with a progress callback (`tick(n)`: n more worst-case
 /// evaluations done).
+///
+/// Read top to bottom it is the batch's stages: the coefficients
+/// ([`observations`]), the force scale, the η and ρs grids with the
+/// settings' uncertainty box, stage 1 (coarse grid and the measured
+/// settings), the recommendation search ([`recommend`]) and the curve. It
+/// stays one function of ~190 lines because the grid's bounds share a
+/// dozen locals with the stages around them.
 pub fn batch_with_progress(
     fits: &[(PathBuf, LogFit)],
     rig: &RigMeta,
@@ -622,35 +717,12 @@ pub fn batch_with_progress(
 
     let ab = rig.constants().absorber();
     ab.validate().map_err(BatchError::Rig)?;
-    let (amp, amp_source) = match opts.drive_amplitude_m {
-        Some(a) => (a, "option"),
-        None => (rig.drive_amplitude_m, "nominal"),
-    };
-    if !(amp.is_finite() && amp > 0.0 && rig.k2_n_per_m > 0.0) {
-        return Err(BatchError::Scale {
-            amplitude_m: amp,
-            k2_n_per_m: rig.k2_n_per_m,
-        }
-        .into());
-    }
-    let fs = amp * rig.k2_n_per_m;
-    let mut measured: Vec<f64> = logs
-        .iter()
-        .map(|l| l.drive_amplitude_m)
-        .filter(|a| a.is_finite())
-        .collect();
-    measured.sort_by(f64::total_cmp);
-    let measured_amp = measured
-        .get(measured.len() / 2)
-        .copied()
-        .unwrap_or(f64::NAN);
-    if measured_amp.is_finite() && (measured_amp / amp - 1.0).abs() > 0.03 {
-        warnings.push(format!(
-            "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
-            measured_amp * 1e3,
-            amp * 1e3
-        ));
-    }
+    let DriveScale {
+        amplitude_m: amp,
+        source: amp_source,
+        measured_m: measured_amp,
+        force_scale_n: fs,
+    } = drive_scale(rig, opts, &logs, &mut warnings)?;
     let rho_of = |n: f64| mu_s.mu * n / fs;
     let n_of = |rho: f64| rho * fs / mu_s.mu;
     for l in logs.iter_mut() {
@@ -716,203 +788,32 @@ pub fn batch_with_progress(
         .map(|k| geom_node(rho_min, rho_max, steps, k))
         .collect();
     table.add(&coarse, false).map_err(sim_err)?;
-    let settings: Vec<f64> = logs
-        .iter()
-        .map(|l| l.model_rho_s)
-        .filter(|r| r.is_finite() && *r > 0.0)
-        .collect();
-    let setting_w: std::result::Result<Vec<Worst>, SimError> = settings
-        .par_iter()
-        .map(|&r| {
-            let w = worst_case(&ab, r, ratio * r, &etas, &opts.steady);
-            tick(1);
-            w
-        })
-        .collect();
-    let setting_w = setting_w.map_err(sim_err)?;
-    table.evaluations += setting_w.len();
-    {
-        let mut k = 0;
-        for l in logs.iter_mut() {
-            if l.model_rho_s.is_finite() && l.model_rho_s > 0.0 {
-                l.worst = Some(setting_w[k]);
-                k += 1;
-            }
-        }
-    }
-    let mu_words = format!(
-        "μs = {:.4} with the 95 % interval [{:.4}, {:.4}]",
-        mu_s.mu, mu_s.interval.0, mu_s.interval.1
-    );
-    let unresolved = conflicts
-        .iter()
-        .any(|c| c.quantity == "mu_s" && c.kind != "scatter" && !c.set_aside);
-    let outcome: std::result::Result<(Recommendation, Option<Cliff>), String> = 'rec: {
-        if !box_ok {
-            let why = if unresolved {
-                " (the logs contradict each other on Rs and the data do not say which is off: see the conflicts)"
-            } else {
-                ""
-            };
-            break 'rec Err(if fa <= 0.0 || !fb.is_finite() {
-                format!(
-                    "{mu_words}{why} reaches down to zero or is unbounded: the logs do not pin down the static friction, so no normal force can be shown to keep the main mass quiet; add logs at normal forces where the absorber sticks and slips"
-                )
-            } else {
-                format!(
-                    "{mu_words}{why} spans a factor of {:.0}: any normal force could be anywhere from sliding freely to stuck; add logs at normal forces where the absorber sticks and slips",
-                    mu_s.interval.1 / mu_s.interval.0
-                )
-            });
-        }
-        // Stage 2: the region of good candidates (coarse robust value at the
-        // estimated ratio within 25 % of the best), over their whole boxes and
-        // one coarse step beyond, on the finer grid with every ratio.
-        let coarse_rob: Vec<Option<f64>> = coarse
+    table.evaluations +=
+        settings_worst(&mut logs, &ab, ratio, &etas, opts, tick).map_err(sim_err)?;
+    let search = recommend::Search {
+        ab,
+        etas: &etas,
+        opts,
+        ratio,
+        coarse: &coarse,
+        steps,
+        rho_min,
+        rho_max,
+        fa,
+        fb,
+        box_ok,
+        mu_words: format!(
+            "μs = {:.4} with the 95 % interval [{:.4}, {:.4}]",
+            mu_s.mu, mu_s.interval.0, mu_s.interval.1
+        ),
+        mu_s_interval: mu_s.interval,
+        unresolved: conflicts
             .iter()
-            .map(|r| table.robust(r * fa, r * fb, true))
-            .collect();
-        let Some(rmin) = coarse_rob.iter().flatten().copied().min_by(f64::total_cmp) else {
-            break 'rec Err(format!(
-                "no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}, setting ±{:.0} %) inside the grid; widen --rho-min/--rho-max",
-                100.0 * t
-            ));
-        };
-        let q = (rho_max / rho_min).powf(1.0 / steps as f64);
-        let (fine_steps, factor) = if opts.refine {
-            (steps * REFINE, REFINE)
-        } else {
-            (steps, 1)
-        };
-        let mut region: Vec<usize> = Vec::new();
-        for (i, r) in coarse_rob.iter().enumerate() {
-            if r.is_some_and(|v| v <= 1.25 * rmin) {
-                let rho = coarse[i];
-                let (a, b) = (rho * fa / q, rho * fb * q);
-                let ka =
-                    ((a / rho_min).ln() / (rho_max / rho_min).ln() * fine_steps as f64).floor();
-                let kb = ((b / rho_min).ln() / (rho_max / rho_min).ln() * fine_steps as f64).ceil();
-                let ka = ka.max(0.0) as usize;
-                let kb = (kb.max(0.0) as usize).min(fine_steps);
-                region.extend(ka..=kb);
-            }
-        }
-        region.sort_unstable();
-        region.dedup();
-        let fine: Vec<f64> = region
-            .iter()
-            .map(|&k| {
-                if k % factor == 0 {
-                    coarse[k / factor]
-                } else {
-                    geom_node(rho_min, rho_max, fine_steps, k)
-                }
-            })
-            .collect();
-        if let Err(e) = table.add(&fine, true) {
-            return Err(sim_err(e).into());
-        }
-        let robust_all = |table: &Table<'_>| -> Vec<Option<f64>> {
-            table
-                .nodes
-                .iter()
-                .map(|(r, _)| table.robust(r * fa, r * fb, false))
-                .collect()
-        };
-        let rob = robust_all(&table);
-        let Some(best) = rob
-            .iter()
-            .enumerate()
-            .filter_map(|(i, r)| r.map(|v| (i, v)))
-            .min_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(i, _)| i)
-        else {
-            break 'rec Err(format!(
-                "no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}) evaluated; widen --rho-min/--rho-max"
-            ));
-        };
-        let rho_rec = table.nodes[best].0;
-        let (box_a, box_b) = (rho_rec * fa, rho_rec * fb);
-        // The box ends, evaluated directly (every ratio).
-        if let Err(e) = table.add(&[box_a, box_b], true) {
-            return Err(sim_err(e).into());
-        }
-        let in_box: Vec<f64> = table
-            .nodes
-            .iter()
-            .filter(|(x, _)| *x >= box_a * (1.0 - 1e-12) && *x <= box_b * (1.0 + 1e-12))
-            .flat_map(|(_, w)| w.iter().map(|w| w.amplitude1))
-            .collect();
-        let worst_interval = (
-            in_box.iter().copied().fold(f64::INFINITY, f64::min),
-            in_box.iter().copied().fold(0.0, f64::max),
-        );
-        let best = table.find(rho_rec).expect("node present");
-        let w_rec = table.nodes[best].1[0];
-        // Window of settings within `window` of the robust optimum.
-        let rob = robust_all(&table);
-        let limit = worst_interval.1 * (1.0 + opts.window);
-        let ok = |i: usize| rob[i].is_some_and(|v| v <= limit);
-        let (mut lo_i, mut hi_i) = (best, best);
-        while lo_i > 0 && ok(lo_i - 1) {
-            lo_i -= 1;
-        }
-        while hi_i + 1 < rob.len() && ok(hi_i + 1) {
-            hi_i += 1;
-        }
-        let recommendation = Recommendation {
-            normal_force_n: n_of(rho_rec),
-            interval_n: (n_of(table.nodes[lo_i].0), n_of(table.nodes[hi_i].0)),
-            rho_s: rho_rec,
-            rho_d: ratio * rho_rec,
-            worst: w_rec,
-            worst_interval,
-            rho_s_box: (box_a, box_b),
-        };
-        if rob[..best].iter().all(Option::is_none) || rob[best + 1..].iter().all(Option::is_none) {
-            warnings.push(
-                "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max".into(),
-            );
-        }
-
-        // The cliff: the largest ρs below the recommendation with W > 2·W_rec.
-        let threshold = 2.0 * w_rec.amplitude1;
-        let mut cliff = None;
-        let above = (0..best).rev().find(|&i| table.w(i) > threshold);
-        match above {
-            Some(i) => {
-                let (mut bad, mut good) = (table.nodes[i].0, table.nodes[i + 1].0);
-                let mut w_bad = table.nodes[i].1[0];
-                for _ in 0..7 {
-                    let m = (bad * good).sqrt();
-                    let w = worst_case(&ab, m, ratio * m, &etas, &opts.steady).map_err(sim_err)?;
-                    table.evaluations += 1;
-                    tick(1);
-                    if w.amplitude1 > threshold {
-                        bad = m;
-                        w_bad = w;
-                    } else {
-                        good = m;
-                    }
-                }
-                let rho_c = (bad * good).sqrt();
-                cliff = Some(Cliff {
-                    rho_s: rho_c,
-                    bracket: (bad, good),
-                    normal_force_n: n_of(rho_c),
-                    threshold,
-                    worst_below: w_bad,
-                    margin_rho_s: rho_rec - rho_c,
-                    margin_n: n_of(rho_rec) - n_of(rho_c),
-                    margin_rel: rho_rec / rho_c - 1.0,
-                });
-            }
-            None => warnings.push(format!(
-                "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {rho_min}"
-            )),
-        }
-        Ok((recommendation, cliff))
+            .any(|c| c.quantity == "mu_s" && c.kind != "scatter" && !c.set_aside),
+        n_of: &n_of,
+        tick,
     };
+    let outcome = search.run(&mut table, &mut warnings).map_err(sim_err)?;
     let (recommendation, cliff, recommendation_reason) = match outcome {
         Ok((r, c)) => (Some(r), c, None),
         Err(reason) => {
@@ -922,11 +823,7 @@ pub fn batch_with_progress(
     };
 
     let rob: Vec<Option<f64>> = if box_ok {
-        table
-            .nodes
-            .iter()
-            .map(|(r, _)| table.robust(r * fa, r * fb, false))
-            .collect()
+        recommend::robust_all(&table, fa, fb)
     } else {
         vec![None; table.nodes.len()]
     };
