@@ -681,9 +681,9 @@ const REFINE: usize = 4;
 /// evaluations done).
 ///
 /// Read top to bottom it is the batch's stages: the coefficients
-/// ([`observations`]), the force scale, the η and ρs grids with the
+/// (`observations.rs`), the force scale, the η and ρs grids with the
 /// settings' uncertainty box, stage 1 (coarse grid and the measured
-/// settings), the recommendation search ([`recommend`]) and the curve. It
+/// settings), the recommendation search (`recommend.rs`) and the curve. It
 /// stays one function of ~190 lines because the grid's bounds share a
 /// dozen locals with the stages around them.
 pub fn batch_with_progress(

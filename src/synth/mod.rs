@@ -45,7 +45,7 @@
 //! buffers, jitter and lost buffers do not apply there (dropouts are empty
 //! cells / nulls).
 //!
-//! Everything random comes from one seed (xoshiro256**, [`rng`]), one stream
+//! Everything random comes from one seed (xoshiro256**, [`crate::stats::Rng`]), one stream
 //! per channel: the same configuration and seed give the same bytes.
 
 mod write;
