@@ -534,42 +534,19 @@ pub fn fit_runs(
         .collect()
 }
 
-/// Fits the friction law of one characteristic log with 95 % intervals
-/// (bootstrap over periods combined with the calibration budget).
-///
-/// ```
-/// use stickslip::identify::{fit_log, FitOptions, IdentifyOptions};
-/// use stickslip::ingest::{read, IngestOptions};
-/// let run = read("datasets/char_N4.mcap".as_ref(), &IngestOptions::default())?;
-/// let opts = IdentifyOptions {
-///     fit: FitOptions { bootstrap: 0, ..Default::default() },
-///     ..Default::default()
-/// };
-/// let fit = fit_log(&run, &opts)?;
-/// // A static-dynamic pad that sticks and slips: ρs measured, with an
-/// // interval around it, and the law explains the positions.
-/// assert!(!fit.stuck() && !fit.never_sticks());
-/// let (rho_s, (lo, hi)) = (fit.rho_s().unwrap(), fit.rho_s_interval.unwrap());
-/// assert!(lo <= rho_s && rho_s <= hi);
-/// assert!(fit.rho_d().unwrap() <= rho_s);
-/// # Ok::<(), stickslip::Error>(())
-/// ```
-pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
-    let base = characteristic(run, &Gains::default())?;
-    let mut ef = fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|source| {
-        Error::Identify {
-            path: run.source.clone(),
-            source,
-        }
-    })?;
+/// The calibration budget's variances of the [`quantities`] of `ef`: the
+/// log re-fitted (same law, no bootstrap) with each sensor's gain at
+/// 1 + u, each shift taken as a rectangular ±u error (σ = |δ|/√3).
+fn calibration_variance(
+    run: &Run,
+    ef: &EquationFit,
+    opts: &IdentifyOptions,
+    q0: &[f64; 8],
+) -> [f64; 8] {
+    let u = opts.gain_uncertainty;
     let rig = &run.rig;
     let k2 = rig.k2_n_per_m;
     let ss = (rig.k2_n_per_m * rig.m2_kg).sqrt();
-    let a = base.contact.drive.amplitude_m;
-    let q0 = quantities(&ef, a, k2, ss);
-
-    // Calibration budget: re-run with each sensor's gain at +u, same law.
-    let u = opts.gain_uncertainty;
     let mut var = [0.0f64; 8];
     if u > 0.0 {
         let mut perturbed = vec![
@@ -618,6 +595,168 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             }
         }
     }
+    var
+}
+
+/// The warning of a law that does not explain its log down to the sensor
+/// noise, naming the largest counted structure in the residuals.
+fn inadequacy_warning(kind: LawKind, a: &output_error::Adequacy) -> String {
+    let worst = a
+        .structure
+        .iter()
+        .filter(|s| s.counted())
+        .max_by(|p, q| p.effect.total_cmp(&q.effect))
+        .map_or(String::new(), |st| {
+            format!(
+                "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
+                st.channel, st.against, st.effect, st.chi2_per_dof, st.z
+            )
+        });
+    format!(
+        "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
+        kind.as_str(),
+        a.noise_ratio.0,
+        a.noise_ratio.1,
+        a.force_ratio
+            .map_or(String::new(), |r| format!(", force {r:.2}")),
+        output_error::MAX_NOISE_RATIO,
+        a.inflation
+    )
+}
+
+/// The characteristic's details for reports: acceleration source, lags,
+/// noise, counts of sticks, breakaways and reversals, slip samples.
+fn characteristic_notes(base: &Characteristic, ef: &EquationFit) -> Vec<String> {
+    let seg = &base.segmentation;
+    vec![
+        format!("acceleration from {}", base.contact.acceleration_source),
+        format!(
+            "velocity offset {:.4} mm/s, lag {:.3} ms; accelerometer lag {}",
+            base.contact.v2_offset * 1e3,
+            base.contact.v2_lag_s * 1e3,
+            base.contact
+                .a2_lag_s
+                .map_or("-".to_string(), |l| format!("{:.3} ms", l * 1e3))
+        ),
+        format!(
+            "velocity noise {:.3} mm/s raw, {:.3} mm/s smoothed; {} sticks, {} breakaways, {} reversals",
+            seg.noise_v_raw * 1e3,
+            seg.noise_v * 1e3,
+            seg.sticks.len(),
+            ef.n_breakaways,
+            seg.reversals.len()
+        ),
+        format!(
+            "{} slip samples, effective {:.0}; force bias {:.4} N",
+            ef.n_slip, ef.n_eff, ef.bias_n
+        ),
+    ]
+}
+
+/// The output-error refinement of `ef` (not for a stuck log: nothing
+/// slides; the Stribeck family only where no simple family explains the
+/// log, or when asked for), and the final never-sticks verdict: the
+/// simulated law overrules the velocity where it sticks (short sticks at
+/// reversal), which also voids the reversal bound.
+fn refine(
+    run: &Run,
+    base: &Characteristic,
+    ef: &mut EquationFit,
+    opts: &IdentifyOptions,
+    warnings: &mut Vec<String>,
+) -> (Option<OutputErrorFit>, bool) {
+    // Output-error refinement (not for a stuck log: nothing slides). The
+    // Stribeck family is refined there only where no simple family
+    // explains the log, or when it is asked for.
+    let mut output_error = None;
+    let u = opts.gain_uncertainty;
+    if opts.output_error && !ef.stuck {
+        let forced = opts.fit.law;
+        match output_error::Refinement::new(
+            &base.contact,
+            &run.resampled.x0,
+            &base.segmentation,
+            &run.rig,
+            &opts.oe,
+        )
+        .and_then(|r| r.run(&ef.candidates, ef.bias_n, forced, u))
+        {
+            Ok(o) => output_error = Some(o),
+            Err(e) => warnings.push(format!(
+                "output-error refinement not possible ({e}); the equation-error estimate is used"
+            )),
+        }
+    }
+    // The evidence decides stick or no stick: the simulated law sticks
+    // where the segmentation saw none (short sticks at reversal).
+    let mut no_stick = ef.never_sticks;
+    if let Some(o) = output_error
+        .as_ref()
+        .filter(|o| ef.never_sticks && o.sticks_found)
+    {
+        let c = &o.chosen;
+        let per_run = c.stick_fraction * o.samples as f64 / c.stick_runs.max(1) as f64
+            * opts.oe.stride as f64
+            * base.contact.dt;
+        warnings.push(format!(
+            "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
+            c.law.kind.as_str(),
+            100.0 * c.stick_fraction,
+            c.stick_runs,
+            per_run * 1e3
+        ));
+        no_stick = false;
+        warnings.retain(|w| !w.starts_with("M2 never sticks in this log"));
+        // The reversal bound assumed no stick there: it does not hold.
+        ef.rs_upper_bound_n = None;
+    }
+    (output_error, no_stick)
+}
+
+/// Fits the friction law of one characteristic log with 95 % intervals
+/// (bootstrap over periods combined with the calibration budget).
+///
+/// ```
+/// use stickslip::identify::{fit_log, FitOptions, IdentifyOptions};
+/// use stickslip::ingest::{read, IngestOptions};
+/// let run = read("datasets/char_N4.mcap".as_ref(), &IngestOptions::default())?;
+/// let opts = IdentifyOptions {
+///     fit: FitOptions { bootstrap: 0, ..Default::default() },
+///     ..Default::default()
+/// };
+/// let fit = fit_log(&run, &opts)?;
+/// // A static-dynamic pad that sticks and slips: ρs measured, with an
+/// // interval around it, and the law explains the positions.
+/// assert!(!fit.stuck() && !fit.never_sticks());
+/// let (rho_s, (lo, hi)) = (fit.rho_s().unwrap(), fit.rho_s_interval.unwrap());
+/// assert!(lo <= rho_s && rho_s <= hi);
+/// assert!(fit.rho_d().unwrap() <= rho_s);
+/// # Ok::<(), stickslip::Error>(())
+/// ```
+///
+/// Its stages: the characteristic and the equation-error fit, the
+/// calibration budget ([`calibration_variance`]-based intervals), the
+/// output-error refinement ([`refine`]), the estimate used with its
+/// contradictions and adequacy, and the log's scales and notes. It stays
+/// ~200 lines because the intervals of both estimates share the budget's
+/// closures with the contradiction checks.
+pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
+    let base = characteristic(run, &Gains::default())?;
+    let mut ef = fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|source| {
+        Error::Identify {
+            path: run.source.clone(),
+            source,
+        }
+    })?;
+    let rig = &run.rig;
+    let k2 = rig.k2_n_per_m;
+    let ss = (rig.k2_n_per_m * rig.m2_kg).sqrt();
+    let a = base.contact.drive.amplitude_m;
+    let q0 = quantities(&ef, a, k2, ss);
+
+    // Calibration budget: re-run with each sensor's gain at +u, same law.
+    let u = opts.gain_uncertainty;
+    let var = calibration_variance(run, &ef, opts, &q0);
     let cal = |k: usize| 1.96 * var[k].sqrt();
     let fs = a * k2;
     let combine = |est: f64, stat: Option<(f64, f64)>, scale: f64, k: usize| -> Option<Interval> {
@@ -662,50 +801,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     warnings.extend(base.contact.warnings.iter().cloned());
     warnings.extend(ef.warnings.iter().cloned());
 
-    // Output-error refinement (not for a stuck log: nothing slides). The
-    // Stribeck family is refined there only where no simple family
-    // explains the log, or when it is asked for.
-    let mut output_error = None;
-    if opts.output_error && !ef.stuck {
-        let forced = opts.fit.law;
-        match output_error::Refinement::new(
-            &base.contact,
-            &run.resampled.x0,
-            &base.segmentation,
-            rig,
-            &opts.oe,
-        )
-        .and_then(|r| r.run(&ef.candidates, ef.bias_n, forced, u))
-        {
-            Ok(o) => output_error = Some(o),
-            Err(e) => warnings.push(format!(
-                "output-error refinement not possible ({e}); the equation-error estimate is used"
-            )),
-        }
-    }
-    // The evidence decides stick or no stick: the simulated law sticks
-    // where the segmentation saw none (short sticks at reversal).
-    let mut no_stick = ef.never_sticks;
-    if let Some(o) = output_error
-        .as_ref()
-        .filter(|o| ef.never_sticks && o.sticks_found)
-    {
-        let c = &o.chosen;
-        let per_run = c.stick_fraction * o.samples as f64 / c.stick_runs.max(1) as f64
-            * opts.oe.stride as f64
-            * base.contact.dt;
-        warnings.push(format!(
-            "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
-            c.law.kind.as_str(),
-            100.0 * c.stick_fraction,
-            c.stick_runs,
-            per_run * 1e3
-        ));
-        no_stick = false;
-        warnings.retain(|w| !w.starts_with("M2 never sticks in this log"));
-        // The reversal bound assumed no stick there: it does not hold.
-        ef.rs_upper_bound_n = None;
-    }
+    let (mut output_error, no_stick) = refine(run, &base, &mut ef, opts, &mut warnings);
     let mut contradictions = Vec::new();
     if let Some(o) = output_error.as_ref() {
         warnings.extend(o.notes.iter().cloned());
@@ -766,30 +862,8 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             law.kind.as_str()
         ));
     }
-    if let Some(a) = &adequacy {
-        if !a.adequate {
-            let worst = a
-                .structure
-                .iter()
-                .filter(|s| s.counted())
-                .max_by(|p, q| p.effect.total_cmp(&q.effect))
-                .map_or(String::new(), |st| {
-                    format!(
-                        "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
-                        st.channel, st.against, st.effect, st.chi2_per_dof, st.z
-                    )
-                });
-            warnings.push(format!(
-                "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
-                law.kind.as_str(),
-                a.noise_ratio.0,
-                a.noise_ratio.1,
-                a.force_ratio
-                    .map_or(String::new(), |r| format!(", force {r:.2}")),
-                output_error::MAX_NOISE_RATIO,
-                a.inflation
-            ));
-        }
+    if let Some(a) = adequacy.as_ref().filter(|a| !a.adequate) {
+        warnings.push(inadequacy_warning(law.kind, a));
     }
     warnings.extend(contradictions.iter().cloned());
 
@@ -826,30 +900,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             rel * 100.0
         ));
     }
-    let seg = &base.segmentation;
-    let notes = vec![
-        format!("acceleration from {}", base.contact.acceleration_source),
-        format!(
-            "velocity offset {:.4} mm/s, lag {:.3} ms; accelerometer lag {}",
-            base.contact.v2_offset * 1e3,
-            base.contact.v2_lag_s * 1e3,
-            base.contact
-                .a2_lag_s
-                .map_or("-".to_string(), |l| format!("{:.3} ms", l * 1e3))
-        ),
-        format!(
-            "velocity noise {:.3} mm/s raw, {:.3} mm/s smoothed; {} sticks, {} breakaways, {} reversals",
-            seg.noise_v_raw * 1e3,
-            seg.noise_v * 1e3,
-            seg.sticks.len(),
-            ef.n_breakaways,
-            seg.reversals.len()
-        ),
-        format!(
-            "{} slip samples, effective {:.0}; force bias {:.4} N",
-            ef.n_slip, ef.n_eff, ef.bias_n
-        ),
-    ];
+    let notes = characteristic_notes(&base, &ef);
     Ok(LogFit {
         normal_force_n,
         eta,
