@@ -735,8 +735,8 @@ fn refine(
 /// ```
 ///
 /// Its stages: the characteristic and the equation-error fit, the
-/// calibration budget ([`calibration_variance`]-based intervals), the
-/// output-error refinement ([`refine`]), the estimate used with its
+/// calibration budget (`calibration_variance`), the
+/// output-error refinement (`refine`), the estimate used with its
 /// contradictions and adequacy, and the log's scales and notes. It stays
 /// ~200 lines because the intervals of both estimates share the budget's
 /// closures with the contradiction checks.
