@@ -1,0 +1,194 @@
+//! Sensor models: gain, offset, noise, lag, low-pass, quantisation,
+//! rate, jitter, dropouts and lost buffers, per channel.
+
+use super::*;
+
+/// The sensor model of one channel.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SensorModel {
+    /// Sample rate (Hz); the sample interval is rounded to whole ns.
+    pub rate_hz: f64,
+    /// Gaussian noise σ (SI unit of the channel).
+    pub noise: f64,
+    /// Quantisation step (0: none).
+    pub quant: f64,
+    /// Gain (1: exact).
+    pub gain: f64,
+    /// Offset (SI).
+    pub offset: f64,
+    /// Cut-off of a first-order low-pass (Hz), if any.
+    pub lowpass_hz: Option<f64>,
+    /// DAQ buffer length (s; rounded to whole samples, at least one).
+    pub buffer_s: f64,
+    /// First sample's offset after the log start (ns); `None`: drawn
+    /// uniformly within one sample interval (at least `jitter_ns`).
+    pub start_offset_ns: Option<u64>,
+    /// Buffer start jitter: uniform in ±`jitter_ns`.
+    pub jitter_ns: u64,
+    /// Probability that a buffer is lost.
+    pub p_lost_buffer: f64,
+    /// Probability per sample that a dropout burst starts.
+    pub p_dropout: f64,
+    /// Longest dropout burst (samples).
+    pub dropout_burst_max: u32,
+}
+
+impl SensorModel {
+    /// An ideal sensor at `rate_hz`: no noise, no quantisation, gain 1,
+    /// offset 0, no filter, 100 ms buffers starting on the log start, no
+    /// jitter, no losses.
+    pub fn ideal(rate_hz: f64) -> Self {
+        Self {
+            rate_hz,
+            noise: 0.0,
+            quant: 0.0,
+            gain: 1.0,
+            offset: 0.0,
+            lowpass_hz: None,
+            buffer_s: 0.1,
+            start_offset_ns: Some(0),
+            jitter_ns: 0,
+            p_lost_buffer: 0.0,
+            p_dropout: 0.0,
+            dropout_burst_max: 1,
+        }
+    }
+
+    /// Sample interval in ns.
+    pub fn dt_ns(&self) -> u64 {
+        (1e9 / self.rate_hz).round() as u64
+    }
+
+    pub(super) fn validate(&self, q: Quantity) -> Result<(), SynthError> {
+        let name = q.name();
+        let p = |what: &str| format!("sensor {name}: {what}");
+        positive(&p("rate_hz"), self.rate_hz)?;
+        if self.rate_hz > 1e6 {
+            return Err(bad(p("rate_hz above 1 MHz is not a DAQ rate")));
+        }
+        non_negative(&p("noise"), self.noise)?;
+        non_negative(&p("quant"), self.quant)?;
+        positive(&p("gain"), self.gain)?;
+        if !self.offset.is_finite() {
+            return Err(bad(p("offset must be finite")));
+        }
+        if let Some(fc) = self.lowpass_hz {
+            positive(&p("lowpass_hz"), fc)?;
+        }
+        positive(&p("buffer_s"), self.buffer_s)?;
+        if self.jitter_ns.saturating_mul(2) >= self.dt_ns() {
+            return Err(bad(p("jitter_ns must be below half the sample interval")));
+        }
+        for (what, v) in [
+            ("p_lost_buffer", self.p_lost_buffer),
+            ("p_dropout", self.p_dropout),
+        ] {
+            if !(v.is_finite() && (0.0..1.0).contains(&v)) {
+                return Err(bad(p(&format!("{what} must be in [0, 1) (got {v})"))));
+            }
+        }
+        if self.dropout_burst_max == 0 {
+            return Err(bad(p("dropout_burst_max must be >= 1")));
+        }
+        Ok(())
+    }
+}
+
+/// Sensor models of every channel; `a2: None` = no accelerometer,
+/// `normal_force: None` = no force channel.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sensors {
+    /// `/drive/position`.
+    pub x0: SensorModel,
+    /// `/mass1/position`.
+    pub x1: SensorModel,
+    /// `/mass2/position`.
+    pub x2: SensorModel,
+    /// `/mass2/velocity`.
+    pub v2: SensorModel,
+    /// `/mass2/acceleration`.
+    pub a2: Option<SensorModel>,
+    /// `/friction/normal_force`.
+    pub normal_force: Option<SensorModel>,
+}
+
+impl Sensors {
+    /// Ideal sensors (see [`SensorModel::ideal`]): positions, velocity at
+    /// 1 kHz, accelerometer at 2 kHz, normal force at 10 Hz.
+    pub fn ideal() -> Self {
+        Self {
+            x0: SensorModel::ideal(1000.0),
+            x1: SensorModel::ideal(1000.0),
+            x2: SensorModel::ideal(1000.0),
+            v2: SensorModel::ideal(1000.0),
+            a2: Some(SensorModel::ideal(2000.0)),
+            normal_force: Some(SensorModel {
+                buffer_s: 0.5,
+                ..SensorModel::ideal(10.0)
+            }),
+        }
+    }
+
+    /// A typical DAQ: noise, quantisation, ±3 µs jitter, 0.5 % lost
+    /// buffers, rare short dropouts, low-passed velocity and acceleration;
+    /// gains within ±1 % and offsets drawn from `seed` (a rig whose
+    /// calibration errors are unknown to the analyst).
+    pub fn typical(seed: u64) -> Self {
+        let mut r = Rng::with_stream(seed, 0xCA11_B8A7);
+        let mut s = |rate: f64, noise: f64, quant: f64, gain_err: f64, off: f64| SensorModel {
+            rate_hz: rate,
+            noise,
+            quant,
+            gain: 1.0 + r.range(-gain_err, gain_err),
+            offset: r.range(-off, off),
+            lowpass_hz: None,
+            buffer_s: 0.1,
+            start_offset_ns: None,
+            jitter_ns: 3000,
+            p_lost_buffer: 0.005,
+            p_dropout: 2e-4,
+            dropout_burst_max: 4,
+        };
+        let x0 = s(1000.0, 1.5e-6, 0.5e-6, 0.004, 1.5e-5);
+        let x1 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);
+        let x2 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);
+        let v2 = SensorModel {
+            lowpass_hz: Some(200.0),
+            ..s(1000.0, 4e-4, 1e-5, 0.008, 8e-5)
+        };
+        let a2 = SensorModel {
+            lowpass_hz: Some(250.0),
+            ..s(2000.0, 0.02, 1e-3, 0.008, 0.01)
+        };
+        let nf = SensorModel {
+            buffer_s: 0.5,
+            p_dropout: 0.0,
+            ..s(10.0, 0.0, 0.01, 0.008, 0.02)
+        };
+        Self {
+            x0,
+            x1,
+            x2,
+            v2,
+            a2: Some(a2),
+            normal_force: Some(nf),
+        }
+    }
+
+    /// The present channels with their models, in canonical order.
+    pub fn channels(&self) -> Vec<(Quantity, SensorModel)> {
+        let mut v = vec![
+            (Quantity::X0, self.x0),
+            (Quantity::X1, self.x1),
+            (Quantity::X2, self.x2),
+            (Quantity::V2, self.v2),
+        ];
+        if let Some(a) = self.a2 {
+            v.push((Quantity::A2, a));
+        }
+        if let Some(n) = self.normal_force {
+            v.push((Quantity::NormalForce, n));
+        }
+        v
+    }
+}
