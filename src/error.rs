@@ -1,5 +1,8 @@
 //! The crate's error type: one enum over the stages' own errors, so the binary
-//! can print a single `error: ...` line for any failure.
+//! can print a single `error: ...` line for any failure. The small error
+//! enums of the identify, validate and batch stages live here too (each
+//! stage re-exports its own), so that this module depends only on the
+//! stages below them (ingest, model, sim) and no import circle forms.
 
 use std::path::PathBuf;
 
@@ -21,7 +24,7 @@ pub enum Error {
         /// The log.
         path: PathBuf,
         /// Why.
-        source: crate::identify::IdentifyError,
+        source: IdentifyError,
     },
     /// A sweep could not be validated against a fitted law.
     #[error("{}: {source}", path.display())]
@@ -29,11 +32,11 @@ pub enum Error {
         /// The log concerned (the sweep, or the characteristic log).
         path: PathBuf,
         /// Why.
-        source: crate::validate::ValidateError,
+        source: ValidateError,
     },
     /// The batch comparison could not be made.
     #[error("batch: {0}")]
-    Batch(#[from] crate::batch::BatchError),
+    Batch(#[from] BatchError),
     /// A stage did not run on an input because an earlier stage failed on
     /// it (that failure is reported on its own as well).
     #[error("{}: {stage}: {cause}", path.display())]
@@ -65,3 +68,96 @@ pub enum Error {
 
 /// Result with the crate's [`Error`].
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// Why a characteristic log gives no friction law (the doors,
+/// [`crate::identify::characteristic`] and [`crate::identify::fit_log`],
+/// name the log).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum IdentifyError {
+    /// The log is a sweep.
+    #[error("not a characteristic test (rig test = sweep): fit needs a fixed-frequency characteristic log")]
+    NotCharacteristic,
+    /// No drive sinusoid fits the drive channel.
+    #[error("the drive channel does not determine a drive sinusoid")]
+    NoDriveSinusoid,
+    /// Less than two drive periods of usable data.
+    #[error("only {usable_s:.3} s of usable data (x1, x2, v2 together); a characteristic needs at least two drive periods ({needed_s:.3} s)")]
+    TooShort {
+        /// Usable data (s).
+        usable_s: f64,
+        /// Two drive periods (s).
+        needed_s: f64,
+    },
+    /// The slip samples do not determine a law.
+    #[error("the slip samples do not determine a friction law")]
+    Undetermined,
+    /// The fit panicked (a bug): the log is reported, the others go on.
+    #[error("internal error while fitting this log")]
+    Internal,
+}
+
+/// Why a sweep could not be validated (the door, [`crate::validate::validate`], names the
+/// log concerned).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ValidateError {
+    /// The characteristic log never slid: no sliding level to predict with.
+    #[error("the mass never slid in this characteristic log: only a lower bound on the static friction is known, no sliding level to predict a sweep with")]
+    NeverSlid,
+    /// The sweep log does not give a frequency response (what is wrong
+    /// with it).
+    #[error("{0}")]
+    Sweep(String),
+    /// The sweep's frequency plan has no segment.
+    #[error("the sweep's frequency plan is empty")]
+    EmptyPlan,
+    /// The sweep has no measured point.
+    #[error("the sweep has no measured points")]
+    NoPoints,
+    /// The fitted law is not a friction law at the sweep's amplitude.
+    #[error("the fitted law is not a valid friction law at the sweep's drive amplitude")]
+    InvalidLaw,
+}
+
+/// Why the batch comparison could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BatchError {
+    /// An option is out of range (what is wrong).
+    #[error("{0}")]
+    Options(String),
+    /// No log of the batch was fitted.
+    #[error("no fitted log in the batch")]
+    Empty,
+    /// No log of the batch could be read.
+    #[error("no log of the batch could be read")]
+    NothingRead,
+    /// No log of the batch that was read could be fitted.
+    #[error("no log of the batch could be fitted")]
+    NothingFitted,
+    /// The rig's constants describe no absorber.
+    #[error("rig: {0}")]
+    Rig(crate::model::ParamError),
+    /// The force scale A·K2 is not positive.
+    #[error("drive amplitude {amplitude_m} m or K2 {k2_n_per_m} N/m is not positive")]
+    Scale {
+        /// Drive amplitude A (m).
+        amplitude_m: f64,
+        /// K2 (N/m).
+        k2_n_per_m: f64,
+    },
+    /// The ρ grid is empty.
+    #[error("rho-max {max} is not above rho-min {min}")]
+    RhoRange {
+        /// Lower end.
+        min: f64,
+        /// Upper end.
+        max: f64,
+    },
+    /// No log measures a coefficient (μs or μd).
+    #[error(
+        "no log measures {0} (every log only bounds it, or none has an interval): cannot fit it"
+    )]
+    Unmeasured(&'static str),
+    /// The worst-case simulation failed.
+    #[error("worst-case simulation: {0}")]
+    Sim(crate::sim::SimError),
+}

@@ -156,6 +156,7 @@ mod mu;
 mod observations;
 mod recommend;
 mod worst;
+pub use crate::error::BatchError;
 
 use conflicts::*;
 pub use mu::ln_norm_cdf;
@@ -225,50 +226,6 @@ impl Default for BatchOptions {
             },
         }
     }
-}
-
-/// Why the batch comparison could not be made.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum BatchError {
-    /// An option is out of range (what is wrong).
-    #[error("{0}")]
-    Options(String),
-    /// No log of the batch was fitted.
-    #[error("no fitted log in the batch")]
-    Empty,
-    /// No log of the batch could be read.
-    #[error("no log of the batch could be read")]
-    NothingRead,
-    /// No log of the batch that was read could be fitted.
-    #[error("no log of the batch could be fitted")]
-    NothingFitted,
-    /// The rig's constants describe no absorber.
-    #[error("rig: {0}")]
-    Rig(crate::model::ParamError),
-    /// The force scale A·K2 is not positive.
-    #[error("drive amplitude {amplitude_m} m or K2 {k2_n_per_m} N/m is not positive")]
-    Scale {
-        /// Drive amplitude A (m).
-        amplitude_m: f64,
-        /// K2 (N/m).
-        k2_n_per_m: f64,
-    },
-    /// The ρ grid is empty.
-    #[error("rho-max {max} is not above rho-min {min}")]
-    RhoRange {
-        /// Lower end.
-        min: f64,
-        /// Upper end.
-        max: f64,
-    },
-    /// No log measures a coefficient (μs or μd).
-    #[error(
-        "no log measures {0} (every log only bounds it, or none has an interval): cannot fit it"
-    )]
-    Unmeasured(&'static str),
-    /// The worst-case simulation failed.
-    #[error("worst-case simulation: {0}")]
-    Sim(SimError),
 }
 
 impl BatchOptions {

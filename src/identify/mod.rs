@@ -138,6 +138,7 @@ pub mod output_error;
 pub mod segment;
 pub mod smooth;
 
+pub use crate::error::IdentifyError;
 use crate::model::{LawKind, SiLaw};
 pub use contact::{Contact, DriveFit, Gains};
 pub use fit::{EquationFit, FitOptions, StatIntervals};
@@ -161,32 +162,6 @@ pub struct Characteristic {
     pub contact: Contact,
     /// The stick/slip segmentation.
     pub segmentation: Segmentation,
-}
-
-/// Why a characteristic log gives no friction law (the doors,
-/// [`characteristic`] and [`fit_log`], name the log).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum IdentifyError {
-    /// The log is a sweep.
-    #[error("not a characteristic test (rig test = sweep): fit needs a fixed-frequency characteristic log")]
-    NotCharacteristic,
-    /// No drive sinusoid fits the drive channel.
-    #[error("the drive channel does not determine a drive sinusoid")]
-    NoDriveSinusoid,
-    /// Less than two drive periods of usable data.
-    #[error("only {usable_s:.3} s of usable data (x1, x2, v2 together); a characteristic needs at least two drive periods ({needed_s:.3} s)")]
-    TooShort {
-        /// Usable data (s).
-        usable_s: f64,
-        /// Two drive periods (s).
-        needed_s: f64,
-    },
-    /// The slip samples do not determine a law.
-    #[error("the slip samples do not determine a friction law")]
-    Undetermined,
-    /// The fit panicked (a bug): the log is reported, the others go on.
-    #[error("internal error while fitting this log")]
-    Internal,
 }
 
 /// Computes the friction characteristic of `run` (sensor gains `gains`).

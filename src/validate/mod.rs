@@ -11,6 +11,7 @@
 //!   uncertainty; the score against the measured response.
 
 pub mod frc;
+pub use crate::error::ValidateError;
 mod json;
 pub mod predict;
 
@@ -40,28 +41,6 @@ pub struct Validation {
     pub prediction: Prediction,
     /// Things the user should know (rig mismatch, measurement, prediction).
     pub warnings: Vec<String>,
-}
-
-/// Why a sweep could not be validated (the door, [`validate`], names the
-/// log concerned).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum ValidateError {
-    /// The characteristic log never slid: no sliding level to predict with.
-    #[error("the mass never slid in this characteristic log: only a lower bound on the static friction is known, no sliding level to predict a sweep with")]
-    NeverSlid,
-    /// The sweep log does not give a frequency response (what is wrong
-    /// with it).
-    #[error("{0}")]
-    Sweep(String),
-    /// The sweep's frequency plan has no segment.
-    #[error("the sweep's frequency plan is empty")]
-    EmptyPlan,
-    /// The sweep has no measured point.
-    #[error("the sweep has no measured points")]
-    NoPoints,
-    /// The fitted law is not a friction law at the sweep's amplitude.
-    #[error("the fitted law is not a valid friction law at the sweep's drive amplitude")]
-    InvalidLaw,
 }
 
 /// Relative difference above which the rig constants of the characteristic
