@@ -33,7 +33,12 @@
 //! * [`batch`]: [`batch::batch`] compares the logs of one pad at several
 //!   normal forces: μs, μd, conflicts, the worst case and the recommended
 //!   normal force ([`batch::Batch`]).
-//! * [`report`]: HTML pages and figures (plotters).
+//! * [`report`]: HTML pages and figures (plotters); [`report::sections`]
+//!   writes a fit's or a validation's figure and returns its view.
+//! * [`pipeline`]: the whole experiment plan: [`pipeline::Plan::read`] (the
+//!   plan stage) and [`pipeline::run`] (every log read and fitted once,
+//!   validations and the batch side by side) giving a
+//!   [`pipeline::PipelineReport`] with its JSON and report.
 //! * [`model`]: the dimensionless absorber (m, k, D), the rig's constants,
 //!   drives, and the one friction-law vocabulary ([`model::LawKind`],
 //!   [`model::Family`], [`model::SiLaw`], [`model::Law`], [`model::Scales`]).
