@@ -17,180 +17,342 @@
 //! `law_evidence` (the BIC difference to the best other family and its
 //! Kass–Raftery grade).
 
+use super::output_error::Adequacy;
 use super::{Estimate, Intervals, LogFit, SiLaw};
-use crate::io::json::{interval, num, opt};
+use crate::io::json::interval;
+use serde::{Serialize, Serializer};
 use serde_json::{json, Value};
 use std::path::Path;
 
+/// An interval: `[low, high]`, or `null` where absent or not finite.
+struct Iv(Option<(f64, f64)>);
+
+impl Serialize for Iv {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        interval(self.0).serialize(s)
+    }
+}
+
+/// A law in SI and dimensionless with the log's scales (non-finite: null).
+#[derive(Serialize)]
+struct LawOut {
+    law: &'static str,
+    rho_s: f64,
+    rho_d: f64,
+    slope: f64,
+    v_s: Option<f64>,
+    r_s_n: f64,
+    r_d_n: f64,
+    slope_n_s_per_m: f64,
+    v_s_m_per_s: Option<f64>,
+}
+
+/// A law with its intervals.
+#[derive(Serialize)]
+struct EstimateOut {
+    #[serde(flatten)]
+    law: LawOut,
+    rho_s_interval: Iv,
+    rho_d_interval: Iv,
+    slope_interval: Iv,
+    r_s_interval_n: Iv,
+    r_d_interval_n: Iv,
+    slope_interval_n_s_per_m: Iv,
+}
+
+/// One family's information criterion.
+#[derive(Serialize)]
+struct Criterion {
+    law: &'static str,
+    bic: f64,
+}
+
+/// The equation-error estimate.
+#[derive(Serialize)]
+struct EquationErrorOut {
+    #[serde(flatten)]
+    estimate: EstimateOut,
+    residual_rms_n: f64,
+    bias_n: f64,
+    criteria: Vec<Criterion>,
+}
+
+/// One family of the output-error refinement.
+#[derive(Serialize)]
+struct FamilyOut {
+    law: &'static str,
+    bic: f64,
+    stick_fraction: f64,
+    stick_phases: usize,
+    rms_x1_m: f64,
+    rms_x2_m: f64,
+}
+
+/// The output-error estimate.
+#[derive(Serialize)]
+struct OutputErrorOut {
+    #[serde(flatten)]
+    estimate: EstimateOut,
+    rms_x1_m: f64,
+    rms_x2_m: f64,
+    start_rms_x1_m: f64,
+    start_rms_x2_m: f64,
+    bias_n: f64,
+    gains: (f64, f64),
+    iterations: u64,
+    evaluations: usize,
+    segments: usize,
+    samples: usize,
+    effective_samples: f64,
+    drive: &'static str,
+    seconds: f64,
+    criteria: Vec<FamilyOut>,
+}
+
+/// One structure test of the residuals.
+#[derive(Serialize)]
+struct StructureOut {
+    channel: &'static str,
+    against: &'static str,
+    chi2_per_dof: f64,
+    z: f64,
+    effect: f64,
+}
+
+/// The adequacy verdict's numbers.
+#[derive(Serialize)]
+struct AdequacyOut {
+    noise_ratio_x1: f64,
+    noise_ratio_x2: f64,
+    robust_ratio_x1: f64,
+    robust_ratio_x2: f64,
+    noise_ratio_force: Option<f64>,
+    robust_ratio_force: Option<f64>,
+    max_noise_ratio: f64,
+    max_structure_z: f64,
+    max_structure_effect: f64,
+    interval_inflation: f64,
+    structure: Vec<StructureOut>,
+}
+
+impl AdequacyOut {
+    fn of(a: &Adequacy) -> Self {
+        Self {
+            noise_ratio_x1: a.noise_ratio.0,
+            noise_ratio_x2: a.noise_ratio.1,
+            robust_ratio_x1: a.robust_ratio.0,
+            robust_ratio_x2: a.robust_ratio.1,
+            noise_ratio_force: a.force_ratio,
+            robust_ratio_force: a.robust_force_ratio,
+            max_noise_ratio: super::output_error::MAX_NOISE_RATIO,
+            max_structure_z: super::output_error::MAX_STRUCTURE_Z,
+            max_structure_effect: super::output_error::MAX_STRUCTURE_EFFECT,
+            interval_inflation: a.inflation,
+            structure: a
+                .structure
+                .iter()
+                .map(|s| StructureOut {
+                    channel: s.channel,
+                    against: s.against,
+                    chi2_per_dof: s.chi2_per_dof,
+                    z: s.z,
+                    effect: s.effect,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The evidence for the family chosen.
+#[derive(Serialize)]
+struct EvidenceOut {
+    against: &'static str,
+    delta_bic: f64,
+    strength: &'static str,
+}
+
+/// One fitted log (the `fits` entries' keys).
+#[derive(Serialize)]
+struct FitOut<'a> {
+    log: String,
+    law: &'static str,
+    rho_s: Option<f64>,
+    rho_d: Option<f64>,
+    slope: Option<f64>,
+    rho_s_interval: Iv,
+    rho_d_interval: Iv,
+    slope_interval: Iv,
+    r_s_n: Option<f64>,
+    r_d_n: Option<f64>,
+    slope_n_s_per_m: Option<f64>,
+    r_s_interval_n: Iv,
+    r_d_interval_n: Iv,
+    slope_interval_n_s_per_m: Iv,
+    normal_force_n: f64,
+    eta: f64,
+    drive_frequency_hz: f64,
+    stuck: bool,
+    rho_s_lower_bound: Option<f64>,
+    r_s_lower_bound_n: Option<f64>,
+    never_sticks: bool,
+    adequate: bool,
+    adequacy: Option<AdequacyOut>,
+    contradictions: &'a [String],
+    law_evidence: Option<EvidenceOut>,
+    drive_amplitude_m: f64,
+    residual_rms: f64,
+    residual_rms_n: f64,
+    warnings: &'a [String],
+    stribeck: Option<LawOut>,
+    simple_law: Option<LawOut>,
+    criteria: Vec<Criterion>,
+    estimate: &'static str,
+    equation_error: Option<EquationErrorOut>,
+    output_error: Option<OutputErrorOut>,
+    gain_uncertainty: f64,
+    bias_n: f64,
+    slip_samples: usize,
+    effective_samples: f64,
+    breakaways: usize,
+    notes: &'a [String],
+}
+
 impl LogFit {
     /// A law in SI and dimensionless with this log's scales.
-    fn law_json(&self, l: &SiLaw) -> Value {
+    fn law_out(&self, l: &SiLaw) -> LawOut {
         let fs = self.force_scale_n;
         let vel = self.velocity_scale_m_per_s;
-        json!({
-            "law": l.kind.as_str(),
-            "rho_s": num(l.rs_n / fs),
-            "rho_d": num(l.rd_n / fs),
-            "slope": num(l.slope_n_s_per_m / self.slope_scale),
-            "v_s": l.vs_m_per_s.map_or(Value::Null, |v| num(v / vel)),
-            "r_s_n": num(l.rs_n),
-            "r_d_n": num(l.rd_n),
-            "slope_n_s_per_m": num(l.slope_n_s_per_m),
-            "v_s_m_per_s": l.vs_m_per_s.map_or(Value::Null, num),
-        })
+        LawOut {
+            law: l.kind.as_str(),
+            rho_s: l.rs_n / fs,
+            rho_d: l.rd_n / fs,
+            slope: l.slope_n_s_per_m / self.slope_scale,
+            v_s: l.vs_m_per_s.map(|v| v / vel),
+            r_s_n: l.rs_n,
+            r_d_n: l.rd_n,
+            slope_n_s_per_m: l.slope_n_s_per_m,
+            v_s_m_per_s: l.vs_m_per_s,
+        }
     }
 
-    /// A law with its intervals (Rs NaN where only bounded).
-    fn estimate_json(&self, l: &SiLaw, iv: &Intervals) -> Value {
+    /// A law with its intervals (Rs null where only bounded).
+    fn estimate_out(&self, l: &SiLaw, iv: &Intervals) -> EstimateOut {
         let mut l = *l;
         if self.never_sticks() {
             l.rs_n = f64::NAN;
         }
-        let mut v = self.law_json(&l);
-        let o = v.as_object_mut().expect("object");
-        for (k, x) in [
-            ("rho_s_interval", iv.rho_s),
-            ("rho_d_interval", iv.rho_d),
-            ("slope_interval", iv.dstar),
-            ("r_s_interval_n", iv.rs_n),
-            ("r_d_interval_n", iv.rd_n),
-            ("slope_interval_n_s_per_m", iv.slope_n_s_per_m),
-        ] {
-            o.insert(k.into(), interval(x));
+        EstimateOut {
+            law: self.law_out(&l),
+            rho_s_interval: Iv(iv.rho_s),
+            rho_d_interval: Iv(iv.rho_d),
+            slope_interval: Iv(iv.dstar),
+            r_s_interval_n: Iv(iv.rs_n),
+            r_d_interval_n: Iv(iv.rd_n),
+            slope_interval_n_s_per_m: Iv(iv.slope_n_s_per_m),
         }
-        v
     }
 
     /// The JSON entry of this fit for `log` (interface keys plus details).
     pub fn to_json(&self, log: &Path) -> Value {
         let e = &self.fit;
-        let fs = self.force_scale_n;
         let law = self.law();
-        let ee = if e.stuck {
-            Value::Null
-        } else {
-            let mut v = self.estimate_json(&e.law, &self.equation_error);
-            let o = v.as_object_mut().expect("object");
-            o.insert("residual_rms_n".into(), num(e.residual_rms_n));
-            o.insert("bias_n".into(), num(e.bias_n));
-            o.insert(
-                "criteria".into(),
-                e.criteria
-                    .iter()
-                    .map(|(k, c)| json!({"law": k.as_str(), "bic": num(*c)}))
-                    .collect(),
-            );
-            v
+        let criteria = |c: &[(super::LawKind, f64)]| -> Vec<Criterion> {
+            c.iter()
+                .map(|(k, b)| Criterion {
+                    law: k.as_str(),
+                    bic: *b,
+                })
+                .collect()
         };
-        let oe = self.output_error.as_ref().map_or(Value::Null, |o| {
-            let mut v = self.estimate_json(&o.law, &o.intervals);
-            let c = &o.chosen;
-            let obj = v.as_object_mut().expect("object");
-            for (k, x) in [
-                ("rms_x1_m", json!(num(c.rms_m.0))),
-                ("rms_x2_m", json!(num(c.rms_m.1))),
-                ("start_rms_x1_m", json!(num(o.start_rms_m.0))),
-                ("start_rms_x2_m", json!(num(o.start_rms_m.1))),
-                ("bias_n", num(c.bias_n)),
-                ("gains", json!([num(c.gains.0), num(c.gains.1)])),
-                ("iterations", json!(c.iterations)),
-                ("evaluations", json!(o.evaluations)),
-                ("segments", json!(o.segments)),
-                ("samples", json!(o.samples)),
-                ("effective_samples", num(o.n_eff)),
-                ("drive", json!(o.drive.as_str())),
-                ("seconds", num(o.seconds)),
-                (
-                    "criteria",
-                    o.families
+        let used_oe = self
+            .output_error
+            .as_ref()
+            .filter(|_| self.estimate == Estimate::OutputError);
+        let out = FitOut {
+            log: log.display().to_string(),
+            law: self.kind().as_str(),
+            rho_s: self.rho_s(),
+            rho_d: self.rho_d(),
+            slope: self.dstar(),
+            rho_s_interval: Iv(self.rho_s_interval),
+            rho_d_interval: Iv(self.rho_d_interval),
+            slope_interval: Iv(self.dstar_interval),
+            r_s_n: self.rs_n(),
+            r_d_n: law.map(|l| l.rd_n),
+            slope_n_s_per_m: law.map(|l| l.slope_n_s_per_m),
+            r_s_interval_n: Iv(self.rs_interval_n),
+            r_d_interval_n: Iv(self.rd_interval_n),
+            slope_interval_n_s_per_m: Iv(self.slope_interval_n_s_per_m),
+            normal_force_n: self.normal_force_n,
+            eta: self.eta,
+            drive_frequency_hz: self.drive.frequency_hz,
+            stuck: e.stuck,
+            rho_s_lower_bound: self.rho_s_lower_bound(),
+            r_s_lower_bound_n: self.rs_lower_bound_n(),
+            never_sticks: self.never_sticks(),
+            adequate: self.adequate(),
+            adequacy: self.adequacy.as_ref().map(AdequacyOut::of),
+            contradictions: &self.contradictions,
+            law_evidence: used_oe.and_then(|o| o.evidence).map(|ev| EvidenceOut {
+                against: ev.against.as_str(),
+                delta_bic: ev.delta_bic,
+                strength: ev.strength(),
+            }),
+            drive_amplitude_m: self.drive.amplitude_m,
+            residual_rms: e.residual_rms_n / self.force_scale_n,
+            residual_rms_n: e.residual_rms_n,
+            warnings: &self.warnings,
+            stribeck: e.stribeck.as_ref().map(|l| self.law_out(l)),
+            simple_law: e.simple.as_ref().map(|l| self.law_out(l)),
+            criteria: criteria(&e.criteria),
+            estimate: self.estimate.as_str(),
+            equation_error: (!e.stuck).then(|| EquationErrorOut {
+                estimate: self.estimate_out(&e.law, &self.equation_error),
+                residual_rms_n: e.residual_rms_n,
+                bias_n: e.bias_n,
+                criteria: criteria(&e.criteria),
+            }),
+            output_error: self.output_error.as_ref().map(|o| {
+                let c = &o.chosen;
+                OutputErrorOut {
+                    estimate: self.estimate_out(&o.law, &o.intervals),
+                    rms_x1_m: c.rms_m.0,
+                    rms_x2_m: c.rms_m.1,
+                    start_rms_x1_m: o.start_rms_m.0,
+                    start_rms_x2_m: o.start_rms_m.1,
+                    bias_n: c.bias_n,
+                    gains: c.gains,
+                    iterations: c.iterations,
+                    evaluations: o.evaluations,
+                    segments: o.segments,
+                    samples: o.samples,
+                    effective_samples: o.n_eff,
+                    drive: o.drive.as_str(),
+                    seconds: o.seconds,
+                    criteria: o
+                        .families
                         .iter()
-                        .map(|f| {
-                            json!({
-                                "law": f.law.kind.as_str(),
-                                "bic": num(f.bic),
-                                "stick_fraction": num(f.stick_fraction),
-                                "stick_phases": f.stick_runs,
-                                "rms_x1_m": num(f.rms_m.0),
-                                "rms_x2_m": num(f.rms_m.1),
-                            })
+                        .map(|f| FamilyOut {
+                            law: f.law.kind.as_str(),
+                            bic: f.bic,
+                            stick_fraction: f.stick_fraction,
+                            stick_phases: f.stick_runs,
+                            rms_x1_m: f.rms_m.0,
+                            rms_x2_m: f.rms_m.1,
                         })
                         .collect(),
-                ),
-            ] {
-                obj.insert(k.into(), x);
-            }
-            v
-        });
-        json!({
-            "log": log.display().to_string(),
-            "law": self.kind().as_str(),
-            "rho_s": opt(self.rho_s()),
-            "rho_d": opt(self.rho_d()),
-            "slope": opt(self.dstar()),
-            "rho_s_interval": interval(self.rho_s_interval),
-            "rho_d_interval": interval(self.rho_d_interval),
-            "slope_interval": interval(self.dstar_interval),
-            "r_s_n": opt(self.rs_n()),
-            "r_d_n": opt(law.map(|l| l.rd_n)),
-            "slope_n_s_per_m": opt(law.map(|l| l.slope_n_s_per_m)),
-            "r_s_interval_n": interval(self.rs_interval_n),
-            "r_d_interval_n": interval(self.rd_interval_n),
-            "slope_interval_n_s_per_m": interval(self.slope_interval_n_s_per_m),
-            "normal_force_n": num(self.normal_force_n),
-            "eta": num(self.eta),
-            "drive_frequency_hz": num(self.drive.frequency_hz),
-            "stuck": e.stuck,
-            "rho_s_lower_bound": opt(self.rho_s_lower_bound()),
-            "r_s_lower_bound_n": opt(self.rs_lower_bound_n()),
-            "never_sticks": self.never_sticks(),
-            "adequate": self.adequate(),
-            "adequacy": self.adequacy.as_ref().map_or(Value::Null, |a| json!({
-                "noise_ratio_x1": num(a.noise_ratio.0),
-                "noise_ratio_x2": num(a.noise_ratio.1),
-                "robust_ratio_x1": num(a.robust_ratio.0),
-                "robust_ratio_x2": num(a.robust_ratio.1),
-                "noise_ratio_force": a.force_ratio.map_or(Value::Null, num),
-                "robust_ratio_force": a.robust_force_ratio.map_or(Value::Null, num),
-                "max_noise_ratio": num(super::output_error::MAX_NOISE_RATIO),
-                "max_structure_z": num(super::output_error::MAX_STRUCTURE_Z),
-                "max_structure_effect": num(super::output_error::MAX_STRUCTURE_EFFECT),
-                "interval_inflation": num(a.inflation),
-                "structure": a.structure.iter().map(|s| json!({
-                    "channel": s.channel,
-                    "against": s.against,
-                    "chi2_per_dof": num(s.chi2_per_dof),
-                    "z": num(s.z),
-                    "effect": num(s.effect),
-                })).collect::<Vec<_>>(),
-            })),
-            "contradictions": self.contradictions,
-            "law_evidence": match (&self.output_error, self.estimate) {
-                (Some(o), Estimate::OutputError) => o.evidence.map_or(Value::Null, |ev| json!({
-                    "against": ev.against.as_str(),
-                    "delta_bic": num(ev.delta_bic),
-                    "strength": ev.strength(),
-                })),
-                _ => Value::Null,
-            },
-            "drive_amplitude_m": num(self.drive.amplitude_m),
-            "residual_rms": num(e.residual_rms_n / fs),
-            "residual_rms_n": num(e.residual_rms_n),
-            "warnings": self.warnings,
-            "stribeck": e.stribeck.as_ref().map_or(Value::Null, |l| self.law_json(l)),
-            "simple_law": e.simple.as_ref().map_or(Value::Null, |l| self.law_json(l)),
-            "criteria": e.criteria.iter().map(|(k, c)| json!({"law": k.as_str(), "bic": num(*c)})).collect::<Vec<_>>(),
-            "estimate": self.estimate.as_str(),
-            "equation_error": ee,
-            "output_error": oe,
-            "gain_uncertainty": num(self.gain_uncertainty),
-            "bias_n": num(match (&self.output_error, self.estimate) {
-                (Some(o), Estimate::OutputError) => o.chosen.bias_n,
-                _ => e.bias_n,
+                }
             }),
-            "slip_samples": e.n_slip,
-            "effective_samples": num(e.n_eff),
-            "breakaways": e.n_breakaways,
-            "notes": self.notes,
-        })
+            gain_uncertainty: self.gain_uncertainty,
+            bias_n: match used_oe {
+                Some(o) => o.chosen.bias_n,
+                None => e.bias_n,
+            },
+            slip_samples: e.n_slip,
+            effective_samples: e.n_eff,
+            breakaways: e.n_breakaways,
+            notes: &self.notes,
+        };
+        serde_json::to_value(out).unwrap_or_else(|e| json!({ "error": e.to_string() }))
     }
 }
