@@ -216,9 +216,16 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         identify::fit_runs(&read, &IdentifyOptions::default(), &|| progress.advance(1)).into_iter();
     let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = BTreeMap::new();
     for p in &chars {
-        let f = match (&runs[p], fitted.next()) {
-            (Ok(_), Some(f)) => f,
-            (Err(e), _) => {
+        // One fit per log read, in order: only a log that was read takes
+        // the next fit.
+        let f = match &runs[p] {
+            Ok(_) => fitted.next().unwrap_or_else(|| {
+                Err(crate::Error::Identify {
+                    path: p.clone(),
+                    source: identify::IdentifyError::Internal,
+                })
+            }),
+            Err(e) => {
                 progress.advance(1);
                 Err(crate::Error::Skipped {
                     path: p.clone(),
@@ -226,10 +233,6 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
                     cause: e.to_string(),
                 })
             }
-            (Ok(_), None) => Err(crate::Error::Identify {
-                path: p.clone(),
-                source: identify::IdentifyError::Internal,
-            }),
         };
         fits.insert(p.clone(), f);
     }

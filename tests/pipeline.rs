@@ -1,0 +1,43 @@
+//! `stickslip run` on a plan with a log that cannot be read: its read
+//! error is reported once, every other log keeps its own fit (the fits are
+//! matched to the logs that were read, in plan order), and the exit
+//! status is 1.
+
+mod common;
+
+use common::{bin, data};
+use serde_json::Value;
+
+#[test]
+fn an_unread_log_does_not_shift_the_fits_of_the_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("plan.toml");
+    let missing = dir.path().join("missing.mcap");
+    let good = data("char_N4.mcap");
+    std::fs::write(
+        &plan,
+        format!(
+            "fit = [{:?}, {:?}]\n",
+            missing.display().to_string(),
+            good.display().to_string()
+        ),
+    )
+    .unwrap();
+    let out = bin().arg("run").arg(&plan).arg("--json").output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(errors[0].contains("missing.mcap"), "{stderr}");
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let fits = v["fits"].as_array().unwrap();
+    assert_eq!(fits.len(), 2);
+    assert!(
+        fits[0]["error"].as_str().unwrap().contains("not read"),
+        "{}",
+        fits[0]
+    );
+    assert!(fits[1].get("error").is_none(), "{}", fits[1]);
+    assert!(fits[1]["log"].as_str().unwrap().ends_with("char_N4.mcap"));
+    assert_eq!(fits[1]["law"], "static-dynamic");
+}
