@@ -446,15 +446,14 @@ impl LogFit {
 
 /// The quantities whose calibration sensitivity is propagated.
 fn quantities(f: &EquationFit, a: f64, k2: f64, ss: f64) -> [f64; 8] {
-    let fs = a * k2;
-    let l = &f.law;
+    let [rs, rd, slope, rho_s, rho_d, dstar] = f.law.si_and_rho(a * k2, ss);
     [
-        l.rs_n,
-        l.rd_n,
-        l.slope_n_s_per_m,
-        l.rs_n / fs,
-        l.rd_n / fs,
-        l.slope_n_s_per_m / ss,
+        rs,
+        rd,
+        slope,
+        rho_s,
+        rho_d,
+        dstar,
         f.rs_lower_bound_n.unwrap_or(f64::NAN),
         f.rs_upper_bound_n.unwrap_or(f64::NAN),
     ]

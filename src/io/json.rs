@@ -13,11 +13,6 @@ pub fn num(x: f64) -> Value {
     }
 }
 
-/// An optional float for JSON (`None` or non-finite: `null`).
-pub fn opt(x: Option<f64>) -> Value {
-    x.map_or(Value::Null, num)
-}
-
 /// An interval for JSON: `[low, high]`, or `null` where absent or not
 /// finite.
 pub fn interval(i: Option<(f64, f64)>) -> Value {

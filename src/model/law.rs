@@ -259,6 +259,20 @@ impl SiLaw {
         };
         law.validate().ok().map(|_| law)
     }
+
+    /// [Rs, Rd, a, ρs, ρd, D*] with force scale `force_n` (A·K2) and slope
+    /// scale `slope_scale` (√(K2·M2)): the quantities whose calibration
+    /// sensitivity the identification propagates.
+    pub fn si_and_rho(&self, force_n: f64, slope_scale: f64) -> [f64; 6] {
+        [
+            self.rs_n,
+            self.rd_n,
+            self.slope_n_s_per_m,
+            self.rs_n / force_n,
+            self.rd_n / force_n,
+            self.slope_n_s_per_m / slope_scale,
+        ]
+    }
 }
 
 /// The scales that make an SI law dimensionless for one drive amplitude.

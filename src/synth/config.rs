@@ -74,7 +74,7 @@ impl RigSpec {
 
 /// Family of a friction law as the truth files spell it (`static_dynamic`,
 /// plus `linear` for any other affine law). Test data keep their spelling;
-/// everything else speaks [`LawKind`] ([`LawFamily::kind`]).
+/// everything else speaks [`crate::model::LawKind`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum LawFamily {
@@ -91,17 +91,6 @@ pub enum LawFamily {
 }
 
 impl LawFamily {
-    /// The shared family (None for `linear`, which has no family of its own).
-    pub fn kind(self) -> Option<LawKind> {
-        match self {
-            LawFamily::Coulomb => Some(LawKind::Coulomb),
-            LawFamily::Decreasing => Some(LawKind::Decreasing),
-            LawFamily::StaticDynamic => Some(LawKind::StaticDynamic),
-            LawFamily::Stribeck => Some(LawKind::Stribeck),
-            LawFamily::Linear => None,
-        }
-    }
-
     /// The family's name.
     pub fn as_str(self) -> &'static str {
         match self {

@@ -65,7 +65,7 @@ use truth::*;
 
 use crate::ingest::{Quantity, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
 use crate::io::json::num;
-use crate::model::{Absorber, Drive, Law, LawKind, Model, RigConstants, Scales, Schedule, Segment};
+use crate::model::{Absorber, Drive, Law, Model, RigConstants, Scales, Schedule, Segment};
 use crate::sim::engine::{Event, EventKind, Init, Observer, RunEnd, Sim, Status};
 use crate::sim::numeric::{NumericOptions, NumericSim};
 use crate::sim::schedule::{run_schedule, SegmentObserver};

@@ -105,15 +105,7 @@ impl Refinement {
         let ss = k2 / self.rig.omega;
         let quantities = |th: &[f64], a: f64| -> [f64; 6] {
             let (l, _, _, _) = prob.unpack(th);
-            let fs = a * k2;
-            [
-                l.rs_n,
-                l.rd_n,
-                l.slope_n_s_per_m,
-                l.rs_n / fs,
-                l.rd_n / fs,
-                l.slope_n_s_per_m / ss,
-            ]
+            l.si_and_rho(a * k2, ss)
         };
         let q0 = quantities(th, self.data.a);
         // Statistical variance of each quantity (linear in θ for fixed A).
