@@ -462,20 +462,19 @@ impl Refinement {
     /// θ and Nelder–Mead steps of a family from its equation-error law.
     fn start(kind: LawKind, l: &SiLaw, bias: f64) -> (Vec<f64>, Vec<f64>) {
         let f = l.rd_n.abs().max(1e-3);
-        let (mut th, mut step) = match kind {
-            LawKind::Coulomb => (vec![l.rd_n], vec![0.01 * f]),
-            LawKind::Decreasing => (vec![l.rd_n, l.slope_n_s_per_m], vec![0.01 * f, 0.3]),
-            LawKind::Stribeck => {
-                let vs = l.vs_m_per_s.unwrap_or(f64::NAN);
-                (
-                    vec![l.rs_n.max(1.01 * l.rd_n), l.rd_n, l.slope_n_s_per_m, vs],
-                    vec![0.01 * l.rs_n.abs().max(f), 0.01 * f, 0.3, 0.1 * vs],
-                )
-            }
-            _ => (
-                vec![l.rs_n.max(1.01 * l.rd_n), l.rd_n],
-                vec![0.01 * l.rs_n.abs().max(f), 0.01 * f],
-            ),
+        // The family's parameters (its own order), with a threshold just
+        // above the sliding level where the family has one.
+        let start = SiLaw {
+            rs_n: l.rs_n.max(1.01 * l.rd_n),
+            ..*l
+        };
+        let mut th = kind.family().pack(&start);
+        let rs_step = 0.01 * l.rs_n.abs().max(f);
+        let mut step = match kind {
+            LawKind::Coulomb => vec![0.01 * f],
+            LawKind::Decreasing => vec![0.01 * f, 0.3],
+            LawKind::StaticDynamic => vec![rs_step, 0.01 * f],
+            LawKind::Stribeck => vec![rs_step, 0.01 * f, 0.3, 0.1 * th[3]],
         };
         th.extend([bias, 1.0, 1.0]);
         step.extend([0.01 * f, 0.003, 0.003]);
