@@ -1,231 +1,338 @@
 //! The JSON form of a batch comparison (the `batch` contract's keys plus
-//! details; hand-built: its keys are computed per coefficient).
+//! details), as typed structs serialised by serde. The per-coefficient keys
+//! (`mu_s`, `mu_s_interval`, …, `mu_d_…`) are one [`MuOut`] struct written
+//! twice under a prefix (`serde_with::with_prefix!`); non-finite floats are
+//! written as `null`.
 
-use super::{Batch, MuFit, Worst};
-use crate::io::json::num;
-use serde_json::{json, Value};
+use super::{Batch, BatchLog, CurvePoint, MuFit, Worst};
+use crate::io::json::Interval;
+use serde::Serialize;
+use serde_json::Value;
 
-fn interval(i: (f64, f64)) -> Value {
-    crate::io::json::interval(Some(i))
+serde_with::with_prefix!(prefix_mu_s "mu_s");
+serde_with::with_prefix!(prefix_mu_d "mu_d");
+
+/// One friction coefficient's fit. Field names are the key suffixes: the
+/// estimate itself is the bare prefix (`mu_s`), the rest `mu_s_interval`,
+/// `mu_s_birge`, ….
+#[derive(Serialize)]
+struct MuOut {
+    #[serde(rename = "")]
+    mu: f64,
+    #[serde(rename = "_interval")]
+    interval: Interval,
+    #[serde(rename = "_stat_interval")]
+    stat_interval: Interval,
+    #[serde(rename = "_systematic_rel")]
+    systematic_rel: f64,
+    #[serde(rename = "_birge")]
+    birge: f64,
+    #[serde(rename = "_chi2_per_dof")]
+    chi2_per_dof: Option<f64>,
+    #[serde(rename = "_points")]
+    points: usize,
+    #[serde(rename = "_censored")]
+    censored: usize,
+    #[serde(rename = "_free_slope")]
+    free_slope: f64,
+    #[serde(rename = "_intercept_n")]
+    intercept_n: f64,
+    #[serde(rename = "_intercept_interval_n")]
+    intercept_interval_n: Interval,
 }
 
-fn worst_json(w: &Worst) -> Value {
-    json!({
-        "rho_s": num(w.rho_s),
-        "rho_d": num(w.rho_d),
-        "worst_amplitude1": num(w.amplitude1),
-        "eta": num(w.eta),
-        "branch": w.branch.as_str(),
-        "unsettled": w.unsettled,
-        "coexisting_points": w.coexisting,
-    })
+impl From<&MuFit> for MuOut {
+    fn from(m: &MuFit) -> Self {
+        let (slope, a, hw) = m.free.unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+        MuOut {
+            mu: m.mu,
+            interval: m.interval.into(),
+            stat_interval: m.stat_interval.into(),
+            systematic_rel: m.systematic_rel,
+            birge: m.birge,
+            chi2_per_dof: m.chi2_per_dof,
+            points: m.points,
+            censored: m.censored,
+            free_slope: slope,
+            intercept_n: a,
+            intercept_interval_n: (a - hw, a + hw).into(),
+        }
+    }
 }
 
-fn mu_keys(out: &mut serde_json::Map<String, Value>, name: &str, m: &MuFit) {
-    out.insert(name.into(), num(m.mu));
-    out.insert(format!("{name}_interval"), interval(m.interval));
-    out.insert(format!("{name}_stat_interval"), interval(m.stat_interval));
-    out.insert(format!("{name}_systematic_rel"), num(m.systematic_rel));
-    out.insert(format!("{name}_birge"), num(m.birge));
-    out.insert(
-        format!("{name}_chi2_per_dof"),
-        m.chi2_per_dof.map_or(Value::Null, num),
-    );
-    out.insert(format!("{name}_points"), json!(m.points));
-    out.insert(format!("{name}_censored"), json!(m.censored));
-    let (slope, a, hw) = m.free.unwrap_or((f64::NAN, f64::NAN, f64::NAN));
-    out.insert(format!("{name}_free_slope"), num(slope));
-    out.insert(format!("{name}_intercept_n"), num(a));
-    out.insert(
-        format!("{name}_intercept_interval_n"),
-        interval((a - hw, a + hw)),
-    );
+/// Both coefficients, flat (`mu_s…`, `mu_d…`).
+#[derive(Serialize)]
+struct Coefficients {
+    #[serde(flatten, with = "prefix_mu_s")]
+    mu_s: MuOut,
+    #[serde(flatten, with = "prefix_mu_d")]
+    mu_d: MuOut,
+}
+
+/// A conflict between logs.
+#[derive(Serialize)]
+struct ConflictOut<'a> {
+    logs: Vec<String>,
+    quantity: &'static str,
+    kind: &'static str,
+    what: &'a str,
+    size_sigma: f64,
+    size_rel: f64,
+    set_aside: bool,
+}
+
+/// The recommended setting; every key `null` where none is given.
+#[derive(Serialize, Default)]
+struct RecommendationOut {
+    recommended_normal_force_n: Option<f64>,
+    recommended_normal_force_interval_n: Option<Interval>,
+    recommended_rho_s: Option<f64>,
+    recommended_rho_d: Option<f64>,
+    recommended_rho_s_box: Option<Interval>,
+    worst_amplitude1: Option<f64>,
+    worst_amplitude1_interval: Option<Interval>,
+    worst_amplitude1_robust: Option<f64>,
+    worst_eta: Option<f64>,
+    worst_branch: Option<&'static str>,
+    worst_coexisting_points: Option<usize>,
+    worst_coexisting_eta: Option<f64>,
+}
+
+/// The stability cliff; every key `null` where none was found.
+#[derive(Serialize, Default)]
+struct CliffOut {
+    cliff_rho_s: Option<f64>,
+    cliff_rho_s_bracket: Option<Interval>,
+    cliff_normal_force_n: Option<f64>,
+    cliff_threshold: Option<f64>,
+    cliff_worst_amplitude1: Option<f64>,
+    cliff_eta: Option<f64>,
+    margin_to_cliff: Option<f64>,
+    margin_to_cliff_rho_s: Option<f64>,
+    margin_to_cliff_n: Option<f64>,
+}
+
+/// One normal-force setting (one log).
+#[derive(Serialize)]
+struct SettingOut {
+    log: String,
+    normal_force_n: f64,
+    #[serde(rename = "static")]
+    static_obs: &'static str,
+    mu_s_log: Option<f64>,
+    /// `[lower, upper]` bounds on μs where only bounds are known (either may
+    /// be `null`), `null` where neither is.
+    mu_s_log_bounds: Option<(Option<f64>, Option<f64>)>,
+    mu_d_log: Option<f64>,
+    rho_s_log: Option<f64>,
+    rho_s_model: f64,
+    worst_amplitude1: Option<f64>,
+    worst_eta: Option<f64>,
+    worst_branch: Option<&'static str>,
+    consistent: Option<bool>,
+    set_aside_mu_s: bool,
+    set_aside_mu_d: bool,
+    estimate_disagreement_rs_sigma: f64,
+    estimate_disagreement_rd_sigma: f64,
+    drive_amplitude_m: f64,
+}
+
+impl From<&BatchLog> for SettingOut {
+    fn from(l: &BatchLog) -> Self {
+        SettingOut {
+            log: l.log.display().to_string(),
+            normal_force_n: l.normal_force_n,
+            static_obs: l.static_obs.as_str(),
+            mu_s_log: l.mu_s.0,
+            mu_s_log_bounds: match (l.mu_s.1, l.mu_s.2) {
+                (None, None) => None,
+                bounds => Some(bounds),
+            },
+            mu_d_log: l.mu_d,
+            rho_s_log: l.rho_s,
+            rho_s_model: l.model_rho_s,
+            worst_amplitude1: l.worst.map(|w| w.amplitude1),
+            worst_eta: l.worst.map(|w| w.eta),
+            worst_branch: l.worst.map(|w| w.branch.as_str()),
+            consistent: l.consistent,
+            set_aside_mu_s: l.set_aside.0,
+            set_aside_mu_d: l.set_aside.1,
+            estimate_disagreement_rs_sigma: l.estimate_disagreement.0,
+            estimate_disagreement_rd_sigma: l.estimate_disagreement.1,
+            drive_amplitude_m: l.drive_amplitude_m,
+        }
+    }
+}
+
+/// The worst case at one model parameter set.
+#[derive(Serialize)]
+struct WorstOut {
+    rho_s: f64,
+    rho_d: f64,
+    worst_amplitude1: f64,
+    eta: f64,
+    branch: &'static str,
+    unsettled: usize,
+    coexisting_points: usize,
+}
+
+impl From<&Worst> for WorstOut {
+    fn from(w: &Worst) -> Self {
+        WorstOut {
+            rho_s: w.rho_s,
+            rho_d: w.rho_d,
+            worst_amplitude1: w.amplitude1,
+            eta: w.eta,
+            branch: w.branch.as_str(),
+            unsettled: w.unsettled,
+            coexisting_points: w.coexisting,
+        }
+    }
+}
+
+/// One point of the worst-amplitude curve over the normal force.
+#[derive(Serialize)]
+struct CurveOut {
+    #[serde(flatten)]
+    worst: WorstOut,
+    normal_force_n: f64,
+    robust_worst_amplitude1: Option<f64>,
+}
+
+impl From<&CurvePoint> for CurveOut {
+    fn from(c: &CurvePoint) -> Self {
+        CurveOut {
+            worst: (&c.worst).into(),
+            normal_force_n: c.normal_force_n,
+            robust_worst_amplitude1: c.robust,
+        }
+    }
+}
+
+/// The batch keys (everything but `fits`).
+#[derive(Serialize)]
+struct BatchOut<'a> {
+    /// Without the conflicting logs.
+    #[serde(flatten)]
+    coefficients: Coefficients,
+    /// With every log.
+    all_logs: Coefficients,
+    mu_s_set_aside: Vec<String>,
+    mu_d_set_aside: Vec<String>,
+    conflicts: Vec<ConflictOut<'a>>,
+    mu_ratio: f64,
+    mu_ratio_interval: Interval,
+    #[serde(flatten)]
+    recommendation: RecommendationOut,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    recommendation_reason: Option<&'a str>,
+    #[serde(flatten)]
+    cliff: CliffOut,
+    settings: Vec<SettingOut>,
+    curve: Vec<CurveOut>,
+    drive_amplitude_m: f64,
+    drive_amplitude_source: &'static str,
+    measured_drive_amplitude_m: f64,
+    force_scale_n: f64,
+    m: f64,
+    k: f64,
+    damping: f64,
+    eta_range: Interval,
+    eta_points: usize,
+    setting_tolerance: f64,
+    evaluations: usize,
+    warnings: &'a [String],
 }
 
 impl Batch {
     /// The batch keys of the JSON output (everything but `fits`).
     pub fn to_json_map(&self) -> serde_json::Map<String, Value> {
-        batch_json(self)
-    }
-}
-
-fn batch_json(b: &Batch) -> serde_json::Map<String, Value> {
-    let mut o = serde_json::Map::new();
-    mu_keys(&mut o, "mu_s", &b.mu_s);
-    mu_keys(&mut o, "mu_d", &b.mu_d);
-    let ins = |o: &mut serde_json::Map<String, Value>, k: &str, v: Value| {
-        o.insert(k.into(), v);
-    };
-    // Both ways: without the conflicting logs (the keys above) and with
-    // every log.
-    let mut all = serde_json::Map::new();
-    mu_keys(&mut all, "mu_s", &b.mu_s_all);
-    mu_keys(&mut all, "mu_d", &b.mu_d_all);
-    ins(&mut o, "all_logs", Value::Object(all));
-    let set_aside = |pick: fn(&super::BatchLog) -> bool| -> Value {
-        json!(b
-            .logs
-            .iter()
-            .filter(|l| pick(l))
-            .map(|l| l.log.display().to_string())
-            .collect::<Vec<_>>())
-    };
-    ins(&mut o, "mu_s_set_aside", set_aside(|l| l.set_aside.0));
-    ins(&mut o, "mu_d_set_aside", set_aside(|l| l.set_aside.1));
-    let conflicts: Vec<Value> = b
-        .conflicts
-        .iter()
-        .map(|c| {
-            json!({
-                "logs": c.logs.iter().map(|p| p.display().to_string()).collect::<Vec<_>>(),
-                "quantity": c.quantity,
-                "kind": c.kind,
-                "what": c.what,
-                "size_sigma": num(c.size_sigma),
-                "size_rel": num(c.size_rel),
-                "set_aside": c.set_aside,
-            })
-        })
-        .collect();
-    ins(&mut o, "conflicts", json!(conflicts));
-    ins(&mut o, "mu_ratio", num(b.ratio));
-    ins(&mut o, "mu_ratio_interval", interval(b.ratio_interval));
-    match &b.recommendation {
-        Some(r) => {
-            ins(&mut o, "recommended_normal_force_n", num(r.normal_force_n));
-            ins(
-                &mut o,
-                "recommended_normal_force_interval_n",
-                interval(r.interval_n),
-            );
-            ins(&mut o, "recommended_rho_s", num(r.rho_s));
-            ins(&mut o, "recommended_rho_d", num(r.rho_d));
-            ins(&mut o, "recommended_rho_s_box", interval(r.rho_s_box));
-            ins(&mut o, "worst_amplitude1", num(r.worst.amplitude1));
-            ins(
-                &mut o,
-                "worst_amplitude1_interval",
-                interval(r.worst_interval),
-            );
-            ins(&mut o, "worst_amplitude1_robust", num(r.worst_interval.1));
-            ins(&mut o, "worst_eta", num(r.worst.eta));
-            ins(&mut o, "worst_branch", json!(r.worst.branch.as_str()));
-            ins(&mut o, "worst_coexisting_points", json!(r.worst.coexisting));
-            ins(&mut o, "worst_coexisting_eta", num(r.worst.coexisting_eta));
-        }
-        None => {
-            for k in [
-                "recommended_normal_force_n",
-                "recommended_normal_force_interval_n",
-                "recommended_rho_s",
-                "recommended_rho_d",
-                "recommended_rho_s_box",
-                "worst_amplitude1",
-                "worst_amplitude1_interval",
-                "worst_amplitude1_robust",
-                "worst_eta",
-                "worst_branch",
-                "worst_coexisting_points",
-                "worst_coexisting_eta",
-            ] {
-                ins(&mut o, k, Value::Null);
-            }
-        }
-    }
-    if let Some(reason) = &b.recommendation_reason {
-        ins(&mut o, "recommendation_reason", json!(reason));
-    }
-    match &b.cliff {
-        Some(c) => {
-            ins(&mut o, "cliff_rho_s", num(c.rho_s));
-            ins(&mut o, "cliff_rho_s_bracket", interval(c.bracket));
-            ins(&mut o, "cliff_normal_force_n", num(c.normal_force_n));
-            ins(&mut o, "cliff_threshold", num(c.threshold));
-            ins(
-                &mut o,
-                "cliff_worst_amplitude1",
-                num(c.worst_below.amplitude1),
-            );
-            ins(&mut o, "cliff_eta", num(c.worst_below.eta));
-            ins(&mut o, "margin_to_cliff", num(c.margin_rel));
-            ins(&mut o, "margin_to_cliff_rho_s", num(c.margin_rho_s));
-            ins(&mut o, "margin_to_cliff_n", num(c.margin_n));
-        }
-        None => {
-            for k in [
-                "cliff_rho_s",
-                "cliff_rho_s_bracket",
-                "cliff_normal_force_n",
-                "cliff_threshold",
-                "cliff_worst_amplitude1",
-                "cliff_eta",
-                "margin_to_cliff",
-                "margin_to_cliff_rho_s",
-                "margin_to_cliff_n",
-            ] {
-                ins(&mut o, k, Value::Null);
-            }
+        let b = self;
+        let set_aside = |pick: fn(&BatchLog) -> bool| -> Vec<String> {
+            b.logs
+                .iter()
+                .filter(|l| pick(l))
+                .map(|l| l.log.display().to_string())
+                .collect()
+        };
+        let recommendation =
+            b.recommendation
+                .as_ref()
+                .map_or_else(RecommendationOut::default, |r| RecommendationOut {
+                    recommended_normal_force_n: Some(r.normal_force_n),
+                    recommended_normal_force_interval_n: Some(r.interval_n.into()),
+                    recommended_rho_s: Some(r.rho_s),
+                    recommended_rho_d: Some(r.rho_d),
+                    recommended_rho_s_box: Some(r.rho_s_box.into()),
+                    worst_amplitude1: Some(r.worst.amplitude1),
+                    worst_amplitude1_interval: Some(r.worst_interval.into()),
+                    worst_amplitude1_robust: Some(r.worst_interval.1),
+                    worst_eta: Some(r.worst.eta),
+                    worst_branch: Some(r.worst.branch.as_str()),
+                    worst_coexisting_points: Some(r.worst.coexisting),
+                    worst_coexisting_eta: Some(r.worst.coexisting_eta),
+                });
+        let cliff = b
+            .cliff
+            .as_ref()
+            .map_or_else(CliffOut::default, |c| CliffOut {
+                cliff_rho_s: Some(c.rho_s),
+                cliff_rho_s_bracket: Some(c.bracket.into()),
+                cliff_normal_force_n: Some(c.normal_force_n),
+                cliff_threshold: Some(c.threshold),
+                cliff_worst_amplitude1: Some(c.worst_below.amplitude1),
+                cliff_eta: Some(c.worst_below.eta),
+                margin_to_cliff: Some(c.margin_rel),
+                margin_to_cliff_rho_s: Some(c.margin_rho_s),
+                margin_to_cliff_n: Some(c.margin_n),
+            });
+        let out = BatchOut {
+            coefficients: Coefficients {
+                mu_s: (&b.mu_s).into(),
+                mu_d: (&b.mu_d).into(),
+            },
+            all_logs: Coefficients {
+                mu_s: (&b.mu_s_all).into(),
+                mu_d: (&b.mu_d_all).into(),
+            },
+            mu_s_set_aside: set_aside(|l| l.set_aside.0),
+            mu_d_set_aside: set_aside(|l| l.set_aside.1),
+            conflicts: b
+                .conflicts
+                .iter()
+                .map(|c| ConflictOut {
+                    logs: c.logs.iter().map(|p| p.display().to_string()).collect(),
+                    quantity: c.quantity,
+                    kind: c.kind,
+                    what: &c.what,
+                    size_sigma: c.size_sigma,
+                    size_rel: c.size_rel,
+                    set_aside: c.set_aside,
+                })
+                .collect(),
+            mu_ratio: b.ratio,
+            mu_ratio_interval: b.ratio_interval.into(),
+            recommendation,
+            recommendation_reason: b.recommendation_reason.as_deref(),
+            cliff,
+            settings: b.logs.iter().map(SettingOut::from).collect(),
+            curve: b.curve.iter().map(CurveOut::from).collect(),
+            drive_amplitude_m: b.drive_amplitude_m,
+            drive_amplitude_source: b.drive_amplitude_source,
+            measured_drive_amplitude_m: b.measured_drive_amplitude_m,
+            force_scale_n: b.force_scale_n,
+            m: b.absorber.m,
+            k: b.absorber.k,
+            damping: b.absorber.damping,
+            eta_range: b.eta_range.into(),
+            eta_points: b.eta_points,
+            setting_tolerance: b.setting_tolerance,
+            evaluations: b.evaluations,
+            warnings: &b.warnings,
+        };
+        match crate::io::json::to_value(out) {
+            Value::Object(map) => map,
+            other => serde_json::Map::from_iter([("error".to_string(), other)]),
         }
     }
-    let settings: Vec<Value> = b
-        .logs
-        .iter()
-        .map(|l| {
-            json!({
-                "log": l.log.display().to_string(),
-                "normal_force_n": num(l.normal_force_n),
-                "static": l.static_obs.as_str(),
-                "mu_s_log": l.mu_s.0.map_or(Value::Null, num),
-                "mu_s_log_bounds": match (l.mu_s.1, l.mu_s.2) {
-                    (None, None) => Value::Null,
-                    (a, b) => json!([a.map_or(Value::Null, num), b.map_or(Value::Null, num)]),
-                },
-                "mu_d_log": l.mu_d.map_or(Value::Null, num),
-                "rho_s_log": l.rho_s.map_or(Value::Null, num),
-                "rho_s_model": num(l.model_rho_s),
-                "worst_amplitude1": l.worst.map_or(Value::Null, |w| num(w.amplitude1)),
-                "worst_eta": l.worst.map_or(Value::Null, |w| num(w.eta)),
-                "worst_branch": l.worst.map_or(Value::Null, |w| json!(w.branch.as_str())),
-                "consistent": l.consistent,
-                "set_aside_mu_s": l.set_aside.0,
-                "set_aside_mu_d": l.set_aside.1,
-                "estimate_disagreement_rs_sigma": num(l.estimate_disagreement.0),
-                "estimate_disagreement_rd_sigma": num(l.estimate_disagreement.1),
-                "drive_amplitude_m": num(l.drive_amplitude_m),
-            })
-        })
-        .collect();
-    ins(&mut o, "settings", json!(settings));
-    let curve: Vec<Value> = b
-        .curve
-        .iter()
-        .map(|c| {
-            let mut v = worst_json(&c.worst);
-            v["normal_force_n"] = num(c.normal_force_n);
-            v["robust_worst_amplitude1"] = c.robust.map_or(Value::Null, num);
-            v
-        })
-        .collect();
-    ins(&mut o, "curve", json!(curve));
-    ins(&mut o, "drive_amplitude_m", num(b.drive_amplitude_m));
-    ins(
-        &mut o,
-        "drive_amplitude_source",
-        json!(b.drive_amplitude_source),
-    );
-    ins(
-        &mut o,
-        "measured_drive_amplitude_m",
-        num(b.measured_drive_amplitude_m),
-    );
-    ins(&mut o, "force_scale_n", num(b.force_scale_n));
-    ins(&mut o, "m", num(b.absorber.m));
-    ins(&mut o, "k", num(b.absorber.k));
-    ins(&mut o, "damping", num(b.absorber.damping));
-    ins(&mut o, "eta_range", interval(b.eta_range));
-    ins(&mut o, "eta_points", json!(b.eta_points));
-    ins(&mut o, "setting_tolerance", num(b.setting_tolerance));
-    ins(&mut o, "evaluations", json!(b.evaluations));
-    ins(&mut o, "warnings", json!(b.warnings));
-    o
 }

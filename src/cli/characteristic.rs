@@ -5,7 +5,6 @@ use crate::identify::{self, Gains};
 use crate::ingest::{self, IngestOptions};
 use crate::io::AtomicFile;
 use clap::Args;
-use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -130,21 +129,39 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
     }
     let seg = &ch.segmentation;
     if args.json {
-        super::print_json(&json!({
-            "log": args.log.display().to_string(),
-            "samples": c.t.len(),
-            "drive_amplitude_m": crate::io::json::num(c.drive.amplitude_m),
-            "drive_frequency_hz": crate::io::json::num(c.drive.frequency_hz),
-            "acceleration_source": c.acceleration_source,
-            "sticks": seg.sticks.len(),
-            "breakaways": seg.breakaways.len(),
-            "reversals": seg.reversals.len(),
-            "stuck": seg.stuck(),
-            "never_sticks": seg.never_sticks(),
-            "velocity_noise_m_per_s": crate::io::json::num(seg.noise_v_raw),
-            "out": args.out.as_ref().map(|p| p.display().to_string()),
-            "bias_n": crate::io::json::num(bias),
-            "warnings": warnings,
+        /// The `characteristic --json` object (non-finite numbers: null).
+        #[derive(serde::Serialize)]
+        struct CharacteristicOut<'a> {
+            log: String,
+            samples: usize,
+            drive_amplitude_m: f64,
+            drive_frequency_hz: f64,
+            acceleration_source: &'a str,
+            sticks: usize,
+            breakaways: usize,
+            reversals: usize,
+            stuck: bool,
+            never_sticks: bool,
+            velocity_noise_m_per_s: f64,
+            out: Option<String>,
+            bias_n: f64,
+            warnings: &'a [String],
+        }
+        super::print_json(&crate::io::json::to_value(CharacteristicOut {
+            log: args.log.display().to_string(),
+            samples: c.t.len(),
+            drive_amplitude_m: c.drive.amplitude_m,
+            drive_frequency_hz: c.drive.frequency_hz,
+            acceleration_source: c.acceleration_source,
+            sticks: seg.sticks.len(),
+            breakaways: seg.breakaways.len(),
+            reversals: seg.reversals.len(),
+            stuck: seg.stuck(),
+            never_sticks: seg.never_sticks(),
+            velocity_noise_m_per_s: seg.noise_v_raw,
+            out: args.out.as_ref().map(|p| p.display().to_string()),
+            bias_n: bias,
+            warnings: &warnings,
         }));
     } else {
         eprintln!(

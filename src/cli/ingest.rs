@@ -1,10 +1,8 @@
 //! `stickslip ingest`: read one rig log, report it, optionally write the
 //! canonical run as Parquet.
 
-use crate::ingest::{self, IngestOptions, Run};
-use crate::io::json::num;
+use crate::ingest::{self, IngestOptions};
 use clap::Args;
-use serde_json::{json, Value};
 use std::path::PathBuf;
 
 /// Arguments of `stickslip ingest`.
@@ -21,64 +19,6 @@ pub struct IngestArgs {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
-}
-
-/// The JSON report of an ingested run (keys fixed by `interface.md`).
-pub fn report(run: &Run, out: Option<&std::path::Path>) -> Value {
-    let channels: Vec<Value> = run
-        .channels
-        .iter()
-        .map(|c| {
-            json!({
-                "name": c.name(),
-                "rate_hz": num(c.rate_hz),
-                "samples": c.t.len(),
-                "unit": c.unit(),
-                "source": c.source,
-                "dropouts": c.dropouts,
-                "start_s": c.t.first().copied().map_or(Value::Null, num),
-                "end_s": c.t.last().copied().map_or(Value::Null, num),
-            })
-        })
-        .collect();
-    let gaps: Vec<Value> = run
-        .gaps
-        .iter()
-        .map(|g| {
-            json!({
-                "channel": g.channel,
-                "start_s": num(g.start_s),
-                "end_s": num(g.end_s),
-                "kind": g.kind.as_str(),
-            })
-        })
-        .collect();
-    let setpoints: Vec<Value> = run
-        .setpoints
-        .iter()
-        .map(|s| {
-            json!({
-                "t_s": num(s.t_s),
-                "frequency_hz": num(s.frequency_hz),
-                "amplitude_m": s.amplitude_m.map_or(Value::Null, num),
-            })
-        })
-        .collect();
-    json!({
-        "log": run.source.display().to_string(),
-        "format": run.format.as_str(),
-        "test": run.rig.test.as_str(),
-        "samples": run.samples(),
-        "rate_hz": num(run.resampled.rate_hz),
-        "duration_s": num(run.duration_s()),
-        "channels": channels,
-        "has_acceleration": run.has_acceleration,
-        "rig": run.rig.to_json(),
-        "gaps": gaps,
-        "setpoints": setpoints,
-        "warnings": run.warnings,
-        "out": out.map(|p| p.display().to_string()),
-    })
 }
 
 /// Runs `ingest`.
@@ -106,7 +46,7 @@ pub fn run(args: IngestArgs) -> crate::Result<()> {
         crate::io::write_parquet(&run, out)?;
     }
     if args.json {
-        super::print_json(&report(&run, args.out.as_deref()));
+        super::print_json(&run.to_json(args.out.as_deref()));
     } else {
         eprintln!(
             "{}: {} test ({}), {} rows at {} Hz = {:.3} s, {} channels{}, {} gaps, {} setpoints",

@@ -7,7 +7,6 @@ use crate::io::AtomicFile;
 use crate::sim::rk4::Rk4;
 use crate::sim::{self, Event, Flow, Mode, Observer, PeriodGrid, PeriodStats, Sim, SimOptions};
 use clap::{Args, ValueEnum};
-use serde_json::json;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -213,22 +212,23 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
     }
     let s = &summary;
     if args.json {
-        super::print_json(&json!({
-            "eta": s.eta,
-            "tau_end": s.tau_end,
-            "final_state": s.final_state,
-            "events": s.events,
-            "amplitude1": s.amplitude1,
-            "amplitude2": s.amplitude2,
-            "steady": s.steady,
-            "period_multiple": s.period_multiple,
-            "stick_fraction": s.stick_fraction,
-            "interrupted": s.interrupted,
-            "status": s.status,
-            "reason": s.reason,
-            "periods": s.periods,
-            "method": match method { Method::Exact => "exact", Method::Rk4 => "rk4", Method::Dopri => "dopri" },
-            "law": model.law.name(),
+        /// The `simulate --json` object: the run's summary, how it was
+        /// integrated and which law.
+        #[derive(serde::Serialize)]
+        struct SimulateOut<'a> {
+            #[serde(flatten)]
+            summary: &'a sim::steady::Summary,
+            method: &'static str,
+            law: &'static str,
+        }
+        super::print_json(&crate::io::json::to_value(SimulateOut {
+            summary: s,
+            method: match method {
+                Method::Exact => "exact",
+                Method::Rk4 => "rk4",
+                Method::Dopri => "dopri",
+            },
+            law: model.law.name(),
         }));
     } else {
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6}"));

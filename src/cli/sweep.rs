@@ -8,7 +8,6 @@ use crate::report::table::{self, FrcRow};
 use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
 use crate::sim::SimError;
 use clap::{Args, ValueEnum};
-use serde_json::json;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 
@@ -233,12 +232,12 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
         plot::frc(&figure(&table, title), p)?;
     }
     if args.json {
-        super::print_json(&json!({
-            "curves": curves_json(&table),
-            "seconds": seconds,
-            "points": table.len(),
-            "coexisting_points": table.iter().filter(|r| r.coexisting).count(),
-            "shard": args.shard,
+        super::print_json(&crate::io::json::to_value(SweepOut {
+            curves: curves_out(&table),
+            seconds,
+            points: table.len(),
+            coexisting_points: table.iter().filter(|r| r.coexisting).count(),
+            shard: args.shard.as_deref(),
         }));
     } else {
         let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
@@ -283,29 +282,57 @@ pub fn group(table: &[FrcRow]) -> Vec<Vec<&FrcRow>> {
     out
 }
 
+/// One curve of the `curves` JSON (interface keys plus details): the
+/// model of its first row, then one entry per point.
+#[derive(serde::Serialize)]
+struct CurveOut<'a> {
+    rho_s: f64,
+    rho_d: f64,
+    slope: f64,
+    direction: &'a str,
+    eta: Vec<f64>,
+    amplitude1: Vec<Option<f64>>,
+    amplitude2: Vec<Option<f64>>,
+    steady: Vec<bool>,
+    period_multiple: Vec<Option<u32>>,
+    stick_fraction: Vec<f64>,
+    interrupted: Vec<bool>,
+    coexisting: Vec<bool>,
+}
+
+/// The `sweep --json` object.
+#[derive(serde::Serialize)]
+struct SweepOut<'a> {
+    curves: Vec<CurveOut<'a>>,
+    seconds: f64,
+    points: usize,
+    coexisting_points: usize,
+    shard: Option<&'a str>,
+}
+
 /// The `curves` JSON of the interface from table rows.
-pub fn curves_json(table: &[FrcRow]) -> serde_json::Value {
-    let curves: Vec<serde_json::Value> = group(table)
+fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
+    group(table)
         .into_iter()
         .map(|c| {
             let h = c[0];
-            json!({
-                "rho_s": h.rho_s,
-                "rho_d": h.rho_d,
-                "slope": h.slope,
-                "direction": h.direction,
-                "eta": c.iter().map(|r| r.eta).collect::<Vec<_>>(),
-                "amplitude1": c.iter().map(|r| r.amplitude1).collect::<Vec<_>>(),
-                "amplitude2": c.iter().map(|r| r.amplitude2).collect::<Vec<_>>(),
-                "steady": c.iter().map(|r| r.steady).collect::<Vec<_>>(),
-                "period_multiple": c.iter().map(|r| r.period_multiple).collect::<Vec<_>>(),
-                "stick_fraction": c.iter().map(|r| r.stick_fraction).collect::<Vec<_>>(),
-                "interrupted": c.iter().map(|r| r.interrupted).collect::<Vec<_>>(),
-                "coexisting": c.iter().map(|r| r.coexisting).collect::<Vec<_>>(),
-            })
+            let all = |f: fn(&FrcRow) -> bool| c.iter().map(|r| f(r)).collect::<Vec<_>>();
+            CurveOut {
+                rho_s: h.rho_s,
+                rho_d: h.rho_d,
+                slope: h.slope,
+                direction: &h.direction,
+                eta: c.iter().map(|r| r.eta).collect(),
+                amplitude1: c.iter().map(|r| r.amplitude1).collect(),
+                amplitude2: c.iter().map(|r| r.amplitude2).collect(),
+                steady: all(|r| r.steady),
+                period_multiple: c.iter().map(|r| r.period_multiple).collect(),
+                stick_fraction: c.iter().map(|r| r.stick_fraction).collect(),
+                interrupted: all(|r| r.interrupted),
+                coexisting: all(|r| r.coexisting),
+            }
         })
-        .collect();
-    serde_json::Value::Array(curves)
+        .collect()
 }
 
 /// The figure of a table's family.

@@ -19,19 +19,10 @@
 
 use super::output_error::Adequacy;
 use super::{Estimate, Intervals, LogFit, SiLaw};
-use crate::io::json::interval;
-use serde::{Serialize, Serializer};
-use serde_json::{json, Value};
+use crate::io::json::Interval as Iv;
+use serde::Serialize;
+use serde_json::Value;
 use std::path::Path;
-
-/// An interval: `[low, high]`, or `null` where absent or not finite.
-struct Iv(Option<(f64, f64)>);
-
-impl Serialize for Iv {
-    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        interval(self.0).serialize(s)
-    }
-}
 
 /// A law in SI and dimensionless with the log's scales (non-finite: null).
 #[derive(Serialize)]
@@ -353,6 +344,6 @@ impl LogFit {
             breakaways: e.n_breakaways,
             notes: &self.notes,
         };
-        serde_json::to_value(out).unwrap_or_else(|e| json!({ "error": e.to_string() }))
+        crate::io::json::to_value(out)
     }
 }

@@ -15,6 +15,7 @@
 //! [`rig`] (metadata), `run` (gaps and the common time base).
 
 mod csv;
+mod json;
 mod mcap;
 mod parquet;
 pub mod rig;

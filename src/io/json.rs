@@ -21,3 +21,34 @@ pub fn interval(i: Option<(f64, f64)>) -> Value {
         _ => Value::Null,
     }
 }
+
+/// An interval for typed JSON structs: serialises as [`interval`] does
+/// (`[low, high]`, or `null` where absent or not finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Interval(pub Option<(f64, f64)>);
+
+impl From<(f64, f64)> for Interval {
+    fn from(i: (f64, f64)) -> Self {
+        Interval(Some(i))
+    }
+}
+
+impl From<Option<(f64, f64)>> for Interval {
+    fn from(i: Option<(f64, f64)>) -> Self {
+        Interval(i)
+    }
+}
+
+impl serde::Serialize for Interval {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        interval(self.0).serialize(s)
+    }
+}
+
+/// A typed output struct as a JSON value. Our output structs hold only
+/// numbers, strings, lists and string-keyed maps, which always serialise;
+/// should one ever fail, the value says so (`{"error": …}`) rather than
+/// abort the command.
+pub fn to_value<T: serde::Serialize>(out: T) -> Value {
+    serde_json::to_value(out).unwrap_or_else(|e| json!({ "error": e.to_string() }))
+}

@@ -50,7 +50,7 @@ impl Default for SimOptions {
 }
 
 /// The result of a `simulate` job (the interface's JSON keys).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Summary {
     /// η.
     pub eta: f64,

@@ -6,7 +6,7 @@ use super::predict::{Predicted, Score};
 use super::Validation;
 use crate::identify::LogFit;
 use serde::Serialize;
-use serde_json::{json, Value};
+use serde_json::Value;
 use std::path::Path;
 
 /// The law the prediction simulated, dimensionless at the sweep's amplitude.
@@ -106,6 +106,6 @@ impl Validation {
             draws: p.draws,
             warnings: &self.warnings,
         };
-        serde_json::to_value(out).unwrap_or_else(|e| json!({ "error": e.to_string() }))
+        crate::io::json::to_value(out)
     }
 }
