@@ -243,21 +243,7 @@ fn first_non_utf8_line(path: &Path) -> Option<usize> {
 
 /// Reads a DAQ CSV export with its channel map (`map`, or the default).
 pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
-    let map_path = map.map_or_else(|| default_map_path(path), Path::to_path_buf);
-    let map_text = match std::fs::read_to_string(&map_path) {
-        Ok(t) => t,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound && map.is_none() => {
-            return Err(IngestError::invalid(
-                path,
-                format!(
-                    "no channel map: {} not found (give one with --map)",
-                    map_path.display()
-                ),
-            ))
-        }
-        Err(e) => return Err(IngestError::io(&map_path, e)),
-    };
-    let cmap = parse_map(&map_path, &map_text)?;
+    let (map_path, cmap) = read_map(path, map)?;
     let Head {
         meta,
         lines: preamble,
@@ -278,6 +264,79 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     })?;
     let sep = detect_separator(&header);
     let names = naive_fields(&header, sep);
+    check_unique_columns(path, &cmap, &names)?;
+    let df = read_table(path, preamble, sep, names.len())?;
+    let table = Table {
+        path,
+        map_path: &map_path,
+        df: &df,
+        names: &names,
+        sep,
+        // File line of data row i (0-based): preamble, header, then one
+        // line per row.
+        first_data_line: preamble + 2,
+    };
+    let time = table.time(&cmap.time)?;
+    let dt_s = median_interval(&time).unwrap_or(f64::NAN);
+    let t0 = time[0] + cmap.time.shift_s;
+    let mut channels = Vec::new();
+    for (q, spec) in &cmap.channels {
+        let v = table.column(spec, q.name())?;
+        let t = time
+            .iter()
+            .map(|t| t + cmap.time.shift_s + spec.shift_s - t0)
+            .collect();
+        channels.push(RawChannel {
+            quantity: *q,
+            source: spec.name.clone(),
+            dt_s,
+            t,
+            v,
+        });
+    }
+    let setpoints = match &cmap.setpoint_hz {
+        Some(spec) => {
+            let v = table.column(spec, "setpoint_hz")?;
+            setpoints(path, spec, &time, &v, (cmap.time.shift_s, t0))?
+        }
+        None => Vec::new(),
+    };
+    Ok(RawLog {
+        format: LogFormat::Csv,
+        rig,
+        channels,
+        origin: Some(0.0),
+        setpoints,
+        warnings: Vec::new(),
+    })
+}
+
+/// The channel map of `path`: `map`, or `NAME.map.toml` beside it.
+fn read_map(path: &Path, map: Option<&Path>) -> Result<(PathBuf, ChannelMap), IngestError> {
+    let map_path = map.map_or_else(|| default_map_path(path), Path::to_path_buf);
+    let map_text = match std::fs::read_to_string(&map_path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound && map.is_none() => {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "no channel map: {} not found (give one with --map)",
+                    map_path.display()
+                ),
+            ))
+        }
+        Err(e) => return Err(IngestError::io(&map_path, e)),
+    };
+    let cmap = parse_map(&map_path, &map_text)?;
+    Ok((map_path, cmap))
+}
+
+/// Refuses a header that names a mapped column more than once.
+fn check_unique_columns(
+    path: &Path,
+    cmap: &ChannelMap,
+    names: &[String],
+) -> Result<(), IngestError> {
     let specs = std::iter::once(&cmap.time)
         .chain(cmap.channels.iter().map(|(_, s)| s))
         .chain(cmap.setpoint_hz.iter());
@@ -293,22 +352,31 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             ));
         }
     }
+    Ok(())
+}
 
+/// The data table (every column as text: we parse the numbers), with the
+/// offending line named where the table reader refuses the file.
+fn read_table(
+    path: &Path,
+    preamble: usize,
+    sep: u8,
+    fields: usize,
+) -> Result<DataFrame, IngestError> {
     let df = CsvReadOptions::default()
         .map_parse_options(|o| o.with_separator(sep))
         .with_has_header(true)
         .with_skip_lines(preamble)
-        .with_infer_schema_length(Some(0)) // every column as text: we parse numbers
+        .with_infer_schema_length(Some(0))
         .with_raise_if_empty(true)
         .try_into_reader_with_file_path(Some(path.to_path_buf()))
         .and_then(|r| r.finish())
         .map_err(|e| {
             let at = match first_non_utf8_line(path) {
                 Some(l) => format!(" (line {l} is not UTF-8 text)"),
-                None => first_ragged_line(path, preamble, sep, names.len())
-                    .map_or(String::new(), |l| {
-                        format!(" (line {l} has more fields than the header)")
-                    }),
+                None => first_ragged_line(path, preamble, sep, fields).map_or(String::new(), |l| {
+                    format!(" (line {l} has more fields than the header)")
+                }),
             };
             IngestError::invalid(path, format!("unreadable CSV table: {e}{at}"))
         })?;
@@ -318,17 +386,32 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             "no data: the CSV has no data rows",
         ));
     }
-    // File line of data row i (0-based): preamble, header, then one line per row.
-    let first_data_line = preamble + 2;
-    let column = |spec: &ColumnSpec, what: &str| -> Result<Vec<f64>, IngestError> {
-        let col = df.column(&spec.name).map_err(|_| {
+    Ok(df)
+}
+
+/// The data table of a CSV log with what its error messages name.
+struct Table<'a> {
+    path: &'a Path,
+    map_path: &'a Path,
+    df: &'a DataFrame,
+    names: &'a [String],
+    sep: u8,
+    first_data_line: usize,
+}
+
+impl Table<'_> {
+    /// One mapped column in SI (scaled; empty cells NaN), refusing cells
+    /// that are not finite numbers with their line.
+    fn column(&self, spec: &ColumnSpec, what: &str) -> Result<Vec<f64>, IngestError> {
+        let path = self.path;
+        let col = self.df.column(&spec.name).map_err(|_| {
             IngestError::invalid(
                 path,
                 format!(
                     "column {:?} (mapped to {what} by {}) is not in the CSV header ({})",
                     spec.name,
-                    map_path.display(),
-                    names
+                    self.map_path.display(),
+                    self.names
                         .iter()
                         .map(|n| format!("{n:?}"))
                         .collect::<Vec<_>>()
@@ -346,10 +429,10 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
                 out.push(f64::NAN);
                 continue;
             }
-            let line = first_data_line + i;
+            let line = self.first_data_line + i;
             let parsed = match cell.parse::<f64>() {
                 // A `;`- or tab-separated export may write decimal commas.
-                Err(_) if sep != b',' && cell.contains(',') => cell.replace(',', ".").parse(),
+                Err(_) if self.sep != b',' && cell.contains(',') => cell.replace(',', ".").parse(),
                 other => other,
             };
             let v: f64 = parsed.map_err(|_| {
@@ -375,84 +458,74 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             out.push(v * spec.scale);
         }
         Ok(out)
-    };
+    }
 
-    let time = column(&cmap.time, "time")?;
-    if let Some(i) = time.iter().position(|t| t.is_nan()) {
-        return Err(IngestError::invalid(
-            path,
-            format!(
-                "line {}, column {:?}: empty time cell",
-                first_data_line + i,
-                cmap.time.name
-            ),
-        ));
+    /// The time column: no empty cell, strictly increasing, two rows at
+    /// least.
+    fn time(&self, spec: &ColumnSpec) -> Result<Vec<f64>, IngestError> {
+        let time = self.column(spec, "time")?;
+        if let Some(i) = time.iter().position(|t| t.is_nan()) {
+            return Err(IngestError::invalid(
+                self.path,
+                format!(
+                    "line {}, column {:?}: empty time cell",
+                    self.first_data_line + i,
+                    spec.name
+                ),
+            ));
+        }
+        if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(IngestError::invalid(
+                self.path,
+                format!(
+                    "non-monotonic time: line {}, column {:?}: {} s does not follow {} s",
+                    self.first_data_line + i + 1,
+                    spec.name,
+                    time[i + 1],
+                    time[i]
+                ),
+            ));
+        }
+        if time.len() < 2 {
+            return Err(IngestError::invalid(
+                self.path,
+                "too little data: the CSV has a single data row",
+            ));
+        }
+        Ok(time)
     }
-    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(IngestError::invalid(
-            path,
-            format!(
-                "non-monotonic time: line {}, column {:?}: {} s does not follow {} s",
-                first_data_line + i + 1,
-                cmap.time.name,
-                time[i + 1],
-                time[i]
-            ),
-        ));
-    }
-    let dt_s = if time.len() >= 2 {
-        median_interval(&time).unwrap_or(f64::NAN)
-    } else {
-        return Err(IngestError::invalid(
-            path,
-            "too little data: the CSV has a single data row",
-        ));
-    };
-    let t0 = time[0] + cmap.time.shift_s;
-    let mut channels = Vec::new();
-    for (q, spec) in &cmap.channels {
-        let v = column(spec, q.name())?;
-        let t = time
-            .iter()
-            .map(|t| t + cmap.time.shift_s + spec.shift_s - t0)
-            .collect();
-        channels.push(RawChannel {
-            quantity: *q,
-            source: spec.name.clone(),
-            dt_s,
-            t,
-            v,
-        });
-    }
-    let mut setpoints = Vec::new();
-    if let Some(spec) = &cmap.setpoint_hz {
-        let v = column(spec, "setpoint_hz")?;
-        let mut last = f64::NAN;
-        for (t, f) in time.iter().zip(v) {
-            if f.is_finite() && f != last {
-                if f < 0.0 {
-                    return Err(IngestError::invalid(
-                        path,
-                        format!("column {:?}: negative setpoint frequency {f}", spec.name),
-                    ));
-                }
-                setpoints.push(Setpoint {
-                    t_s: t + cmap.time.shift_s + spec.shift_s - t0,
-                    frequency_hz: f,
-                    amplitude_m: None,
-                });
-                last = f;
+}
+
+/// The drive set points of a set-point column: one per change of its
+/// value, at the row's time shifted as the channels are (`time_shift_s`,
+/// the column's own shift, relative to the origin `t0`). Refuses negative
+/// frequencies.
+fn setpoints(
+    path: &Path,
+    spec: &ColumnSpec,
+    time: &[f64],
+    v: &[f64],
+    (time_shift_s, t0): (f64, f64),
+) -> Result<Vec<Setpoint>, IngestError> {
+    let mut out = Vec::new();
+    let mut last = f64::NAN;
+    for (t, &f) in time.iter().zip(v) {
+        if f.is_finite() && f != last {
+            if f < 0.0 {
+                return Err(IngestError::invalid(
+                    path,
+                    format!("column {:?}: negative setpoint frequency {f}", spec.name),
+                ));
             }
+            out.push(Setpoint {
+                t_s: t + time_shift_s + spec.shift_s - t0,
+                frequency_hz: f,
+                amplitude_m: None,
+            });
+            last = f;
         }
     }
-    Ok(RawLog {
-        format: LogFormat::Csv,
-        rig,
-        channels,
-        origin: Some(0.0),
-        setpoints,
-        warnings: Vec::new(),
-    })
+    Ok(out)
 }
 
 #[cfg(test)]

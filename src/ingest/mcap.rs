@@ -90,14 +90,15 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
         .with_record_length_limit(RECORD_LIMIT)
         .with_prevalidate_chunk_crcs(true);
     let mut reader = LinearReader::new_with_options(options);
-
-    let mut channels: HashMap<u16, ChannelInfo> = HashMap::new();
-    let mut rig: Option<BTreeMap<String, String>> = None;
-    let mut accs: BTreeMap<Quantity, Acc> = BTreeMap::new();
-    let mut setpoints: Vec<(u64, f64, Option<f64>)> = Vec::new();
-    let mut warnings: Vec<String> = Vec::new();
-    let mut n_messages: u64 = 0;
-
+    let mut log = Collector {
+        path,
+        channels: HashMap::new(),
+        rig: None,
+        accs: BTreeMap::new(),
+        setpoints: Vec::new(),
+        warnings: Vec::new(),
+        n_messages: 0,
+    };
     while let Some(event) = reader.next_event() {
         match event.map_err(|e| mcap_error(path, e))? {
             LinearReadEvent::ReadRequest(need) => {
@@ -112,172 +113,212 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
                 reader.notify_read(n);
             }
             LinearReadEvent::Record { opcode, data } => {
-                let record = mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))?;
-                match record {
-                    Record::Channel(ch) => {
-                        let info = channel_info(path, &ch, &mut warnings)?;
-                        if let Some(old) = channels.get(&ch.id) {
-                            if old.topic != info.topic {
-                                return Err(IngestError::invalid(
-                                    path,
-                                    format!(
-                                        "corrupt MCAP: channel id {} is both {} and {}",
-                                        ch.id, old.topic, info.topic
-                                    ),
-                                ));
-                            }
-                            continue; // the summary section repeats channels
-                        }
-                        if let Role::Sensor(q) = info.role {
-                            if let Some(other) = channels
-                                .values()
-                                .find(|c| matches!(c.role, Role::Sensor(p) if p == q))
-                            {
-                                return Err(IngestError::invalid(
-                                    path,
-                                    format!(
-                                        "two channels carry {} ({} and {})",
-                                        q.name(),
-                                        other.topic,
-                                        info.topic
-                                    ),
-                                ));
-                            }
-                            accs.insert(
-                                q,
-                                Acc {
-                                    topic: info.topic.clone(),
-                                    rate_hz: info.rate_hz,
-                                    ..Acc::default()
-                                },
-                            );
-                        }
-                        channels.insert(ch.id, info);
-                    }
+                match mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))? {
+                    Record::Channel(ch) => log.channel(&ch)?,
                     Record::Metadata(m) if m.name == "rig" => {
-                        if rig.is_some() {
+                        if log.rig.is_some() {
                             return Err(IngestError::invalid(
                                 path,
                                 "more than one `rig` metadata record",
                             ));
                         }
-                        rig = Some(m.metadata);
+                        log.rig = Some(m.metadata);
                     }
-                    Record::Message { header, data } => {
-                        n_messages += 1;
-                        let Some(info) = channels.get(&header.channel_id) else {
-                            return Err(IngestError::invalid(
-                                path,
-                                format!(
-                                    "corrupt MCAP: message at log time {} ns refers to unknown channel id {}",
-                                    header.log_time, header.channel_id
-                                ),
-                            ));
-                        };
-                        let where_ = || {
-                            format!(
-                                "message on {} at log time {} ns",
-                                info.topic, header.log_time
-                            )
-                        };
-                        match info.role {
-                            Role::Ignored => {}
-                            Role::Setpoint => {
-                                let m: SetpointMsg = decode(path, &data, &where_)?;
-                                if !(m.frequency_hz.is_finite() && m.frequency_hz >= 0.0) {
-                                    return Err(IngestError::invalid(
-                                        path,
-                                        format!(
-                                            "{}: frequency_hz {} is not a valid frequency",
-                                            where_(),
-                                            m.frequency_hz
-                                        ),
-                                    ));
-                                }
-                                if let Some(a) = m.amplitude_m {
-                                    if !a.is_finite() || a < 0.0 {
-                                        return Err(IngestError::invalid(
-                                            path,
-                                            format!(
-                                                "{}: amplitude_m {a} is not a valid amplitude",
-                                                where_()
-                                            ),
-                                        ));
-                                    }
-                                }
-                                setpoints.push((m.t_ns, m.frequency_hz, m.amplitude_m));
-                            }
-                            Role::Sensor(q) => {
-                                let m: BufferMsg = decode(path, &data, &where_)?;
-                                let scale = info.scale;
-                                let acc = accs.entry(q).or_default();
-                                push_buffer(path, acc, m, scale, &where_)?;
-                            }
-                        }
-                    }
+                    Record::Message { header, data } => log.message(&header, &data)?,
                     _ => {}
                 }
             }
         }
     }
+    log.finish()
+}
 
-    let Some(rig_map) = rig else {
-        return Err(IngestError::invalid(
-            path,
-            "no `rig` metadata record: the log does not describe its rig",
-        ));
-    };
-    let rig = RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))?;
-    if n_messages == 0 {
-        return Err(IngestError::invalid(
-            path,
-            "no data: the log holds zero messages",
-        ));
-    }
-    let origin = accs
-        .values()
-        .filter_map(|a| a.buffers.first().map(|b| b.0))
-        .min()
-        .ok_or_else(|| IngestError::invalid(path, "no data: the log holds no sensor samples"))?;
+/// What the records of an MCAP log delivered so far.
+struct Collector<'a> {
+    path: &'a Path,
+    channels: HashMap<u16, ChannelInfo>,
+    rig: Option<BTreeMap<String, String>>,
+    accs: BTreeMap<Quantity, Acc>,
+    setpoints: Vec<(u64, f64, Option<f64>)>,
+    warnings: Vec<String>,
+    n_messages: u64,
+}
 
-    let mut raw_channels = Vec::new();
-    for (q, acc) in accs {
-        if acc.values.is_empty() {
-            if q.required() {
+impl Collector<'_> {
+    /// A channel record: classified; one channel per sensor quantity (the
+    /// summary section may repeat a record, never change it).
+    fn channel(&mut self, ch: &mcap::records::Channel) -> Result<(), IngestError> {
+        let path = self.path;
+        let info = channel_info(path, ch, &mut self.warnings)?;
+        if let Some(old) = self.channels.get(&ch.id) {
+            if old.topic != info.topic {
                 return Err(IngestError::invalid(
                     path,
                     format!(
-                        "no data: channel {} ({}) has no messages",
-                        acc.topic,
-                        q.name()
+                        "corrupt MCAP: channel id {} is both {} and {}",
+                        ch.id, old.topic, info.topic
                     ),
                 ));
             }
-            warnings.push(format!(
-                "channel {} ({}) has no messages",
-                acc.topic,
-                q.name()
-            ));
-            continue;
+            return Ok(()); // the summary section repeats channels
         }
-        raw_channels.push(expand(q, acc, origin, &mut warnings));
+        if let Role::Sensor(q) = info.role {
+            if let Some(other) = self
+                .channels
+                .values()
+                .find(|c| matches!(c.role, Role::Sensor(p) if p == q))
+            {
+                return Err(IngestError::invalid(
+                    path,
+                    format!(
+                        "two channels carry {} ({} and {})",
+                        q.name(),
+                        other.topic,
+                        info.topic
+                    ),
+                ));
+            }
+            self.accs.insert(
+                q,
+                Acc {
+                    topic: info.topic.clone(),
+                    rate_hz: info.rate_hz,
+                    ..Acc::default()
+                },
+            );
+        }
+        self.channels.insert(ch.id, info);
+        Ok(())
     }
-    let setpoints = setpoints
-        .into_iter()
-        .map(|(t_ns, frequency_hz, amplitude_m)| Setpoint {
-            t_s: ns_diff_s(t_ns, origin),
-            frequency_hz,
-            amplitude_m,
+
+    /// A message: a set point or a sensor buffer, checked and collected.
+    fn message(
+        &mut self,
+        header: &mcap::records::MessageHeader,
+        data: &[u8],
+    ) -> Result<(), IngestError> {
+        let path = self.path;
+        self.n_messages += 1;
+        let Some(info) = self.channels.get(&header.channel_id) else {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "corrupt MCAP: message at log time {} ns refers to unknown channel id {}",
+                    header.log_time, header.channel_id
+                ),
+            ));
+        };
+        let where_ = || {
+            format!(
+                "message on {} at log time {} ns",
+                info.topic, header.log_time
+            )
+        };
+        match info.role {
+            Role::Ignored => {}
+            Role::Setpoint => {
+                let m: SetpointMsg = decode(path, data, &where_)?;
+                if !(m.frequency_hz.is_finite() && m.frequency_hz >= 0.0) {
+                    return Err(IngestError::invalid(
+                        path,
+                        format!(
+                            "{}: frequency_hz {} is not a valid frequency",
+                            where_(),
+                            m.frequency_hz
+                        ),
+                    ));
+                }
+                if let Some(a) = m.amplitude_m {
+                    if !a.is_finite() || a < 0.0 {
+                        return Err(IngestError::invalid(
+                            path,
+                            format!("{}: amplitude_m {a} is not a valid amplitude", where_()),
+                        ));
+                    }
+                }
+                self.setpoints.push((m.t_ns, m.frequency_hz, m.amplitude_m));
+            }
+            Role::Sensor(q) => {
+                let m: BufferMsg = decode(path, data, &where_)?;
+                let scale = info.scale;
+                let acc = self.accs.entry(q).or_default();
+                push_buffer(path, acc, m, scale, &where_)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The raw log: rig metadata and data present, channels expanded on
+    /// the log's origin (its first sensor sample).
+    fn finish(self) -> Result<RawLog, IngestError> {
+        let Collector {
+            path,
+            rig,
+            accs,
+            setpoints,
+            mut warnings,
+            n_messages,
+            ..
+        } = self;
+        let Some(rig_map) = rig else {
+            return Err(IngestError::invalid(
+                path,
+                "no `rig` metadata record: the log does not describe its rig",
+            ));
+        };
+        let rig = RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))?;
+        if n_messages == 0 {
+            return Err(IngestError::invalid(
+                path,
+                "no data: the log holds zero messages",
+            ));
+        }
+        let origin = accs
+            .values()
+            .filter_map(|a| a.buffers.first().map(|b| b.0))
+            .min()
+            .ok_or_else(|| {
+                IngestError::invalid(path, "no data: the log holds no sensor samples")
+            })?;
+        let mut raw_channels = Vec::new();
+        for (q, acc) in accs {
+            if acc.values.is_empty() {
+                if q.required() {
+                    return Err(IngestError::invalid(
+                        path,
+                        format!(
+                            "no data: channel {} ({}) has no messages",
+                            acc.topic,
+                            q.name()
+                        ),
+                    ));
+                }
+                warnings.push(format!(
+                    "channel {} ({}) has no messages",
+                    acc.topic,
+                    q.name()
+                ));
+                continue;
+            }
+            raw_channels.push(expand(q, acc, origin, &mut warnings));
+        }
+        let setpoints = setpoints
+            .into_iter()
+            .map(|(t_ns, frequency_hz, amplitude_m)| Setpoint {
+                t_s: ns_diff_s(t_ns, origin),
+                frequency_hz,
+                amplitude_m,
+            })
+            .collect();
+        Ok(RawLog {
+            format: LogFormat::Mcap,
+            rig,
+            channels: raw_channels,
+            origin: None,
+            setpoints,
+            warnings,
         })
-        .collect();
-    Ok(RawLog {
-        format: LogFormat::Mcap,
-        rig,
-        channels: raw_channels,
-        origin: None,
-        setpoints,
-        warnings,
-    })
+    }
 }
 
 /// Classifies a channel record and reads its metadata.

@@ -34,18 +34,7 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
 }
 
 fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
-    let mut magic = [0u8; 4];
-    {
-        use std::io::Read;
-        let mut f = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
-        let n = f.read(&mut magic).map_err(|e| IngestError::io(path, e))?;
-        if n < 4 || &magic != b"PAR1" {
-            return Err(IngestError::invalid(
-                path,
-                "not a Parquet file (bad magic bytes)",
-            ));
-        }
-    }
+    check_magic(path)?;
     let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
     let mut reader = ParquetReader::new(file);
     let meta = reader.get_metadata().map_err(|e| {
@@ -106,63 +95,12 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         .with_columns(Some(wanted))
         .finish()
         .map_err(|e| pq_err(path, "unreadable Parquet data", e))?;
-    let column = |name: &str| -> Result<Option<Vec<f64>>, IngestError> {
-        let Ok(col) = df.column(name) else {
-            return Ok(None);
-        };
-        if !col.dtype().is_primitive_numeric() {
-            return Err(IngestError::invalid(
-                path,
-                format!("column `{name}` holds {} values, not numbers", col.dtype()),
-            ));
-        }
-        let cast = col
-            .cast(&DataType::Float64)
-            .map_err(|e| pq_err(path, &format!("column `{name}`"), e))?;
-        let ca = cast
-            .f64()
-            .map_err(|e| pq_err(path, &format!("column `{name}`"), e))?;
-        let mut out = Vec::with_capacity(ca.len());
-        for (i, v) in ca.iter().enumerate() {
-            match v {
-                None => out.push(f64::NAN),
-                Some(x) if x.is_infinite() => {
-                    return Err(IngestError::invalid(
-                        path,
-                        format!("column `{name}`, row {i}: infinite value"),
-                    ))
-                }
-                Some(x) => out.push(x), // NaN is read as a dropout, like null
-            }
-        }
-        Ok(Some(out))
-    };
-    let time = column("t")?.unwrap_or_default();
-    if df.height() == 0 {
-        return Err(IngestError::invalid(path, "no data: the table has no rows"));
-    }
-    if let Some(i) = time.iter().position(|t| !t.is_finite()) {
-        return Err(IngestError::invalid(
-            path,
-            format!("column `t`, row {i}: no time"),
-        ));
-    }
-    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
-        return Err(IngestError::invalid(
-            path,
-            format!(
-                "non-monotonic time: column `t`, row {}: {} s does not follow {} s",
-                i + 1,
-                time[i + 1],
-                time[i]
-            ),
-        ));
-    }
+    let time = time_column(path, &df)?;
     let dt_s = median_interval(&time)
         .ok_or_else(|| IngestError::invalid(path, "too little data: the table has a single row"))?;
     let mut channels = Vec::new();
     for q in Quantity::ALL {
-        if let Some(v) = column(q.name())? {
+        if let Some(v) = column(path, &df, q.name())? {
             channels.push(RawChannel {
                 quantity: q,
                 source: q.name().to_string(),
@@ -173,7 +111,7 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         }
     }
     let mut setpoints = Vec::new();
-    if let Some(v) = column("setpoint_hz")? {
+    if let Some(v) = column(path, &df, "setpoint_hz")? {
         let mut last = f64::NAN;
         for (t, f) in time.iter().zip(v) {
             if f.is_finite() && f != last {
@@ -194,4 +132,79 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         setpoints,
         warnings: Vec::new(),
     })
+}
+
+/// Refuses a file that does not start with Parquet's magic bytes.
+fn check_magic(path: &Path) -> Result<(), IngestError> {
+    use std::io::Read;
+    let mut magic = [0u8; 4];
+    let mut f = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let n = f.read(&mut magic).map_err(|e| IngestError::io(path, e))?;
+    if n < 4 || &magic != b"PAR1" {
+        return Err(IngestError::invalid(
+            path,
+            "not a Parquet file (bad magic bytes)",
+        ));
+    }
+    Ok(())
+}
+
+/// A numeric column as floats (null and NaN: dropouts), `None` where the
+/// table has no such column; refuses text columns and infinite values.
+fn column(path: &Path, df: &DataFrame, name: &str) -> Result<Option<Vec<f64>>, IngestError> {
+    let Ok(col) = df.column(name) else {
+        return Ok(None);
+    };
+    if !col.dtype().is_primitive_numeric() {
+        return Err(IngestError::invalid(
+            path,
+            format!("column `{name}` holds {} values, not numbers", col.dtype()),
+        ));
+    }
+    let cast = col
+        .cast(&DataType::Float64)
+        .map_err(|e| pq_err(path, &format!("column `{name}`"), e))?;
+    let ca = cast
+        .f64()
+        .map_err(|e| pq_err(path, &format!("column `{name}`"), e))?;
+    let mut out = Vec::with_capacity(ca.len());
+    for (i, v) in ca.iter().enumerate() {
+        match v {
+            None => out.push(f64::NAN),
+            Some(x) if x.is_infinite() => {
+                return Err(IngestError::invalid(
+                    path,
+                    format!("column `{name}`, row {i}: infinite value"),
+                ))
+            }
+            Some(x) => out.push(x), // NaN is read as a dropout, like null
+        }
+    }
+    Ok(Some(out))
+}
+
+/// The time column `t`: rows present, every time finite and increasing.
+fn time_column(path: &Path, df: &DataFrame) -> Result<Vec<f64>, IngestError> {
+    let time = column(path, df, "t")?.unwrap_or_default();
+    if df.height() == 0 {
+        return Err(IngestError::invalid(path, "no data: the table has no rows"));
+    }
+    if let Some(i) = time.iter().position(|t| !t.is_finite()) {
+        return Err(IngestError::invalid(
+            path,
+            format!("column `t`, row {i}: no time"),
+        ));
+    }
+    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "non-monotonic time: column `t`, row {}: {} s does not follow {} s",
+                i + 1,
+                time[i + 1],
+                time[i]
+            ),
+        ));
+    }
+    Ok(time)
 }

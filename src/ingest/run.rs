@@ -215,11 +215,77 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     let RawLog {
         format,
         rig,
-        mut channels,
+        channels,
         origin,
         mut setpoints,
         mut warnings,
     } = raw;
+    let channels = check_channels(path, channels, &mut warnings)?;
+    note_missing(path, format, &channels, &mut warnings)?;
+    // Log start and end over all channels.
+    let origin = origin.unwrap_or_else(|| {
+        channels
+            .iter()
+            .filter_map(|c| c.t.first().copied())
+            .fold(f64::INFINITY, f64::min)
+    });
+    let log_end = channels
+        .iter()
+        .filter_map(|c| c.t.last().copied())
+        .fold(f64::NEG_INFINITY, f64::max)
+        - origin;
+    let mut out_channels = Vec::with_capacity(channels.len());
+    let mut gaps = Vec::new();
+    for c in channels {
+        let t: Vec<f64> = c.t.iter().map(|t| t - origin).collect();
+        let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
+        find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
+        out_channels.push(Channel {
+            quantity: c.quantity,
+            source: c.source,
+            rate_hz: 1.0 / c.dt_s,
+            t,
+            v: c.v,
+            dropouts,
+        });
+    }
+    for s in &mut setpoints {
+        s.t_s -= origin;
+    }
+    setpoints.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    let resampled = resample(path, &out_channels, &setpoints)?;
+    let has_acceleration = resampled.a2.is_some();
+    for c in &out_channels {
+        let bad = c.dropouts;
+        if bad * 20 > c.v.len() {
+            warnings.push(format!(
+                "channel {} is null in {bad} of {} samples",
+                c.name(),
+                c.v.len()
+            ));
+        }
+    }
+    Ok(Run {
+        source: path.to_path_buf(),
+        format,
+        rig,
+        channels: out_channels,
+        has_acceleration,
+        setpoints,
+        resampled,
+        gaps,
+        warnings,
+    })
+}
+
+/// The channels sorted by quantity, each checked: one channel per
+/// quantity, data present, time finite and increasing, a sane rate. An
+/// optional channel without a valid sample is dropped (with a warning).
+fn check_channels(
+    path: &Path,
+    mut channels: Vec<RawChannel>,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<RawChannel>, IngestError> {
     channels.sort_by_key(|c| c.quantity);
     for w in channels.windows(2) {
         if w[0].quantity == w[1].quantity {
@@ -234,7 +300,6 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
             ));
         }
     }
-    // Per-channel checks: data present, time finite and increasing, sane rate.
     let mut kept = Vec::with_capacity(channels.len());
     for c in channels {
         let label = channel_label(&c);
@@ -288,7 +353,17 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         }
         kept.push(c);
     }
-    let channels = kept;
+    Ok(kept)
+}
+
+/// Refuses a log without a required channel; warns of each optional one
+/// that is absent.
+fn note_missing(
+    path: &Path,
+    format: LogFormat,
+    channels: &[RawChannel],
+    warnings: &mut Vec<String>,
+) -> Result<(), IngestError> {
     for q in Quantity::ALL {
         if channels.iter().any(|c| c.quantity == q) {
             continue;
@@ -318,42 +393,18 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
             _ => warnings.push(format!("no {} channel", q.name())),
         }
     }
+    Ok(())
+}
 
-    // Log start and end over all channels.
-    let origin = origin.unwrap_or_else(|| {
-        channels
-            .iter()
-            .filter_map(|c| c.t.first().copied())
-            .fold(f64::INFINITY, f64::min)
-    });
-    let log_end = channels
-        .iter()
-        .filter_map(|c| c.t.last().copied())
-        .fold(f64::NEG_INFINITY, f64::max)
-        - origin;
-
-    let mut out_channels = Vec::with_capacity(channels.len());
-    let mut gaps = Vec::new();
-    for c in channels {
-        let t: Vec<f64> = c.t.iter().map(|t| t - origin).collect();
-        let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
-        find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
-        out_channels.push(Channel {
-            quantity: c.quantity,
-            source: c.source,
-            rate_hz: 1.0 / c.dt_s,
-            t,
-            v: c.v,
-            dropouts,
-        });
-    }
-    for s in &mut setpoints {
-        s.t_s -= origin;
-    }
-    setpoints.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
-
-    // The grid: rate of the fastest position channel, up to the last position sample.
-    let positions = || out_channels.iter().filter(|c| c.quantity.is_position());
+/// The channels on one common grid: the rate of the fastest position
+/// channel, up to the last position sample. Refuses time stamps that would
+/// inflate the grid far beyond the samples held.
+fn resample(
+    path: &Path,
+    channels: &[Channel],
+    setpoints: &[Setpoint],
+) -> Result<Resampled, IngestError> {
+    let positions = || channels.iter().filter(|c| c.quantity.is_position());
     let rate_hz = positions().map(|c| c.rate_hz).fold(0.0, f64::max);
     let pos_end = positions()
         .filter_map(|c| c.t.last().copied())
@@ -371,7 +422,7 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     let rows = rows_f as usize;
     let grid: Vec<f64> = (0..rows).map(|i| i as f64 / rate_hz).collect();
     let resample = |q: Quantity| -> Option<Vec<f64>> {
-        out_channels
+        channels
             .iter()
             .find(|c| c.quantity == q)
             .map(|c| interpolate(&c.t, &c.v, 1.0 / c.rate_hz, &grid))
@@ -380,9 +431,9 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     let setpoint_hz = if setpoints.is_empty() {
         None
     } else {
-        Some(step_function(&setpoints, &grid))
+        Some(step_function(setpoints, &grid))
     };
-    let resampled = Resampled {
+    Ok(Resampled {
         rate_hz,
         x0: col(Quantity::X0),
         x1: col(Quantity::X1),
@@ -392,28 +443,6 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         normal_force: resample(Quantity::NormalForce),
         setpoint_hz,
         t: grid,
-    };
-    let has_acceleration = resampled.a2.is_some();
-    for c in &out_channels {
-        let bad = c.dropouts;
-        if bad * 20 > c.v.len() {
-            warnings.push(format!(
-                "channel {} is null in {bad} of {} samples",
-                c.name(),
-                c.v.len()
-            ));
-        }
-    }
-    Ok(Run {
-        source: path.to_path_buf(),
-        format,
-        rig,
-        channels: out_channels,
-        has_acceleration,
-        setpoints,
-        resampled,
-        gaps,
-        warnings,
     })
 }
 
