@@ -64,6 +64,13 @@ pub enum Error {
         /// What is wrong with it.
         msg: String,
     },
+    /// A job that computed but failed in part (the parts are reported
+    /// above this line): it writes no output file.
+    #[error("{what}; no output written")]
+    Failed {
+        /// What failed, e.g. "2 of 5 logs could not be fitted (a.mcap, b.mcap)".
+        what: String,
+    },
 }
 
 /// Result with the crate's [`Error`].

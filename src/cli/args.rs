@@ -108,3 +108,30 @@ impl ModelArgs {
         self.shape.model(self.rho_s, self.rho_d)
     }
 }
+
+/// A count in `lo..=hi` for a flag, with the limit and its reason named.
+fn count_in(s: &str, lo: usize, hi: usize, why: &str) -> Result<usize, String> {
+    let n: usize = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a whole number"))?;
+    if n < lo || n > hi {
+        return Err(format!("{n} is outside {lo}..={hi} ({why})"));
+    }
+    Ok(n)
+}
+
+/// `--samples` of validate/run: laws drawn for the prediction bands.
+pub fn band_samples(s: &str) -> Result<usize, String> {
+    count_in(s, 0, 2000, "each draw is a whole predicted sweep")
+}
+
+/// `--bootstrap`: replicates over drive periods.
+pub fn bootstrap_replicates(s: &str) -> Result<usize, String> {
+    count_in(s, 0, 100_000, "beyond that the interval no longer improves")
+}
+
+/// `--points` of a sweep.
+pub fn sweep_points(s: &str) -> Result<usize, String> {
+    count_in(s, 1, 100_000, "each point is a steady state per curve")
+}

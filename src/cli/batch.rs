@@ -13,6 +13,7 @@
 use crate::batch::{self as vb, Batch, BatchOptions};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::RigMeta;
+use crate::io::Output;
 use crate::report::{batch_plot, batch_view, html, views};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -39,8 +40,8 @@ pub struct BatchArgs {
     /// Relative gain uncertainty of the normal-force sensor (common to the batch).
     #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub normal_force_gain_uncertainty: f64,
-    /// Bootstrap replicates over drive periods (per log).
-    #[arg(long, default_value_t = 400)]
+    /// Bootstrap replicates over drive periods (per log; 0 to 100000).
+    #[arg(long, default_value_t = 400, value_parser = super::args::bootstrap_replicates)]
     pub bootstrap: usize,
     /// Tolerance of a normal-force setting (±, relative).
     #[arg(long, default_value_t = 0.05)]
@@ -166,7 +167,14 @@ fn write_report(
 
 /// Runs `batch`; `Ok(false)` when a log or the batch failed (error lines printed).
 pub fn run(args: BatchArgs) -> crate::Result<bool> {
-    crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
+    let mut outputs = Vec::new();
+    if let Some(p) = &args.out {
+        outputs.push(Output::file("--out", p, super::ext::JSON));
+    }
+    if let Some(p) = &args.report {
+        outputs.push(Output::dir("--report", p));
+    }
+    super::check_paths(args.logs.iter().map(PathBuf::as_path), &outputs)?;
     let t0 = Instant::now();
     let bopts = options(&args)?;
     let iopts = IdentifyOptions {
@@ -189,11 +197,22 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
         ProgressBar::hidden()
     };
     bar.set_message("fitting logs");
-    let fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = args
-        .logs
+    // Read every log first: a log that cannot be read or is not a
+    // characteristic test stops the batch before any fitting.
+    bar.set_message("reading logs");
+    let runs = match crate::pipeline::checks::read_characteristic_logs(&args.logs) {
+        Ok(r) => r,
+        Err(e) => {
+            bar.finish_and_clear();
+            return Err(e);
+        }
+    };
+    bar.set_message("fitting logs");
+    let run_refs: Vec<&crate::ingest::Run> = runs.iter().collect();
+    let fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = runs
         .iter()
-        .cloned()
-        .zip(identify::fit_logs(&args.logs, &iopts, &|| bar.inc(1)))
+        .zip(identify::fit_runs(&run_refs, &iopts, &|| bar.inc(1)))
+        .map(|(run, f)| (run.source.clone(), f.map(|f| (run.rig.clone(), f))))
         .collect();
     let mut errors = Vec::new();
     let mut good: Vec<(PathBuf, LogFit)> = Vec::new();
@@ -292,6 +311,29 @@ pub fn run(args: BatchArgs) -> crate::Result<bool> {
             }
             out.insert("error".into(), json!(e.to_string()));
         }
+    }
+    if failed {
+        // A failed command writes no file: print what there is, then fail.
+        if args.json {
+            out.insert("seconds".into(), json!(t0.elapsed().as_secs_f64()));
+            super::print_json(&Value::Object(out));
+        }
+        let failed_logs: Vec<String> = fits
+            .iter()
+            .filter(|(_, r)| r.is_err())
+            .map(|(p, _)| p.display().to_string())
+            .collect();
+        let what = if failed_logs.is_empty() {
+            "the batch comparison failed".to_string()
+        } else {
+            format!(
+                "{} of {} logs could not be fitted ({})",
+                failed_logs.len(),
+                fits.len(),
+                failed_logs.join(", ")
+            )
+        };
+        return Err(crate::Error::Failed { what });
     }
     if let Some(dir) = &args.report {
         let index = write_report(dir, &args, &fits, result.as_ref().ok(), &errors)?;

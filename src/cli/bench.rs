@@ -12,9 +12,10 @@ pub struct BenchArgs {
     /// Fewer scenarios and settings (finishes in well under 30 s).
     #[arg(long)]
     pub quick: bool,
-    /// Work-precision figure of the full run.
-    #[arg(long, default_value = "reports/bench.svg")]
-    pub plot: PathBuf,
+    /// Work-precision figure of the full run (.svg; default
+    /// reports/bench.svg). `--quick` draws none.
+    #[arg(long, conflicts_with = "quick")]
+    pub plot: Option<PathBuf>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -22,9 +23,20 @@ pub struct BenchArgs {
 
 /// Runs `bench`.
 pub fn run(args: BenchArgs) -> crate::Result<()> {
+    let plot = (!args.quick).then(|| {
+        args.plot
+            .clone()
+            .unwrap_or_else(|| PathBuf::from("reports/bench.svg"))
+    });
+    if let Some(p) = &plot {
+        // The default's directory is made for it; a given path's must exist.
+        if args.plot.is_some() {
+            super::check_paths([], &[crate::io::Output::file("--plot", p, super::ext::SVG)])?;
+        }
+    }
     let rows = workprec::study(args.quick);
-    if !args.quick {
-        if let Some(dir) = args.plot.parent() {
+    if let Some(plot) = &plot {
+        if let Some(dir) = plot.parent() {
             if !dir.as_os_str().is_empty() && !dir.exists() {
                 std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io {
                     path: dir.to_path_buf(),
@@ -32,7 +44,7 @@ pub fn run(args: BenchArgs) -> crate::Result<()> {
                 })?;
             }
         }
-        crate::report::plot::work_precision(&rows, &args.plot)?;
+        crate::report::plot::work_precision(&rows, plot)?;
     }
     if args.json {
         let r: Vec<serde_json::Value> = rows

@@ -4,6 +4,7 @@
 use crate::identify::{self, Gains};
 use crate::ingest::{self, IngestOptions};
 use crate::io::AtomicFile;
+use crate::io::Output;
 use clap::Args;
 use std::io::Write;
 use std::path::PathBuf;
@@ -27,25 +28,14 @@ pub struct CharacteristicArgs {
 
 /// Runs `characteristic`.
 pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
-    if let Some(p) = &args.plot {
-        let ext = p
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if ext.as_deref() != Some("svg") {
-            return Err(crate::Error::Input {
-                path: p.clone(),
-                msg: "--plot writes SVG only (no PNG backend in this build): give a .svg file"
-                    .into(),
-            });
-        }
+    let mut outputs = Vec::new();
+    if let Some(p) = &args.out {
+        outputs.push(Output::file("--out", p, super::ext::CSV));
     }
-    crate::io::ensure_not_inputs(
-        [args.log.as_path()],
-        args.out
-            .iter()
-            .chain(args.plot.iter())
-            .map(PathBuf::as_path),
-    )?;
+    if let Some(p) = &args.plot {
+        outputs.push(Output::file("--plot", p, super::ext::SVG));
+    }
+    super::check_paths([args.log.as_path()], &outputs)?;
     let run = ingest::read(&args.log, &IngestOptions::default())?;
     let ch = identify::characteristic(&run, &Gains::default())?;
     let c = &ch.contact;

@@ -3,6 +3,7 @@
 //! the others complete, and the exit status is 1 at the end.
 
 use crate::identify::{self, IdentifyOptions, LogFit};
+use crate::io::Output;
 use crate::model::LawKind;
 use clap::{Args, ValueEnum};
 use serde_json::json;
@@ -45,8 +46,8 @@ pub struct FitArgs {
     /// Relative gain uncertainty of each sensor in the calibration budget.
     #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub gain_uncertainty: f64,
-    /// Bootstrap replicates over drive periods.
-    #[arg(long, default_value_t = 400)]
+    /// Bootstrap replicates over drive periods (0 to 100000).
+    #[arg(long, default_value_t = 400, value_parser = super::args::bootstrap_replicates)]
     pub bootstrap: usize,
     /// Which estimate is reported as the law (and used downstream).
     #[arg(long, value_enum, default_value_t = EstimateChoice::OutputError)]
@@ -58,7 +59,21 @@ pub struct FitArgs {
 
 /// Runs `fit`; `Ok(false)` when some log failed (its error line is printed).
 pub fn run(args: FitArgs) -> crate::Result<bool> {
-    crate::io::ensure_not_inputs(args.logs.iter().map(PathBuf::as_path), args.out.as_deref())?;
+    // A missing or unreadable log is a per-log `error` entry (the
+    // contract); a FIFO or device would hang the read, so it is refused
+    // up front.
+    crate::io::check_inputs(
+        args.logs
+            .iter()
+            .map(PathBuf::as_path)
+            .filter(|p| std::fs::metadata(p).is_ok_and(|m| !m.is_file())),
+    )?;
+    let outputs: Vec<Output> = args
+        .out
+        .iter()
+        .map(|p| Output::file("--out", p, super::ext::JSON))
+        .collect();
+    crate::io::check_outputs(args.logs.iter().map(PathBuf::as_path), &outputs)?;
     let opts = IdentifyOptions {
         fit: identify::FitOptions {
             law: args.law.0,

@@ -2,6 +2,7 @@
 //! canonical run as Parquet.
 
 use crate::ingest::{self, IngestOptions};
+use crate::io::Output;
 use clap::Args;
 use std::path::PathBuf;
 
@@ -23,20 +24,14 @@ pub struct IngestArgs {
 
 /// Runs `ingest`.
 pub fn run(args: IngestArgs) -> crate::Result<()> {
-    if let Some(out) = &args.out {
-        let ext = out
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        if ext.as_deref() != Some("parquet") {
-            return Err(crate::Error::Input {
-                path: out.clone(),
-                msg: "--out writes Parquet only: give a .parquet file".into(),
-            });
-        }
-    }
-    crate::io::ensure_not_inputs(
+    let outputs: Vec<Output> = args
+        .out
+        .iter()
+        .map(|p| Output::file("--out", p, super::ext::PARQUET))
+        .collect();
+    super::check_paths(
         [args.log.as_path()].into_iter().chain(args.map.as_deref()),
-        args.out.as_deref(),
+        &outputs,
     )?;
     let opts = IngestOptions {
         map: args.map.clone(),

@@ -75,6 +75,7 @@ pub fn main() -> ExitCode {
             };
         }
     };
+    install_signal_cleanup();
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Ingest(a) => ingest::run(a),
@@ -103,10 +104,54 @@ pub fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // One line, whatever the source's message holds (polars puts
+            // hints on lines of their own).
+            let msg = e.to_string();
+            let one: Vec<&str> = msg
+                .lines()
+                .map(str::trim)
+                .filter(|l| !l.is_empty())
+                .collect();
+            eprintln!("error: {}", one.join(" "));
             ExitCode::from(1)
         }
     }
+}
+
+/// On SIGINT or SIGTERM: remove the temporary files being written (an
+/// interrupted job leaves no partial output), say so, exit 130.
+fn install_signal_cleanup() {
+    let _ = ctrlc::set_handler(|| {
+        crate::io::remove_live_temps();
+        eprintln!("error: interrupted; the outputs being written were removed");
+        std::process::exit(130);
+    });
+}
+
+/// The checks before any work: every input a readable regular file, every
+/// output a fitting new name or regular file (see [`crate::io::paths`]).
+pub(crate) fn check_paths<'a>(
+    inputs: impl IntoIterator<Item = &'a std::path::Path> + Clone,
+    outputs: &[crate::io::Output],
+) -> crate::Result<()> {
+    crate::io::check_inputs(inputs.clone())?;
+    crate::io::check_outputs(inputs, outputs)
+}
+
+/// Extensions of the formats the commands write.
+pub(crate) mod ext {
+    /// JSON results (`--out`).
+    pub const JSON: &[&str] = &["json"];
+    /// Tables (`sweep`, `merge`).
+    pub const TABLE: &[&str] = &["parquet", "csv"];
+    /// CSV tables.
+    pub const CSV: &[&str] = &["csv"];
+    /// Parquet tables.
+    pub const PARQUET: &[&str] = &["parquet"];
+    /// SVG figures.
+    pub const SVG: &[&str] = &["svg"];
+    /// Figures that may also be PNG.
+    pub const FIGURE: &[&str] = &["svg", "png"];
 }
 
 /// Writes a JSON result to `path` (pretty, atomically: `--out`).

@@ -4,6 +4,7 @@
 //! progress and prints. A log that fails gives its `error:` line and the
 //! rest completes (exit 1 at the end).
 
+use crate::io::Output;
 use crate::pipeline::{self, Plan, Progress};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -23,8 +24,9 @@ pub struct RunArgs {
     /// Write the JSON result to this file (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Laws drawn from each fit's uncertainty for the prediction bands.
-    #[arg(long, default_value_t = 40)]
+    /// Laws drawn from each fit's uncertainty for the prediction bands (0
+    /// to 2000).
+    #[arg(long, default_value_t = 40, value_parser = super::args::band_samples)]
     pub samples: usize,
     /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
@@ -51,11 +53,18 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     let t0 = Instant::now();
     let plan = Plan::read(&args.plan)?;
     let logs = plan.logs();
-    crate::io::ensure_not_inputs(
+    let mut outputs = Vec::new();
+    if let Some(p) = &args.out {
+        outputs.push(Output::file("--out", p, super::ext::JSON));
+    }
+    if let Some(p) = &args.report {
+        outputs.push(Output::dir("--report", p));
+    }
+    super::check_paths(
         logs.iter()
             .map(PathBuf::as_path)
             .chain([args.plan.as_path()]),
-        args.out.as_deref(),
+        &outputs,
     )?;
     let bar = if !args.json && std::io::stderr().is_terminal() {
         let b = ProgressBar::new(plan.steps());
@@ -78,6 +87,19 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
         eprintln!("error: {e}");
     }
     let mut out = report.to_json(&plan, &args.plan);
+    if !report.errors.is_empty() {
+        // A failed command writes no file: print what there is, then fail.
+        out["seconds"] = json!(t0.elapsed().as_secs_f64());
+        if args.json {
+            super::print_json(&out);
+        }
+        return Err(crate::Error::Failed {
+            what: format!(
+                "{} step(s) of the plan failed (listed above)",
+                report.errors.len()
+            ),
+        });
+    }
     if let Some(dir) = &args.report {
         let command = std::env::args().collect::<Vec<_>>().join(" ");
         let index = report.write_report(&plan, &args.plan, dir, &command)?;

@@ -4,6 +4,7 @@
 
 use super::ModelArgs;
 use crate::io::AtomicFile;
+use crate::io::Output;
 use crate::sim::rk4::Rk4;
 use crate::sim::{self, Event, Flow, Mode, Observer, PeriodGrid, PeriodStats, Sim, SimOptions};
 use clap::{Args, ValueEnum};
@@ -31,7 +32,7 @@ pub struct SimulateArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub eta: f64,
     /// Integrate exactly N forcing periods.
-    #[arg(long, conflicts_with = "steady", required_unless_present = "steady")]
+    #[arg(long, conflicts_with = "steady", required_unless_present = "steady", value_parser = clap::value_parser!(u64).range(1..=MAX_PERIODS))]
     pub periods: Option<u64>,
     /// Integrate until the response is periodic (or declared not periodic).
     #[arg(long)]
@@ -48,14 +49,18 @@ pub struct SimulateArgs {
     /// Write the trajectory (uniform samples) to this CSV.
     #[arg(long)]
     pub trajectory: Option<PathBuf>,
-    /// Trajectory samples per forcing period.
-    #[arg(long, default_value_t = 64)]
+    /// Trajectory samples per forcing period (1 to 1e6).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     pub samples_per_period: u32,
+    /// Largest event or trajectory file to write (MB; the estimate is
+    /// checked before the run).
+    #[arg(long, default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
+    pub max_output_mb: u64,
     /// Integration method.
     #[arg(long, value_enum, default_value_t = Method::Exact)]
     pub method: Method,
     /// RK4 step size H (dimensionless time), with --method rk4.
-    #[arg(long, default_value_t = 1e-2)]
+    #[arg(long, default_value_t = 1e-2, allow_hyphen_values = true)]
     pub step: f64,
     /// Relative tolerance of --method dopri (the default method of laws
     /// without a closed form, e.g. stribeck).
@@ -125,15 +130,77 @@ impl Observer for Files {
     }
 }
 
+/// Most forcing periods of one `simulate --periods` run.
+const MAX_PERIODS: u64 = 100_000_000;
+/// Most RK4 steps of one run (about a minute of work).
+const MAX_RK4_STEPS: f64 = 2e9;
+
+/// Refuses runs whose output files or RK4 work would exceed the limits,
+/// with the numbers and the flag to change.
+fn check_budget(args: &SimulateArgs) -> crate::Result<()> {
+    let too_big = |flag: &str, what: String| -> crate::Error {
+        crate::sim::SimError::Unsupported(format!("{flag}: {what}")).into()
+    };
+    let periods = args.periods.unwrap_or(args.max_periods) as f64;
+    // CSV rows: about 5 numbers of 20 characters.
+    const ROW_BYTES: f64 = 110.0;
+    let limit = args.max_output_mb as f64 * 1e6;
+    if args.trajectory.is_some() {
+        let bytes = periods * f64::from(args.samples_per_period) * ROW_BYTES;
+        if bytes > limit {
+            return Err(too_big(
+                "--trajectory",
+                format!(
+                    "{periods:.3e} periods x {} samples would write about {:.1} GB, over the {} MB limit: lower --periods or --samples-per-period, or raise --max-output-mb",
+                    args.samples_per_period,
+                    bytes / 1e9,
+                    args.max_output_mb
+                ),
+            ));
+        }
+    }
+    if args.events.is_some() {
+        // Up to four switching events per period in stick-slip.
+        let bytes = periods * 4.0 * ROW_BYTES;
+        if bytes > limit {
+            return Err(too_big(
+                "--events",
+                format!(
+                    "{periods:.3e} periods (up to 4 events each) could write about {:.1} GB, over the {} MB limit: lower --periods (or --max-periods), or raise --max-output-mb",
+                    bytes / 1e9,
+                    args.max_output_mb
+                ),
+            ));
+        }
+    }
+    if args.method == Method::Rk4 && args.step.is_finite() && args.step > 0.0 {
+        let steps = periods * 2.0 * std::f64::consts::PI / args.eta / args.step;
+        if steps > MAX_RK4_STEPS {
+            return Err(too_big(
+                "--step",
+                format!(
+                    "{steps:.3e} RK4 steps ({periods:.3e} periods at H = {}); the limit is {MAX_RK4_STEPS:.0e}: raise --step or lower --periods",
+                    args.step
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Runs `simulate`.
 pub fn run(args: SimulateArgs) -> crate::Result<()> {
     let model = args.model.model()?;
     crate::model::validate_eta(args.eta)?;
-    if args.samples_per_period == 0 {
-        return Err(
-            crate::sim::SimError::Unsupported("--samples-per-period must be >= 1".into()).into(),
-        );
+    let mut outputs = Vec::new();
+    if let Some(p) = &args.events {
+        outputs.push(Output::file("--events", p, super::ext::CSV));
     }
+    if let Some(p) = &args.trajectory {
+        outputs.push(Output::file("--trajectory", p, super::ext::CSV));
+    }
+    super::check_paths([], &outputs)?;
+    check_budget(&args)?;
     let mut files = Files {
         events: None,
         traj: None,

@@ -3,6 +3,7 @@
 //! studies.
 
 use super::args::ShapeArgs;
+use crate::io::Output;
 use crate::report::plot::{self, FrcCurve, FrcFigure};
 use crate::report::table::{self, FrcRow};
 use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
@@ -50,8 +51,8 @@ pub struct SweepArgs {
     /// Largest η.
     #[arg(long = "eta-max", default_value_t = 1.6, allow_hyphen_values = true)]
     pub eta_max: f64,
-    /// Number of η points.
-    #[arg(long, default_value_t = 141)]
+    /// Number of η points (1 to 100000).
+    #[arg(long, default_value_t = 141, value_parser = super::args::sweep_points)]
     pub points: usize,
     /// Continuation direction.
     #[arg(long, value_enum, default_value_t = DirectionArg::Up, conflicts_with = "from_rest")]
@@ -125,9 +126,14 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
     {
         return Err(bad("need 0 < --eta-min <= --eta-max".into()));
     }
-    if args.points == 0 {
-        return Err(bad("--points must be >= 1".into()));
+    let mut outputs = Vec::new();
+    if let Some(p) = &args.out {
+        outputs.push(Output::file("--out", p, super::ext::TABLE));
     }
+    if let Some(p) = &args.plot {
+        outputs.push(Output::file("--plot", p, super::ext::FIGURE));
+    }
+    super::check_paths([], &outputs)?;
     let shard = match &args.shard {
         Some(s) => parse_shard(s)?,
         None => Shard::ALL,

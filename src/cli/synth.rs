@@ -2,6 +2,7 @@
 //! [`SynthConfig`], runs [`synth::generate`] and writes the log (and
 //! `truth.json` beside it) atomically.
 
+use crate::io::Output;
 use crate::model::LawKind;
 use crate::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
 use clap::{Args, ValueEnum};
@@ -138,6 +139,10 @@ pub struct SynthArgs {
     /// CSV: time shift of the drive column (s), written to the map.
     #[arg(long = "csv-drive-shift-s", allow_hyphen_values = true)]
     pub csv_drive_shift: Option<f64>,
+    /// Replace an existing log at --out (and its channel map); without it
+    /// an existing file is refused.
+    #[arg(long)]
+    pub force: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -308,7 +313,32 @@ impl SynthArgs {
 
 /// Runs `synth`.
 pub fn run(args: SynthArgs) -> crate::Result<()> {
+    crate::io::check_inputs(args.sensors.as_deref())?;
     let cfg = args.config()?;
+    let map = (cfg.format == LogFormat::Csv).then(|| {
+        let stem = args.out.file_stem().unwrap_or_default().to_string_lossy();
+        args.out.with_file_name(format!("{stem}.map.toml"))
+    });
+    let exts: &'static [&'static str] = match cfg.format {
+        LogFormat::Csv => super::ext::CSV,
+        LogFormat::Parquet => super::ext::PARQUET,
+        _ => &["mcap"],
+    };
+    let mut outputs = vec![Output::file("--out", &args.out, exts)];
+    if let Some(m) = &map {
+        outputs.push(Output::file("--out (its channel map)", m, &["toml"]));
+    }
+    super::check_paths(args.sensors.as_deref(), &outputs)?;
+    if !args.force {
+        for o in &outputs {
+            if std::fs::symlink_metadata(o.path).is_ok() {
+                return Err(input_err(
+                    o.path,
+                    "exists: synth does not replace a log without --force",
+                ));
+            }
+        }
+    }
     let log = synth::generate(&cfg).map_err(|e| input_err(&args.out, e.to_string()))?;
     let written = synth::write(&log, &args.out)?;
     let t = &log.truth;

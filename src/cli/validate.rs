@@ -4,6 +4,7 @@
 
 use crate::identify::{self, IdentifyOptions};
 use crate::ingest::{self, IngestOptions, Run};
+use crate::io::Output;
 use crate::report::{html, sections};
 use crate::validate::{self, ValidateOptions};
 use clap::Args;
@@ -26,8 +27,9 @@ pub struct ValidateArgs {
     /// Write the JSON result to this file (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Laws drawn from the fit's uncertainty for the 95 % bands (0: none).
-    #[arg(long, default_value_t = 40)]
+    /// Laws drawn from the fit's uncertainty for the 95 % bands (0: none;
+    /// at most 2000: each is a whole predicted sweep).
+    #[arg(long, default_value_t = 40, value_parser = super::args::band_samples)]
     pub samples: usize,
     /// Relative gain uncertainty of each sensor in the calibration budget.
     #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
@@ -55,9 +57,16 @@ pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
 
 /// Runs `validate`.
 pub fn run(args: ValidateArgs) -> crate::Result<()> {
-    crate::io::ensure_not_inputs(
+    let mut outputs = Vec::new();
+    if let Some(p) = &args.out {
+        outputs.push(Output::file("--out", p, super::ext::JSON));
+    }
+    if let Some(p) = &args.report {
+        outputs.push(Output::dir("--report", p));
+    }
+    super::check_paths(
         [args.characteristic.as_path(), args.sweep.as_path()],
-        args.out.as_deref(),
+        &outputs,
     )?;
     let t0 = Instant::now();
     let say = |msg: &str| {

@@ -173,8 +173,18 @@ pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
     if run.rig.test != TestKind::Characteristic {
         return Err(bad(IdentifyError::NotCharacteristic));
     }
-    let mut contact =
-        contact::compute(run, gains).ok_or_else(|| bad(IdentifyError::NoDriveSinusoid))?;
+    let mut contact = contact::compute(run, gains).ok_or_else(|| {
+        // A log shorter than two periods of its nominal drive cannot show
+        // the sinusoid: say so rather than blame the drive channel.
+        let duration = run.duration_s();
+        match run.rig.drive_frequency_hz {
+            Some(f) if f > 0.0 && duration < 2.0 / f => bad(IdentifyError::TooShort {
+                usable_s: duration,
+                needed_s: 2.0 / f,
+            }),
+            _ => bad(IdentifyError::NoDriveSinusoid),
+        }
+    })?;
     // At least two drive periods of usable data: less cannot tell a stuck
     // mass from a log that is simply too short.
     let usable = (0..contact.r.len())

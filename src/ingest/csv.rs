@@ -102,6 +102,17 @@ pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, Inges
             )));
         }
     }
+    // One column carries one quantity.
+    let mut entries: Vec<(&str, &str)> = vec![("time", time.name.as_str())];
+    entries.extend(channels.iter().map(|(q, s)| (q.name(), s.name.as_str())));
+    entries.extend(setpoint_hz.iter().map(|s| ("setpoint_hz", s.name.as_str())));
+    for (i, (a, col)) in entries.iter().enumerate() {
+        if let Some((b, _)) = entries[i + 1..].iter().find(|(_, c)| c == col) {
+            return Err(bad(format!(
+                "entries `{a}` and `{b}` both read column {col:?}: one column carries one quantity"
+            )));
+        }
+    }
     Ok(ChannelMap {
         time,
         channels,
@@ -278,6 +289,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     };
     let time = table.time(&cmap.time)?;
     let dt_s = median_interval(&time).unwrap_or(f64::NAN);
+    check_rate(&map_path, &cmap.time, dt_s)?;
     let t0 = time[0] + cmap.time.shift_s;
     let mut channels = Vec::new();
     for (q, spec) in &cmap.channels {
@@ -294,6 +306,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             v,
         });
     }
+    check_drive_amplitude(&map_path, &cmap, &channels)?;
     let setpoints = match &cmap.setpoint_hz {
         Some(spec) => {
             let v = table.column(spec, "setpoint_hz")?;
@@ -309,6 +322,63 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         setpoints,
         warnings: Vec::new(),
     })
+}
+
+/// Plausible sample rates of a rig log (Hz): a map's time scale that puts
+/// the rate outside is a unit mistake (ms read as s, or the reverse).
+pub(crate) const RATE_RANGE_HZ: (f64, f64) = (1.0, 1e6);
+/// Plausible drive amplitudes (m): a position scale that puts the drive
+/// outside is a unit mistake (`scale = 1000` for mm instead of 0.001).
+pub(crate) const DRIVE_RANGE_M: (f64, f64) = (1e-6, 0.5);
+
+/// Refuses a time scale that gives an implausible sample rate.
+fn check_rate(map_path: &Path, time: &ColumnSpec, dt_s: f64) -> Result<(), IngestError> {
+    let rate = 1.0 / dt_s;
+    let (lo, hi) = RATE_RANGE_HZ;
+    if !(rate >= lo && rate <= hi) {
+        return Err(IngestError::invalid(
+            map_path,
+            format!(
+                "column entry `time` (scale {:e}): the rows come at {rate:.4e} Hz, outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log: is the time scale right (1 for s, 0.001 for ms)?",
+                time.scale
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses a drive scale that gives an implausible drive amplitude (half
+/// the range of x0, the robust 1st-99th percentiles).
+fn check_drive_amplitude(
+    map_path: &Path,
+    cmap: &ChannelMap,
+    channels: &[RawChannel],
+) -> Result<(), IngestError> {
+    let Some(x0) = channels.iter().find(|c| c.quantity == Quantity::X0) else {
+        return Ok(());
+    };
+    let mut v: Vec<f64> = x0.v.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.len() < 10 {
+        return Ok(());
+    }
+    v.sort_by(f64::total_cmp);
+    let q = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
+    let amplitude = (q(0.99) - q(0.01)) / 2.0;
+    let (lo, hi) = DRIVE_RANGE_M;
+    if !(amplitude >= lo && amplitude <= hi) {
+        let scale = cmap
+            .channels
+            .iter()
+            .find(|(q, _)| *q == Quantity::X0)
+            .map_or(1.0, |(_, s)| s.scale);
+        return Err(IngestError::invalid(
+            map_path,
+            format!(
+                "column entry `x0` (scale {scale:e}): the drive moves {amplitude:.4e} m, outside the plausible {lo:.0e}-{hi} m: is the scale right (0.001 for mm, 1e-6 for µm)?"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// The channel map of `path`: `map`, or `NAME.map.toml` beside it.

@@ -1,10 +1,117 @@
 //! Output helpers shared by the stages: atomic file writes, so a failed or
-//! interrupted job never leaves a partial file or clobbers the user's data.
+//! interrupted job never leaves a partial file or clobbers the user's data;
+//! the checks every command makes on its inputs and outputs before any work
+//! ([`paths`]); and the registry of live temporary files that a signal
+//! handler removes ([`remove_live_temps`]).
 
 pub mod json;
 mod parquet;
+pub mod paths;
 
 pub use parquet::{write_parquet, write_table};
+pub use paths::{check_inputs, check_outputs, Output};
+
+use std::sync::Mutex;
+
+/// Temporary files being written now (removed by [`remove_live_temps`] on
+/// SIGINT/SIGTERM, so an interrupted job leaves nothing behind).
+static LIVE_TEMPS: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+/// A temporary file path, registered for removal on interruption while it
+/// lives; dropping it removes the file unless [`TempPath::keep`] was called.
+pub struct TempPath {
+    path: PathBuf,
+    armed: bool,
+}
+
+impl TempPath {
+    /// Registers `path` (a temporary file about to be created).
+    pub fn new(path: PathBuf) -> Self {
+        if let Ok(mut live) = LIVE_TEMPS.lock() {
+            live.push(path.clone());
+        }
+        Self { path, armed: true }
+    }
+
+    /// The path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The file was renamed into place: nothing to remove any more.
+    pub fn keep(mut self) {
+        self.armed = false;
+        self.unregister();
+    }
+
+    fn unregister(&self) {
+        if let Ok(mut live) = LIVE_TEMPS.lock() {
+            if let Some(i) = live.iter().position(|p| *p == self.path) {
+                live.swap_remove(i);
+            }
+        }
+    }
+}
+
+impl Drop for TempPath {
+    fn drop(&mut self) {
+        if self.armed {
+            let _ = std::fs::remove_file(&self.path);
+            self.unregister();
+        }
+    }
+}
+
+/// Removes every temporary file being written now (for a signal handler:
+/// call it, then exit).
+pub fn remove_live_temps() {
+    // A handler must not block forever on a poisoned or held lock: take
+    // what is there.
+    let live = match LIVE_TEMPS.try_lock() {
+        Ok(l) => l.clone(),
+        Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner().clone(),
+        Err(std::sync::TryLockError::WouldBlock) => {
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            LIVE_TEMPS.lock().map(|l| l.clone()).unwrap_or_default()
+        }
+    };
+    for p in live {
+        let _ = std::fs::remove_file(p);
+    }
+}
+
+/// The temporary file beside `target` (hidden, named after the target and
+/// this process, with `ext` appended where a writer needs an extension).
+pub fn temp_beside(target: &Path, ext: Option<&str>) -> Result<TempPath> {
+    let name = target
+        .file_name()
+        .ok_or_else(|| Error::Input {
+            path: target.to_path_buf(),
+            msg: "output path names no file".into(),
+        })?
+        .to_string_lossy()
+        .into_owned();
+    let dir = match target.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let tmp = match ext {
+        Some(e) => format!(".{name}.{}.tmp.{e}", std::process::id()),
+        None => format!(".{name}.{}.tmp", std::process::id()),
+    };
+    Ok(TempPath::new(dir.join(tmp)))
+}
+
+/// Where an output to `path` really goes: an existing symlink is written
+/// through to its target (the link stays).
+pub fn resolve_output(path: &Path) -> PathBuf {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => {
+            std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf())
+        }
+        _ => path.to_path_buf(),
+    }
+}
 
 use crate::error::{Error, Result};
 use std::fs::File;
@@ -16,33 +123,28 @@ use std::path::{Path, PathBuf};
 /// without committing removes the temporary file.
 pub struct AtomicFile {
     target: PathBuf,
-    tmp: PathBuf,
+    /// Where the rename goes (the target, or a symlink's target).
+    dest: PathBuf,
+    tmp: Option<TempPath>,
     writer: Option<BufWriter<File>>,
 }
 
 impl AtomicFile {
-    /// Starts writing `target` (its directory must exist).
+    /// Starts writing `target` (its directory must exist). An existing
+    /// symlink is written through to its target; an existing file that is
+    /// not a regular file (a FIFO, a device, a directory) is refused.
     pub fn create(target: &Path) -> Result<Self> {
-        let name = target
-            .file_name()
-            .ok_or_else(|| Error::Input {
-                path: target.to_path_buf(),
-                msg: "output path names no file".into(),
-            })?
-            .to_string_lossy()
-            .into_owned();
-        let dir = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let file = File::create(&tmp).map_err(|source| Error::Io {
+        let dest = resolve_output(target);
+        paths::refuse_special(target, &dest)?;
+        let tmp = temp_beside(&dest, None)?;
+        let file = File::create(tmp.path()).map_err(|source| Error::Io {
             path: target.to_path_buf(),
             source,
         })?;
         Ok(Self {
             target: target.to_path_buf(),
-            tmp,
+            dest,
+            tmp: Some(tmp),
             writer: Some(BufWriter::new(file)),
         })
     }
@@ -66,17 +168,10 @@ impl AtomicFile {
         let file = w.into_inner().map_err(|e| self.io_err(e.into_error()))?;
         file.sync_all().map_err(|e| self.io_err(e))?;
         drop(file);
-        std::fs::rename(&self.tmp, &self.target).map_err(|e| self.io_err(e))?;
+        let tmp = self.tmp.take().expect("temp present until commit");
+        std::fs::rename(tmp.path(), &self.dest).map_err(|e| self.io_err(e))?;
+        tmp.keep();
         Ok(())
-    }
-}
-
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if self.writer.is_some() {
-            self.writer = None;
-            let _ = std::fs::remove_file(&self.tmp);
-        }
     }
 }
 

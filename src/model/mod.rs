@@ -22,9 +22,20 @@ mod law;
 pub use drive::{Drive, Schedule, Segment};
 pub use law::{Coulomb, Decreasing, Family, Law, LawKind, Scales, SiLaw, StaticDynamic, Stribeck};
 
+/// A number as a person reads it: plain where short, else in exponent form
+/// (1e308, not three hundred digits).
+fn short(x: f64) -> String {
+    let plain = format!("{x}");
+    if plain.len() <= 12 {
+        plain
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// A parameter that describes no physical absorber.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("invalid parameter {name} = {value}: {why}")]
+#[error("invalid parameter {name} = {}: {why}", short(*.value))]
 pub struct ParamError {
     /// The parameter's option name.
     pub name: &'static str,
@@ -202,10 +213,14 @@ pub fn validate_eta(eta: f64) -> Result<(), ParamError> {
     check(
         "eta",
         eta,
-        eta.is_finite() && eta > 0.0,
-        "must be finite and > 0",
+        eta.is_finite() && eta > 0.0 && eta <= MAX_ETA,
+        "must be > 0 and at most 1e6 (the forcing over the absorber's natural frequency)",
     )
 }
+
+/// Largest forcing frequency ratio η accepted (the paper's figures span
+/// 0.2–1.6; far above the modes the response is the drive's alone).
+pub const MAX_ETA: f64 = 1e6;
 
 #[cfg(test)]
 mod tests {

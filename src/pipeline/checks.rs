@@ -117,3 +117,35 @@ pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<String>) {
     }
     (keep, warnings)
 }
+
+/// Reads logs in parallel (results in the order given) and checks that
+/// each is a characteristic test, before any fitting: the first log that
+/// cannot be read, or that records another test (a sweep), is the error.
+pub fn read_characteristic_logs(paths: &[PathBuf]) -> crate::Result<Vec<crate::ingest::Run>> {
+    use rayon::prelude::*;
+    let runs: Vec<crate::Result<crate::ingest::Run>> = paths
+        .par_iter()
+        // `ingest::read` guards its decoders against panics itself.
+        .map(|p| {
+            Ok(crate::ingest::read(
+                p,
+                &crate::ingest::IngestOptions::default(),
+            )?)
+        })
+        .collect();
+    let mut out = Vec::with_capacity(runs.len());
+    for (p, r) in paths.iter().zip(runs) {
+        let run = r?;
+        if run.rig.test != crate::ingest::TestKind::Characteristic {
+            return Err(crate::Error::Input {
+                path: p.clone(),
+                msg: format!(
+                    "is a {} log: a batch compares characteristic logs only (one per normal-force setting)",
+                    run.rig.test.as_str()
+                ),
+            });
+        }
+        out.push(run);
+    }
+    Ok(out)
+}

@@ -80,40 +80,28 @@ pub fn frc(fig: &FrcFigure, path: &Path) -> Result<()> {
             crate::io::write_atomic(path, s.as_bytes())
         }
         "png" => {
-            let tmp = tmp_beside(path, "png");
+            let dest = crate::io::resolve_output(path);
+            let tmp = crate::io::temp_beside(&dest, Some("png"))?;
             {
-                let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+                let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
                 let r =
                     draw_frc(fig, &root).and_then(|_| root.present().map_err(|e| e.to_string()));
                 if let Err(e) = r {
-                    let _ = std::fs::remove_file(&tmp);
                     return Err(plot_err(path, e));
                 }
             }
-            std::fs::rename(&tmp, path).map_err(|source| Error::Io {
+            std::fs::rename(tmp.path(), &dest).map_err(|source| Error::Io {
                 path: path.to_path_buf(),
                 source,
-            })
+            })?;
+            tmp.keep();
+            Ok(())
         }
         _ => Err(Error::Input {
             path: path.to_path_buf(),
             msg: "figure must be .svg or .png".into(),
         }),
     }
-}
-
-/// A temporary file name beside `path` keeping the extension (image
-/// encoders pick the format from it).
-fn tmp_beside(path: &Path, ext: &str) -> std::path::PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    dir.join(format!(".{name}.{}.tmp.{ext}", std::process::id()))
 }
 
 /// Colours for up to 16 curves (the paper's families have 7–13).

@@ -35,6 +35,16 @@ impl Rk4 {
                 "step must be finite and > 0, got {h}"
             )));
         }
+        // RK4 is stable for an undamped mode ω while h·ω ≤ 2√2; beyond it
+        // the numbers grow without bound (A1/A = 1e42 "completed").
+        let a = model.absorber;
+        let omega_max = a.eta_linear().1.max(a.eta_stuck());
+        let h_max = 2.0 * std::f64::consts::SQRT_2 / omega_max;
+        if h > h_max {
+            return Err(SimError::Unsupported(format!(
+                "RK4 step H = {h} is unstable for this model: its fastest mode has eta = {omega_max:.4}, and RK4 needs H <= 2*sqrt(2)/eta = {h_max:.4}: give a smaller --step (accuracy wants far less)"
+            )));
+        }
         let (rho_d, slope) = match model.law {
             Law::Linear { rho_d, slope, .. } => (rho_d, slope),
             Law::Stribeck { .. } => {

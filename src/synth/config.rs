@@ -175,6 +175,11 @@ impl FrictionSpec {
     }
 }
 
+/// Most drive periods a synthetic test may simulate (warm-up included).
+pub const MAX_SYNTH_PERIODS: f64 = 1e6;
+/// Most samples a synthetic log may hold per channel (or table rows).
+pub const MAX_SYNTH_SAMPLES: f64 = 5e7;
+
 /// The test the virtual rig runs.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -442,6 +447,7 @@ impl SynthConfig {
             s.validate(q)?;
         }
         positive("table rate", self.table_rate_hz)?;
+        self.check_budget()?;
         if !(self.rtol > 0.0 && self.rtol < 1e-3) {
             return Err(bad("rtol must be in (0, 1e-3)"));
         }
@@ -462,6 +468,52 @@ impl SynthConfig {
         model
             .validate()
             .map_err(|e| bad(format!("friction law: {e}")))?;
+        Ok(())
+    }
+
+    /// Refuses a test whose work or output exceeds the documented limits
+    /// ([`MAX_SYNTH_PERIODS`] drive periods simulated, [`MAX_SYNTH_SAMPLES`]
+    /// samples per channel or table rows), naming the numbers: a typo such
+    /// as `--duration-s 1e9` would otherwise run for days or fill the disk.
+    fn check_budget(&self) -> Result<(), SynthError> {
+        let (simulated_s, max_hz) = match &self.test {
+            TestSpec::Characteristic {
+                frequency_hz,
+                warmup_s,
+                duration_s,
+            } => (warmup_s + duration_s, *frequency_hz),
+            TestSpec::Stepped { setpoints_hz, .. } => (
+                self.test.duration_s(),
+                setpoints_hz.iter().copied().fold(0.0, f64::max),
+            ),
+            TestSpec::Continuous { from_hz, to_hz, .. } => {
+                (self.test.duration_s(), from_hz.max(*to_hz))
+            }
+        };
+        let periods = simulated_s * max_hz;
+        if periods.is_nan() || periods > MAX_SYNTH_PERIODS {
+            return Err(bad(format!(
+                "the test simulates {simulated_s:.3e} s at up to {max_hz} Hz = {periods:.3e} drive periods; the limit is {MAX_SYNTH_PERIODS:.0e}: shorten --duration-s/--warmup-s/--sweep-s/--dwell-s"
+            )));
+        }
+        let logged_s = self.test.duration_s();
+        let mut rates: Vec<(&str, f64)> = self
+            .sensors
+            .channels()
+            .into_iter()
+            .map(|(q, s)| (q.name(), s.rate_hz))
+            .collect();
+        if matches!(self.format, LogFormat::Csv | LogFormat::Parquet) {
+            rates.push(("table (--table-rate-hz)", self.table_rate_hz));
+        }
+        for (name, rate) in rates {
+            let samples = logged_s * rate;
+            if samples.is_nan() || samples > MAX_SYNTH_SAMPLES {
+                return Err(bad(format!(
+                    "{name}: {logged_s} s logged at {rate} Hz = {samples:.3e} samples; the limit is {MAX_SYNTH_SAMPLES:.0e} per channel: shorten the test or lower the rate"
+                )));
+            }
+        }
         Ok(())
     }
 
