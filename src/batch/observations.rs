@@ -295,6 +295,9 @@ pub(super) fn find_conflicts(
     out
 }
 
+/// One observation of a quantity: (log index, observation, calibration).
+type Item = (usize, Obs, Option<f64>);
+
 /// Fits μs (censored) and μd of the logs, robustly: logs in conflict with
 /// the others are found ([`find_conflicts`]) and set aside where the data
 /// say which one is off ([`robust_keep`]); the fits from every log are
@@ -305,9 +308,43 @@ pub(super) fn fit_coefficients(
     warnings: &mut Vec<String>,
 ) -> Result<Coefficients> {
     let rel = typical_rel_sigma(logs);
+    let (obs_s, obs_d) = collect_observations(logs, rel, warnings);
+    warn_disagreements(logs, warnings);
+    let gain_n = 1.96 * normal_gain_u / 3f64.sqrt();
+    let mut conflicts = Vec::new();
+    let mut fits = Vec::new();
+    for (quantity, items, name) in [
+        ("mu_s", &obs_s, "the static friction Rs"),
+        ("mu_d", &obs_d, "the sliding friction Rd"),
+    ] {
+        let (robust, all, found) = fit_quantity(quantity, items, name, gain_n, logs, warnings)?;
+        conflicts.extend(found);
+        fits.push((robust, all));
+    }
+    let (mu_d, mu_d_all) = fits.pop().expect("two fits");
+    let (mu_s, mu_s_all) = fits.pop().expect("two fits");
+    warn_fits(&mu_s, &mu_d, &conflicts, warnings);
+    check_censored(logs, &mu_s, warnings);
+    Ok(Coefficients {
+        mu_s,
+        mu_d,
+        mu_s_all,
+        mu_d_all,
+        conflicts,
+    })
+}
+
+/// The observations of Rs and Rd per log (`(obs_s, obs_d)`); logs without a
+/// positive normal force and empty static-friction bounds are left out,
+/// with a warning.
+fn collect_observations(
+    logs: &[BatchLog],
+    rel: f64,
+    warnings: &mut Vec<String>,
+) -> (Vec<Item>, Vec<Item>) {
     // (log index, observation, calibration) per quantity.
-    let mut obs_s: Vec<(usize, Obs, Option<f64>)> = Vec::new();
-    let mut obs_d: Vec<(usize, Obs, Option<f64>)> = Vec::new();
+    let mut obs_s: Vec<Item> = Vec::new();
+    let mut obs_d: Vec<Item> = Vec::new();
     for (i, l) in logs.iter().enumerate() {
         let n = l.normal_force_n;
         if !(n.is_finite() && n > 0.0) {
@@ -368,6 +405,12 @@ pub(super) fn fit_coefficients(
             }
         }
     }
+    (obs_s, obs_d)
+}
+
+/// Warns of the logs whose equation-error and output-error Rs or Rd differ
+/// by more than 1.96σ.
+fn warn_disagreements(logs: &[BatchLog], warnings: &mut Vec<String>) {
     for l in logs.iter() {
         for (q, z) in [
             ("Rs", l.estimate_disagreement.0),
@@ -381,121 +424,148 @@ pub(super) fn fit_coefficients(
             }
         }
     }
-    let gain_n = 1.96 * normal_gain_u / 3f64.sqrt();
-    let mk = |items: &[&(usize, Obs, Option<f64>)], name: &'static str| -> Result<MuFit> {
-        let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
-        let cal: Vec<(f64, f64, Option<f64>)> = items
-            .iter()
-            .filter_map(|x| match x.1 {
-                Obs::Point { n, s, .. } => Some((n, s, x.2)),
-                _ => None,
-            })
-            .collect();
-        let (mu, stat, birge, chi2) = fit_mu(&obs).ok_or(super::BatchError::Unmeasured(name))?;
-        let sys = common_calibration(&cal).hypot(gain_n);
-        let points = point_obs(&obs);
-        Ok(MuFit {
-            mu,
-            interval: with_systematic(mu, stat, sys),
-            stat_interval: stat,
-            systematic_rel: sys,
-            birge,
-            chi2_per_dof: chi2,
-            points: points.len(),
-            censored: obs.len() - points.len(),
-            free: free_fit(&points),
+}
+
+/// The μ fit of some observations (`name`: the quantity, for the error of
+/// none), its interval widened by the common calibration and the normal
+/// force gain (`gain_n`).
+fn mu_fit(items: &[&Item], name: &'static str, gain_n: f64) -> Result<MuFit> {
+    let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+    let cal: Vec<(f64, f64, Option<f64>)> = items
+        .iter()
+        .filter_map(|x| match x.1 {
+            Obs::Point { n, s, .. } => Some((n, s, x.2)),
+            _ => None,
         })
-    };
-    let mut conflicts = Vec::new();
-    let mut fits = Vec::new();
-    for (quantity, items, name) in [
-        ("mu_s", &obs_s, "the static friction Rs"),
-        ("mu_d", &obs_d, "the sliding friction Rd"),
-    ] {
-        let all_refs: Vec<&(usize, Obs, Option<f64>)> = items.iter().collect();
-        let all = mk(&all_refs, name)?;
-        let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
-        let idx: Vec<usize> = items.iter().map(|x| x.0).collect();
-        let doubt: Vec<f64> = idx
-            .iter()
-            .map(|&i| {
-                if quantity == "mu_s" {
-                    logs[i].estimate_disagreement.0
-                } else {
-                    logs[i].estimate_disagreement.1
-                }
-            })
-            .collect();
-        let (kept, resolved) = robust_keep(&obs, &doubt);
-        let found = find_conflicts(quantity, &obs, &idx, logs, &kept);
-        let kept_refs: Vec<&(usize, Obs, Option<f64>)> = items
-            .iter()
-            .zip(&kept)
-            .filter(|(_, &k)| k)
-            .map(|(x, _)| x)
-            .collect();
-        let robust = mk(&kept_refs, name)?;
-        for (k, &i) in kept.iter().zip(&idx) {
-            if !k {
-                if quantity == "mu_s" {
-                    logs[i].set_aside.0 = true;
-                } else {
-                    logs[i].set_aside.1 = true;
-                }
+        .collect();
+    let (mu, stat, birge, chi2) = fit_mu(&obs).ok_or(super::BatchError::Unmeasured(name))?;
+    let sys = common_calibration(&cal).hypot(gain_n);
+    let points = point_obs(&obs);
+    Ok(MuFit {
+        mu,
+        interval: with_systematic(mu, stat, sys),
+        stat_interval: stat,
+        systematic_rel: sys,
+        birge,
+        chi2_per_dof: chi2,
+        points: points.len(),
+        censored: obs.len() - points.len(),
+        free: free_fit(&points),
+    })
+}
+
+/// Fits one quantity (`"mu_s"` or `"mu_d"`) from its observations: the
+/// robust fit (conflicting logs set aside, their flags set), the fit from
+/// every log and the conflicts found.
+fn fit_quantity(
+    quantity: &'static str,
+    items: &[Item],
+    name: &'static str,
+    gain_n: f64,
+    logs: &mut [BatchLog],
+    warnings: &mut Vec<String>,
+) -> Result<(MuFit, MuFit, Vec<Conflict>)> {
+    let all_refs: Vec<&Item> = items.iter().collect();
+    let all = mu_fit(&all_refs, name, gain_n)?;
+    let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+    let idx: Vec<usize> = items.iter().map(|x| x.0).collect();
+    let doubt: Vec<f64> = idx
+        .iter()
+        .map(|&i| {
+            if quantity == "mu_s" {
+                logs[i].estimate_disagreement.0
+            } else {
+                logs[i].estimate_disagreement.1
+            }
+        })
+        .collect();
+    let (kept, resolved) = robust_keep(&obs, &doubt);
+    let found = find_conflicts(quantity, &obs, &idx, logs, &kept);
+    let kept_refs: Vec<&Item> = items
+        .iter()
+        .zip(&kept)
+        .filter(|(_, &k)| k)
+        .map(|(x, _)| x)
+        .collect();
+    let robust = mu_fit(&kept_refs, name, gain_n)?;
+    for (k, &i) in kept.iter().zip(&idx) {
+        if !k {
+            if quantity == "mu_s" {
+                logs[i].set_aside.0 = true;
+            } else {
+                logs[i].set_aside.1 = true;
             }
         }
-        let sym = if quantity == "mu_s" { "μs" } else { "μd" };
-        if !found.is_empty() && !resolved {
-            warnings.push(format!(
-                "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
-            ));
-        }
-        if kept.iter().any(|k| !k) {
-            warnings.push(format!(
-                "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
-                robust.mu, robust.interval.0, robust.interval.1, all.mu, all.interval.0, all.interval.1
-            ));
-        }
-        let mut found = found;
-        if robust.birge > 1.5 {
-            let pts: Vec<usize> = (0..obs.len())
-                .filter(|&i| kept[i] && matches!(obs[i], Obs::Point { .. }))
-                .collect();
-            let rels: Vec<f64> = pts
-                .iter()
-                .map(|&i| match obs[i] {
-                    Obs::Point { n, r, .. } => r / n / robust.mu - 1.0,
-                    _ => 0.0,
-                })
-                .collect();
-            let rms = (rels.iter().map(|x| x * x).sum::<f64>() / rels.len().max(1) as f64).sqrt();
-            found.push(Conflict {
-                quantity,
-                kind: "scatter",
-                logs: pts.iter().map(|&i| logs[idx[i]].log.clone()).collect(),
-                size_sigma: robust.birge,
-                size_rel: rms,
-                set_aside: false,
-                what: format!(
-                    "{sym}: the measured logs scatter {:.1}× more than their own intervals say ({:.2} % RMS about {sym} = {:.4}): σ inflated by that factor",
-                    robust.birge,
-                    100.0 * rms,
-                    robust.mu
-                ),
-            });
-        }
-        conflicts.extend(found);
-        fits.push((robust, all));
     }
-    let (mu_d, mu_d_all) = fits.pop().expect("two fits");
-    let (mu_s, mu_s_all) = fits.pop().expect("two fits");
+    let sym = if quantity == "mu_s" { "μs" } else { "μd" };
+    if !found.is_empty() && !resolved {
+        warnings.push(format!(
+            "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
+        ));
+    }
+    if kept.iter().any(|k| !k) {
+        warnings.push(format!(
+            "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
+            robust.mu, robust.interval.0, robust.interval.1, all.mu, all.interval.0, all.interval.1
+        ));
+    }
+    let mut found = found;
+    if robust.birge > 1.5 {
+        found.push(scatter_conflict(
+            quantity, sym, &robust, &obs, &idx, &kept, logs,
+        ));
+    }
+    Ok((robust, all, found))
+}
+
+/// The "scatter" conflict of a quantity whose kept, measured logs scatter
+/// more than their intervals say (Birge ratio of the robust fit > 1.5).
+fn scatter_conflict(
+    quantity: &'static str,
+    sym: &str,
+    robust: &MuFit,
+    obs: &[Obs],
+    idx: &[usize],
+    kept: &[bool],
+    logs: &[BatchLog],
+) -> Conflict {
+    let pts: Vec<usize> = (0..obs.len())
+        .filter(|&i| kept[i] && matches!(obs[i], Obs::Point { .. }))
+        .collect();
+    let rels: Vec<f64> = pts
+        .iter()
+        .map(|&i| match obs[i] {
+            Obs::Point { n, r, .. } => r / n / robust.mu - 1.0,
+            _ => 0.0,
+        })
+        .collect();
+    let rms = (rels.iter().map(|x| x * x).sum::<f64>() / rels.len().max(1) as f64).sqrt();
+    Conflict {
+        quantity,
+        kind: "scatter",
+        logs: pts.iter().map(|&i| logs[idx[i]].log.clone()).collect(),
+        size_sigma: robust.birge,
+        size_rel: rms,
+        set_aside: false,
+        what: format!(
+            "{sym}: the measured logs scatter {:.1}× more than their own intervals say ({:.2} % RMS about {sym} = {:.4}): σ inflated by that factor",
+            robust.birge,
+            100.0 * rms,
+            robust.mu
+        ),
+    }
+}
+
+/// Warnings on the fits: μs resting on few points, a significant intercept
+/// of a free fit, each conflict, μd above μs.
+fn warn_fits(mu_s: &MuFit, mu_d: &MuFit, conflicts: &[Conflict], warnings: &mut Vec<String>) {
     let n_points_s = mu_s.points;
     if n_points_s < 2 {
         warnings.push(format!(
             "μs rests on {n_points_s} measured log(s) (the others only bound it): its interval is wide"
         ));
     }
-    for (name, m) in [("μs", &mu_s), ("μd", &mu_d)] {
+    for (name, m) in [("μs", mu_s), ("μd", mu_d)] {
         if let Some((_, a, hw)) = m.free {
             if a.abs() > hw {
                 warnings.push(format!(
@@ -504,7 +574,7 @@ pub(super) fn fit_coefficients(
             }
         }
     }
-    for c in &conflicts {
+    for c in conflicts {
         warnings.push(format!("conflict: {}", c.what));
     }
     if mu_d.mu > mu_s.mu {
@@ -513,7 +583,11 @@ pub(super) fn fit_coefficients(
             mu_d.mu, mu_s.mu
         ));
     }
-    // Censored logs: do their bounds agree with the fitted μs?
+}
+
+/// Censored logs: do their bounds agree with the fitted μs? Sets each log's
+/// `consistent` flag and warns of those that disagree.
+fn check_censored(logs: &mut [BatchLog], mu_s: &MuFit, warnings: &mut Vec<String>) {
     for l in logs.iter_mut() {
         let n = l.normal_force_n;
         let (lo, hi) = (mu_s.interval.0 * n, mu_s.interval.1 * n);
@@ -534,11 +608,4 @@ pub(super) fn fit_coefficients(
             ));
         }
     }
-    Ok(Coefficients {
-        mu_s,
-        mu_d,
-        mu_s_all,
-        mu_d_all,
-        conflicts,
-    })
 }

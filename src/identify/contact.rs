@@ -303,24 +303,20 @@ fn rate_offset(x: &[f64], v: &[f64], dt: f64) -> f64 {
     }
 }
 
-/// Computes the contact force of `run` with the sensor gains `g` (1 = as
-/// logged).
-pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
-    let rs = &run.resampled;
-    let rig = &run.rig;
-    let dt = 1.0 / rs.rate_hz;
-    let scale = |v: &[f64], k: f64| -> Vec<f64> { v.iter().map(|x| x * k).collect() };
-    let x0 = scale(&rs.x0, g.x0);
-    let x1 = scale(&rs.x1, g.x1);
-    let x2 = scale(&rs.x2, g.x2);
-    let v2_raw = scale(&rs.v2, g.v2);
-    let mut warnings = Vec::new();
-
-    let drive = fit_drive(&rs.t, &x0, rig.drive_frequency_hz)?;
-    // Window: about 1/60 of a drive period (≈ 10 ms at 1.72 Hz), at least 2.
-    let half = ((rs.rate_hz / drive.frequency_hz / 60.0).round() as usize).max(2);
-
-    let dx2 = savgol(&x2, dt, half, 3, 1);
+/// The velocity ẋ2 as used (`(v2, lag, offset)`): the velocity channel
+/// `v2_raw` (or, without one, `dx2`, the derivative of x2), shifted by its
+/// lag against `dx2` where that is significant, its offset against the
+/// rate of x2 removed. `w`: the sample interval and the Savitzky–Golay
+/// half-window.
+fn velocity(
+    run: &Run,
+    v2_raw: Vec<f64>,
+    x2: &[f64],
+    dx2: Vec<f64>,
+    w: (f64, usize),
+    warnings: &mut Vec<String>,
+) -> (Vec<f64>, f64, f64) {
+    let (dt, half) = w;
     // A log without a velocity channel: ẋ2 from x2 (a cubic
     // Savitzky–Golay derivative over the same window; no lag, no offset).
     let v2_raw = if run.has_velocity() {
@@ -349,10 +345,103 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
             }
         }
     }
-    let v2_offset = rate_offset(&x2, &v2, dt);
+    let v2_offset = rate_offset(x2, &v2, dt);
     for v in v2.iter_mut() {
         *v -= v2_offset;
     }
+    (v2, v2_lag_s, v2_offset)
+}
+
+/// The accelerometer's ẍ2 as used (see [`acceleration`]).
+struct Acceleration {
+    /// The channel, gaps filled with dv2/dt.
+    merged: Vec<f64>,
+    /// Its lag against dv2/dt (s).
+    lag: f64,
+    /// The channel as corrected (zero and lag), gaps kept.
+    sensor: Vec<f64>,
+    /// Its zero offset (m/s²).
+    offset: f64,
+}
+
+/// The accelerometer channel `a_raw` (gain applied): its zero from the
+/// physics (∫a dt = Δv), its lag against `dv2` corrected where
+/// significant, gaps filled with `dv2`. `w`: the sample interval and the
+/// Savitzky–Golay half-window.
+fn acceleration(
+    mut a_raw: Vec<f64>,
+    v2: &[f64],
+    dv2: &[f64],
+    w: (f64, usize),
+    warnings: &mut Vec<String>,
+) -> Acceleration {
+    let (dt, half) = w;
+    // Accelerometer zero from the physics: ∫a dt = Δv.
+    let a_off = rate_offset(v2, &a_raw, dt);
+    for x in a_raw.iter_mut() {
+        *x -= a_off;
+    }
+    let a_s = savgol(&a_raw, dt, half, 3, 0);
+    let (a_sh, lag) = match estimate_lag(&a_s, dv2, dt, 0.01) {
+        Some((lag, se)) if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt => {
+            if lag.abs() > 2.0 * dt {
+                warnings.push(format!(
+                    "acceleration channel lags the velocity by {:.2} ms; corrected",
+                    lag * 1e3
+                ));
+            }
+            (shift(&a_raw, dt, lag), lag)
+        }
+        _ => (a_raw, 0.0),
+    };
+    // Where the accelerometer has no data, fall back to dv2/dt.
+    let mut filled = 0usize;
+    let merged: Vec<f64> = a_sh
+        .iter()
+        .zip(dv2)
+        .map(|(a, d)| {
+            if a.is_finite() {
+                *a
+            } else {
+                if d.is_finite() {
+                    filled += 1;
+                }
+                *d
+            }
+        })
+        .collect();
+    if filled > 0 {
+        warnings.push(format!(
+            "{filled} samples without accelerometer data use the differentiated velocity"
+        ));
+    }
+    Acceleration {
+        merged,
+        lag,
+        sensor: a_sh,
+        offset: a_off,
+    }
+}
+
+/// Computes the contact force of `run` with the sensor gains `g` (1 = as
+/// logged).
+pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
+    let rs = &run.resampled;
+    let rig = &run.rig;
+    let dt = 1.0 / rs.rate_hz;
+    let scale = |v: &[f64], k: f64| -> Vec<f64> { v.iter().map(|x| x * k).collect() };
+    let x0 = scale(&rs.x0, g.x0);
+    let x1 = scale(&rs.x1, g.x1);
+    let x2 = scale(&rs.x2, g.x2);
+    let v2_raw = scale(&rs.v2, g.v2);
+    let mut warnings = Vec::new();
+
+    let drive = fit_drive(&rs.t, &x0, rig.drive_frequency_hz)?;
+    // Window: about 1/60 of a drive period (≈ 10 ms at 1.72 Hz), at least 2.
+    let half = ((rs.rate_hz / drive.frequency_hz / 60.0).round() as usize).max(2);
+
+    let dx2 = savgol(&x2, dt, half, 3, 1);
+    let (v2, v2_lag_s, v2_offset) = velocity(run, v2_raw, &x2, dx2, (dt, half), &mut warnings);
     let v2_smooth = savgol(&v2, dt, half, 3, 0);
     let dv2 = savgol(&v2, dt, half, 3, 1);
 
@@ -360,49 +449,10 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
     let mut a2_sensor = None;
     let (a2, a2_lag_s, source) = match &rs.a2 {
         Some(a) if run.has_acceleration => {
-            let mut a_raw = scale(a, g.a2);
-            // Accelerometer zero from the physics: ∫a dt = Δv.
-            let a_off = rate_offset(&v2, &a_raw, dt);
-            for x in a_raw.iter_mut() {
-                *x -= a_off;
-            }
-            a2_offset = a_off;
-            let a_s = savgol(&a_raw, dt, half, 3, 0);
-            let (a_sh, lag) = match estimate_lag(&a_s, &dv2, dt, 0.01) {
-                Some((lag, se)) if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt => {
-                    if lag.abs() > 2.0 * dt {
-                        warnings.push(format!(
-                            "acceleration channel lags the velocity by {:.2} ms; corrected",
-                            lag * 1e3
-                        ));
-                    }
-                    (shift(&a_raw, dt, lag), lag)
-                }
-                _ => (a_raw, 0.0),
-            };
-            // Where the accelerometer has no data, fall back to dv2/dt.
-            let mut filled = 0usize;
-            let merged: Vec<f64> = a_sh
-                .iter()
-                .zip(&dv2)
-                .map(|(a, d)| {
-                    if a.is_finite() {
-                        *a
-                    } else {
-                        if d.is_finite() {
-                            filled += 1;
-                        }
-                        *d
-                    }
-                })
-                .collect();
-            if filled > 0 {
-                warnings.push(format!(
-                    "{filled} samples without accelerometer data use the differentiated velocity"
-                ));
-            }
-            a2_sensor = Some(a_sh);
-            (merged, Some(lag), "accelerometer")
+            let acc = acceleration(scale(a, g.a2), &v2, &dv2, (dt, half), &mut warnings);
+            a2_offset = acc.offset;
+            a2_sensor = Some(acc.sensor);
+            (acc.merged, Some(acc.lag), "accelerometer")
         }
         _ => (dv2, None, "savitzky-golay"),
     };

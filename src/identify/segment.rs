@@ -217,6 +217,90 @@ fn hinge_acc(acc: &[f64], a: usize, b: usize) -> Option<f64> {
     })
 }
 
+/// Breakaways: every stick followed by data, located by a hinge fit over
+/// the last part of the stick and the slip until |v_s| passes 4·`hi` (on
+/// the accelerometer record where it has data throughout).
+fn breakaways_of(
+    v: &[f64],
+    v_s: &[f64],
+    acc: Option<&[f64]>,
+    sticks: &[(usize, usize)],
+    half: usize,
+    hi: f64,
+) -> Vec<Breakaway> {
+    let n = v.len();
+    let mut breakaways = Vec::new();
+    for &(s, e) in sticks {
+        if e >= n {
+            continue;
+        }
+        // Window: the last part of the stick, and the slip until |v_s| passes 4·hi.
+        let a = s.max(e.saturating_sub(4 * half + 2));
+        let mut b = e;
+        while b < n && b < e + 8 * half + 8 && v_s[b].is_finite() && v_s[b].abs() < 4.0 * hi {
+            b += 1;
+        }
+        if b >= n || !v_s[b].is_finite() || (a..b).any(|i| !v[i].is_finite()) {
+            continue;
+        }
+        let dir = v_s[b].signum();
+        // With an accelerometer, the onset of acceleration is sharper than
+        // that of velocity (a jump for static > dynamic friction).
+        let located = match acc {
+            Some(ac) if (a..=b).all(|i| ac[i].is_finite()) => hinge_acc(ac, a, b + 1),
+            _ => hinge(v, a, b + 1),
+        };
+        if let Some(at) = located {
+            breakaways.push(Breakaway {
+                at,
+                direction: dir,
+                stick: (s, e),
+            });
+        }
+    }
+    breakaways
+}
+
+/// Reversals: passages from beyond +hi to beyond −hi (or back) outside
+/// sticks, located at the last zero crossing of v_s in between; a noisy
+/// passage through zero counts once.
+fn reversals_of(v_s: &[f64], stick: &[bool], hi: f64) -> Vec<Reversal> {
+    let n = stick.len();
+    let mut reversals = Vec::new();
+    let mut side = 0.0f64;
+    let mut last_zero: Option<f64> = None;
+    let mut prev: Option<usize> = None;
+    for i in 0..n {
+        if stick[i] {
+            side = 0.0;
+            last_zero = None;
+            prev = None;
+            continue;
+        }
+        if !v_s[i].is_finite() {
+            prev = None;
+            continue;
+        }
+        if let Some(p) = prev {
+            if v_s[p] != 0.0 && v_s[i].signum() != v_s[p].signum() {
+                last_zero = Some(p as f64 + (i - p) as f64 * v_s[p] / (v_s[p] - v_s[i]));
+            }
+        }
+        prev = Some(i);
+        if v_s[i].abs() > hi {
+            let s = v_s[i].signum();
+            if side != 0.0 && s != side {
+                if let Some(at) = last_zero {
+                    reversals.push(Reversal { at, direction: s });
+                }
+            }
+            side = s;
+            last_zero = None;
+        }
+    }
+    reversals
+}
+
 /// Segments a velocity record.
 ///
 /// `v` is the corrected raw velocity, `v_s` its smoothed version, `acc` the
@@ -268,36 +352,7 @@ pub fn segment(
     }
     let slip_samples = (0..n).filter(|&i| !stick[i] && v_s[i].is_finite()).count();
 
-    // Breakaways: every stick followed by data.
-    let mut breakaways = Vec::new();
-    for &(s, e) in &sticks {
-        if e >= n {
-            continue;
-        }
-        // Window: the last part of the stick, and the slip until |v_s| passes 4·hi.
-        let a = s.max(e.saturating_sub(4 * half + 2));
-        let mut b = e;
-        while b < n && b < e + 8 * half + 8 && v_s[b].is_finite() && v_s[b].abs() < 4.0 * hi {
-            b += 1;
-        }
-        if b >= n || !v_s[b].is_finite() || (a..b).any(|i| !v[i].is_finite()) {
-            continue;
-        }
-        let dir = v_s[b].signum();
-        // With an accelerometer, the onset of acceleration is sharper than
-        // that of velocity (a jump for static > dynamic friction).
-        let located = match acc {
-            Some(ac) if (a..=b).all(|i| ac[i].is_finite()) => hinge_acc(ac, a, b + 1),
-            _ => hinge(v, a, b + 1),
-        };
-        if let Some(at) = located {
-            breakaways.push(Breakaway {
-                at,
-                direction: dir,
-                stick: (s, e),
-            });
-        }
-    }
+    let breakaways = breakaways_of(v, v_s, acc, &sticks, half, hi);
     // The samples from a breakaway to the end of its stick (still inside
     // the hysteresis band) are sliding already.
     for bk in &breakaways {
@@ -306,41 +361,7 @@ pub fn segment(
             *x = false;
         }
     }
-    // Reversals: passages from beyond +hi to beyond −hi (or back) outside
-    // sticks, located at the last zero crossing of v_s in between; a noisy
-    // passage through zero counts once.
-    let mut reversals = Vec::new();
-    let mut side = 0.0f64;
-    let mut last_zero: Option<f64> = None;
-    let mut prev: Option<usize> = None;
-    for i in 0..n {
-        if stick[i] {
-            side = 0.0;
-            last_zero = None;
-            prev = None;
-            continue;
-        }
-        if !v_s[i].is_finite() {
-            prev = None;
-            continue;
-        }
-        if let Some(p) = prev {
-            if v_s[p] != 0.0 && v_s[i].signum() != v_s[p].signum() {
-                last_zero = Some(p as f64 + (i - p) as f64 * v_s[p] / (v_s[p] - v_s[i]));
-            }
-        }
-        prev = Some(i);
-        if v_s[i].abs() > hi {
-            let s = v_s[i].signum();
-            if side != 0.0 && s != side {
-                if let Some(at) = last_zero {
-                    reversals.push(Reversal { at, direction: s });
-                }
-            }
-            side = s;
-            last_zero = None;
-        }
-    }
+    let reversals = reversals_of(v_s, &stick, hi);
     Segmentation {
         stick,
         sticks,

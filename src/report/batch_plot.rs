@@ -7,6 +7,7 @@
 use super::plot::{colour, plot_err, register_font};
 use crate::batch::{Batch, StaticObs};
 use crate::error::Result;
+use plotters::coord::combinators::LogCoord;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -23,12 +24,60 @@ pub fn batch_figure(b: &Batch, title: &str, path: &Path) -> Result<()> {
 }
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+type DrawResult = std::result::Result<(), String>;
 
-fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+fn e(x: DrawingAreaErrorKind<std::io::Error>) -> String {
+    x.to_string()
+}
+
+/// Whether `x` can be drawn on a log axis.
+fn pos(x: f64) -> bool {
+    x.is_finite() && x > 0.0
+}
+
+fn draw(b: &Batch, title: &str, root: &Area<'_>) -> DrawResult {
     root.fill(&WHITE).map_err(e)?;
     let root = root.titled(title, ("sans-serif", 22)).map_err(e)?;
-    let pos = |x: f64| x.is_finite() && x > 0.0;
+    let (x0, x1, y0, y1) = ranges(b)?;
+    let mut chart = ChartBuilder::on(&root)
+        .margin(14)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
+        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("normal force N (newtons)")
+        .y_desc("worst case max_η A1/A")
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 17))
+        .x_label_formatter(&|v| format!("{v}"))
+        .y_label_formatter(&|v| format!("{v}"))
+        .max_light_lines(1)
+        .light_line_style(RGBColor(240, 240, 240))
+        .draw()
+        .map_err(e)?;
+    window(&mut chart, b, y0, y1)?;
+    curves(&mut chart, b)?;
+    cliff(&mut chart, b, y0, y1)?;
+    measured(&mut chart, b)?;
+    recommendation(&mut chart, b)?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.9))
+        .border_style(RGBColor(200, 200, 200))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(e)?;
+    Ok(())
+}
+
+/// The axis ranges `(x0, x1, y0, y1)` over the drawable (positive) normal
+/// forces and amplitudes of the curves and the logs; an error when there
+/// is nothing to draw.
+fn ranges(b: &Batch) -> std::result::Result<(f64, f64, f64, f64), String> {
     let xs = b
         .curve
         .iter()
@@ -49,25 +98,11 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
     }
     let (x0, x1) = (xmin / 1.15, xmax * 1.15);
     let (y0, y1) = ((ymin / 1.5).min(0.5), ymax * 2.0);
-    let mut chart = ChartBuilder::on(&root)
-        .margin(14)
-        .x_label_area_size(45)
-        .y_label_area_size(65)
-        .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-        .map_err(e)?;
-    chart
-        .configure_mesh()
-        .x_desc("normal force N (newtons)")
-        .y_desc("worst case max_η A1/A")
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 17))
-        .x_label_formatter(&|v| format!("{v}"))
-        .y_label_formatter(&|v| format!("{v}"))
-        .max_light_lines(1)
-        .light_line_style(RGBColor(240, 240, 240))
-        .draw()
-        .map_err(e)?;
-    // The window of the recommendation.
+    Ok((x0, x1, y0, y1))
+}
+
+/// The window of the recommendation.
+fn window(chart: &mut Chart<'_, '_>, b: &Batch, y0: f64, y1: f64) -> DrawResult {
     let green = RGBColor(44, 160, 44);
     if let Some(r) = &b.recommendation {
         chart
@@ -86,7 +121,11 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
                 Rectangle::new([(x, y - 5), (x + 20, y + 5)], green.mix(0.25).filled())
             });
     }
-    // Nominal and robust curves.
+    Ok(())
+}
+
+/// Nominal and robust curves.
+fn curves(chart: &mut Chart<'_, '_>, b: &Batch) -> DrawResult {
     let blue = colour(0, 3);
     let nominal: Vec<(f64, f64)> = b
         .curve
@@ -124,7 +163,11 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
             100.0 * b.setting_tolerance
         ))
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], orange.stroke_width(2)));
-    // The cliff.
+    Ok(())
+}
+
+/// The cliff.
+fn cliff(chart: &mut Chart<'_, '_>, b: &Batch, y0: f64, y1: f64) -> DrawResult {
     let grey = RGBColor(110, 110, 110);
     if let Some(c) = &b.cliff {
         chart
@@ -143,7 +186,11 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
                 PathElement::new(vec![(x, y), (x + 20, y)], grey.stroke_width(1))
             });
     }
-    // Measured settings.
+    Ok(())
+}
+
+/// Measured settings.
+fn measured(chart: &mut Chart<'_, '_>, b: &Batch) -> DrawResult {
     let black = RGBColor(20, 20, 20);
     let mut first = true;
     for l in &b.logs {
@@ -179,7 +226,11 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
             )))
             .map_err(e)?;
     }
-    // The recommendation.
+    Ok(())
+}
+
+/// The recommendation.
+fn recommendation(chart: &mut Chart<'_, '_>, b: &Batch) -> DrawResult {
     let red = RGBColor(214, 39, 40);
     if let Some(r) = &b.recommendation {
         chart
@@ -195,13 +246,5 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> std::result::Result<(), Stri
             ))
             .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 6, red.filled()));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.9))
-        .border_style(RGBColor(200, 200, 200))
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(e)?;
     Ok(())
 }

@@ -112,8 +112,16 @@ fn law_force(l: &SiLaw, v: f64) -> f64 {
     g * v.signum()
 }
 
-fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
+type DrawResult = std::result::Result<(), String>;
+
+fn e(x: DrawingAreaErrorKind<std::io::Error>) -> String {
+    x.to_string()
+}
+
+const BLUE: RGBColor = RGBColor(31, 78, 156);
+const RED: RGBColor = RGBColor(178, 34, 34);
+
+fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> DrawResult {
     root.fill(&WHITE).map_err(e)?;
     let root = root.titled(fig.title, ("sans-serif", 20)).map_err(e)?;
     let (left, right) = root.split_horizontally(560);
@@ -124,16 +132,25 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
     let v: Vec<f64> = (0..n)
         .map(|i| if fig.stick[i] { 0.0 } else { c.v2[i] })
         .collect();
-    let blue = RGBColor(31, 78, 156);
-    let red = RGBColor(178, 34, 34);
+    time_panels(c, &l_top, &l_bot, &r, &v)?;
+    characteristic_panel(fig, &right, &r, &v)
+}
 
-    // Left: two drive periods of R(t) and ẋ2(t).
+/// Left: two drive periods of R(t) and ẋ2(t).
+fn time_panels<'a>(
+    c: &Contact,
+    l_top: &Area<'a>,
+    l_bot: &Area<'a>,
+    r: &[f64],
+    v: &[f64],
+) -> DrawResult {
+    let n = c.t.len();
+    let (blue, red) = (BLUE, RED);
     let n_show = ((2.0 / c.drive.frequency_hz) / c.dt).round() as usize;
     let n_show = n_show.clamp(2, n.max(2)).min(n);
     if n_show >= 2 {
         let (t0, t1) = (c.t[0], c.t[n_show - 1]);
-        for (panel, ys, col, label) in [(&l_top, &r, blue, "R [N]"), (&l_bot, &v, red, "ẋ2 [m/s]")]
-        {
+        for (panel, ys, col, label) in [(l_top, r, blue, "R [N]"), (l_bot, v, red, "ẋ2 [m/s]")] {
             let (lo, hi) = range(ys[..n_show].iter().copied());
             let mut chart = ChartBuilder::on(panel)
                 .margin(8)
@@ -166,8 +183,42 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
             }
         }
     }
+    Ok(())
+}
 
-    // Right: R against ẋ2 over the whole log.
+/// The curve of a law over [vlo, vhi] (300 points each side), with the
+/// vertical static threshold at ẋ2 = 0 where `threshold`.
+fn law_curve(l: &SiLaw, threshold: bool, vlo: f64, vhi: f64) -> Vec<(f64, f64)> {
+    let m = 300;
+    let mut pts = Vec::with_capacity(2 * m + 4);
+    for k in 0..=m {
+        let u = vlo + (0.0 - vlo) * k as f64 / m as f64;
+        if u < 0.0 {
+            pts.push((u, law_force(l, u)));
+        }
+    }
+    if threshold && l.rs_n.is_finite() {
+        pts.push((0.0, -l.rs_n));
+        pts.push((0.0, l.rs_n));
+    }
+    for k in 0..=m {
+        let u = vhi * k as f64 / m as f64;
+        if u > 0.0 {
+            pts.push((u, law_force(l, u)));
+        }
+    }
+    pts
+}
+
+/// Right: R against ẋ2 over the whole log, the laws over it.
+fn characteristic_panel(
+    fig: &CharacteristicFigure<'_>,
+    right: &Area<'_>,
+    r: &[f64],
+    v: &[f64],
+) -> DrawResult {
+    let n = fig.contact.t.len();
+    let (blue, red) = (BLUE, RED);
     let (vlo, vhi) = range(v.iter().copied());
     let mut rr = range(r.iter().copied());
     if let Some(l) = fig.law.filter(|_| fig.threshold) {
@@ -175,7 +226,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
             rr = (rr.0.min(-1.05 * l.rs_n), rr.1.max(1.05 * l.rs_n));
         }
     }
-    let mut chart = ChartBuilder::on(&right)
+    let mut chart = ChartBuilder::on(right)
         .margin(8)
         .x_label_area_size(36)
         .y_label_area_size(62)
@@ -202,27 +253,7 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> std::result::Result<
         .map_err(e)?
         .label("measured")
         .legend(move |(x, y)| Circle::new((x + 10, y), 3, blue.filled()));
-    let curve = |l: &SiLaw, threshold: bool| -> Vec<(f64, f64)> {
-        let m = 300;
-        let mut pts = Vec::with_capacity(2 * m + 4);
-        for k in 0..=m {
-            let u = vlo + (0.0 - vlo) * k as f64 / m as f64;
-            if u < 0.0 {
-                pts.push((u, law_force(l, u)));
-            }
-        }
-        if threshold && l.rs_n.is_finite() {
-            pts.push((0.0, -l.rs_n));
-            pts.push((0.0, l.rs_n));
-        }
-        for k in 0..=m {
-            let u = vhi * k as f64 / m as f64;
-            if u > 0.0 {
-                pts.push((u, law_force(l, u)));
-            }
-        }
-        pts
-    };
+    let curve = |l: &SiLaw, threshold: bool| law_curve(l, threshold, vlo, vhi);
     if let Some(l) = fig.law {
         chart
             .draw_series(LineSeries::new(

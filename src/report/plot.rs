@@ -9,6 +9,7 @@
 use crate::error::{Error, Result};
 use crate::model::Absorber;
 use crate::sim::linear;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -130,6 +131,8 @@ pub(crate) fn colour(i: usize, n: usize) -> RGBColor {
     )
 }
 
+type FrcChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
 fn draw_frc<DB: DrawingBackend>(
     fig: &FrcFigure,
     root: &DrawingArea<DB, Shift>,
@@ -139,156 +142,207 @@ fn draw_frc<DB: DrawingBackend>(
     let root = root.titled(&fig.title, ("sans-serif", 26)).map_err(e)?;
     let panels = root.split_evenly((2, 1));
     let (lo, hi) = fig.eta_range;
-    let ab = &fig.absorber;
-    let (eta1, eta2) = ab.eta_linear();
-    let eta0 = ab.eta_stuck();
     let grid: Vec<f64> = (0..=800)
         .map(|i| lo + (hi - lo) * i as f64 / 800.0)
         .collect();
     for (panel, which) in panels.iter().zip([0usize, 1]) {
-        let data_max = fig
-            .curves
-            .iter()
-            .flat_map(|c| if which == 0 { c.a1.iter() } else { c.a2.iter() })
-            .flatten()
-            .copied()
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, f64::max);
-        // Resonance peaks of the lightly damped limits reach ~70: cap the
-        // axis so the friction curves stay readable (peaks are clipped).
-        let ymax = (data_max * 1.15).clamp(1.0, 15.0);
-        let ylabel = if which == 0 { "A1/A" } else { "A2/A" };
-        let mut chart = ChartBuilder::on(panel)
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(55)
-            .build_cartesian_2d(lo..hi, 0.0..ymax)
-            .map_err(e)?;
+        frc_panel(fig, panel, which, &grid)?;
+    }
+    Ok(())
+}
+
+/// One panel of the FRC figure (`which` 0: A1, 1: A2): axes, limits,
+/// curves, coexisting states and (first panel) the legend.
+fn frc_panel<DB: DrawingBackend>(
+    fig: &FrcFigure,
+    panel: &DrawingArea<DB, Shift>,
+    which: usize,
+    grid: &[f64],
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    let (lo, hi) = fig.eta_range;
+    let data_max = fig
+        .curves
+        .iter()
+        .flat_map(|c| if which == 0 { c.a1.iter() } else { c.a2.iter() })
+        .flatten()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, f64::max);
+    // Resonance peaks of the lightly damped limits reach ~70: cap the
+    // axis so the friction curves stay readable (peaks are clipped).
+    let ymax = (data_max * 1.15).clamp(1.0, 15.0);
+    let ylabel = if which == 0 { "A1/A" } else { "A2/A" };
+    let mut chart = ChartBuilder::on(panel)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d(lo..hi, 0.0..ymax)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("η")
+        .y_desc(ylabel)
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 18))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+    frc_limits(&mut chart, fig, which, ymax, grid)?;
+    frc_curves(&mut chart, fig, which)?;
+    frc_coexisting(&mut chart, fig, which, ymax)?;
+    if which == 0 {
         chart
-            .configure_mesh()
-            .x_desc("η")
-            .y_desc(ylabel)
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 18))
-            .light_line_style(RGBColor(235, 235, 235))
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(200, 200, 200))
+            .label_font(("sans-serif", 14))
             .draw()
             .map_err(e)?;
-        // The two limits: no friction (ρs = 0) and rigid stick (ρs = ∞).
-        let grey = RGBColor(120, 120, 120);
-        let free: Vec<(f64, f64)> = grid
+    }
+    Ok(())
+}
+
+/// The two limits, no friction (ρs = 0) and rigid stick (ρs = ∞, first
+/// panel only), and the η0, η1, η2 markers.
+fn frc_limits<DB: DrawingBackend>(
+    chart: &mut FrcChart<'_, DB>,
+    fig: &FrcFigure,
+    which: usize,
+    ymax: f64,
+    grid: &[f64],
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    let (lo, hi) = fig.eta_range;
+    let ab = &fig.absorber;
+    let (eta1, eta2) = ab.eta_linear();
+    let eta0 = ab.eta_stuck();
+    // The two limits: no friction (ρs = 0) and rigid stick (ρs = ∞).
+    let grey = RGBColor(120, 120, 120);
+    let free: Vec<(f64, f64)> = grid
+        .iter()
+        .map(|&x| {
+            let (a1, a2) = linear::free_amplitudes(ab, 0.0, x);
+            (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
+        })
+        .collect();
+    chart
+        .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
+        .map_err(e)?
+        .label("no friction")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
+    if which == 0 {
+        let stuck: Vec<(f64, f64)> = grid
             .iter()
-            .map(|&x| {
-                let (a1, a2) = linear::free_amplitudes(ab, 0.0, x);
-                (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
-            })
+            .map(|&x| (x, linear::stuck_amplitudes(ab, x).0.min(ymax * 2.0)))
             .collect();
+        let dark = RGBColor(60, 60, 60);
         chart
-            .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
+            .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))
             .map_err(e)?
-            .label("no friction")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
-        if which == 0 {
-            let stuck: Vec<(f64, f64)> = grid
-                .iter()
-                .map(|&x| (x, linear::stuck_amplitudes(ab, x).0.min(ymax * 2.0)))
-                .collect();
-            let dark = RGBColor(60, 60, 60);
+            .label("rigid stick")
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
+    }
+    // η0, η1, η2.
+    for (name, v) in [("η1", eta1), ("η0", eta0), ("η2", eta2)] {
+        if v > lo && v < hi {
             chart
-                .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))
-                .map_err(e)?
-                .label("rigid stick")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
-        }
-        // η0, η1, η2.
-        for (name, v) in [("η1", eta1), ("η0", eta0), ("η2", eta2)] {
-            if v > lo && v < hi {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        vec![(v, 0.0), (v, ymax)],
-                        3,
-                        3,
-                        RGBColor(170, 170, 170).stroke_width(1),
-                    ))
-                    .map_err(e)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        name.to_string(),
-                        (v, ymax * 0.97),
-                        ("sans-serif", 15),
-                    )))
-                    .map_err(e)?;
-            }
-        }
-        let n = fig.curves.len();
-        for (i, c) in fig.curves.iter().enumerate() {
-            let col = colour(i, n);
-            let ys = if which == 0 { &c.a1 } else { &c.a2 };
-            // Break the line where a point has no amplitude.
-            let mut seg: Vec<(f64, f64)> = Vec::new();
-            let mut first = true;
-            let mut flush = |seg: &mut Vec<(f64, f64)>,
-                             chart: &mut ChartContext<'_, DB, _>|
-             -> std::result::Result<(), String> {
-                if seg.is_empty() {
-                    return Ok(());
-                }
-                let s = chart
-                    .draw_series(LineSeries::new(std::mem::take(seg), col.stroke_width(2)))
-                    .map_err(e)?;
-                if first {
-                    s.label(c.label.clone()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
-                    });
-                    first = false;
-                }
-                Ok(())
-            };
-            for (x, y) in c.eta.iter().zip(ys) {
-                match y {
-                    Some(v) if v.is_finite() => seg.push((*x, *v)),
-                    _ => flush(&mut seg, &mut chart)?,
-                }
-            }
-            flush(&mut seg, &mut chart)?;
-        }
-        // Coexisting stable states: open circles on every branch's point.
-        let marks: Vec<(f64, f64)> = fig
-            .curves
-            .iter()
-            .flat_map(|c| {
-                let ys = if which == 0 { &c.a1 } else { &c.a2 };
-                c.eta
-                    .iter()
-                    .zip(ys)
-                    .zip(c.coexisting.iter().chain(std::iter::repeat(&false)))
-                    .filter_map(|((x, y), f)| match y {
-                        Some(v) if *f && v.is_finite() => Some((*x, v.min(ymax))),
-                        _ => None,
-                    })
-            })
-            .collect();
-        if !marks.is_empty() {
-            let black = RGBColor(0, 0, 0);
+                .draw_series(DashedLineSeries::new(
+                    vec![(v, 0.0), (v, ymax)],
+                    3,
+                    3,
+                    RGBColor(170, 170, 170).stroke_width(1),
+                ))
+                .map_err(e)?;
             chart
-                .draw_series(
-                    marks
-                        .into_iter()
-                        .map(|p| Circle::new(p, 4, black.stroke_width(1))),
-                )
-                .map_err(e)?
-                .label("coexisting stable states (branches differ)")
-                .legend(move |(x, y)| Circle::new((x + 10, y), 4, black.stroke_width(1)));
-        }
-        if which == 0 {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(200, 200, 200))
-                .label_font(("sans-serif", 14))
-                .draw()
+                .draw_series(std::iter::once(Text::new(
+                    name.to_string(),
+                    (v, ymax * 0.97),
+                    ("sans-serif", 15),
+                )))
                 .map_err(e)?;
         }
+    }
+    Ok(())
+}
+
+/// The curves, one colour each, broken where a point has no amplitude.
+fn frc_curves<DB: DrawingBackend>(
+    chart: &mut FrcChart<'_, DB>,
+    fig: &FrcFigure,
+    which: usize,
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    let n = fig.curves.len();
+    for (i, c) in fig.curves.iter().enumerate() {
+        let col = colour(i, n);
+        let ys = if which == 0 { &c.a1 } else { &c.a2 };
+        // Break the line where a point has no amplitude.
+        let mut seg: Vec<(f64, f64)> = Vec::new();
+        let mut first = true;
+        let mut flush = |seg: &mut Vec<(f64, f64)>,
+                         chart: &mut FrcChart<'_, DB>|
+         -> std::result::Result<(), String> {
+            if seg.is_empty() {
+                return Ok(());
+            }
+            let s = chart
+                .draw_series(LineSeries::new(std::mem::take(seg), col.stroke_width(2)))
+                .map_err(e)?;
+            if first {
+                s.label(c.label.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2))
+                });
+                first = false;
+            }
+            Ok(())
+        };
+        for (x, y) in c.eta.iter().zip(ys) {
+            match y {
+                Some(v) if v.is_finite() => seg.push((*x, *v)),
+                _ => flush(&mut seg, chart)?,
+            }
+        }
+        flush(&mut seg, chart)?;
+    }
+    Ok(())
+}
+
+/// Coexisting stable states: open circles on every branch's point.
+fn frc_coexisting<DB: DrawingBackend>(
+    chart: &mut FrcChart<'_, DB>,
+    fig: &FrcFigure,
+    which: usize,
+    ymax: f64,
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    let marks: Vec<(f64, f64)> = fig
+        .curves
+        .iter()
+        .flat_map(|c| {
+            let ys = if which == 0 { &c.a1 } else { &c.a2 };
+            c.eta
+                .iter()
+                .zip(ys)
+                .zip(c.coexisting.iter().chain(std::iter::repeat(&false)))
+                .filter_map(|((x, y), f)| match y {
+                    Some(v) if *f && v.is_finite() => Some((*x, v.min(ymax))),
+                    _ => None,
+                })
+        })
+        .collect();
+    if !marks.is_empty() {
+        let black = RGBColor(0, 0, 0);
+        chart
+            .draw_series(
+                marks
+                    .into_iter()
+                    .map(|p| Circle::new(p, 4, black.stroke_width(1))),
+            )
+            .map_err(e)?
+            .label("coexisting stable states (branches differ)")
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, black.stroke_width(1)));
     }
     Ok(())
 }

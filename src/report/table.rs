@@ -223,8 +223,8 @@ pub fn write_frc(rows: &[FrcRow], path: &Path) -> Result<()> {
     out.commit()
 }
 
-/// Reads a table written by [`write_frc`].
-pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
+/// Reads a Parquet or CSV table (by the extension of `path`).
+fn read_frame(path: &Path) -> Result<DataFrame> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -248,9 +248,19 @@ pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
             .map_err(|e| fail(path, "cannot read CSV", e))?,
         _ => return Err(fail(path, "table", "must be .parquet or .csv")),
     };
-    let n = df.height();
-    let get = |name: &str, dt: DataType| -> Result<Series> {
-        let c = df.column(name).map_err(|_| {
+    Ok(df)
+}
+
+/// The columns of a sweep table read from `path`, cast to their types.
+struct Columns<'a> {
+    df: &'a DataFrame,
+    path: &'a Path,
+}
+
+impl Columns<'_> {
+    fn get(&self, name: &str, dt: DataType) -> Result<Series> {
+        let path = self.path;
+        let c = self.df.column(name).map_err(|_| {
             fail(
                 path,
                 "not a stickslip sweep table",
@@ -260,36 +270,55 @@ pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
         c.as_materialized_series()
             .cast(&dt)
             .map_err(|e| fail(path, &format!("column `{name}`"), e))
-    };
-    let fcol = |name: &str| -> Result<Vec<Option<f64>>> {
-        Ok(get(name, DataType::Float64)?
+    }
+
+    fn fcol(&self, name: &str) -> Result<Vec<Option<f64>>> {
+        Ok(self
+            .get(name, DataType::Float64)?
             .f64()
-            .map_err(|e| fail(path, name, e))?
+            .map_err(|e| fail(self.path, name, e))?
             .iter()
             .collect())
-    };
-    let ucol = |name: &str| -> Result<Vec<Option<u64>>> {
-        Ok(get(name, DataType::UInt64)?
+    }
+
+    fn ucol(&self, name: &str) -> Result<Vec<Option<u64>>> {
+        Ok(self
+            .get(name, DataType::UInt64)?
             .u64()
-            .map_err(|e| fail(path, name, e))?
+            .map_err(|e| fail(self.path, name, e))?
             .iter()
             .collect())
-    };
-    let bcol = |name: &str| -> Result<Vec<Option<bool>>> {
-        Ok(get(name, DataType::Boolean)?
+    }
+
+    fn bcol(&self, name: &str) -> Result<Vec<Option<bool>>> {
+        Ok(self
+            .get(name, DataType::Boolean)?
             .bool()
-            .map_err(|e| fail(path, name, e))?
+            .map_err(|e| fail(self.path, name, e))?
             .iter()
             .collect())
-    };
-    let scol = |name: &str| -> Result<Vec<Option<String>>> {
-        Ok(get(name, DataType::String)?
+    }
+
+    fn scol(&self, name: &str) -> Result<Vec<Option<String>>> {
+        Ok(self
+            .get(name, DataType::String)?
             .str()
-            .map_err(|e| fail(path, name, e))?
+            .map_err(|e| fail(self.path, name, e))?
             .iter()
             .map(|s| s.map(str::to_string))
             .collect())
-    };
+    }
+}
+
+/// Reads a table written by [`write_frc`].
+pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
+    let df = read_frame(path)?;
+    let n = df.height();
+    let cols = Columns { df: &df, path };
+    let fcol = |name: &str| cols.fcol(name);
+    let ucol = |name: &str| cols.ucol(name);
+    let bcol = |name: &str| cols.bcol(name);
+    let scol = |name: &str| cols.scol(name);
     let need = |v: Option<f64>, name: &str, i: usize| {
         v.ok_or_else(|| {
             fail(

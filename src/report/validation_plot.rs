@@ -9,6 +9,7 @@ use crate::model::Absorber;
 use crate::sim::linear;
 use crate::validate::frc::MeasuredFrc;
 use crate::validate::predict::Prediction;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -30,38 +31,83 @@ pub fn validation_figure(
 }
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
+type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+type DrawResult = std::result::Result<(), String>;
 
-fn draw(
-    title: &str,
-    frc: &MeasuredFrc,
-    pred: &Prediction,
-    root: &Area<'_>,
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<std::io::Error>| x.to_string();
-    root.fill(&WHITE).map_err(e)?;
-    let root = root.titled(title, ("sans-serif", 24)).map_err(e)?;
-    let (top, bottom) = root.split_vertically(800);
-    let panels = top.split_evenly((2, 1));
-    let etas: Vec<f64> = frc.points.iter().map(|p| p.eta).collect();
-    let (mut lo, mut hi) = etas
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-            (a.min(x), b.max(x))
-        });
-    if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
-        lo -= 0.05;
-        hi += 0.05;
+fn e(x: DrawingAreaErrorKind<std::io::Error>) -> String {
+    x.to_string()
+}
+
+/// What both amplitude panels and the residual panel share: the measured
+/// η of each point, the padded η range, the absorber's η0, η1, η2, the
+/// grid of the limit curves and the colours.
+struct Frame {
+    etas: Vec<f64>,
+    lo: f64,
+    hi: f64,
+    ab: Absorber,
+    eta0: f64,
+    eta1: f64,
+    eta2: f64,
+    grid: Vec<f64>,
+    c_meas: RGBColor,
+    c_steady: RGBColor,
+    c_replay: RGBColor,
+}
+
+impl Frame {
+    fn new(frc: &MeasuredFrc, pred: &Prediction) -> Frame {
+        let etas: Vec<f64> = frc.points.iter().map(|p| p.eta).collect();
+        let (mut lo, mut hi) = etas
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                (a.min(x), b.max(x))
+            });
+        if lo.partial_cmp(&hi) != Some(std::cmp::Ordering::Less) {
+            lo -= 0.05;
+            hi += 0.05;
+        }
+        let pad = 0.04 * (hi - lo);
+        let (lo, hi) = (lo - pad, hi + pad);
+        let ab: Absorber = pred.absorber;
+        let (eta1, eta2) = ab.eta_linear();
+        let eta0 = ab.eta_stuck();
+        let grid: Vec<f64> = (0..=600)
+            .map(|i| lo + (hi - lo) * i as f64 / 600.0)
+            .collect();
+        let (c_meas, c_steady, c_replay) = (RGBColor(20, 20, 20), colour(0, 3), colour(2, 3));
+        Frame {
+            etas,
+            lo,
+            hi,
+            ab,
+            eta0,
+            eta1,
+            eta2,
+            grid,
+            c_meas,
+            c_steady,
+            c_replay,
+        }
     }
-    let pad = 0.04 * (hi - lo);
-    let (lo, hi) = (lo - pad, hi + pad);
-    let ab: Absorber = pred.absorber;
-    let (eta1, eta2) = ab.eta_linear();
-    let eta0 = ab.eta_stuck();
-    let grid: Vec<f64> = (0..=600)
-        .map(|i| lo + (hi - lo) * i as f64 / 600.0)
-        .collect();
-    let (c_meas, c_steady, c_replay) = (RGBColor(20, 20, 20), colour(0, 3), colour(2, 3));
-    for (panel, which) in panels.iter().zip([0usize, 1]) {
+}
+
+/// The series of one amplitude panel (`which` 0: mass 1, 1: mass 2): the
+/// measured amplitudes and the steady-state and replay predictions with
+/// their 95 % bands.
+struct PanelData<'p> {
+    which: usize,
+    meas: Vec<f64>,
+    st: &'p [Option<f64>],
+    st_lo: &'p [Option<f64>],
+    st_hi: &'p [Option<f64>],
+    rp: &'p [Option<f64>],
+    rp_lo: &'p [Option<f64>],
+    rp_hi: &'p [Option<f64>],
+}
+
+impl<'p> PanelData<'p> {
+    fn new(frc: &MeasuredFrc, pred: &'p Prediction, which: usize) -> PanelData<'p> {
         let meas: Vec<f64> = frc
             .points
             .iter()
@@ -92,160 +138,243 @@ fn draw(
                 &pred.replay.amplitude2_high,
             )
         };
-        let data_max = meas
-            .iter()
-            .copied()
-            .chain(st_hi.iter().flatten().copied())
-            .chain(rp_hi.iter().flatten().copied())
-            .filter(|v| v.is_finite())
-            .fold(0.0f64, f64::max);
-        let ymax = (data_max * 1.15).max(0.5);
-        let mut chart = ChartBuilder::on(panel)
-            .margin(12)
-            .x_label_area_size(40)
-            .y_label_area_size(55)
-            .build_cartesian_2d(lo..hi, 0.0..ymax)
-            .map_err(e)?;
-        chart
-            .configure_mesh()
-            .x_desc("η")
-            .y_desc(if which == 0 { "A1/A" } else { "A2/A" })
-            .label_style(("sans-serif", 16))
-            .axis_desc_style(("sans-serif", 18))
-            .light_line_style(RGBColor(235, 235, 235))
-            .draw()
-            .map_err(e)?;
-        let grey = RGBColor(150, 150, 150);
-        let free: Vec<(f64, f64)> = grid
-            .iter()
-            .map(|&x| {
-                let (a1, a2) = linear::free_amplitudes(&ab, 0.0, x);
-                (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
-            })
-            .collect();
-        chart
-            .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
-            .map_err(e)?
-            .label("no friction (ρs = 0)")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
-        let stuck: Vec<(f64, f64)> = grid
-            .iter()
-            .map(|&x| {
-                let (a1, a2) = linear::stuck_amplitudes(&ab, x);
-                (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
-            })
-            .collect();
-        let dark = RGBColor(90, 90, 90);
-        chart
-            .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))
-            .map_err(e)?
-            .label("rigid stick (ρs = ∞)")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
-        for (name, v) in [("η1", eta1), ("η0", eta0), ("η2", eta2)] {
-            if v > lo && v < hi {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        vec![(v, 0.0), (v, ymax)],
-                        3,
-                        3,
-                        RGBColor(190, 190, 190).stroke_width(1),
-                    ))
-                    .map_err(e)?;
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        name.to_string(),
-                        (v, ymax * 0.97),
-                        ("sans-serif", 15),
-                    )))
-                    .map_err(e)?;
-            }
+        PanelData {
+            which,
+            meas,
+            st,
+            st_lo,
+            st_hi,
+            rp,
+            rp_lo,
+            rp_hi,
         }
-        // Steady-state band (polygon over the points that have one) and line.
-        let band: Vec<(f64, f64, f64)> = (0..etas.len())
-            .filter_map(|i| match (st_lo[i], st_hi[i]) {
-                (Some(l), Some(h)) => Some((etas[i], l, h)),
-                _ => None,
-            })
-            .collect();
-        if band.len() > 1 {
-            let mut sorted = band.clone();
-            sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
-            let mut poly: Vec<(f64, f64)> = sorted.iter().map(|&(x, l, _)| (x, l)).collect();
-            poly.extend(sorted.iter().rev().map(|&(x, _, h)| (x, h)));
+    }
+}
+
+fn draw(title: &str, frc: &MeasuredFrc, pred: &Prediction, root: &Area<'_>) -> DrawResult {
+    root.fill(&WHITE).map_err(e)?;
+    let root = root.titled(title, ("sans-serif", 24)).map_err(e)?;
+    let (top, bottom) = root.split_vertically(800);
+    let panels = top.split_evenly((2, 1));
+    let f = Frame::new(frc, pred);
+    for (panel, which) in panels.iter().zip([0usize, 1]) {
+        amplitude_panel(panel, &f, pred, &PanelData::new(frc, pred, which))?;
+    }
+    residual_panel(&bottom, &f, frc, pred)
+}
+
+/// One amplitude panel: axes, limit curves, steady state, replay, measured
+/// points and (on the first panel) the legend.
+fn amplitude_panel(
+    panel: &Area<'_>,
+    f: &Frame,
+    pred: &Prediction,
+    d: &PanelData<'_>,
+) -> DrawResult {
+    let (lo, hi) = (f.lo, f.hi);
+    let data_max = d
+        .meas
+        .iter()
+        .copied()
+        .chain(d.st_hi.iter().flatten().copied())
+        .chain(d.rp_hi.iter().flatten().copied())
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, f64::max);
+    let ymax = (data_max * 1.15).max(0.5);
+    let mut chart = ChartBuilder::on(panel)
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d(lo..hi, 0.0..ymax)
+        .map_err(e)?;
+    chart
+        .configure_mesh()
+        .x_desc("η")
+        .y_desc(if d.which == 0 { "A1/A" } else { "A2/A" })
+        .label_style(("sans-serif", 16))
+        .axis_desc_style(("sans-serif", 18))
+        .light_line_style(RGBColor(235, 235, 235))
+        .draw()
+        .map_err(e)?;
+    limit_curves(&mut chart, f, d.which, ymax)?;
+    steady_series(&mut chart, f, d)?;
+    replay_series(&mut chart, f, d)?;
+    measured_series(&mut chart, f, pred, d)?;
+    if d.which == 0 {
+        legend(&mut chart)?;
+    }
+    Ok(())
+}
+
+/// The linear limit curves (no friction, rigid stick) and the η0, η1, η2
+/// markers of an amplitude panel.
+fn limit_curves(chart: &mut Chart<'_, '_>, f: &Frame, which: usize, ymax: f64) -> DrawResult {
+    let (lo, hi, ab) = (f.lo, f.hi, &f.ab);
+    let grey = RGBColor(150, 150, 150);
+    let free: Vec<(f64, f64)> = f
+        .grid
+        .iter()
+        .map(|&x| {
+            let (a1, a2) = linear::free_amplitudes(ab, 0.0, x);
+            (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
+        })
+        .collect();
+    chart
+        .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
+        .map_err(e)?
+        .label("no friction (ρs = 0)")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
+    let stuck: Vec<(f64, f64)> = f
+        .grid
+        .iter()
+        .map(|&x| {
+            let (a1, a2) = linear::stuck_amplitudes(ab, x);
+            (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
+        })
+        .collect();
+    let dark = RGBColor(90, 90, 90);
+    chart
+        .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))
+        .map_err(e)?
+        .label("rigid stick (ρs = ∞)")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
+    for (name, v) in [("η1", f.eta1), ("η0", f.eta0), ("η2", f.eta2)] {
+        if v > lo && v < hi {
             chart
-                .draw_series(std::iter::once(Polygon::new(
-                    poly,
-                    c_steady.mix(0.18).filled(),
+                .draw_series(DashedLineSeries::new(
+                    vec![(v, 0.0), (v, ymax)],
+                    3,
+                    3,
+                    RGBColor(190, 190, 190).stroke_width(1),
+                ))
+                .map_err(e)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    name.to_string(),
+                    (v, ymax * 0.97),
+                    ("sans-serif", 15),
                 )))
-                .map_err(e)?
-                .label("steady state, 95 % band")
-                .legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 20, y + 5)], c_steady.mix(0.3).filled())
-                });
-        }
-        let mut line: Vec<(f64, f64)> = (0..etas.len())
-            .filter_map(|i| st[i].map(|v| (etas[i], v)))
-            .collect();
-        line.sort_by(|a, b| a.0.total_cmp(&b.0));
-        chart
-            .draw_series(LineSeries::new(line, c_steady.stroke_width(2)))
-            .map_err(e)?
-            .label("steady-state prediction")
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + 20, y)], c_steady.stroke_width(2))
-            });
-        // Replay: points with error bars.
-        let dx = 0.004 * (hi - lo);
-        for i in 0..etas.len() {
-            if let (Some(l), Some(h)) = (rp_lo[i], rp_hi[i]) {
-                let x = etas[i] + dx;
-                chart
-                    .draw_series(std::iter::once(PathElement::new(
-                        vec![(x, l), (x, h)],
-                        c_replay.stroke_width(2),
-                    )))
-                    .map_err(e)?;
-            }
-        }
-        chart
-            .draw_series((0..etas.len()).filter_map(|i| {
-                rp[i].map(|v| TriangleMarker::new((etas[i] + dx, v), 5, c_replay.filled()))
-            }))
-            .map_err(e)?
-            .label("replay of the sweep, 95 % band")
-            .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, c_replay.filled()));
-        // Measured: settled filled, others hollow.
-        let settled = |i: usize| pred.steady_reached.get(i).copied().flatten() == Some(true);
-        chart
-            .draw_series(
-                (0..etas.len())
-                    .filter(|&i| settled(i))
-                    .map(|i| Circle::new((etas[i], meas[i]), 4, c_meas.filled())),
-            )
-            .map_err(e)?
-            .label("measured, steady state reached")
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, c_meas.filled()));
-        chart
-            .draw_series(
-                (0..etas.len())
-                    .filter(|&i| !settled(i))
-                    .map(|i| Circle::new((etas[i], meas[i]), 4, c_meas.stroke_width(1))),
-            )
-            .map_err(e)?
-            .label("measured, not settled")
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, c_meas.stroke_width(1)));
-        if which == 0 {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(200, 200, 200))
-                .label_font(("sans-serif", 13))
-                .draw()
                 .map_err(e)?;
         }
     }
-    // Residuals of the replay and steady state, relative to the measured peak.
+    Ok(())
+}
+
+/// Steady-state band (polygon over the points that have one) and line.
+fn steady_series(chart: &mut Chart<'_, '_>, f: &Frame, d: &PanelData<'_>) -> DrawResult {
+    let (etas, c_steady) = (&f.etas, f.c_steady);
+    let band: Vec<(f64, f64, f64)> = (0..etas.len())
+        .filter_map(|i| match (d.st_lo[i], d.st_hi[i]) {
+            (Some(l), Some(h)) => Some((etas[i], l, h)),
+            _ => None,
+        })
+        .collect();
+    if band.len() > 1 {
+        let mut sorted = band.clone();
+        sorted.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut poly: Vec<(f64, f64)> = sorted.iter().map(|&(x, l, _)| (x, l)).collect();
+        poly.extend(sorted.iter().rev().map(|&(x, _, h)| (x, h)));
+        chart
+            .draw_series(std::iter::once(Polygon::new(
+                poly,
+                c_steady.mix(0.18).filled(),
+            )))
+            .map_err(e)?
+            .label("steady state, 95 % band")
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], c_steady.mix(0.3).filled())
+            });
+    }
+    let mut line: Vec<(f64, f64)> = (0..etas.len())
+        .filter_map(|i| d.st[i].map(|v| (etas[i], v)))
+        .collect();
+    line.sort_by(|a, b| a.0.total_cmp(&b.0));
+    chart
+        .draw_series(LineSeries::new(line, c_steady.stroke_width(2)))
+        .map_err(e)?
+        .label("steady-state prediction")
+        .legend(move |(x, y)| {
+            PathElement::new(vec![(x, y), (x + 20, y)], c_steady.stroke_width(2))
+        });
+    Ok(())
+}
+
+/// Replay: points with error bars.
+fn replay_series(chart: &mut Chart<'_, '_>, f: &Frame, d: &PanelData<'_>) -> DrawResult {
+    let (etas, c_replay) = (&f.etas, f.c_replay);
+    let dx = 0.004 * (f.hi - f.lo);
+    for (i, &eta) in etas.iter().enumerate() {
+        if let (Some(l), Some(h)) = (d.rp_lo[i], d.rp_hi[i]) {
+            let x = eta + dx;
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(x, l), (x, h)],
+                    c_replay.stroke_width(2),
+                )))
+                .map_err(e)?;
+        }
+    }
+    chart
+        .draw_series((0..etas.len()).filter_map(|i| {
+            d.rp[i].map(|v| TriangleMarker::new((etas[i] + dx, v), 5, c_replay.filled()))
+        }))
+        .map_err(e)?
+        .label("replay of the sweep, 95 % band")
+        .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, c_replay.filled()));
+    Ok(())
+}
+
+/// Measured: settled filled, others hollow.
+fn measured_series(
+    chart: &mut Chart<'_, '_>,
+    f: &Frame,
+    pred: &Prediction,
+    d: &PanelData<'_>,
+) -> DrawResult {
+    let (etas, meas, c_meas) = (&f.etas, &d.meas, f.c_meas);
+    let settled = |i: usize| pred.steady_reached.get(i).copied().flatten() == Some(true);
+    chart
+        .draw_series(
+            (0..etas.len())
+                .filter(|&i| settled(i))
+                .map(|i| Circle::new((etas[i], meas[i]), 4, c_meas.filled())),
+        )
+        .map_err(e)?
+        .label("measured, steady state reached")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 4, c_meas.filled()));
+    chart
+        .draw_series(
+            (0..etas.len())
+                .filter(|&i| !settled(i))
+                .map(|i| Circle::new((etas[i], meas[i]), 4, c_meas.stroke_width(1))),
+        )
+        .map_err(e)?
+        .label("measured, not settled")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 4, c_meas.stroke_width(1)));
+    Ok(())
+}
+
+/// The legend box of a panel (upper right).
+fn legend<'a, 'b: 'a>(chart: &mut Chart<'a, 'b>) -> DrawResult {
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(200, 200, 200))
+        .label_font(("sans-serif", 13))
+        .draw()
+        .map_err(e)
+}
+
+/// Residuals of the replay and steady state, relative to the measured peak.
+fn residual_panel(
+    bottom: &Area<'_>,
+    f: &Frame,
+    frc: &MeasuredFrc,
+    pred: &Prediction,
+) -> DrawResult {
+    let (etas, lo, hi) = (&f.etas, f.lo, f.hi);
+    let (c_steady, c_replay) = (f.c_steady, f.c_replay);
     let peak1 = frc
         .points
         .iter()
@@ -265,7 +394,7 @@ fn draw(
         .fold(0.02f64, f64::max)
         .min(1.0)
         * 1.15;
-    let mut chart = ChartBuilder::on(&bottom)
+    let mut chart = ChartBuilder::on(bottom)
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(55)
@@ -302,13 +431,5 @@ fn draw(
         .map_err(e)?
         .label("steady state")
         .legend(move |(x, y)| Circle::new((x + 10, y), 4, c_steady.filled()));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(200, 200, 200))
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(e)?;
-    Ok(())
+    legend(&mut chart)
 }

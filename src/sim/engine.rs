@@ -413,6 +413,21 @@ impl Sim {
         )
     }
 
+    /// The event-driven integration loop behind [`Sim::run_span`]: `periods`
+    /// whole forcing periods and a `tail`, from `init`, the drive `u`.
+    ///
+    /// Why this stays one function (≈220 lines): it is one loop over contact
+    /// phases, the hot path of every sweep, fit and replay (see
+    /// `benches/engine.rs`). Its loop state — the state `x` and `mode`, the
+    /// period `n` and offset `s`, the pending sample time, the counters
+    /// `events`, `period_events` and `instant`, `stick_time` and the period
+    /// statistics — lives in locals the optimiser keeps in registers, and the
+    /// two phase arms hand monomorphised closures (jet evaluator, marching
+    /// cursor, sampler) to [`events::first_event`]. Splitting the phase step
+    /// or the switch handling out would thread about ten mutable values and
+    /// the observer through each call, and turn the early returns (stop,
+    /// chatter, interruption) into status plumbing; it is allocation-free
+    /// and must stay so.
     fn run_inner<O: Observer>(
         &self,
         init: Init,

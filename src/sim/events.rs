@@ -181,6 +181,14 @@ pub struct Hit<const N: usize> {
 /// somewhere in the first step; the bracket then starts at the first
 /// positive point found by halving. If it is not, the event is at δ = 0 (a
 /// phase of zero length: immediate re-stick, reversal).
+///
+/// Why this stays one function (≈130 lines): it is the innermost loop of
+/// every engine (called once per contact phase or integration step). The
+/// march over steps, the bracketing per switching function (`lo`,
+/// `boundary`) and the root refinement share the memoised evaluator and the
+/// bracket state `(a, ja)`; all are fixed-size arrays on the stack, and the
+/// generic closures inline into it. Split, the refinement would need the
+/// memo, the brackets and the step ends passed in and out of each call.
 #[allow(clippy::too_many_arguments)]
 pub fn first_event<const N: usize, W, E, M, S>(
     eval: &E,

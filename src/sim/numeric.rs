@@ -236,6 +236,17 @@ impl NumericSim {
     /// Integrates from `init` over `duration`. With a harmonic drive the
     /// observer's period callbacks come every forcing period; trajectory
     /// samples come at the times the observer asks for.
+    ///
+    /// Why this stays one function (≈190 lines): it is the step loop of the
+    /// numerical engine (the sampled-drive fits and the synthetic rig run
+    /// it over whole logs). Its state — `x`, `mode`, the time `t`, period
+    /// `n`, step size `h`, the derivative `f0` carried between steps (FSAL),
+    /// the pending sample, the event and chatter counters, `stick_time`, the
+    /// period statistics and the event window — lives in locals the
+    /// optimiser keeps in registers; the event search gets a monomorphised
+    /// dense-output closure per step. Splitting the step or the switch
+    /// handling out would thread a dozen mutable values and the observer
+    /// through each call and turn the early returns into status plumbing.
     pub fn run<O: Observer>(&self, init: Init, duration: f64, obs: &mut O) -> RunEnd {
         let period = match self.drive {
             Drive::Harmonic { eta, .. } => Some(2.0 * std::f64::consts::PI / eta),

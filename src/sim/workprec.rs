@@ -150,15 +150,10 @@ fn evaluate(
     Some(err)
 }
 
-/// Runs the study; `quick` uses fewer settings and scenarios.
-pub fn study(quick: bool) -> Vec<WpRow> {
-    let mut sc = scenarios();
-    if quick {
-        sc.truncate(3);
-    }
-    // References: exact engine at machine precision.
-    let refs: Vec<(Vec<Event>, Summary)> = sc
-        .iter()
+/// References: exact engine at machine precision (the events of the first
+/// 10 periods and the steady state, shortcuts off) of each scenario.
+fn references(sc: &[(&'static str, Model, f64)]) -> Vec<(Vec<Event>, Summary)> {
+    sc.iter()
         .map(|(_, m, eta)| {
             let sim = Sim::new(m, *eta).expect("valid scenario");
             let mut ev = Events(Vec::new());
@@ -170,7 +165,56 @@ pub fn study(quick: bool) -> Vec<WpRow> {
             let s = super::steady::simulate(&sim, &opts, &mut ());
             (ev.0, s)
         })
-        .collect();
+        .collect()
+}
+
+/// The Fig. 3 workload (13 ρs × 141 η, Coulomb, steady states): a timing
+/// row.
+fn fig3_row() -> WpRow {
+    use super::sweep::{eta_grid, family, CurveSpec, Direction, Shard, SteadyConfig};
+    let specs: Vec<CurveSpec> = [
+        0.0, 0.05, 0.1, 0.2, 0.3, 0.33, 0.35, 0.375, 0.4, 0.6, 1.0, 2.0, 5.0,
+    ]
+    .iter()
+    .map(|&rs| CurveSpec {
+        model: Model {
+            absorber: Absorber::default(),
+            law: Law::coulomb(rs),
+            stop_below: None,
+        },
+        direction: Direction::Up,
+    })
+    .collect();
+    let start = Instant::now();
+    let ok = family(
+        &specs,
+        &eta_grid(0.2, 1.6, 141),
+        &SteadyConfig::default(),
+        Shard::ALL,
+        &|_| {},
+    )
+    .is_ok();
+    WpRow {
+        method: "fig3-family".into(),
+        setting: if ok {
+            "13 rho_s x 141 eta, steady"
+        } else {
+            "13 rho_s x 141 eta, FAILED"
+        }
+        .into(),
+        seconds: start.elapsed().as_secs_f64(),
+        // A timing row: no error is measured.
+        error: None,
+    }
+}
+
+/// Runs the study; `quick` uses fewer settings and scenarios.
+pub fn study(quick: bool) -> Vec<WpRow> {
+    let mut sc = scenarios();
+    if quick {
+        sc.truncate(3);
+    }
+    let refs = references(&sc);
     let mut rows = Vec::new();
     let mut measure =
         |method: &str,
@@ -249,41 +293,7 @@ pub fn study(quick: bool) -> Vec<WpRow> {
     }
     // The Fig. 3 workload (13 ρs × 141 η, Coulomb, steady states).
     if !quick {
-        use super::sweep::{eta_grid, family, CurveSpec, Direction, Shard, SteadyConfig};
-        let specs: Vec<CurveSpec> = [
-            0.0, 0.05, 0.1, 0.2, 0.3, 0.33, 0.35, 0.375, 0.4, 0.6, 1.0, 2.0, 5.0,
-        ]
-        .iter()
-        .map(|&rs| CurveSpec {
-            model: Model {
-                absorber: Absorber::default(),
-                law: Law::coulomb(rs),
-                stop_below: None,
-            },
-            direction: Direction::Up,
-        })
-        .collect();
-        let start = Instant::now();
-        let ok = family(
-            &specs,
-            &eta_grid(0.2, 1.6, 141),
-            &SteadyConfig::default(),
-            Shard::ALL,
-            &|_| {},
-        )
-        .is_ok();
-        rows.push(WpRow {
-            method: "fig3-family".into(),
-            setting: if ok {
-                "13 rho_s x 141 eta, steady"
-            } else {
-                "13 rho_s x 141 eta, FAILED"
-            }
-            .into(),
-            seconds: start.elapsed().as_secs_f64(),
-            // A timing row: no error is measured.
-            error: None,
-        });
+        rows.push(fig3_row());
     }
     rows
 }

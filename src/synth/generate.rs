@@ -265,34 +265,13 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         .map(|((q, s), r)| plan_channel(cfg, *q, *s, duration_s, r))
         .collect();
 
-    // One merged, sorted request stream (engine τ, clamped at the start).
-    let total: usize = plans.iter().map(|p| p.req_t.len()).sum();
-    let mut requests = Vec::with_capacity(total);
-    for (c, p) in plans.iter().enumerate() {
-        for &t in &p.req_t {
-            requests.push(Request {
-                tau: ((warm + t) * w).max(0.0),
-                chan: c as u32,
-            });
-        }
-    }
-    requests.sort_by(|a, b| a.tau.total_cmp(&b.tau));
+    let requests = merged_requests(&plans, warm, w);
     let total_tau = (warm + duration_s) * w;
     // A CSV column shifted forward can ask past the end: run a bit longer.
     let run_tau = requests.last().map_or(total_tau, |r| r.tau.max(total_tau));
     if let Some(s) = schedule.as_mut() {
         if run_tau > total_tau {
-            // Hold the last frequency for requests past the end.
-            let eta_last = match s.segments.last() {
-                Some(Segment::Dwell { eta, .. }) | Some(Segment::Ramp { eta, .. }) => *eta,
-                None => unreachable!("validated schedule"),
-            };
-            s.segments.push(Segment::Dwell {
-                eta: eta_last,
-                // (past the last request: a span's end sample is not delivered)
-                duration: run_tau - total_tau + 1.0,
-            });
-            drives = Drives(s.drives().map_err(SynthError::Sim)?);
+            drives = hold_last_frequency(s, run_tau - total_tau)?;
         }
     }
 
@@ -323,31 +302,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         rtol: cfg.rtol,
         atol: cfg.rtol * 1e-2,
     };
-    let sim_err = |e: crate::sim::SimError| SynthError::Sim(e.to_string());
-    let end: RunEnd = match &schedule {
-        None => {
-            let (eta, extra) = match &drives.0[0].1 {
-                Drive::Harmonic { eta, .. } => (*eta, run_tau - drives.0[0].2),
-                _ => unreachable!("a characteristic test drives harmonically"),
-            };
-            // Extend the single harmonic piece if a request lies past it.
-            let dur = drives.0[0].2 + if extra > 0.0 { extra + 1.0 } else { 0.0 };
-            if model.law.affine().is_some() {
-                Sim::new(&model, eta).map_err(sim_err)?.run_span(
-                    Init::rest(),
-                    0.0,
-                    1.0,
-                    dur,
-                    &mut col,
-                )
-            } else {
-                NumericSim::new(&model, drives.0[0].1.clone(), opts)
-                    .map_err(sim_err)?
-                    .run(Init::rest(), dur, &mut col)
-            }
-        }
-        Some(s) => run_schedule(&model, s, Init::rest(), opts, &mut col).map_err(sim_err)?,
-    };
+    let end = run_rig(&model, &drives, schedule.as_ref(), run_tau, opts, &mut col)?;
     match &end.status {
         Status::Completed => {}
         Status::Stopped => {}
@@ -370,58 +325,12 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     let exact = std::mem::take(&mut col.out);
 
     // Sensor models.
-    let mut channels = Vec::new();
-    for ((plan, u), rng) in plans.iter().zip(exact.iter()).zip(rngs.iter_mut()) {
-        let s = &plan.sensor;
-        let filtered = match s.lowpass_hz {
-            Some(fc) => lowpass(&plan.req_t, u, 1.0 / (2.0 * PI * fc)),
-            None => u.clone(),
-        };
-        let mut real = filtered
-            .iter()
-            .zip(&plan.real)
-            .filter(|(_, r)| **r)
-            .map(|(v, _)| *v);
-        let mut buffers = Vec::with_capacity(plan.buffers.len());
-        let mut nulls = 0;
-        let mut burst = 0u32;
-        for &(t0, n) in &plan.buffers {
-            let mut values = Vec::with_capacity(n);
-            for _ in 0..n {
-                let y = real.next().expect("one value per sample");
-                let noise = if s.noise > 0.0 {
-                    s.noise * rng.normal()
-                } else {
-                    0.0
-                };
-                let v = quantise(s.gain * y + s.offset + noise, s.quant);
-                if burst == 0 && s.p_dropout > 0.0 && rng.uniform() < s.p_dropout {
-                    burst = rng.int(1, i64::from(s.dropout_burst_max)) as u32;
-                }
-                if burst > 0 {
-                    burst -= 1;
-                    nulls += 1;
-                    values.push(None);
-                } else {
-                    values.push(Some(v));
-                }
-            }
-            buffers.push(Buffer {
-                t0_ns: LOG_START_NS + t0,
-                values,
-            });
-        }
-        channels.push(SynthChannel {
-            quantity: plan.quantity,
-            sensor: *s,
-            dt_ns: plan.dt_ns,
-            shift_s: plan.shift_s,
-            buffers,
-            lost_buffers: plan.lost,
-            null_samples: nulls,
-            first_sample_offset_ns: plan.first_offset_ns,
-        });
-    }
+    let channels: Vec<SynthChannel> = plans
+        .iter()
+        .zip(exact.iter())
+        .zip(rngs.iter_mut())
+        .map(|((plan, u), rng)| sense(plan, u, rng))
+        .collect();
 
     let rig_record = rig_record(cfg);
     let table_rows = if cfg.format.is_table() {
@@ -447,4 +356,125 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         table_rows,
         truth,
     })
+}
+
+/// One merged, sorted request stream (engine τ, clamped at the start) of
+/// every channel's sample times.
+fn merged_requests(plans: &[Plan], warm: f64, w: f64) -> Vec<Request> {
+    let total: usize = plans.iter().map(|p| p.req_t.len()).sum();
+    let mut requests = Vec::with_capacity(total);
+    for (c, p) in plans.iter().enumerate() {
+        for &t in &p.req_t {
+            requests.push(Request {
+                tau: ((warm + t) * w).max(0.0),
+                chan: c as u32,
+            });
+        }
+    }
+    requests.sort_by(|a, b| a.tau.total_cmp(&b.tau));
+    requests
+}
+
+/// Holds the last frequency of a schedule for requests past its end
+/// (`past`: how far, in τ) and returns the drives of the longer schedule.
+fn hold_last_frequency(s: &mut Schedule, past: f64) -> Result<Drives, SynthError> {
+    let eta_last = match s.segments.last() {
+        Some(Segment::Dwell { eta, .. }) | Some(Segment::Ramp { eta, .. }) => *eta,
+        None => unreachable!("validated schedule"),
+    };
+    s.segments.push(Segment::Dwell {
+        eta: eta_last,
+        // (past the last request: a span's end sample is not delivered)
+        duration: past + 1.0,
+    });
+    Ok(Drives(s.drives().map_err(SynthError::Sim)?))
+}
+
+/// Runs the engine over the whole log into `col`: one harmonic piece
+/// (event-driven engine for an affine law, numeric otherwise), or the
+/// schedule of a sweep.
+fn run_rig(
+    model: &Model,
+    drives: &Drives,
+    schedule: Option<&Schedule>,
+    run_tau: f64,
+    opts: NumericOptions,
+    col: &mut Collector<'_>,
+) -> Result<RunEnd, SynthError> {
+    let sim_err = |e: crate::sim::SimError| SynthError::Sim(e.to_string());
+    let end: RunEnd = match schedule {
+        None => {
+            let (eta, extra) = match &drives.0[0].1 {
+                Drive::Harmonic { eta, .. } => (*eta, run_tau - drives.0[0].2),
+                _ => unreachable!("a characteristic test drives harmonically"),
+            };
+            // Extend the single harmonic piece if a request lies past it.
+            let dur = drives.0[0].2 + if extra > 0.0 { extra + 1.0 } else { 0.0 };
+            if model.law.affine().is_some() {
+                Sim::new(model, eta)
+                    .map_err(sim_err)?
+                    .run_span(Init::rest(), 0.0, 1.0, dur, col)
+            } else {
+                NumericSim::new(model, drives.0[0].1.clone(), opts)
+                    .map_err(sim_err)?
+                    .run(Init::rest(), dur, col)
+            }
+        }
+        Some(s) => run_schedule(model, s, Init::rest(), opts, col).map_err(sim_err)?,
+    };
+    Ok(end)
+}
+
+/// The sensor model of one channel over its exact signal `u`: low-pass,
+/// gain, offset, noise, quantisation and dropouts, into its buffers.
+fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
+    let s = &plan.sensor;
+    let filtered = match s.lowpass_hz {
+        Some(fc) => lowpass(&plan.req_t, u, 1.0 / (2.0 * PI * fc)),
+        None => u.to_vec(),
+    };
+    let mut real = filtered
+        .iter()
+        .zip(&plan.real)
+        .filter(|(_, r)| **r)
+        .map(|(v, _)| *v);
+    let mut buffers = Vec::with_capacity(plan.buffers.len());
+    let mut nulls = 0;
+    let mut burst = 0u32;
+    for &(t0, n) in &plan.buffers {
+        let mut values = Vec::with_capacity(n);
+        for _ in 0..n {
+            let y = real.next().expect("one value per sample");
+            let noise = if s.noise > 0.0 {
+                s.noise * rng.normal()
+            } else {
+                0.0
+            };
+            let v = quantise(s.gain * y + s.offset + noise, s.quant);
+            if burst == 0 && s.p_dropout > 0.0 && rng.uniform() < s.p_dropout {
+                burst = rng.int(1, i64::from(s.dropout_burst_max)) as u32;
+            }
+            if burst > 0 {
+                burst -= 1;
+                nulls += 1;
+                values.push(None);
+            } else {
+                values.push(Some(v));
+            }
+        }
+        buffers.push(Buffer {
+            t0_ns: LOG_START_NS + t0,
+            values,
+        });
+    }
+    SynthChannel {
+        quantity: plan.quantity,
+        sensor: *s,
+        dt_ns: plan.dt_ns,
+        shift_s: plan.shift_s,
+        buffers,
+        lost_buffers: plan.lost,
+        null_samples: nulls,
+        first_sample_offset_ns: plan.first_offset_ns,
+    }
 }

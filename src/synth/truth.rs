@@ -63,6 +63,52 @@ pub(super) fn half_range(t: &[f64], u: &[f64], t0: f64, t1: f64) -> Option<f64> 
     (hi >= lo).then_some(0.5 * (hi - lo))
 }
 
+/// The exact (noise-free) trajectory at the real samples of the X1, X2 and
+/// V2 channels, and the true drive amplitude the amplitudes are divided by.
+struct ExactSignals {
+    x1: Option<(Vec<f64>, Vec<f64>)>,
+    x2: Option<(Vec<f64>, Vec<f64>)>,
+    v2: Option<(Vec<f64>, Vec<f64>)>,
+    a_true: f64,
+}
+
+impl ExactSignals {
+    fn new(plans: &[Plan], exact: &[Vec<f64>], a_true: f64) -> ExactSignals {
+        // Exact signals at the real samples of a channel.
+        let exact_of = |q: Quantity| -> Option<(Vec<f64>, Vec<f64>)> {
+            let i = plans.iter().position(|p| p.quantity == q)?;
+            let p = &plans[i];
+            let (t, u): (Vec<f64>, Vec<f64>) = p
+                .req_t
+                .iter()
+                .zip(&exact[i])
+                .zip(&p.real)
+                .filter(|(_, r)| **r)
+                .map(|((t, u), _)| (*t, *u))
+                .unzip();
+            Some((t, u))
+        };
+        ExactSignals {
+            x1: exact_of(Quantity::X1),
+            x2: exact_of(Quantity::X2),
+            v2: exact_of(Quantity::V2),
+            a_true,
+        }
+    }
+
+    /// The amplitudes (a1, a2) over [t0, t1], relative to the true A.
+    fn amp(&self, t0: f64, t1: f64) -> (Value, Value) {
+        let a = |s: &Option<(Vec<f64>, Vec<f64>)>| {
+            s.as_ref()
+                .and_then(|(t, u)| half_range(t, u, t0, t1))
+                .map_or(Value::Null, |v| num(v / self.a_true))
+        };
+        (a(&self.x1), a(&self.x2))
+    }
+}
+
+/// The truth entry of a log (`truth.json`): rig, law, drive, the collector's
+/// counts, the sensors of each channel and the response of the test.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn truth(
     cfg: &SynthConfig,
@@ -88,68 +134,9 @@ pub(super) fn truth(
         }
     };
     let duration = cfg.test.duration_s();
-    // Exact signals at the real samples of a channel.
-    let exact_of = |q: Quantity| -> Option<(Vec<f64>, Vec<f64>)> {
-        let i = plans.iter().position(|p| p.quantity == q)?;
-        let p = &plans[i];
-        let (t, u): (Vec<f64>, Vec<f64>) = p
-            .req_t
-            .iter()
-            .zip(&exact[i])
-            .zip(&p.real)
-            .filter(|(_, r)| **r)
-            .map(|((t, u), _)| (*t, *u))
-            .unzip();
-        Some((t, u))
-    };
-    let x1 = exact_of(Quantity::X1);
-    let x2 = exact_of(Quantity::X2);
-    let v2 = exact_of(Quantity::V2);
-    let amp = |t0: f64, t1: f64| -> (Value, Value) {
-        let a = |s: &Option<(Vec<f64>, Vec<f64>)>| {
-            s.as_ref()
-                .and_then(|(t, u)| half_range(t, u, t0, t1))
-                .map_or(Value::Null, |v| num(v / a_true))
-        };
-        (a(&x1), a(&x2))
-    };
-    let sensors: serde_json::Map<String, Value> = channels
-        .iter()
-        .map(|c| {
-            let s = &c.sensor;
-            let n_samples: usize = c.buffers.iter().map(|b| b.values.len()).sum();
-            (
-                if cfg.format.is_table() {
-                    c.quantity.name().to_string()
-                } else {
-                    c.quantity.topic().to_string()
-                },
-                json!({
-                    "topic": c.quantity.topic(),
-                    "quantity": c.quantity.name(),
-                    "unit": c.quantity.unit(),
-                    "rate_hz": if cfg.format.is_table() { cfg.table_rate_hz } else { s.rate_hz },
-                    "noise": s.noise,
-                    "quant": s.quant,
-                    "gain": s.gain,
-                    "offset": s.offset,
-                    "lowpass_hz": s.lowpass_hz,
-                    "buffer_s": if cfg.format.is_table() { Value::Null } else { json!(s.buffer_s) },
-                    "jitter_ns": if cfg.format.is_table() { 0 } else { s.jitter_ns },
-                    "p_lost_buffer": if cfg.format.is_table() { 0.0 } else { s.p_lost_buffer },
-                    "p_dropout": s.p_dropout,
-                    "dropout_burst_max": s.dropout_burst_max,
-                    "dt_ns": c.dt_ns,
-                    "n_samples": n_samples,
-                    "n_buffers": c.buffers.len() + c.lost_buffers,
-                    "lost_buffers": c.lost_buffers,
-                    "null_samples": c.null_samples,
-                    "first_sample_offset_ns": c.first_sample_offset_ns,
-                    "shift_s": c.shift_s,
-                }),
-            )
-        })
-        .collect();
+    let ex = ExactSignals::new(plans, exact, a_true);
+    let v2 = &ex.v2;
+    let sensors = sensors_json(cfg, channels);
     let mut e = json!({
         "test": cfg.test.kind().as_str(),
         "format": cfg.format.as_str(),
@@ -203,6 +190,64 @@ pub(super) fn truth(
             .collect();
         obj.insert("column_time_shifts_s".into(), json!(shifts));
     }
+    insert_response(obj, cfg, &ex, setpoints, w);
+    e
+}
+
+/// The sensors of each channel (its name: the column of a table, the topic
+/// of an MCAP log) as written.
+fn sensors_json(cfg: &SynthConfig, channels: &[SynthChannel]) -> serde_json::Map<String, Value> {
+    channels
+        .iter()
+        .map(|c| {
+            let s = &c.sensor;
+            let n_samples: usize = c.buffers.iter().map(|b| b.values.len()).sum();
+            (
+                if cfg.format.is_table() {
+                    c.quantity.name().to_string()
+                } else {
+                    c.quantity.topic().to_string()
+                },
+                json!({
+                    "topic": c.quantity.topic(),
+                    "quantity": c.quantity.name(),
+                    "unit": c.quantity.unit(),
+                    "rate_hz": if cfg.format.is_table() { cfg.table_rate_hz } else { s.rate_hz },
+                    "noise": s.noise,
+                    "quant": s.quant,
+                    "gain": s.gain,
+                    "offset": s.offset,
+                    "lowpass_hz": s.lowpass_hz,
+                    "buffer_s": if cfg.format.is_table() { Value::Null } else { json!(s.buffer_s) },
+                    "jitter_ns": if cfg.format.is_table() { 0 } else { s.jitter_ns },
+                    "p_lost_buffer": if cfg.format.is_table() { 0.0 } else { s.p_lost_buffer },
+                    "p_dropout": s.p_dropout,
+                    "dropout_burst_max": s.dropout_burst_max,
+                    "dt_ns": c.dt_ns,
+                    "n_samples": n_samples,
+                    "n_buffers": c.buffers.len() + c.lost_buffers,
+                    "lost_buffers": c.lost_buffers,
+                    "null_samples": c.null_samples,
+                    "first_sample_offset_ns": c.first_sample_offset_ns,
+                    "shift_s": c.shift_s,
+                }),
+            )
+        })
+        .collect()
+}
+
+/// Inserts the response of the test into the truth entry: the last 5 s of
+/// a characteristic test, each step of a stepped sweep, each setpoint of a
+/// continuous one.
+fn insert_response(
+    obj: &mut serde_json::Map<String, Value>,
+    cfg: &SynthConfig,
+    ex: &ExactSignals,
+    setpoints: &[SynthSetpoint],
+    w: f64,
+) {
+    let duration = cfg.test.duration_s();
+    let amp = |t0: f64, t1: f64| ex.amp(t0, t1);
     match &cfg.test {
         TestSpec::Characteristic { frequency_hz, .. } => {
             obj.insert("drive_frequency_hz".into(), json!(frequency_hz));
@@ -218,31 +263,7 @@ pub(super) fn truth(
             preroll_s,
         } => {
             obj.insert("sweep_kind".into(), json!("stepped"));
-            let mut t = *preroll_s;
-            let mut steps = Vec::new();
-            for (i, &fr) in setpoints_hz.iter().enumerate() {
-                let t_set = t;
-                if i > 0 {
-                    t += ramp_s;
-                }
-                let d = dwell_of(dwell_s, i);
-                let t_end = t + d;
-                // Settle window: the last whole drive periods, at most 5 s.
-                let period = 1.0 / fr;
-                let n = ((d.min(5.0)) / period).floor().max(1.0);
-                let t0 = (t_end - n * period).max(t);
-                let (a1, a2) = amp(t0, t_end);
-                steps.push(json!({
-                    "frequency_hz": fr,
-                    "eta": 2.0 * PI * fr / w,
-                    "t_setpoint_s": t_set,
-                    "t_dwell_start_s": t,
-                    "t_end_s": t_end,
-                    "settle_window_s": [t0, t_end],
-                    "a1": a1, "a2": a2,
-                }));
-                t = t_end;
-            }
+            let steps = stepped_response(setpoints_hz, dwell_s, *ramp_s, *preroll_s, w, ex);
             obj.insert("response".into(), Value::Array(steps));
         }
         TestSpec::Continuous {
@@ -269,5 +290,42 @@ pub(super) fn truth(
             obj.insert("response".into(), Value::Array(resp));
         }
     }
-    e
+}
+
+/// The steps of a stepped sweep: times of each setpoint, dwell and settle
+/// window, and the amplitudes over that window.
+fn stepped_response(
+    setpoints_hz: &[f64],
+    dwell_s: &[f64],
+    ramp_s: f64,
+    preroll_s: f64,
+    w: f64,
+    ex: &ExactSignals,
+) -> Vec<Value> {
+    let mut t = preroll_s;
+    let mut steps = Vec::new();
+    for (i, &fr) in setpoints_hz.iter().enumerate() {
+        let t_set = t;
+        if i > 0 {
+            t += ramp_s;
+        }
+        let d = dwell_of(dwell_s, i);
+        let t_end = t + d;
+        // Settle window: the last whole drive periods, at most 5 s.
+        let period = 1.0 / fr;
+        let n = ((d.min(5.0)) / period).floor().max(1.0);
+        let t0 = (t_end - n * period).max(t);
+        let (a1, a2) = ex.amp(t0, t_end);
+        steps.push(json!({
+            "frequency_hz": fr,
+            "eta": 2.0 * PI * fr / w,
+            "t_setpoint_s": t_set,
+            "t_dwell_start_s": t,
+            "t_end_s": t_end,
+            "settle_window_s": [t0, t_end],
+            "a1": a1, "a2": a2,
+        }));
+        t = t_end;
+    }
+    steps
 }

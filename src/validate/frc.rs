@@ -662,6 +662,9 @@ fn direction_of(f: &[f64]) -> Direction {
     }
 }
 
+/// Stepped sweep: one hold per distinct setpoint, its drive sinusoid
+/// fitted, ramps between holds located in the drive signal, and one point
+/// per hold from the whole drive periods at its end.
 fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let steps = distinct_steps(run);
     if steps.is_empty() {
@@ -673,25 +676,8 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
     let t_log_end = td[td.len() - 1].max(grid.end());
     let omega_ref = run.rig.omega_ref();
     let mut warnings = Vec::new();
-    // Hold i: [its first message, the next step's message).
-    let first_msg = run
-        .setpoints
-        .iter()
-        .map(|s| s.t_s)
-        .fold(f64::INFINITY, f64::min)
-        .min(steps[0].0);
     let n = steps.len();
-    let bounds: Vec<(f64, f64)> = (0..n)
-        .map(|i| {
-            let a = if i == 0 {
-                first_msg.max(0.0)
-            } else {
-                steps[i].0
-            };
-            let b = if i + 1 < n { steps[i + 1].0 } else { t_log_end };
-            (a, b)
-        })
-        .collect();
+    let bounds = hold_bounds(run, &steps, t_log_end);
     // Each hold's sinusoid, fitted over the second half of the hold (clear
     // of the ramp into it).
     let mut sines: Vec<Option<Sine>> = Vec::with_capacity(n);
@@ -707,7 +693,75 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         }
         sines.push(s);
     }
-    // Ramps between holds, fitted to the drive signal.
+    let ramps = hold_ramps(td, xd, &sines, &bounds, opts.max_ramp_s);
+    let plan = stepped_plan(&steps, &sines, &ramps, &bounds, t_log_end);
+    // φ(0) from the first hold, carried back to t = 0.
+    let drive_phase_rad = sines[0]
+        .map(|s| s.phase_at(0.0))
+        .ok_or_else(|| bad(run, "the first step's drive signal cannot be measured"))?;
+
+    let mut points = Vec::with_capacity(n);
+    let mut amps = Vec::new();
+    for i in 0..n {
+        let Some(s) = sines[i] else { continue };
+        let hold = Hold {
+            step: i + 1,
+            sine: s,
+            bounds: bounds[i],
+            ramp: ramps[i],
+        };
+        let Some((point, window)) = step_point(&hold, grid, opts, omega_ref, &mut warnings) else {
+            continue;
+        };
+        if let Some(w) = fit_sine(td, xd, window, s.frequency_hz, 0.001, 0.0, window.0) {
+            amps.push(w.amplitude);
+        }
+        points.push(point);
+    }
+    Ok(Parts {
+        drive_amplitude_m: median(&amps),
+        drive_phase_rad,
+        plan,
+        points,
+        warnings,
+    })
+}
+
+/// The time span of each hold: [its first message, the next step's
+/// message), the last one to the end of the log.
+fn hold_bounds(run: &Run, steps: &[(f64, f64)], t_log_end: f64) -> Vec<(f64, f64)> {
+    // Hold i: [its first message, the next step's message).
+    let first_msg = run
+        .setpoints
+        .iter()
+        .map(|s| s.t_s)
+        .fold(f64::INFINITY, f64::min)
+        .min(steps[0].0);
+    let n = steps.len();
+    (0..n)
+        .map(|i| {
+            let a = if i == 0 {
+                first_msg.max(0.0)
+            } else {
+                steps[i].0
+            };
+            let b = if i + 1 < n { steps[i + 1].0 } else { t_log_end };
+            (a, b)
+        })
+        .collect()
+}
+
+/// Ramps between holds, fitted to the drive signal: (start, duration) of
+/// the ramp into each hold (None for the first hold and where either
+/// hold's sinusoid is unknown or no ramp is found).
+fn hold_ramps(
+    td: &[f64],
+    xd: &[f64],
+    sines: &[Option<Sine>],
+    bounds: &[(f64, f64)],
+    max_ramp_s: f64,
+) -> Vec<Option<(f64, f64)>> {
+    let n = bounds.len();
     let mut ramps: Vec<Option<(f64, f64)>> = vec![None; n];
     for i in 1..n {
         let (Some(prev), Some(next)) = (sines[i - 1], sines[i]) else {
@@ -716,13 +770,24 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         let (pa, pb) = bounds[i - 1];
         let (na, nb) = bounds[i];
         let lo = (na - 2.0).max(pa + 0.5 * (pb - pa));
-        let hi = (na + opts.max_ramp_s + 2.0).min(na + 0.5 * (nb - na));
+        let hi = (na + max_ramp_s + 2.0).min(na + 0.5 * (nb - na));
         if hi <= lo {
             continue;
         }
-        ramps[i] = locate_ramp(td, xd, prev, next, (lo, hi), opts.max_ramp_s);
+        ramps[i] = locate_ramp(td, xd, prev, next, (lo, hi), max_ramp_s);
     }
-    // The plan: holds and ramps.
+    ramps
+}
+
+/// The plan of a stepped sweep: holds and ramps.
+fn stepped_plan(
+    steps: &[(f64, f64)],
+    sines: &[Option<Sine>],
+    ramps: &[Option<(f64, f64)>],
+    bounds: &[(f64, f64)],
+    t_log_end: f64,
+) -> Vec<PlanSegment> {
+    let n = steps.len();
     let mut plan = Vec::new();
     let mut t = 0.0f64;
     let f_of = |i: usize| sines[i].map_or(steps[i].1, |s| s.frequency_hz);
@@ -755,93 +820,96 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         f_start_hz: f_of(n - 1),
         f_end_hz: f_of(n - 1),
     });
-    // φ(0) from the first hold, carried back to t = 0.
-    let drive_phase_rad = sines[0]
-        .map(|s| s.phase_at(0.0))
-        .ok_or_else(|| bad(run, "the first step's drive signal cannot be measured"))?;
+    plan
+}
 
-    let mut points = Vec::with_capacity(n);
-    let mut amps = Vec::new();
-    for i in 0..n {
-        let Some(s) = sines[i] else { continue };
-        let f = s.frequency_hz;
-        let period = 1.0 / f;
-        let (a, b) = bounds[i];
-        let hold_start = ramps[i].map_or(a, |(t0, d)| t0 + d).max(a);
-        let avail = b - hold_start;
-        let mut k = (opts.window_s / period).ceil().max(3.0);
-        // Never more than half of the hold (its start holds the transient).
-        while k > 1.0 && k * period > 0.5 * avail.max(0.0) {
-            k -= 1.0;
-        }
-        let k = k.max(1.0);
-        let window = (b - k * period, b);
-        if window.0 < hold_start - 1e-9 {
-            warnings.push(format!(
-                "step {} ({:.3} Hz): the hold is shorter than one drive period",
-                i + 1,
-                f
-            ));
-            continue;
-        }
-        let Some((a1, a2)) = grid.amplitudes(window, period) else {
-            warnings.push(format!(
-                "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
-                i + 1,
-                f,
-                window.0,
-                window.1
-            ));
-            continue;
-        };
-        // Trend: the two halves of the window (whole periods each).
-        let kh = (k / 2.0).floor();
-        let rel_change = if kh >= 1.0 {
-            let h1 = grid.amplitudes((b - 2.0 * kh * period, b - kh * period), period);
-            let h2 = grid.amplitudes((b - kh * period, b), period);
-            match (h1, h2) {
-                (Some(p), Some(q)) => {
-                    let floor = opts.zero_amplitude * s.amplitude;
-                    let rel = |x: f64, y: f64| {
-                        if x.max(y) < floor {
-                            0.0
-                        } else {
-                            (y - x).abs() / y.max(floor)
-                        }
-                    };
-                    Some(rel(p.0, q.0).max(rel(p.1, q.1)))
-                }
-                _ => None,
-            }
-        } else {
-            None
-        };
-        if let Some(w) = fit_sine(td, xd, window, f, 0.001, 0.0, window.0) {
-            amps.push(w.amplitude);
-        }
-        points.push(MeasuredPoint {
-            frequency_hz: f,
-            eta: 2.0 * PI * f / omega_ref,
-            t_start_s: a,
-            t_end_s: b,
-            window_s: window,
-            amplitude1: f64::NAN,
-            amplitude2: f64::NAN,
-            amplitude1_m: a1,
-            amplitude2_m: a2,
-            amplitude1_u: f64::NAN,
-            amplitude2_u: f64::NAN,
-            rel_change,
-            settled: rel_change.map(|r| r <= opts.settle_tolerance),
-        });
+/// One hold of a stepped sweep whose drive sinusoid is known.
+struct Hold {
+    /// Its number (1-based, for warnings).
+    step: usize,
+    sine: Sine,
+    /// Its first message and the next step's.
+    bounds: (f64, f64),
+    /// The ramp into it (start, duration).
+    ramp: Option<(f64, f64)>,
+}
+
+/// The measured point of one hold and its window: whole drive periods at
+/// the end of the hold (never more than half of it), with the trend over
+/// the window's two halves; None (with a warning) where the hold is too
+/// short or x1/x2 have too few samples.
+fn step_point(
+    hold: &Hold,
+    grid: &Grid,
+    opts: &FrcOptions,
+    omega_ref: f64,
+    warnings: &mut Vec<String>,
+) -> Option<(MeasuredPoint, (f64, f64))> {
+    let (i1, s) = (hold.step, hold.sine);
+    let f = s.frequency_hz;
+    let period = 1.0 / f;
+    let (a, b) = hold.bounds;
+    let hold_start = hold.ramp.map_or(a, |(t0, d)| t0 + d).max(a);
+    let avail = b - hold_start;
+    let mut k = (opts.window_s / period).ceil().max(3.0);
+    // Never more than half of the hold (its start holds the transient).
+    while k > 1.0 && k * period > 0.5 * avail.max(0.0) {
+        k -= 1.0;
     }
-    Ok(Parts {
-        drive_amplitude_m: median(&amps),
-        drive_phase_rad,
-        plan,
-        points,
-        warnings,
-    })
+    let k = k.max(1.0);
+    let window = (b - k * period, b);
+    if window.0 < hold_start - 1e-9 {
+        warnings.push(format!(
+            "step {} ({:.3} Hz): the hold is shorter than one drive period",
+            i1, f
+        ));
+        return None;
+    }
+    let Some((a1, a2)) = grid.amplitudes(window, period) else {
+        warnings.push(format!(
+            "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
+            i1, f, window.0, window.1
+        ));
+        return None;
+    };
+    // Trend: the two halves of the window (whole periods each).
+    let kh = (k / 2.0).floor();
+    let rel_change = if kh >= 1.0 {
+        let h1 = grid.amplitudes((b - 2.0 * kh * period, b - kh * period), period);
+        let h2 = grid.amplitudes((b - kh * period, b), period);
+        match (h1, h2) {
+            (Some(p), Some(q)) => {
+                let floor = opts.zero_amplitude * s.amplitude;
+                let rel = |x: f64, y: f64| {
+                    if x.max(y) < floor {
+                        0.0
+                    } else {
+                        (y - x).abs() / y.max(floor)
+                    }
+                };
+                Some(rel(p.0, q.0).max(rel(p.1, q.1)))
+            }
+            _ => None,
+        }
+    } else {
+        None
+    };
+    let point = MeasuredPoint {
+        frequency_hz: f,
+        eta: 2.0 * PI * f / omega_ref,
+        t_start_s: a,
+        t_end_s: b,
+        window_s: window,
+        amplitude1: f64::NAN,
+        amplitude2: f64::NAN,
+        amplitude1_m: a1,
+        amplitude2_m: a2,
+        amplitude1_u: f64::NAN,
+        amplitude2_u: f64::NAN,
+        rel_change,
+        settled: rel_change.map(|r| r <= opts.settle_tolerance),
+    };
+    Some((point, window))
 }
 
 /// Drive cycles completed from `seg.start_s` to `t` within a plan segment.
@@ -878,6 +946,68 @@ fn seg_time(seg: &PlanSegment, c: f64) -> f64 {
 /// pieces through the measured instantaneous frequencies, and one point per
 /// `periods_per_point` drive periods.
 fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
+    let mut nodes = command_nodes(run);
+    if nodes.len() < 2 {
+        return Err(bad(
+            run,
+            "a continuous sweep needs its commanded frequency (/drive/setpoint messages or a setpoint_hz column) at two times at least",
+        ));
+    }
+    let t_end = td[td.len() - 1].max(grid.end());
+    let omega_ref = run.rig.omega_ref();
+    let mut warnings = Vec::new();
+    // Commanded frequency at the log's ends (held beyond the messages).
+    if nodes[0].0 > 0.0 {
+        nodes.insert(0, (0.0, nodes[0].1));
+    }
+    if nodes[nodes.len() - 1].0 < t_end {
+        let f = nodes[nodes.len() - 1].1;
+        nodes.push((t_end, f));
+    }
+    let n = nodes.len();
+    // Measured instantaneous frequency (and amplitude) at each node.
+    let mut fit_nodes: Vec<(f64, Sine)> = Vec::with_capacity(n);
+    for (k, &(tk, fk)) in nodes.iter().enumerate() {
+        let w = (2.0 / fk).max(1.0);
+        let (a, b) = ((tk - 0.5 * w).max(0.0), (tk + 0.5 * w).min(t_end));
+        if let Some(s) = fit_sine(td, xd, (a, b), fk, 0.05, rate_cmd(&nodes, k), tk) {
+            fit_nodes.push((tk, s));
+        }
+    }
+    if fit_nodes.len() < 2 {
+        return Err(bad(run, "the drive signal of the sweep cannot be measured"));
+    }
+    let plan = continuous_plan(&nodes, &fit_nodes, td, xd);
+    let first = &fit_nodes[0].1;
+    let drive_phase_rad =
+        first.phase_at(0.0) + PI * rate_cmd(&nodes, 0) * first.t_ref * first.t_ref;
+    let drive_amplitude_m = median(
+        &fit_nodes
+            .iter()
+            .map(|(_, s)| s.amplitude)
+            .collect::<Vec<_>>(),
+    );
+    let rms = median(&fit_nodes.iter().map(|(_, s)| s.rms).collect::<Vec<_>>());
+    if rms > 0.05 * drive_amplitude_m {
+        warnings.push(format!(
+            "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
+            rms * 1e6
+        ));
+    }
+    let points = sweep_points(&plan, grid, opts.periods_per_point, omega_ref);
+    Ok(Parts {
+        drive_amplitude_m,
+        drive_phase_rad,
+        plan,
+        points,
+        warnings,
+    })
+}
+
+/// The commanded frequency's nodes (time, frequency) of a continuous
+/// sweep from its setpoint messages: valid ones, one per time, at least
+/// half a second (or half a drive period) apart, and the last one.
+fn command_nodes(run: &Run) -> Vec<(f64, f64)> {
     let mut nodes: Vec<(f64, f64)> = run
         .setpoints
         .iter()
@@ -901,44 +1031,31 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
         }
         nodes = kept;
     }
-    if nodes.len() < 2 {
-        return Err(bad(
-            run,
-            "a continuous sweep needs its commanded frequency (/drive/setpoint messages or a setpoint_hz column) at two times at least",
-        ));
-    }
-    let t_end = td[td.len() - 1].max(grid.end());
-    let omega_ref = run.rig.omega_ref();
-    let mut warnings = Vec::new();
-    // Commanded frequency at the log's ends (held beyond the messages).
-    if nodes[0].0 > 0.0 {
-        nodes.insert(0, (0.0, nodes[0].1));
-    }
-    if nodes[nodes.len() - 1].0 < t_end {
-        let f = nodes[nodes.len() - 1].1;
-        nodes.push((t_end, f));
-    }
+    nodes
+}
+
+/// The commanded sweep rate (Hz/s) at node `k`: the mean of the rates of
+/// the pieces on either side (one-sided at the ends).
+fn rate_cmd(nodes: &[(f64, f64)], k: usize) -> f64 {
     let n = nodes.len();
-    let rate_cmd = |k: usize| -> f64 {
-        let r = |a: usize, b: usize| (nodes[b].1 - nodes[a].1) / (nodes[b].0 - nodes[a].0);
-        match k {
-            0 => r(0, 1),
-            k if k + 1 == n => r(n - 2, n - 1),
-            k => 0.5 * (r(k - 1, k) + r(k, k + 1)),
-        }
-    };
-    // Measured instantaneous frequency (and amplitude) at each node.
-    let mut fit_nodes: Vec<(f64, Sine)> = Vec::with_capacity(n);
-    for (k, &(tk, fk)) in nodes.iter().enumerate() {
-        let w = (2.0 / fk).max(1.0);
-        let (a, b) = ((tk - 0.5 * w).max(0.0), (tk + 0.5 * w).min(t_end));
-        if let Some(s) = fit_sine(td, xd, (a, b), fk, 0.05, rate_cmd(k), tk) {
-            fit_nodes.push((tk, s));
-        }
+    let r = |a: usize, b: usize| (nodes[b].1 - nodes[a].1) / (nodes[b].0 - nodes[a].0);
+    match k {
+        0 => r(0, 1),
+        k if k + 1 == n => r(n - 2, n - 1),
+        k => 0.5 * (r(k - 1, k) + r(k, k + 1)),
     }
-    if fit_nodes.len() < 2 {
-        return Err(bad(run, "the drive signal of the sweep cannot be measured"));
-    }
+}
+
+/// The plan of a continuous sweep: linear pieces through the measured
+/// frequencies at the nodes `fit_nodes`; pieces whose commanded frequency
+/// (`nodes`) does not change are holds, equal holds merged and their
+/// frequency refitted over the whole hold.
+fn continuous_plan(
+    nodes: &[(f64, f64)],
+    fit_nodes: &[(f64, Sine)],
+    td: &[f64],
+    xd: &[f64],
+) -> Vec<PlanSegment> {
     let mut plan = Vec::with_capacity(fit_nodes.len());
     for w in fit_nodes.windows(2) {
         let ((ta, sa), (tb, sb)) = (w[0], w[1]);
@@ -994,28 +1111,23 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
             }
         }
     }
-    let first = &fit_nodes[0].1;
-    let drive_phase_rad = first.phase_at(0.0) + PI * rate_cmd(0) * first.t_ref * first.t_ref;
-    let drive_amplitude_m = median(
-        &fit_nodes
-            .iter()
-            .map(|(_, s)| s.amplitude)
-            .collect::<Vec<_>>(),
-    );
-    let rms = median(&fit_nodes.iter().map(|(_, s)| s.rms).collect::<Vec<_>>());
-    if rms > 0.05 * drive_amplitude_m {
-        warnings.push(format!(
-            "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
-            rms * 1e6
-        ));
-    }
+    plan
+}
 
+/// The points of a continuous sweep: one per `periods_per_point` drive
+/// periods of the plan's phase.
+fn sweep_points(
+    plan: &[PlanSegment],
+    grid: &Grid,
+    periods_per_point: usize,
+    omega_ref: f64,
+) -> Vec<MeasuredPoint> {
     // Drive periods from the plan's phase.
-    let per = opts.periods_per_point.max(1) as f64;
+    let per = periods_per_point.max(1) as f64;
     let mut points = Vec::new();
     let mut carry = 0.0; // cycles into the current point at a segment start
     let mut t_a = plan[0].start_s;
-    for seg in &plan {
+    for seg in plan {
         let total = seg_cycles(seg, seg.end_s);
         let mut c = per - carry;
         while c <= total + 1e-12 {
@@ -1045,11 +1157,5 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
         }
         carry = total - (c - per);
     }
-    Ok(Parts {
-        drive_amplitude_m,
-        drive_phase_rad,
-        plan,
-        points,
-        warnings,
-    })
+    points
 }

@@ -598,6 +598,56 @@ pub fn predict(
     predict_with(&central, &draws, rig, frc, opts)
 }
 
+/// Each point's window in engine time τ and the output step of the replay
+/// (`samples_per_period`, at least 8, per drive period at the point's η).
+fn replay_windows(frc: &MeasuredFrc, opts: &PredictOptions) -> Vec<(f64, f64, f64)> {
+    let w = frc.omega_ref_rad_s;
+    let per = opts.samples_per_period.max(8) as f64;
+    frc.points
+        .iter()
+        .map(|p| {
+            let h = 2.0 * PI / p.eta / per;
+            (p.window_s.0 * w, p.window_s.1 * w, h)
+        })
+        .collect()
+}
+
+/// The steady-state call per point (`(replay_settled, steady_reached)`):
+/// the replay settled where it agrees with the steady state within `tol`;
+/// a step reached its steady state unless the replay or the data say
+/// otherwise (a continuous sweep: the replay's call alone).
+fn steady_call(
+    frc: &MeasuredFrc,
+    c_replay: &Amps,
+    c_steady: &Amps,
+    tol: f64,
+) -> (Vec<Option<bool>>, Vec<Option<bool>>) {
+    let n = frc.points.len();
+    let mut replay_settled = Vec::with_capacity(n);
+    let mut steady_reached = Vec::with_capacity(n);
+    for (i, p) in frc.points.iter().enumerate() {
+        let r = match (c_replay[i], c_steady[i]) {
+            (Some((r1, r2)), Some((s1, s2))) => {
+                let close = |r: f64, s: f64| (r - s).abs() <= tol * s.abs().max(1e-9);
+                Some(close(r1, s1) && close(r2, s2))
+            }
+            _ => None,
+        };
+        replay_settled.push(r);
+        let call = match (r, p.settled) {
+            (Some(false), _) | (_, Some(false)) => Some(false),
+            (Some(true), _) => Some(true),
+            (None, data) => data,
+        };
+        steady_reached.push(if frc.kind == SweepKind::Continuous {
+            r
+        } else {
+            call
+        });
+    }
+    (replay_settled, steady_reached)
+}
+
 /// Predicts the measured sweep `frc` with the SI law `central`, the band
 /// from the laws `draws` (empty: no band).
 pub fn predict_with(
@@ -633,16 +683,7 @@ pub fn predict_with(
     }
     let etas: Vec<f64> = frc.points.iter().map(|p| p.eta).collect();
     let sched = schedule(frc)?;
-    let w = frc.omega_ref_rad_s;
-    let per = opts.samples_per_period.max(8) as f64;
-    let windows: Vec<(f64, f64, f64)> = frc
-        .points
-        .iter()
-        .map(|p| {
-            let h = 2.0 * PI / p.eta / per;
-            (p.window_s.0 * w, p.window_s.1 * w, h)
-        })
-        .collect();
+    let windows = replay_windows(frc, opts);
 
     // The central law (steady state and replay side by side), then the
     // draws in parallel, collected in order. A draw's marching budget is
@@ -687,30 +728,8 @@ pub fn predict_with(
     let steady = banded(&etas, c_steady, &d_steady);
     let replay = banded(&etas, c_replay, &d_replay);
 
-    // The steady-state call.
-    let tol = opts.steady_tolerance;
-    let mut replay_settled = Vec::with_capacity(etas.len());
-    let mut steady_reached = Vec::with_capacity(etas.len());
-    for (i, p) in frc.points.iter().enumerate() {
-        let r = match (c_replay[i], c_steady[i]) {
-            (Some((r1, r2)), Some((s1, s2))) => {
-                let close = |r: f64, s: f64| (r - s).abs() <= tol * s.abs().max(1e-9);
-                Some(close(r1, s1) && close(r2, s2))
-            }
-            _ => None,
-        };
-        replay_settled.push(r);
-        let call = match (r, p.settled) {
-            (Some(false), _) | (_, Some(false)) => Some(false),
-            (Some(true), _) => Some(true),
-            (None, data) => data,
-        };
-        steady_reached.push(if frc.kind == SweepKind::Continuous {
-            r
-        } else {
-            call
-        });
-    }
+    let (replay_settled, steady_reached) =
+        steady_call(frc, c_replay, c_steady, opts.steady_tolerance);
 
     let score = score(frc, &steady, &replay, &steady_reached);
     if score.steady_points == 0 {

@@ -19,7 +19,69 @@ impl Refinement {
         let mut r0 = Res::new();
         prob.eval(th, Some(proj), Some(&mut r0))?;
         let m = r0.len();
-        // Jacobian by central differences (2m rows: r1 and r2 per sample).
+        let jac = self.jacobian(&prob, kind, th, proj, m)?;
+        let (hinv, cov, t975) = self.sandwich(&jac, &r0, p)?;
+        // The reported quantities as functions of θ (and the amplitude).
+        let k2 = self.rig.k2;
+        let ss = k2 / self.rig.omega;
+        let quantities = |th: &[f64], a: f64| -> [f64; 6] {
+            let (l, _, _, _) = prob.unpack(th);
+            l.si_and_rho(a * k2, ss)
+        };
+        let q0 = quantities(th, self.data.a);
+        // Statistical variance of each quantity (linear in θ for fixed A).
+        let mut var_stat = [0.0f64; 6];
+        for (qi, v) in var_stat.iter_mut().enumerate() {
+            let grad: Vec<f64> = (0..p)
+                .map(|j| {
+                    let mut t = th.to_vec();
+                    let h = 1e-6 * (1.0 + th[j].abs());
+                    t[j] += h;
+                    (quantities(&t, self.data.a)[qi] - q0[qi]) / h
+                })
+                .collect();
+            let mut s = 0.0;
+            for a in 0..p {
+                for b in 0..p {
+                    s += grad[a] * cov[a][b] * grad[b];
+                }
+            }
+            *v = s.max(0.0);
+        }
+        let var_cal =
+            self.calibration_variance(kind, th, proj, u, (&r0, &jac, &hinv), &quantities, &q0)?;
+        let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
+            if !present || !q0[k].is_finite() {
+                return None;
+            }
+            // Student t with K − p degrees of freedom for the sandwich part
+            // (few clusters); the calibration part is a bound (normal).
+            // An inadequate law: the statistical part widened by the misfit.
+            let ts = t975 * inflation;
+            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
+            Some((q0[k] - hw, q0[k] + hw))
+        };
+        Some(Intervals {
+            rs_n: iv(0, rs_known),
+            rd_n: iv(1, true),
+            slope_n_s_per_m: iv(2, true),
+            rho_s: iv(3, rs_known),
+            rho_d: iv(4, true),
+            dstar: iv(5, true),
+        })
+    }
+
+    /// The Jacobian of the residuals by central differences (2m rows: r1
+    /// and r2 per sample; `m` samples).
+    fn jacobian(
+        &self,
+        prob: &Problem<'_>,
+        kind: LawKind,
+        th: &[f64],
+        proj: &Proj,
+        m: usize,
+    ) -> Option<Vec<Vec<f64>>> {
+        let p = th.len();
         let (law, _, _, _) = prob.unpack(th);
         let kl = n_params(kind);
         let mut jac = vec![vec![0.0; p]; 2 * m];
@@ -51,6 +113,21 @@ impl Refinement {
                 jac[2 * i + 1][j] = (rp[i].2 - rm[i].2) / (2.0 * h);
             }
         }
+        Some(jac)
+    }
+
+    /// The sandwich over shooting segments: H⁻¹ (H = JᵀJ), the covariance
+    /// H⁻¹·(Σ g_k g_kᵀ)·H⁻¹ with the small-sample factor K/(K − p), and
+    /// Student t's 97.5 % point for K − p degrees of freedom (K: segments
+    /// with residuals). None with too few segments.
+    #[allow(clippy::type_complexity)]
+    fn sandwich(
+        &self,
+        jac: &[Vec<f64>],
+        r0: &Res,
+        p: usize,
+    ) -> Option<(Vec<Vec<f64>>, Vec<Vec<f64>>, f64)> {
+        let m = r0.len();
         // H = JᵀJ and the per-segment scores g_k = J_kᵀ r_k.
         let nseg = self.data.segs.len();
         let mut hm = vec![vec![0.0; p]; p];
@@ -100,34 +177,26 @@ impl Refinement {
                 cov[a][b] = s * corr;
             }
         }
-        // The reported quantities as functions of θ (and the amplitude).
-        let k2 = self.rig.k2;
-        let ss = k2 / self.rig.omega;
-        let quantities = |th: &[f64], a: f64| -> [f64; 6] {
-            let (l, _, _, _) = prob.unpack(th);
-            l.si_and_rho(a * k2, ss)
-        };
-        let q0 = quantities(th, self.data.a);
-        // Statistical variance of each quantity (linear in θ for fixed A).
-        let mut var_stat = [0.0f64; 6];
-        for (qi, v) in var_stat.iter_mut().enumerate() {
-            let grad: Vec<f64> = (0..p)
-                .map(|j| {
-                    let mut t = th.to_vec();
-                    let h = 1e-6 * (1.0 + th[j].abs());
-                    t[j] += h;
-                    (quantities(&t, self.data.a)[qi] - q0[qi]) / h
-                })
-                .collect();
-            let mut s = 0.0;
-            for a in 0..p {
-                for b in 0..p {
-                    s += grad[a] * cov[a][b] * grad[b];
-                }
-            }
-            *v = s.max(0.0);
-        }
-        // Calibration: linear response to each sensor's gain at 1 + u.
+        Some((hinv, cov, t975))
+    }
+
+    /// Calibration: linear response of the reported quantities to each
+    /// sensor's gain at 1 + u (Δθ = −H⁻¹ Jᵀ Δr from the residuals `r0`, the
+    /// Jacobian and H⁻¹ of `lin`), as variances of a rectangular ±u.
+    #[allow(clippy::too_many_arguments)]
+    fn calibration_variance(
+        &self,
+        kind: LawKind,
+        th: &[f64],
+        proj: &Proj,
+        u: f64,
+        lin: (&Res, &[Vec<f64>], &[Vec<f64>]),
+        quantities: &impl Fn(&[f64], f64) -> [f64; 6],
+        q0: &[f64; 6],
+    ) -> Option<[f64; 6]> {
+        let (r0, jac, hinv) = lin;
+        let p = th.len();
+        let m = r0.len();
         let mut var_cal = [0.0f64; 6];
         if u > 0.0 {
             for gk in 0..4 {
@@ -167,24 +236,6 @@ impl Refinement {
                 }
             }
         }
-        let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
-            if !present || !q0[k].is_finite() {
-                return None;
-            }
-            // Student t with K − p degrees of freedom for the sandwich part
-            // (few clusters); the calibration part is a bound (normal).
-            // An inadequate law: the statistical part widened by the misfit.
-            let ts = t975 * inflation;
-            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
-            Some((q0[k] - hw, q0[k] + hw))
-        };
-        Some(Intervals {
-            rs_n: iv(0, rs_known),
-            rd_n: iv(1, true),
-            slope_n_s_per_m: iv(2, true),
-            rho_s: iv(3, rs_known),
-            rho_d: iv(4, true),
-            dstar: iv(5, true),
-        })
+        Some(var_cal)
     }
 }

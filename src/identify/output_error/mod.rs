@@ -226,6 +226,135 @@ pub struct OutputErrorFit {
     pub notes: Vec<String>,
 }
 
+/// Anchors at the middle of every stick run (ends excluded): M2 at rest,
+/// ζ2 from the mean of x2 over the stick's inner half.
+fn stick_anchors(
+    c: &Contact,
+    seg: &Segmentation,
+    ok_state: &impl Fn(usize) -> bool,
+) -> Vec<Anchor> {
+    let n = c.t.len();
+    let mut anchors: Vec<Anchor> = Vec::new();
+    let mut i = 0;
+    while i < n {
+        if !seg.stick[i] {
+            i += 1;
+            continue;
+        }
+        let s = i;
+        while i < n && seg.stick[i] {
+            i += 1;
+        }
+        let e = i;
+        if s == 0 || e >= n || e - s < 5 {
+            continue;
+        }
+        let (lo, hi) = (s + (e - s) / 4, e - (e - s) / 4);
+        let vals: Vec<f64> = c.x2[lo..hi]
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
+        let mid = (s + e) / 2;
+        if vals.len() < 3 || !ok_state(mid) {
+            continue;
+        }
+        anchors.push(Anchor {
+            i: mid,
+            x2_stick: Some(vals.iter().sum::<f64>() / vals.len() as f64),
+        });
+    }
+    anchors
+}
+
+/// Velocity peaks of the slips where sticks are far apart (more than 3/4
+/// of a drive period of `per_n` samples between the stick anchors): one
+/// per half period where |ẋ2| exceeds twice the stick threshold.
+fn slip_anchors(
+    c: &Contact,
+    seg: &Segmentation,
+    anchors: &[Anchor],
+    per_n: usize,
+    ok_state: &impl Fn(usize) -> bool,
+) -> Vec<Anchor> {
+    let n = c.t.len();
+    let mut bounds: Vec<usize> = vec![0];
+    bounds.extend(anchors.iter().map(|a| a.i));
+    bounds.push(n - 1);
+    let half = per_n / 2;
+    let mut extra = Vec::new();
+    for w in bounds.windows(2) {
+        let (lo, hi) = (w[0], w[1]);
+        if hi - lo <= 3 * per_n / 4 {
+            continue;
+        }
+        let mut k = lo + half / 4;
+        while k + half <= hi {
+            let best = (k..k + half)
+                .filter(|&j| c.v2_smooth[j].is_finite() && ok_state(j) && !seg.stick[j])
+                .max_by(|&p, &q| c.v2_smooth[p].abs().total_cmp(&c.v2_smooth[q].abs()));
+            if let Some(b) = best {
+                if c.v2_smooth[b].abs() > 2.0 * seg.hi {
+                    extra.push(Anchor {
+                        i: b,
+                        x2_stick: None,
+                    });
+                }
+            }
+            k += half;
+        }
+    }
+    extra
+}
+
+/// Segments over `span` consecutive anchor intervals, each interval at
+/// most 1.5 periods long; shorter spans where the log is too short for a
+/// dozen segments.
+fn shooting_segments(anchors: &[Anchor], span: usize, per_n: usize) -> Vec<(usize, usize)> {
+    let span = span.min(anchors.len().saturating_sub(1) / 12).max(1);
+    let mut segs: Vec<(usize, usize)> = Vec::new();
+    let mut k = 0;
+    while k + span < anchors.len() {
+        if (k..k + span).all(|j| anchors[j + 1].i - anchors[j].i <= 3 * per_n / 2) {
+            segs.push((k, k + span));
+            k += span;
+        } else {
+            k += 1;
+        }
+    }
+    segs
+}
+
+/// Sums of M1's equation terms (x1, x2, M1·ẍ1 + d·ẋ1, d·ẋ2, the drive
+/// sinusoid) over the samples where every term is known, and their count.
+fn m1_sums(
+    c: &Contact,
+    rig: &RigMeta,
+    a1: &[f64],
+    v1s: &[f64],
+    v2p: &[f64],
+    harmonic: &impl Fn(f64) -> f64,
+) -> ([f64; 5], usize) {
+    let n = c.t.len();
+    let mut sums = [0.0f64; 5];
+    let mut cnt = 0usize;
+    for i in 0..n {
+        let ok = [c.x1[i], c.x2[i], a1[i], v1s[i], v2p[i]]
+            .iter()
+            .all(|v| v.is_finite());
+        if !ok {
+            continue;
+        }
+        sums[0] += c.x1[i];
+        sums[1] += c.x2[i];
+        sums[2] += rig.m1_kg * a1[i] + rig.d_n_s_per_m * v1s[i];
+        sums[3] += rig.d_n_s_per_m * v2p[i];
+        sums[4] += harmonic(c.t[i]);
+        cnt += 1;
+    }
+    (sums, cnt)
+}
+
 /// The prepared refinement of one log.
 pub struct Refinement {
     data: Data,
@@ -259,106 +388,21 @@ impl Refinement {
         let x2s = savgol(&c.x2, c.dt, c.half_window, 3, 0);
         let v2p = savgol(&c.x2, c.dt, c.half_window, 3, 1);
         let ok_state = |j: usize| x1s[j].is_finite() && v1s[j].is_finite() && x2s[j].is_finite();
-        // Anchors at the middle of every stick run (ends excluded).
-        let mut anchors: Vec<Anchor> = Vec::new();
-        let mut i = 0;
-        while i < n {
-            if !seg.stick[i] {
-                i += 1;
-                continue;
-            }
-            let s = i;
-            while i < n && seg.stick[i] {
-                i += 1;
-            }
-            let e = i;
-            if s == 0 || e >= n || e - s < 5 {
-                continue;
-            }
-            let (lo, hi) = (s + (e - s) / 4, e - (e - s) / 4);
-            let vals: Vec<f64> = c.x2[lo..hi]
-                .iter()
-                .copied()
-                .filter(|v| v.is_finite())
-                .collect();
-            let mid = (s + e) / 2;
-            if vals.len() < 3 || !ok_state(mid) {
-                continue;
-            }
-            anchors.push(Anchor {
-                i: mid,
-                x2_stick: Some(vals.iter().sum::<f64>() / vals.len() as f64),
-            });
-        }
-        // Velocity peaks of the slips where sticks are far apart.
-        let mut bounds: Vec<usize> = vec![0];
-        bounds.extend(anchors.iter().map(|a| a.i));
-        bounds.push(n - 1);
-        let half = per_n / 2;
-        let mut extra = Vec::new();
-        for w in bounds.windows(2) {
-            let (lo, hi) = (w[0], w[1]);
-            if hi - lo <= 3 * per_n / 4 {
-                continue;
-            }
-            let mut k = lo + half / 4;
-            while k + half <= hi {
-                let best = (k..k + half)
-                    .filter(|&j| c.v2_smooth[j].is_finite() && ok_state(j) && !seg.stick[j])
-                    .max_by(|&p, &q| c.v2_smooth[p].abs().total_cmp(&c.v2_smooth[q].abs()));
-                if let Some(b) = best {
-                    if c.v2_smooth[b].abs() > 2.0 * seg.hi {
-                        extra.push(Anchor {
-                            i: b,
-                            x2_stick: None,
-                        });
-                    }
-                }
-                k += half;
-            }
-        }
+        let mut anchors = stick_anchors(c, seg, &ok_state);
+        let extra = slip_anchors(c, seg, &anchors, per_n, &ok_state);
         anchors.extend(extra);
         anchors.sort_by_key(|a| a.i);
         anchors.dedup_by(|a, b| a.i.abs_diff(b.i) < per_n / 8);
-        // Segments over `span` consecutive anchor intervals, each interval
-        // at most 1.5 periods long; shorter spans where the log is too short
-        // for a dozen segments.
-        let span = opts.span.min(anchors.len().saturating_sub(1) / 12).max(1);
-        let mut segs: Vec<(usize, usize)> = Vec::new();
-        let mut k = 0;
-        while k + span < anchors.len() {
-            if (k..k + span).all(|j| anchors[j + 1].i - anchors[j].i <= 3 * per_n / 2) {
-                segs.push((k, k + span));
-                k += span;
-            } else {
-                k += 1;
-            }
-        }
+        let segs = shooting_segments(&anchors, opts.span, per_n);
         if segs.len() < 4 {
             return Err(format!(
                 "only {} shooting segments (the log needs repeated sticks or slips)",
                 segs.len()
             ));
         }
-        // Averages of M1's equation over the samples where every term is known.
         let w_d = 2.0 * PI * c.drive.frequency_hz;
         let harmonic = |t: f64| c.drive.amplitude_m * (w_d * t - c.drive.phase_rad).cos();
-        let mut sums = [0.0f64; 5];
-        let mut cnt = 0usize;
-        for i in 0..n {
-            let ok = [c.x1[i], c.x2[i], a1[i], v1s[i], v2p[i]]
-                .iter()
-                .all(|v| v.is_finite());
-            if !ok {
-                continue;
-            }
-            sums[0] += c.x1[i];
-            sums[1] += c.x2[i];
-            sums[2] += rig.m1_kg * a1[i] + rig.d_n_s_per_m * v1s[i];
-            sums[3] += rig.d_n_s_per_m * v2p[i];
-            sums[4] += harmonic(c.t[i]);
-            cnt += 1;
-        }
+        let (mut sums, cnt) = m1_sums(c, rig, &a1, &v1s, &v2p, &harmonic);
         let cn = cnt.max(1) as f64;
         // The drive: the sinusoid if its residual is at the channel's noise
         // level, else the sampled signal (its offset removed; gaps filled
@@ -685,16 +729,10 @@ impl Refinement {
         }))
     }
 
-    /// Chooses among the refined families `fits` (the criterion, the
-    /// parsimony rules, the never-sticks rule) unless `forced`, and gives
-    /// the chosen law's adequacy and intervals.
-    fn conclude(
-        &self,
-        fits: &[Refined],
-        forced: Option<LawKind>,
-        u: f64,
-        t0: std::time::Instant,
-    ) -> Result<OutputErrorFit, String> {
+    /// The number of residual samples per channel and the effective number
+    /// of independent ones (n over the correlation time of the residuals of
+    /// the richest fit) for the criterion.
+    fn effective_samples(&self, fits: &[Refined]) -> Result<(usize, f64), String> {
         // The criterion: n_eff from the residuals of the richest fit.
         let richest = fits
             .iter()
@@ -710,6 +748,12 @@ impl Refinement {
         let n = res.len();
         let tau = tau_int(&seg, &r1).max(tau_int(&seg, &r2));
         let n_eff = (n as f64 / tau).max(2.0);
+        Ok((n, n_eff))
+    }
+
+    /// Each refined family's law, nuisance parameters, criterion, RMS and
+    /// sticking (one more simulation each).
+    fn family_fits(&self, fits: &[Refined], n: usize, n_eff: f64) -> Vec<FamilyFit> {
         let mut families: Vec<FamilyFit> = Vec::new();
         for Refined {
             kind,
@@ -740,6 +784,13 @@ impl Refinement {
                 stick_runs: runs,
             });
         }
+        families
+    }
+
+    /// The index of the family the criterion chooses: the simplest within
+    /// [`BIC_WEAK`] of the lowest, stick-free where the segmentation saw no
+    /// stick unless a threshold wins by more than [`BIC_STRONG`].
+    fn pick_family(&self, families: &[FamilyFit]) -> usize {
         // Parsimony: the simplest family within 2 of the lowest criterion
         // (a difference below 2 is no evidence either way).
         let bmin = families.iter().map(|f| f.bic).fold(f64::INFINITY, f64::min);
@@ -764,10 +815,29 @@ impl Refinement {
                 }
             }
         }
+        best
+    }
+
+    /// Whether a family's law sticks (see [`OutputErrorFit::sticks_found`]).
+    fn sticks_of(&self, f: &FamilyFit) -> bool {
+        !self.never_sticks || (f.stick_fraction > MIN_STICK_FRACTION && f.stick_runs >= 4)
+    }
+
+    /// Chooses among the refined families `fits` (the criterion, the
+    /// parsimony rules, the never-sticks rule) unless `forced`, and gives
+    /// the chosen law's adequacy and intervals.
+    fn conclude(
+        &self,
+        fits: &[Refined],
+        forced: Option<LawKind>,
+        u: f64,
+        t0: std::time::Instant,
+    ) -> Result<OutputErrorFit, String> {
+        let (n, n_eff) = self.effective_samples(fits)?;
+        let families = self.family_fits(fits, n, n_eff);
+        let mut best = self.pick_family(&families);
         let mut notes = Vec::new();
-        let sticks_of = |f: &FamilyFit| {
-            !self.never_sticks || (f.stick_fraction > MIN_STICK_FRACTION && f.stick_runs >= 4)
-        };
+        let sticks_of = |f: &FamilyFit| self.sticks_of(f);
         let mut adequacy = self.adequacy(fits[best].kind, &fits[best].th, &fits[best].proj)?;
         let mut intervals = self
             .intervals(
