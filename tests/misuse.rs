@@ -21,7 +21,9 @@ struct Case {
     /// Files copied into the temp directory first (from `datasets/`).
     inputs: &'static [&'static str],
     /// Shell-free set-up in the temp dir: (kind, name), kind one of
-    /// "fifo", "file:TEXT", "dir", "symlink:TARGET".
+    /// "fifo", "file:TEXT", "dir", "symlink:TARGET", "edit:SRC|OLD|NEW"
+    /// (a dataset file with one text replaced), "head:SRC|N" (its first N
+    /// lines).
     setup: &'static [(&'static str, &'static str)],
     /// Arguments (relative paths are inside the temp dir).
     args: &'static [&'static str],
@@ -164,7 +166,7 @@ fn cases() -> Vec<Case> {
             setup: &[],
             args: &["fit", CHAR, "--out", CHAR],
             code: 1,
-            says: "--out writes JSON",
+            says: "would overwrite the input",
         },
         Case {
             name: "ingest --out the input (renamed .parquet)",
@@ -362,6 +364,30 @@ fn cases() -> Vec<Case> {
             code: 1,
             says: "not a sweep table",
         },
+        Case {
+            name: "validate across two rigs (M1 12 kg against 8.35 kg)",
+            inputs: &[SWEEP, MAP],
+            setup: &[("edit:char_N2.2.csv|#m1_kg,8.35|#m1_kg,12.0", CSV)],
+            args: &["validate", "--characteristic", CSV, "--sweep", SWEEP, "--samples", "0"],
+            code: 1,
+            says: "--allow-mixed-rigs",
+        },
+        Case {
+            name: "batch across two rigs",
+            inputs: &[CHAR, MAP],
+            setup: &[("edit:char_N2.2.csv|#m1_kg,8.35|#m1_kg,12.0", CSV)],
+            args: &["batch", CSV, CHAR, "--out", "b.json"],
+            code: 1,
+            says: "--allow-mixed-rigs",
+        },
+        Case {
+            name: "a 6-row CSV says too short (was: no drive sinusoid)",
+            inputs: &[MAP],
+            setup: &[("head:char_N2.2.csv|21", CSV)],
+            args: &["fit", CSV],
+            code: 1,
+            says: "needs at least two drive periods",
+        },
         // 5. Failed commands write nothing.
         Case {
             name: "batch with a sweep log: refused before any fit, nothing written",
@@ -440,6 +466,19 @@ fn setup(dir: &Path, c: &Case) {
             std::fs::create_dir(&p).unwrap();
         } else if let Some(text) = kind.strip_prefix("file:") {
             std::fs::write(&p, text).unwrap();
+        } else if let Some(spec) = kind.strip_prefix("edit:") {
+            // SRC|OLD|NEW: a dataset file with one text replaced.
+            let parts: Vec<&str> = spec.split('|').collect();
+            let text = std::fs::read_to_string(data(parts[0])).unwrap();
+            assert!(text.contains(parts[1]), "{spec}");
+            std::fs::write(&p, text.replacen(parts[1], parts[2], 1)).unwrap();
+        } else if let Some(spec) = kind.strip_prefix("head:") {
+            // SRC|N: the first N lines of a dataset file.
+            let (src, n) = spec.split_once('|').unwrap();
+            let text = std::fs::read_to_string(data(src)).unwrap();
+            let n: usize = n.parse().unwrap();
+            let head: Vec<&str> = text.lines().take(n).collect();
+            std::fs::write(&p, head.join("\n") + "\n").unwrap();
         } else if let Some(target) = kind.strip_prefix("symlink:") {
             std::os::unix::fs::symlink(dir.join(target), &p).unwrap();
         } else {

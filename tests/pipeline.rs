@@ -1,7 +1,8 @@
-//! `stickslip run` on a plan with a log that cannot be read: its read
-//! error is reported once, every other log keeps its own fit (the fits are
-//! matched to the logs that were read, in plan order), and the exit
-//! status is 1.
+//! `stickslip run` on a plan with a log that cannot be decoded (a missing
+//! one is refused before any work, `tests/misuse.rs`): its read error is
+//! reported once, every other log keeps its own fit (the fits are matched
+//! to the logs that were read, in plan order), the exit status is 1, the
+//! last stderr line says no output was written.
 
 mod common;
 
@@ -12,7 +13,8 @@ use serde_json::Value;
 fn an_unread_log_does_not_shift_the_fits_of_the_others() {
     let dir = tempfile::tempdir().unwrap();
     let plan = dir.path().join("plan.toml");
-    let missing = dir.path().join("missing.mcap");
+    let missing = dir.path().join("corrupt.mcap");
+    std::fs::copy(data("broken/not_mcap.mcap"), &missing).unwrap();
     let good = data("char_N4.mcap");
     std::fs::write(
         &plan,
@@ -27,8 +29,10 @@ fn an_unread_log_does_not_shift_the_fits_of_the_others() {
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
-    assert!(errors[0].contains("missing.mcap"), "{stderr}");
+    assert_eq!(errors.len(), 2, "{stderr}");
+    assert!(errors[0].contains("corrupt.mcap"), "{stderr}");
+    assert_eq!(stderr.lines().last(), Some(errors[1]), "{stderr}");
+    assert!(errors[1].contains("no output written"), "{stderr}");
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     let fits = v["fits"].as_array().unwrap();
     assert_eq!(fits.len(), 2);

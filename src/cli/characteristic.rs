@@ -26,6 +26,69 @@ pub struct CharacteristicArgs {
     pub json: bool,
 }
 
+/// The `characteristic --json` object (non-finite numbers: null).
+#[derive(serde::Serialize)]
+struct CharacteristicOut<'a> {
+    log: String,
+    samples: usize,
+    drive_amplitude_m: f64,
+    drive_frequency_hz: f64,
+    acceleration_source: &'a str,
+    sticks: usize,
+    breakaways: usize,
+    reversals: usize,
+    stuck: bool,
+    never_sticks: bool,
+    velocity_noise_m_per_s: f64,
+    out: Option<String>,
+    bias_n: f64,
+    warnings: &'a [String],
+}
+
+/// Writes the characteristic table: time, R (bias removed), ẋ2 (0 where
+/// sticking), the stick flag, and both dimensionless (`scales`: force and
+/// velocity scales).
+fn write_table(
+    out: &std::path::Path,
+    ch: &identify::Characteristic,
+    bias: f64,
+    (fs, vs): (f64, f64),
+) -> crate::Result<()> {
+    let c = &ch.contact;
+    let mut f = AtomicFile::create(out)?;
+    let mut text = String::from("t_s,r_n,v2_m_per_s,stick,rho,v2_dimless\n");
+    for i in 0..c.t.len() {
+        let (r, v) = (
+            c.r[i] - bias,
+            if ch.segmentation.stick[i] {
+                0.0
+            } else {
+                c.v2[i]
+            },
+        );
+        let cell = |x: f64| {
+            if x.is_finite() {
+                format!("{x:.9e}")
+            } else {
+                String::new()
+            }
+        };
+        text.push_str(&format!(
+            "{},{},{},{},{},{}\n",
+            c.t[i],
+            cell(r),
+            cell(v),
+            u8::from(ch.segmentation.stick[i]),
+            cell(r / fs),
+            cell(v / vs)
+        ));
+    }
+    f.writer()
+        .write_all(text.as_bytes())
+        .map_err(|e| f.io_err(e))?;
+    f.commit()
+}
+
 /// Runs `characteristic`.
 pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
     let mut outputs = Vec::new();
@@ -61,38 +124,7 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
     let fs = c.drive.amplitude_m * run.rig.k2_n_per_m;
     let vs = c.drive.amplitude_m * run.rig.omega_ref();
     if let Some(out) = &args.out {
-        let mut f = AtomicFile::create(out)?;
-        let mut text = String::from("t_s,r_n,v2_m_per_s,stick,rho,v2_dimless\n");
-        for i in 0..c.t.len() {
-            let (r, v) = (
-                c.r[i] - bias,
-                if ch.segmentation.stick[i] {
-                    0.0
-                } else {
-                    c.v2[i]
-                },
-            );
-            let cell = |x: f64| {
-                if x.is_finite() {
-                    format!("{x:.9e}")
-                } else {
-                    String::new()
-                }
-            };
-            text.push_str(&format!(
-                "{},{},{},{},{},{}\n",
-                c.t[i],
-                cell(r),
-                cell(v),
-                u8::from(ch.segmentation.stick[i]),
-                cell(r / fs),
-                cell(v / vs)
-            ));
-        }
-        f.writer()
-            .write_all(text.as_bytes())
-            .map_err(|e| f.io_err(e))?;
-        f.commit()?;
+        write_table(out, &ch, bias, (fs, vs))?;
     }
     if let Some(path) = &args.plot {
         let law = fit.as_ref().filter(|f| !f.stuck).map(|f| f.law);
@@ -119,24 +151,6 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
     }
     let seg = &ch.segmentation;
     if args.json {
-        /// The `characteristic --json` object (non-finite numbers: null).
-        #[derive(serde::Serialize)]
-        struct CharacteristicOut<'a> {
-            log: String,
-            samples: usize,
-            drive_amplitude_m: f64,
-            drive_frequency_hz: f64,
-            acceleration_source: &'a str,
-            sticks: usize,
-            breakaways: usize,
-            reversals: usize,
-            stuck: bool,
-            never_sticks: bool,
-            velocity_noise_m_per_s: f64,
-            out: Option<String>,
-            bias_n: f64,
-            warnings: &'a [String],
-        }
         super::print_json(&crate::io::json::to_value(CharacteristicOut {
             log: args.log.display().to_string(),
             samples: c.t.len(),

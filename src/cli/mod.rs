@@ -90,16 +90,8 @@ pub fn main() -> ExitCode {
         },
         Command::Synth(a) => synth::run(a),
         Command::Validate(a) => validate::run(a),
-        Command::Batch(a) => match batch::run(a) {
-            Ok(true) => Ok(()),
-            Ok(false) => return ExitCode::from(1),
-            Err(e) => Err(e),
-        },
-        Command::Run(a) => match run::run(a) {
-            Ok(true) => Ok(()),
-            Ok(false) => return ExitCode::from(1),
-            Err(e) => Err(e),
-        },
+        Command::Batch(a) => batch::run(a),
+        Command::Run(a) => run::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -48,8 +48,9 @@ impl Progress for Bar {
     }
 }
 
-/// Runs the plan.
-pub fn run(args: RunArgs) -> crate::Result<bool> {
+/// Runs the plan. A step that fails (a log that cannot be fitted, a
+/// validation) makes the command fail without writing a file.
+pub fn run(args: RunArgs) -> crate::Result<()> {
     let t0 = Instant::now();
     let plan = Plan::read(&args.plan)?;
     let logs = plan.logs();
@@ -117,5 +118,5 @@ pub fn run(args: RunArgs) -> crate::Result<bool> {
     } else {
         eprintln!("done in {:.1} s", t0.elapsed().as_secs_f64());
     }
-    Ok(report.errors.is_empty())
+    Ok(())
 }

@@ -188,10 +188,9 @@ fn check_budget(args: &SimulateArgs) -> crate::Result<()> {
     Ok(())
 }
 
-/// Runs `simulate`.
-pub fn run(args: SimulateArgs) -> crate::Result<()> {
-    let model = args.model.model()?;
-    crate::model::validate_eta(args.eta)?;
+/// Checks the outputs and the budget, then opens the event and trajectory
+/// files (atomic: nothing appears unless the run completes).
+fn open_files(args: &SimulateArgs) -> crate::Result<Files> {
     let mut outputs = Vec::new();
     if let Some(p) = &args.events {
         outputs.push(Output::file("--events", p, super::ext::CSV));
@@ -200,7 +199,7 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
         outputs.push(Output::file("--trajectory", p, super::ext::CSV));
     }
     super::check_paths([], &outputs)?;
-    check_budget(&args)?;
+    check_budget(args)?;
     let mut files = Files {
         events: None,
         traj: None,
@@ -221,6 +220,14 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
         };
         files.traj = Some((f, grid));
     }
+    Ok(files)
+}
+
+/// Runs `simulate`.
+pub fn run(args: SimulateArgs) -> crate::Result<()> {
+    let model = args.model.model()?;
+    crate::model::validate_eta(args.eta)?;
+    let mut files = open_files(&args)?;
     let opts = SimOptions {
         periods: args.periods,
         max_periods: args.max_periods,

@@ -116,6 +116,41 @@ fn parse_list(s: &str) -> crate::Result<Vec<f64>> {
         .collect()
 }
 
+/// The family's curves: one per ρs and direction (up, down, both, or from
+/// rest), each an affine law.
+fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> {
+    let directions: Vec<Direction> = if args.from_rest {
+        vec![Direction::Rest]
+    } else {
+        match args.direction {
+            DirectionArg::Up => vec![Direction::Up],
+            DirectionArg::Down => vec![Direction::Down],
+            DirectionArg::Both => vec![Direction::Up, Direction::Down],
+        }
+    };
+    let mut specs = Vec::new();
+    for &rs in rhos {
+        let rd = match (args.rho_d, args.rho_d_ratio) {
+            (Some(v), _) => Some(v),
+            (None, Some(r)) if rs.is_finite() => Some(r * rs),
+            _ => None,
+        };
+        let model = args.shape.model(rs, rd)?;
+        if model.law.affine().is_none() {
+            return Err(bad(
+                "sweep needs an affine law (coulomb, decreasing, static-dynamic) for now".into(),
+            ));
+        }
+        for &d in &directions {
+            specs.push(CurveSpec {
+                model,
+                direction: d,
+            });
+        }
+    }
+    Ok(specs)
+}
+
 /// Runs `sweep`.
 pub fn run(args: SweepArgs) -> crate::Result<()> {
     let rhos = parse_list(&args.rho_s)?;
@@ -138,35 +173,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
         Some(s) => parse_shard(s)?,
         None => Shard::ALL,
     };
-    let directions: Vec<Direction> = if args.from_rest {
-        vec![Direction::Rest]
-    } else {
-        match args.direction {
-            DirectionArg::Up => vec![Direction::Up],
-            DirectionArg::Down => vec![Direction::Down],
-            DirectionArg::Both => vec![Direction::Up, Direction::Down],
-        }
-    };
-    let mut specs = Vec::new();
-    for &rs in &rhos {
-        let rd = match (args.rho_d, args.rho_d_ratio) {
-            (Some(v), _) => Some(v),
-            (None, Some(r)) if rs.is_finite() => Some(r * rs),
-            _ => None,
-        };
-        let model = args.shape.model(rs, rd)?;
-        if model.law.affine().is_none() {
-            return Err(bad(
-                "sweep needs an affine law (coulomb, decreasing, static-dynamic) for now".into(),
-            ));
-        }
-        for &d in &directions {
-            specs.push(CurveSpec {
-                model,
-                direction: d,
-            });
-        }
-    }
+    let specs = curve_specs(&args, &rhos)?;
     let etas = sweep::eta_grid(args.eta_min, args.eta_max, args.points);
     let cfg = SteadyConfig {
         max_periods: args.max_periods,

@@ -156,9 +156,9 @@ fn input_err(path: &Path, msg: impl Into<String>) -> crate::Error {
 }
 
 impl SynthArgs {
-    /// The configuration these options describe.
-    pub fn config(&self) -> crate::Result<SynthConfig> {
-        let out = &self.out;
+    /// The log format: from --format, which must agree with the
+    /// extension of --out, or from the extension.
+    fn format(&self, out: &Path) -> crate::Result<LogFormat> {
         let ext = out
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase())
@@ -191,10 +191,15 @@ impl SynthArgs {
                 ))
             }
         };
+        Ok(format)
+    }
+
+    /// The friction law in SI (Rs = μs·N unless given, Rd likewise).
+    fn friction(&self) -> FrictionSpec {
         let n = self.normal_force;
         let rs = self.rs_n.unwrap_or(self.mu_s * n);
         let rd_given = self.rd_n.unwrap_or(self.mu_d * n);
-        let friction = match self.law {
+        match self.law {
             LawKind::Coulomb => FrictionSpec {
                 rs_n: rs,
                 rd_n: rs,
@@ -219,18 +224,12 @@ impl SynthArgs {
                 slope_n_s_per_m: self.slope.unwrap_or(0.0),
                 stribeck_velocity_m_per_s: Some(self.v_s),
             },
-        };
-        let d = self.d.unwrap_or(0.003 * (self.k2 * self.m2).abs().sqrt());
-        let rig = RigSpec {
-            m1_kg: self.m1,
-            m2_kg: self.m2,
-            k1_n_per_m: self.k1,
-            k2_n_per_m: self.k2,
-            d_n_s_per_m: d,
-            drive_amplitude_nominal_m: self.amplitude,
-            drive_amplitude_true_m: self.true_amplitude.unwrap_or(self.amplitude),
-        };
-        let test = match self.test {
+        }
+    }
+
+    /// The test the rig runs.
+    fn test_spec(&self) -> TestSpec {
+        match self.test {
             TestArg::Characteristic => TestSpec::Characteristic {
                 frequency_hz: self.frequency,
                 warmup_s: self.warmup,
@@ -258,7 +257,13 @@ impl SynthArgs {
                 hold_before_s: 10.0,
                 hold_after_s: 5.0,
             },
-        };
+        }
+    }
+
+    /// The sensor models: from --sensors, ideal, or typical (slower
+    /// channels for the long sweeps); no accelerometer with
+    /// --no-accelerometer.
+    fn sensors(&self) -> crate::Result<Sensors> {
         let mut sensors = match &self.sensors {
             Some(p) => {
                 let text = std::fs::read_to_string(p).map_err(|source| crate::Error::Io {
@@ -284,6 +289,27 @@ impl SynthArgs {
         if self.no_accelerometer {
             sensors.a2 = None;
         }
+        Ok(sensors)
+    }
+
+    /// The configuration these options describe.
+    pub fn config(&self) -> crate::Result<SynthConfig> {
+        let out = &self.out;
+        let format = self.format(out)?;
+        let n = self.normal_force;
+        let friction = self.friction();
+        let d = self.d.unwrap_or(0.003 * (self.k2 * self.m2).abs().sqrt());
+        let rig = RigSpec {
+            m1_kg: self.m1,
+            m2_kg: self.m2,
+            k1_n_per_m: self.k1,
+            k2_n_per_m: self.k2,
+            d_n_s_per_m: d,
+            drive_amplitude_nominal_m: self.amplitude,
+            drive_amplitude_true_m: self.true_amplitude.unwrap_or(self.amplitude),
+        };
+        let test = self.test_spec();
+        let sensors = self.sensors()?;
         let mut csv_shift_s = std::collections::BTreeMap::new();
         if let Some(s) = self.csv_drive_shift {
             if format != LogFormat::Csv {

@@ -137,6 +137,15 @@ fn extension(path: &Path) -> String {
         .unwrap_or_default()
 }
 
+/// The name of the format an extension stands for, as messages spell it.
+fn format_name(ext: &str) -> String {
+    match ext {
+        "parquet" => "Parquet".into(),
+        "toml" => "a TOML channel map".into(),
+        other => other.to_ascii_uppercase(),
+    }
+}
+
 fn ext_list(exts: &[&str]) -> String {
     let dotted: Vec<String> = exts.iter().map(|e| format!(".{e}")).collect();
     match dotted.as_slice() {
@@ -166,7 +175,7 @@ fn check_file(o: &Output) -> Result<()> {
             path,
             format!(
                 "{flag} writes {}: give a file name ending in {}",
-                o.exts[0].to_ascii_uppercase(),
+                format_name(o.exts[0]),
                 ext_list(o.exts)
             ),
         ));
@@ -190,7 +199,7 @@ fn check_file(o: &Output) -> Result<()> {
                 format!(
                     "{flag} is a symlink to {}, a file of another kind: it would be replaced by {} output",
                     dest.display(),
-                    o.exts[0].to_ascii_uppercase()
+                    format_name(o.exts[0])
                 ),
             ));
         }
@@ -247,11 +256,7 @@ pub fn check_outputs<'a>(
     }
     let mut seen: Vec<(PathBuf, &Output)> = Vec::new();
     for o in outputs {
-        if o.is_dir() {
-            check_dir(o)?;
-        } else {
-            check_file(o)?;
-        }
+        // The gravest first: an output that would destroy an input.
         let id = identity(o.path);
         if let Some((_, input)) = ins.iter().find(|(i, _)| *i == id) {
             return Err(input_err(
@@ -262,6 +267,11 @@ pub fn check_outputs<'a>(
                     input.display()
                 ),
             ));
+        }
+        if o.is_dir() {
+            check_dir(o)?;
+        } else {
+            check_file(o)?;
         }
         if let Some((_, other)) = seen.iter().find(|(i, _)| *i == id) {
             return Err(input_err(
@@ -289,7 +299,7 @@ mod tests {
         std::fs::write(&log, b"x").unwrap();
         let svg = d.join("a.svg");
         // Wrong extension.
-        let e = check_outputs([log.as_path()], &[Output::file("--plot", &log, &["svg"])]);
+        let e = check_outputs([], &[Output::file("--plot", &log, &["svg"])]);
         assert!(e.unwrap_err().to_string().contains("--plot writes SVG"));
         // Two outputs alike.
         let e = check_outputs(
