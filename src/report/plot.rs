@@ -133,6 +133,38 @@ pub(crate) fn colour(i: usize, n: usize) -> RGBColor {
 
 type FrcChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
+/// The linear system's natural frequencies (`markers`: label and η) as
+/// dashed verticals with their labels, where they fall inside `(lo, hi)`.
+pub(crate) fn eta_markers<DB: DrawingBackend>(
+    chart: &mut FrcChart<'_, DB>,
+    markers: [(&str, f64); 3],
+    (lo, hi): (f64, f64),
+    ymax: f64,
+    colour: RGBColor,
+) -> std::result::Result<(), String> {
+    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+    for (name, v) in markers {
+        if v > lo && v < hi {
+            chart
+                .draw_series(DashedLineSeries::new(
+                    vec![(v, 0.0), (v, ymax)],
+                    3,
+                    3,
+                    colour.stroke_width(1),
+                ))
+                .map_err(e)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    name.to_string(),
+                    (v, ymax * 0.97),
+                    ("sans-serif", 15),
+                )))
+                .map_err(e)?;
+        }
+    }
+    Ok(())
+}
+
 fn draw_frc<DB: DrawingBackend>(
     fig: &FrcFigure,
     root: &DrawingArea<DB, Shift>,
@@ -245,25 +277,13 @@ fn frc_limits<DB: DrawingBackend>(
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
     }
     // η0, η1, η2.
-    for (name, v) in [("η1", eta1), ("η0", eta0), ("η2", eta2)] {
-        if v > lo && v < hi {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    vec![(v, 0.0), (v, ymax)],
-                    3,
-                    3,
-                    RGBColor(170, 170, 170).stroke_width(1),
-                ))
-                .map_err(e)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    name.to_string(),
-                    (v, ymax * 0.97),
-                    ("sans-serif", 15),
-                )))
-                .map_err(e)?;
-        }
-    }
+    eta_markers(
+        chart,
+        [("η1", eta1), ("η0", eta0), ("η2", eta2)],
+        (lo, hi),
+        ymax,
+        RGBColor(170, 170, 170),
+    )?;
     Ok(())
 }
 

@@ -238,26 +238,13 @@ fn limit_curves(chart: &mut Chart<'_, '_>, f: &Frame, which: usize, ymax: f64) -
         .map_err(e)?
         .label("rigid stick (ρs = ∞)")
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], dark));
-    for (name, v) in [("η1", f.eta1), ("η0", f.eta0), ("η2", f.eta2)] {
-        if v > lo && v < hi {
-            chart
-                .draw_series(DashedLineSeries::new(
-                    vec![(v, 0.0), (v, ymax)],
-                    3,
-                    3,
-                    RGBColor(190, 190, 190).stroke_width(1),
-                ))
-                .map_err(e)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    name.to_string(),
-                    (v, ymax * 0.97),
-                    ("sans-serif", 15),
-                )))
-                .map_err(e)?;
-        }
-    }
-    Ok(())
+    super::plot::eta_markers(
+        chart,
+        [("η1", f.eta1), ("η0", f.eta0), ("η2", f.eta2)],
+        (lo, hi),
+        ymax,
+        RGBColor(190, 190, 190),
+    )
 }
 
 /// Steady-state band (polygon over the points that have one) and line.
