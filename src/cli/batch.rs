@@ -13,7 +13,6 @@
 use crate::batch::{self as vb, Batch, BatchOptions};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::RigMeta;
-use crate::io::Output;
 use crate::report::{batch_plot, batch_view, html, views};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -268,13 +267,7 @@ fn failure(fits: &Fits) -> crate::Error {
 /// share one progress bar; the parts with logic of their own are
 /// [`drop_duplicates`], [`batch_json`] and [`failure`].
 pub fn run(args: BatchArgs) -> crate::Result<()> {
-    let mut outputs = Vec::new();
-    if let Some(p) = &args.out {
-        outputs.push(Output::file("--out", p, super::ext::JSON));
-    }
-    if let Some(p) = &args.report {
-        outputs.push(Output::dir("--report", p));
-    }
+    let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(args.logs.iter().map(PathBuf::as_path), &outputs)?;
     let t0 = Instant::now();
     let bopts = options(&args)?;

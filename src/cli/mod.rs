@@ -130,6 +130,21 @@ pub(crate) fn check_paths<'a>(
     crate::io::check_outputs(inputs, outputs)
 }
 
+/// The outputs of a command with `--out FILE.json` and `--report DIR`.
+pub(crate) fn json_and_report<'a>(
+    out: Option<&'a std::path::Path>,
+    report: Option<&'a std::path::Path>,
+) -> Vec<crate::io::Output<'a>> {
+    let mut outputs = Vec::new();
+    if let Some(p) = out {
+        outputs.push(crate::io::Output::file("--out", p, ext::JSON));
+    }
+    if let Some(p) = report {
+        outputs.push(crate::io::Output::dir("--report", p));
+    }
+    outputs
+}
+
 /// Extensions of the formats the commands write.
 pub(crate) mod ext {
     /// JSON results (`--out`).

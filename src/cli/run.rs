@@ -4,7 +4,6 @@
 //! progress and prints. A log that fails gives its `error:` line and the
 //! rest completes (exit 1 at the end).
 
-use crate::io::Output;
 use crate::pipeline::{self, Plan, Progress};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -54,13 +53,7 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     let t0 = Instant::now();
     let plan = Plan::read(&args.plan)?;
     let logs = plan.logs();
-    let mut outputs = Vec::new();
-    if let Some(p) = &args.out {
-        outputs.push(Output::file("--out", p, super::ext::JSON));
-    }
-    if let Some(p) = &args.report {
-        outputs.push(Output::dir("--report", p));
-    }
+    let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(
         logs.iter()
             .map(PathBuf::as_path)

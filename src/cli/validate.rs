@@ -4,7 +4,6 @@
 
 use crate::identify::{self, IdentifyOptions};
 use crate::ingest::{self, IngestOptions, Run};
-use crate::io::Output;
 use crate::report::{html, sections};
 use crate::validate::{self, ValidateOptions};
 use clap::Args;
@@ -57,13 +56,7 @@ pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
 
 /// Runs `validate`.
 pub fn run(args: ValidateArgs) -> crate::Result<()> {
-    let mut outputs = Vec::new();
-    if let Some(p) = &args.out {
-        outputs.push(Output::file("--out", p, super::ext::JSON));
-    }
-    if let Some(p) = &args.report {
-        outputs.push(Output::dir("--report", p));
-    }
+    let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(
         [args.characteristic.as_path(), args.sweep.as_path()],
         &outputs,
