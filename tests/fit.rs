@@ -328,9 +328,12 @@ fn a_bad_log_fails_alone_and_the_others_complete() {
         .unwrap();
     assert_eq!(res.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&res.stderr);
+    // The log's own error line, then the last line naming every failed log.
     let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
+    assert_eq!(errors.len(), 2, "{stderr}");
     assert!(errors[0].contains("not_mcap.mcap"), "{stderr}");
+    assert_eq!(stderr.lines().last(), Some(errors[1]), "{stderr}");
+    assert!(errors[1].contains("1 of 2 logs failed") && errors[1].contains("not_mcap.mcap"));
     let v: Value = serde_json::from_slice(&res.stdout).unwrap();
     let fits = v["fits"].as_array().unwrap();
     assert_eq!(fits.len(), 2);

@@ -388,6 +388,14 @@ fn cases() -> Vec<Case> {
             code: 1,
             says: "needs at least two drive periods",
         },
+        Case {
+            name: "fit of two logs, one corrupt: per-log entries, the last line names it",
+            inputs: &[CHAR],
+            setup: &[("file:not an mcap", "bad.mcap")],
+            args: &["fit", CHAR, "bad.mcap", "--bootstrap", "0", "--estimate", "equation-error"],
+            code: 1,
+            says: "1 of 2 logs failed: bad.mcap",
+        },
         // 5. Failed commands write nothing.
         Case {
             name: "batch with a sweep log: refused before any fit, nothing written",

@@ -87,7 +87,7 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
     // Parallel over logs, each panic-guarded (one failing log does not
     // stop the others).
     let results = identify::fit_logs(&args.logs, &opts, &|| {});
-    let mut failed = false;
+    let mut failed: Vec<String> = Vec::new();
     let mut fits = Vec::new();
     for (log, r) in args.logs.iter().zip(results) {
         match r {
@@ -99,7 +99,7 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
             }
             Err(e) => {
                 eprintln!("error: {e}");
-                failed = true;
+                failed.push(log.display().to_string());
                 fits.push(json!({"log": log.display().to_string(), "error": e.to_string()}));
             }
         }
@@ -111,7 +111,18 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
     if args.json {
         super::print_json(&out);
     }
-    Ok(!failed)
+    // The last line names every log that failed (the contract's one
+    // exception to "a failed command writes nothing": the others' fits
+    // are written).
+    if !failed.is_empty() && args.logs.len() > 1 {
+        eprintln!(
+            "error: {} of {} logs failed: {}",
+            failed.len(),
+            args.logs.len(),
+            failed.join(", ")
+        );
+    }
+    Ok(failed.is_empty())
 }
 
 /// One human-readable line per log.

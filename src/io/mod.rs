@@ -11,6 +11,10 @@ pub mod paths;
 pub use parquet::{write_parquet, write_table};
 pub use paths::{check_inputs, check_outputs, Output};
 
+use crate::error::{Error, Result};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 /// Temporary files being written now (removed by [`remove_live_temps`] on
@@ -65,8 +69,8 @@ impl Drop for TempPath {
 /// Removes every temporary file being written now (for a signal handler:
 /// call it, then exit).
 pub fn remove_live_temps() {
-    // A handler must not block forever on a poisoned or held lock: take
-    // what is there.
+    // A poisoned lock is still read; a held one is waited for briefly
+    // (its holders only push or remove one path).
     let live = match LIVE_TEMPS.try_lock() {
         Ok(l) => l.clone(),
         Err(std::sync::TryLockError::Poisoned(p)) => p.into_inner().clone(),
@@ -112,11 +116,6 @@ pub fn resolve_output(path: &Path) -> PathBuf {
         _ => path.to_path_buf(),
     }
 }
-
-use crate::error::{Error, Result};
-use std::fs::File;
-use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
 
 /// A file being written atomically: data goes to a temporary file beside the
 /// target, and only [`AtomicFile::commit`] renames it into place. Dropping it
