@@ -133,6 +133,30 @@ pub(crate) fn colour(i: usize, n: usize) -> RGBColor {
 
 type FrcChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
+/// Points (η, amplitude) of a curve.
+pub(crate) type Points = Vec<(f64, f64)>;
+
+/// The linear limits of an amplitude panel (`which`: 0 for A1/A, 1 for
+/// A2/A) on `grid`, clipped at 2·`ymax`: (no friction, ρs = 0; rigid
+/// stick, ρs = ∞).
+pub(crate) fn limit_points(
+    ab: &crate::model::Absorber,
+    grid: &[f64],
+    which: usize,
+    ymax: f64,
+) -> (Points, Points) {
+    let pick = |(a1, a2): (f64, f64)| if which == 0 { a1 } else { a2 }.min(ymax * 2.0);
+    let free = grid
+        .iter()
+        .map(|&x| (x, pick(linear::free_amplitudes(ab, 0.0, x))))
+        .collect();
+    let stuck = grid
+        .iter()
+        .map(|&x| (x, pick(linear::stuck_amplitudes(ab, x))))
+        .collect();
+    (free, stuck)
+}
+
 /// The linear system's natural frequencies (`markers`: label and η) as
 /// dashed verticals with their labels, where they fall inside `(lo, hi)`.
 pub(crate) fn eta_markers<DB: DrawingBackend>(
@@ -252,23 +276,13 @@ fn frc_limits<DB: DrawingBackend>(
     let eta0 = ab.eta_stuck();
     // The two limits: no friction (ρs = 0) and rigid stick (ρs = ∞).
     let grey = RGBColor(120, 120, 120);
-    let free: Vec<(f64, f64)> = grid
-        .iter()
-        .map(|&x| {
-            let (a1, a2) = linear::free_amplitudes(ab, 0.0, x);
-            (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
-        })
-        .collect();
+    let (free, stuck) = limit_points(ab, grid, which, ymax);
     chart
         .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
         .map_err(e)?
         .label("no friction")
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
     if which == 0 {
-        let stuck: Vec<(f64, f64)> = grid
-            .iter()
-            .map(|&x| (x, linear::stuck_amplitudes(ab, x).0.min(ymax * 2.0)))
-            .collect();
         let dark = RGBColor(60, 60, 60);
         chart
             .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))

@@ -6,7 +6,6 @@
 use super::plot::{colour, plot_err, register_font};
 use crate::error::Result;
 use crate::model::Absorber;
-use crate::sim::linear;
 use crate::validate::frc::MeasuredFrc;
 use crate::validate::predict::Prediction;
 use plotters::coord::types::RangedCoordf64;
@@ -211,27 +210,12 @@ fn amplitude_panel(
 fn limit_curves(chart: &mut Chart<'_, '_>, f: &Frame, which: usize, ymax: f64) -> DrawResult {
     let (lo, hi, ab) = (f.lo, f.hi, &f.ab);
     let grey = RGBColor(150, 150, 150);
-    let free: Vec<(f64, f64)> = f
-        .grid
-        .iter()
-        .map(|&x| {
-            let (a1, a2) = linear::free_amplitudes(ab, 0.0, x);
-            (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
-        })
-        .collect();
+    let (free, stuck) = super::plot::limit_points(ab, &f.grid, which, ymax);
     chart
         .draw_series(DashedLineSeries::new(free, 6, 4, grey.stroke_width(1)))
         .map_err(e)?
         .label("no friction (ρs = 0)")
         .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], grey));
-    let stuck: Vec<(f64, f64)> = f
-        .grid
-        .iter()
-        .map(|&x| {
-            let (a1, a2) = linear::stuck_amplitudes(ab, x);
-            (x, if which == 0 { a1 } else { a2 }.min(ymax * 2.0))
-        })
-        .collect();
     let dark = RGBColor(90, 90, 90);
     chart
         .draw_series(DashedLineSeries::new(stuck, 2, 3, dark.stroke_width(1)))
