@@ -217,17 +217,7 @@ fn closed_form(model: &Model, eta: f64, init: &Init) -> Option<(Point, Init)> {
         if !linear::bounded(a1) {
             return Some((resonant(eta), Init::rest()));
         }
-        let p = Point {
-            eta,
-            amplitude1: Some(a1),
-            amplitude2: Some(0.0),
-            steady: true,
-            period_multiple: Some(1),
-            stick_fraction: 1.0,
-            interrupted: false,
-            periods: 0,
-            method: "closed-form",
-        };
+        let p = stuck_point(eta, a1, 0, "closed-form");
         return Some((
             p,
             Init {
@@ -239,6 +229,23 @@ fn closed_form(model: &Model, eta: f64, init: &Init) -> Option<(Point, Init)> {
     None
 }
 
+/// The steady state of M2 stuck for good: period 1, A1/A = `a1`, A2/A = 0
+/// (after `periods` forcing periods; `method` says how it was found).
+#[inline(always)]
+fn stuck_point(eta: f64, a1: f64, periods: u64, method: &'static str) -> Point {
+    Point {
+        eta,
+        amplitude1: Some(a1),
+        amplitude2: Some(0.0),
+        steady: true,
+        period_multiple: Some(1),
+        stick_fraction: 1.0,
+        interrupted: false,
+        periods,
+        method,
+    }
+}
+
 /// Stage 3 of [`steady_state`]: the stuck state after the transient
 /// (`state`, `used` periods) where it is proven permanent. Inlined like
 /// [`closed_form`].
@@ -248,17 +255,7 @@ fn stick_proof(model: &Model, eta: f64, state: &Init, used: u64) -> Option<(Poin
     if let Mode::Stick { z2 } = state.mode {
         if permanently_stuck(model, eta, &state.x, z2) {
             let (a1, _) = linear::stuck_amplitudes(ab, eta);
-            let p = Point {
-                eta,
-                amplitude1: Some(a1),
-                amplitude2: Some(0.0),
-                steady: true,
-                period_multiple: Some(1),
-                stick_fraction: 1.0,
-                interrupted: false,
-                periods: used,
-                method: "stick-proof",
-            };
+            let p = stuck_point(eta, a1, used, "stick-proof");
             return Some((
                 p,
                 Init {
