@@ -248,3 +248,67 @@ fn coexisting_states_are_flagged_and_merge_finds_them_across_shards() {
     assert_eq!(flags(&merged), flags(&whole));
     assert!(merged.iter().any(|r| r.coexisting));
 }
+
+/// Each part records its shard K/N and the family's size, so `merge`
+/// names a missing shard even when it held whole curves at the end of the
+/// family, or nothing at all: `--shard 3/3` of 2 continuation curves is
+/// empty, and without it the rows of 1/3 and 2/3 look complete. Also: a
+/// shard given twice, and parts of two grids. Each refusal exits 1 and
+/// writes nothing; the tables carry the metadata in CSV and Parquet alike.
+#[test]
+fn merge_names_missing_shards() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |s: &str| dir.path().join(s);
+    let sweep = |points: &str, k: u32, out: &str| {
+        let o = bin()
+            .args(["sweep", "--rho-s", "0.3,0.4", "--points", points])
+            .args(["--shard", &format!("{k}/3"), "--out"])
+            .arg(p(out))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    for k in 1..=3 {
+        sweep("4", k, &format!("p{k}.csv"));
+        sweep("4", k, &format!("p{k}.parquet"));
+    }
+    sweep("5", 1, "q1.csv");
+    assert_eq!(read_frc(&p("p3.csv")).unwrap().len(), 0);
+    let meta = stickslip::report::table::read_table(&p("p2.parquet"))
+        .unwrap()
+        .meta
+        .unwrap();
+    assert_eq!(
+        (meta.shard, meta.shards, meta.curves, meta.points),
+        (2, 3, 2, 4)
+    );
+    let refused = |parts: &[&str], says: &str| {
+        let o = bin()
+            .arg("merge")
+            .args(parts.iter().map(|s| p(s)))
+            .arg("--out")
+            .arg(p("m.csv"))
+            .output()
+            .unwrap();
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{parts:?}: {e}");
+        assert!(e.trim_end().lines().last().unwrap().contains(says), "{e}");
+        assert!(!p("m.csv").exists());
+    };
+    refused(&["p1.csv", "p2.csv"], "1 of 3 missing (3/3)");
+    refused(&["p1.parquet", "p3.parquet"], "1 of 3 missing (2/3)");
+    refused(&["p1.csv", "p2.csv", "p2.parquet"], "is shard 2/3 again");
+    refused(&["q1.csv", "p2.csv", "p3.csv"], "different sweeps");
+    // The whole set merges, in any order and mix of formats, to shard 1/1.
+    let o = bin()
+        .args(["merge", "--out"])
+        .arg(p("m.csv"))
+        .args(["p3.parquet", "p1.csv", "p2.parquet"].map(p))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let t = stickslip::report::table::read_table(&p("m.csv")).unwrap();
+    assert_eq!(t.rows.len(), 8);
+    let m = t.meta.unwrap();
+    assert_eq!((m.shard, m.shards, m.curves, m.points), (1, 1, 2, 4));
+}

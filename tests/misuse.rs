@@ -21,7 +21,8 @@ struct Case {
     /// Files copied into the temp directory first (from `datasets/`).
     inputs: &'static [&'static str],
     /// Shell-free set-up in the temp dir: (kind, name), kind one of
-    /// "fifo", "file:TEXT", "dir", "symlink:TARGET", "edit:SRC|OLD|NEW"
+    /// "fifo", "chardev" (a node of the null device, 1:3, made with
+    /// `mknod` inside the temp dir: never a write to `/dev`), "file:TEXT", "dir", "symlink:TARGET", "edit:SRC|OLD|NEW"
     /// (a dataset file with one text replaced), "head:SRC|N" (its first N
     /// lines).
     setup: &'static [(&'static str, &'static str)],
@@ -89,12 +90,36 @@ fn cases() -> Vec<Case> {
             says: "--plot writes SVG",
         },
         Case {
+            name: "bench with its default figure reports/bench.svg a FIFO: checked before the study",
+            inputs: &[],
+            setup: &[("dir", "reports"), ("fifo", "reports/bench.svg")],
+            args: &["bench"],
+            code: 1,
+            says: "reports/bench.svg",
+        },
+        Case {
             name: "bench --quick --plot (no figure to draw)",
             inputs: &[],
             setup: &[],
             args: &["bench", "--quick", "--plot", "b.svg"],
             code: 2,
             says: "--help",
+        },
+        Case {
+            name: "simulate --events to a character device",
+            inputs: &[],
+            setup: &[("chardev", "ev.csv")],
+            args: sim(&["--periods", "10", "--events", "ev.csv"]),
+            code: 1,
+            says: "is a device",
+        },
+        Case {
+            name: "ingest of a character device",
+            inputs: &[],
+            setup: &[("chardev", "log.mcap")],
+            args: &["ingest", "log.mcap"],
+            code: 1,
+            says: "is a device",
         },
         Case {
             name: "simulate --events to a FIFO",
@@ -470,6 +495,13 @@ fn setup(dir: &Path, c: &Case) {
                 .status()
                 .unwrap();
             assert!(ok.success(), "mkfifo");
+        } else if *kind == "chardev" {
+            let ok = std::process::Command::new("mknod")
+                .arg(&p)
+                .args(["c", "1", "3"])
+                .status()
+                .unwrap();
+            assert!(ok.success(), "mknod (needs root)");
         } else if *kind == "dir" {
             std::fs::create_dir(&p).unwrap();
         } else if let Some(text) = kind.strip_prefix("file:") {
@@ -580,6 +612,18 @@ fn every_misuse_case_fails_cleanly_and_writes_nothing() {
 /// SIGTERM during a long write removes the temporary file: nothing is left.
 #[test]
 fn sigterm_leaves_no_temp_file() {
+    interrupted_write_leaves_nothing("-TERM");
+}
+
+/// SIGINT (Ctrl-C) likewise.
+#[test]
+fn sigint_leaves_no_temp_file() {
+    interrupted_write_leaves_nothing("-INT");
+}
+
+/// Starts a long trajectory write, sends `signal` once the temp file
+/// exists, and requires exit 130 and an empty directory.
+fn interrupted_write_leaves_nothing(signal: &str) {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     let child = bin()
@@ -608,7 +652,7 @@ fn sigterm_leaves_no_temp_file() {
     }
     std::thread::sleep(Duration::from_millis(300));
     let ok = std::process::Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
+        .args([signal, &child.id().to_string()])
         .status()
         .unwrap();
     assert!(ok.success());

@@ -29,8 +29,11 @@ pub fn run(args: BenchArgs) -> crate::Result<()> {
             .unwrap_or_else(|| PathBuf::from("reports/bench.svg"))
     });
     if let Some(p) = &plot {
-        // The default's directory is made for it; a given path's must exist.
-        if args.plot.is_some() {
+        // The default's directory is made for it (then nothing is there to
+        // check); a given path's must exist. Either way an existing target
+        // is checked like every output (no FIFO, device or directory).
+        let made_later = args.plot.is_none() && p.parent().is_some_and(|d| !d.exists());
+        if !made_later {
             super::check_paths([], &[crate::io::Output::file("--plot", p, super::ext::SVG)])?;
         }
     }

@@ -36,14 +36,17 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
     super::check_paths(args.parts.iter().map(PathBuf::as_path), &outputs)?;
     let mut rows = Vec::new();
     let mut part_of = Vec::new();
+    let mut metas = Vec::new();
     for (i, p) in args.parts.iter().enumerate() {
-        let part = table::read_frc(p).map_err(|e| crate::Error::Input {
+        let part = table::read_table(p).map_err(|e| crate::Error::Input {
             path: p.clone(),
             msg: format!("not a sweep table written by `stickslip sweep --out` ({e})"),
         })?;
-        part_of.extend(std::iter::repeat_n(i, part.len()));
-        rows.extend(part);
+        part_of.extend(std::iter::repeat_n(i, part.rows.len()));
+        rows.extend(part.rows);
+        metas.push(part.meta);
     }
+    let family = check_shards(&args.parts, &metas)?;
     check_parts(&args.parts, &rows, &part_of)?;
     rows.sort_by_key(|r| (r.curve, r.point));
     for w in rows.windows(2) {
@@ -55,10 +58,10 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
             .into());
         }
     }
-    check_complete(&rows)?;
+    let meta = check_complete(&rows, family)?;
     // Branches of one model may come from different shards.
     table::mark_coexisting(&mut rows);
-    table::write_frc(&rows, &args.out)?;
+    table::write_frc(&rows, &meta, &args.out)?;
     if let Some(p) = &args.plot {
         plot::frc(&super::sweep::figure(&rows, "Frequency response".into()), p)?;
     }
@@ -132,12 +135,95 @@ fn check_parts(parts: &[PathBuf], rows: &[FrcRow], part_of: &[usize]) -> crate::
     Ok(())
 }
 
-/// Refuses an incomplete set of shards: every curve 0..C must hold every
-/// point 0..P of the grid (sorted rows, no duplicates). A missing shard
-/// of whole curves at the end of the family cannot be seen from the rows.
-fn check_complete(rows: &[FrcRow]) -> crate::Result<()> {
-    let curves = rows.iter().map(|r| r.curve).max().map_or(0, |c| c + 1);
-    let points = rows.iter().map(|r| r.point).max().map_or(0, |p| p + 1);
+/// Checks the parts' shard metadata: one family (same N, curves and
+/// points), each shard K/N once, none missing. Returns the family's size
+/// (curves, points), or `None` if no part records it (tables written
+/// before the metadata existed: then only the rows can be checked).
+fn check_shards(
+    parts: &[PathBuf],
+    metas: &[Option<table::TableMeta>],
+) -> crate::Result<Option<(usize, usize)>> {
+    let known: Vec<(usize, &table::TableMeta)> = metas
+        .iter()
+        .enumerate()
+        .filter_map(|(i, m)| m.as_ref().map(|m| (i, m)))
+        .collect();
+    let Some(&(i0, first)) = known.first() else {
+        return Ok(None);
+    };
+    if known.len() < parts.len() {
+        let i = metas.iter().position(Option::is_none).unwrap_or(0);
+        return Err(crate::Error::Input {
+            path: parts[i].clone(),
+            msg: format!(
+                "records no shard K/N while {} does: the parts come from different sweeps or stickslip versions",
+                parts[i0].display()
+            ),
+        });
+    }
+    let mut seen: Vec<Option<usize>> = vec![None; first.shards];
+    for &(i, m) in &known {
+        if (m.shards, m.curves, m.points) != (first.shards, first.curves, first.points) {
+            return Err(crate::Error::Input {
+                path: parts[i].clone(),
+                msg: format!(
+                    "is shard {}/{} of {} curves x {} etas, but {} is shard {}/{} of {} curves x {} etas: the parts come from different sweeps",
+                    m.shard, m.shards, m.curves, m.points,
+                    parts[i0].display(), first.shard, first.shards, first.curves, first.points
+                ),
+            });
+        }
+        if let Some(j) = seen[m.shard - 1].replace(i) {
+            return Err(crate::Error::Input {
+                path: parts[i].clone(),
+                msg: format!(
+                    "is shard {}/{} again (also {}): give each shard once",
+                    m.shard,
+                    m.shards,
+                    parts[j].display()
+                ),
+            });
+        }
+    }
+    let missing: Vec<String> = seen
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_none())
+        .map(|(k, _)| format!("{}/{}", k + 1, first.shards))
+        .collect();
+    if !missing.is_empty() {
+        return Err(SimError::Unsupported(format!(
+            "incomplete set of shards: {} of {} missing ({}): merge every shard K/N",
+            missing.len(),
+            first.shards,
+            missing.join(", ")
+        ))
+        .into());
+    }
+    Ok(Some((first.curves, first.points)))
+}
+
+/// Refuses an incomplete set of rows: every curve 0..C must hold every
+/// point 0..P of the grid (sorted rows, no duplicates), with C × P from the
+/// shard metadata where the parts record it, else from the rows (then a
+/// missing shard of whole curves at the end of the family cannot be seen).
+/// Returns the merged table's metadata (shard 1/1).
+fn check_complete(
+    rows: &[FrcRow],
+    family: Option<(usize, usize)>,
+) -> crate::Result<table::TableMeta> {
+    let seen_curves = rows.iter().map(|r| r.curve).max().map_or(0, |c| c + 1);
+    let seen_points = rows.iter().map(|r| r.point).max().map_or(0, |p| p + 1);
+    let (curves, points) = family.unwrap_or((seen_curves as usize, seen_points as usize));
+    if seen_curves as usize > curves || seen_points as usize > points {
+        return Err(SimError::Unsupported(format!(
+            "rows reach curve {} point {}, beyond the {curves} curves x {points} etas the parts record",
+            seen_curves - 1,
+            seen_points - 1
+        ))
+        .into());
+    }
+    let (curves, points) = (curves as u32, points as u32);
     let expected = curves as usize * points as usize;
     if rows.len() != expected {
         let mut missing = Vec::new();
@@ -164,5 +250,10 @@ fn check_complete(rows: &[FrcRow]) -> crate::Result<()> {
         ))
         .into());
     }
-    Ok(())
+    Ok(table::TableMeta {
+        shard: 1,
+        shards: 1,
+        curves: curves as usize,
+        points: points as usize,
+    })
 }

@@ -238,7 +238,13 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
     let mut table = table;
     table::mark_coexisting(&mut table);
     if let Some(p) = &args.out {
-        table::write_frc(&table, p)?;
+        let meta = table::TableMeta {
+            shard: shard.index + 1,
+            shards: shard.count,
+            curves: specs.len(),
+            points: etas.len(),
+        };
+        table::write_frc(&table, &meta, p)?;
     }
     if let Some(p) = &args.plot {
         let title = args.title.clone().unwrap_or_else(|| default_title(&specs));

@@ -15,6 +15,13 @@
 //! direction can never show it, and other states may exist unseen.
 //! [`mark_coexisting`] sets it; `merge` re-marks the joined table, so
 //! branches computed in different shards are compared too.
+//!
+//! Each table also says where it sits in its family ([`TableMeta`]): the
+//! shard `K/N` it holds and the family's size (curves × η points), as
+//! Parquet key-value metadata (`stickslip.shard`, `stickslip.curves`,
+//! `stickslip.points`) or, in CSV, one leading comment line
+//! `# stickslip sweep table: shard=K/N curves=C points=P`. `merge` uses it
+//! to name missing shards, even one that held whole curves (or no rows).
 
 use crate::error::{Error, Result};
 use polars::prelude::*;
@@ -140,8 +147,80 @@ fn fail(path: &Path, what: &str, e: impl std::fmt::Display) -> Error {
     }
 }
 
-/// Writes the rows to `path` (`.parquet` or `.csv`), atomically.
-pub fn write_frc(rows: &[FrcRow], path: &Path) -> Result<()> {
+/// Where a table sits in its family: shard `index`/`count` (1-based, as
+/// `sweep --shard K/N` names it) of a family of `curves` × `points` steady
+/// states. An unsharded table is shard 1/1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct TableMeta {
+    /// K in K/N, 1 ≤ K ≤ N.
+    pub shard: usize,
+    /// N in K/N.
+    pub shards: usize,
+    /// Curves in the whole family.
+    pub curves: usize,
+    /// η points per curve.
+    pub points: usize,
+}
+
+const CSV_TAG: &str = "# stickslip sweep table:";
+
+impl TableMeta {
+    fn pairs(&self) -> Vec<(String, String)> {
+        vec![
+            (
+                "stickslip.shard".into(),
+                format!("{}/{}", self.shard, self.shards),
+            ),
+            ("stickslip.curves".into(), self.curves.to_string()),
+            ("stickslip.points".into(), self.points.to_string()),
+        ]
+    }
+
+    fn csv_line(&self) -> String {
+        format!(
+            "{CSV_TAG} shard={}/{} curves={} points={}\n",
+            self.shard, self.shards, self.curves, self.points
+        )
+    }
+
+    /// Reads the metadata from key/value pairs; `None` if the shard key is
+    /// absent (a table written before the metadata existed).
+    fn from_pairs<'a>(
+        path: &Path,
+        mut get: impl FnMut(&str) -> Option<&'a str>,
+    ) -> Result<Option<Self>> {
+        let Some(shard) = get("shard") else {
+            return Ok(None);
+        };
+        let bad =
+            |what: &str, v: &str| fail(path, "sweep table metadata", format!("bad {what} `{v}`"));
+        let (k, n) = shard.split_once('/').ok_or_else(|| bad("shard", shard))?;
+        let num = |what: &str, v: &str| v.trim().parse::<usize>().map_err(|_| bad(what, v));
+        let meta = TableMeta {
+            shard: num("shard", k)?,
+            shards: num("shard", n)?,
+            curves: num("curves", get("curves").unwrap_or(""))?,
+            points: num("points", get("points").unwrap_or(""))?,
+        };
+        if meta.shard == 0 || meta.shard > meta.shards {
+            return Err(bad("shard", shard));
+        }
+        Ok(Some(meta))
+    }
+}
+
+/// A table read back: its rows and, if it records them, its place in the
+/// family.
+#[derive(Debug, Clone)]
+pub struct Table {
+    /// The rows, in file order.
+    pub rows: Vec<FrcRow>,
+    /// Shard and family size, `None` for a table without them.
+    pub meta: Option<TableMeta>,
+}
+
+/// Writes the rows to `path` (`.parquet` or `.csv`) with `meta`, atomically.
+pub fn write_frc(rows: &[FrcRow], meta: &TableMeta, path: &Path) -> Result<()> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -213,9 +292,17 @@ pub fn write_frc(rows: &[FrcRow], path: &Path) -> Result<()> {
     let mut out = crate::io::AtomicFile::create(path)?;
     if ext == "parquet" {
         ParquetWriter::new(out.writer())
+            .with_key_value_metadata(Some(KeyValueMetadata::from_static(meta.pairs())))
             .finish(&mut df)
             .map_err(|e| fail(path, "cannot write Parquet", e))?;
     } else {
+        use std::io::Write;
+        out.writer()
+            .write_all(meta.csv_line().as_bytes())
+            .map_err(|source| Error::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
         CsvWriter::new(out.writer())
             .finish(&mut df)
             .map_err(|e| fail(path, "cannot write CSV", e))?;
@@ -223,32 +310,79 @@ pub fn write_frc(rows: &[FrcRow], path: &Path) -> Result<()> {
     out.commit()
 }
 
-/// Reads a Parquet or CSV table (by the extension of `path`).
-fn read_frame(path: &Path) -> Result<DataFrame> {
+/// Reads a Parquet or CSV table (by the extension of `path`) and its
+/// [`TableMeta`], if it has one.
+fn read_frame(path: &Path) -> Result<(DataFrame, Option<TableMeta>)> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let df = match ext.as_str() {
+    let read = match ext.as_str() {
         "parquet" => {
             let file = std::fs::File::open(path).map_err(|source| Error::Io {
                 path: path.to_path_buf(),
                 source,
             })?;
-            ParquetReader::new(file)
-                .finish()
+            let mut reader = ParquetReader::new(file);
+            let kvs = reader
+                .get_metadata()
                 .map_err(|e| fail(path, "cannot read Parquet", e))?
+                .key_value_metadata()
+                .clone()
+                .unwrap_or_default();
+            let meta = TableMeta::from_pairs(path, |key| {
+                kvs.iter()
+                    .find(|kv| kv.key.strip_prefix("stickslip.") == Some(key))
+                    .and_then(|kv| kv.value.as_deref())
+            })?;
+            let df = reader
+                .finish()
+                .map_err(|e| fail(path, "cannot read Parquet", e))?;
+            (df, meta)
         }
-        "csv" => CsvReadOptions::default()
-            .with_has_header(true)
-            .with_infer_schema_length(None)
-            .try_into_reader_with_file_path(Some(path.to_path_buf()))
-            .and_then(|r| r.finish())
-            .map_err(|e| fail(path, "cannot read CSV", e))?,
+        "csv" => {
+            let meta = read_csv_meta(path)?;
+            let df = CsvReadOptions::default()
+                .with_has_header(true)
+                .with_infer_schema_length(None)
+                .map_parse_options(|o| o.with_comment_prefix(Some("#")))
+                .try_into_reader_with_file_path(Some(path.to_path_buf()))
+                .and_then(|r| r.finish())
+                .map_err(|e| fail(path, "cannot read CSV", e))?;
+            (df, meta)
+        }
         _ => return Err(fail(path, "table", "must be .parquet or .csv")),
     };
-    Ok(df)
+    Ok(read)
+}
+
+/// The [`TableMeta`] of a CSV table's leading comment line, if it has one.
+fn read_csv_meta(path: &Path) -> Result<Option<TableMeta>> {
+    use std::io::{BufRead, Read};
+    let file = std::fs::File::open(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut first = String::new();
+    // A first line longer than this is not our comment; read no further.
+    std::io::BufReader::new(file)
+        .take(4096)
+        .read_line(&mut first)
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let Some(rest) = first.trim_end().strip_prefix(CSV_TAG) else {
+        return Ok(None);
+    };
+    let fields: Vec<(&str, &str)> = rest
+        .split_whitespace()
+        .filter_map(|f| f.split_once('='))
+        .collect();
+    TableMeta::from_pairs(path, |key| {
+        fields.iter().find(|(k, _)| *k == key).map(|(_, v)| *v)
+    })
 }
 
 /// The columns of a sweep table read from `path`, cast to their types.
@@ -310,11 +444,23 @@ impl Columns<'_> {
     }
 }
 
-/// Reads a table written by [`write_frc`].
+/// Reads a table written by [`write_frc`]: its rows and metadata.
+pub fn read_table(path: &Path) -> Result<Table> {
+    let (df, meta) = read_frame(path)?;
+    Ok(Table {
+        rows: rows_of(&df, path)?,
+        meta,
+    })
+}
+
+/// Reads the rows of a table written by [`write_frc`].
 pub fn read_frc(path: &Path) -> Result<Vec<FrcRow>> {
-    let df = read_frame(path)?;
+    read_table(path).map(|t| t.rows)
+}
+
+fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
     let n = df.height();
-    let cols = Columns { df: &df, path };
+    let cols = Columns { df, path };
     let fcol = |name: &str| cols.fcol(name);
     let ucol = |name: &str| cols.ucol(name);
     let bcol = |name: &str| cols.bcol(name);
