@@ -81,7 +81,9 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
         eprintln!("error: {e}");
     }
     let mut out = report.to_json(&plan, &args.plan);
+    let mut stages = report.seconds.clone();
     if !report.errors.is_empty() {
+        out["stage_seconds"] = crate::io::json::to_value(&stages);
         // A failed command writes no file: print what there is, then fail.
         out["seconds"] = json!(t0.elapsed().as_secs_f64());
         if args.json {
@@ -96,12 +98,15 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     }
     if let Some(dir) = &args.report {
         let command = std::env::args().collect::<Vec<_>>().join(" ");
+        let clock = Instant::now();
         let index = report.write_report(&plan, &args.plan, dir, &command)?;
+        stages.report = clock.elapsed().as_secs_f64();
         out["report"] = json!(index.display().to_string());
         if !args.json {
             eprintln!("report: {}", index.display());
         }
     }
+    out["stage_seconds"] = crate::io::json::to_value(&stages);
     out["seconds"] = json!(t0.elapsed().as_secs_f64());
     if let Some(path) = &args.out {
         super::write_json(path, &out)?;
@@ -109,7 +114,16 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     if args.json {
         super::print_json(&out);
     } else {
-        eprintln!("done in {:.1} s", t0.elapsed().as_secs_f64());
+        let t = &stages;
+        eprintln!(
+            "done in {:.1} s (ingest {:.1} s, fit {:.1} s, then side by side validate {:.1} s and batch {:.1} s; report {:.1} s)",
+            t0.elapsed().as_secs_f64(),
+            t.ingest,
+            t.fit,
+            t.validate,
+            t.batch,
+            t.report
+        );
     }
     Ok(())
 }

@@ -68,7 +68,9 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         }
     };
     say("reading logs");
+    let clock = Instant::now();
     let (char_run, sweep_run) = read_pair(&args.characteristic, &args.sweep)?;
+    let t_ingest = clock.elapsed().as_secs_f64();
     crate::pipeline::checks::refuse_mixed_rigs(
         &[
             (args.characteristic.clone(), char_run.rig.clone()),
@@ -81,7 +83,9 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         gain_uncertainty: args.gain_uncertainty,
         ..IdentifyOptions::default()
     };
+    let clock = Instant::now();
     let fit = identify::fit_log(&char_run, &opts)?;
+    let t_fit = clock.elapsed().as_secs_f64();
     say(&format!(
         "measuring the sweep and predicting it ({} laws for the bands)",
         args.samples
@@ -90,8 +94,11 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     vo.predict.samples = args.samples;
     vo.predict.steady.max_periods = args.max_periods;
     vo.frc.gain_uncertainty = args.gain_uncertainty;
+    let clock = Instant::now();
     let v = validate::validate(&fit, &char_run, &sweep_run, &vo)?;
+    let t_validate = clock.elapsed().as_secs_f64();
     let mut out = v.to_json(&args.characteristic, &args.sweep, &fit);
+    out["stage_seconds"] = json!({"ingest": t_ingest, "fit": t_fit, "validate": t_validate});
     out["seconds"] = json!(t0.elapsed().as_secs_f64());
     if let Some(dir) = &args.report {
         let inputs = [args.characteristic.clone(), args.sweep.clone()];
@@ -112,6 +119,14 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
                 .iter()
                 .map(|p| html::input_file(p))
                 .collect::<crate::Result<_>>()?,
+            timings: [
+                ("ingest (both logs, in parallel)", t_ingest),
+                ("fit", t_fit),
+                ("validate", t_validate),
+            ]
+            .into_iter()
+            .map(|(k, v)| html::KeyValue::new(k, format!("{v:.2}")))
+            .collect(),
         };
         let index = rd.write_page(&page)?;
         say(&format!("report: {}", index.display()));

@@ -169,10 +169,32 @@ pub trait Progress: Sync {
 /// No progress display.
 impl Progress for () {}
 
+/// Wall seconds per stage of [`run`] (and of the report, when written).
+/// `validate` and `batch` run side by side: each is its own wall time and
+/// together they overlap (`overlapping` names them), so the stages do not
+/// add up to the total.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct StageSeconds {
+    /// Reading every log (in parallel).
+    pub ingest: f64,
+    /// Fitting every characteristic log once (in parallel).
+    pub fit: f64,
+    /// All validations (beside the batch).
+    pub validate: f64,
+    /// The batch comparison (beside the validations).
+    pub batch: f64,
+    /// Writing the report (figures and page); 0 without `--report`.
+    pub report: f64,
+    /// Stages that run at the same time.
+    pub overlapping: Vec<&'static str>,
+}
+
 /// Everything [`run`] produced, per log and per validation, with the
 /// errors of what failed (each reported once).
 #[derive(Debug)]
 pub struct PipelineReport {
+    /// Wall seconds per stage.
+    pub seconds: StageSeconds,
     /// Every log of the plan as read.
     pub runs: BTreeMap<PathBuf, crate::Result<Run>>,
     /// The fit of every characteristic log.
@@ -192,6 +214,11 @@ pub struct PipelineReport {
 pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Result<PipelineReport> {
     let logs = plan.logs();
     let chars = plan.characteristic_logs();
+    let mut seconds = StageSeconds {
+        overlapping: vec!["validate", "batch"],
+        ..StageSeconds::default()
+    };
+    let clock = std::time::Instant::now();
     progress.stage("reading logs");
     let runs: BTreeMap<PathBuf, crate::Result<Run>> = logs
         .par_iter()
@@ -207,7 +234,9 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
         .collect();
     checks::refuse_mixed_rigs(&read_rigs, opts.allow_mixed_rigs)?;
+    seconds.ingest = clock.elapsed().as_secs_f64();
 
+    let clock = std::time::Instant::now();
     progress.stage("fitting friction laws");
     // The logs that were read are fitted (in parallel, panic-guarded);
     // the others keep their read error.
@@ -246,13 +275,16 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         Err(e) => Some(e.to_string()),
     }));
 
+    seconds.fit = clock.elapsed().as_secs_f64();
     // The validations and the batch need nothing from each other: they run
     // side by side (each collected in order).
     progress.stage("validating against sweeps; batch: worst-case amplitudes");
     let mut vopts = ValidateOptions::default();
     vopts.predict.samples = opts.samples;
-    let validate_all = || -> Vec<(Pair, crate::Result<Validation>)> {
-        plan.validate
+    let validate_all = || -> (Vec<(Pair, crate::Result<Validation>)>, f64) {
+        let clock = std::time::Instant::now();
+        let v = plan
+            .validate
             .par_iter()
             .map(|pair| {
                 let r = match (
@@ -272,10 +304,16 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
                 progress.advance(1);
                 (pair.clone(), r)
             })
-            .collect()
+            .collect();
+        (v, clock.elapsed().as_secs_f64())
     };
-    let run_batch = || (!plan.batch.is_empty()).then(|| batch_of(plan, &runs, &fits));
-    let (validations, batch) = rayon::join(validate_all, run_batch);
+    let run_batch = || {
+        let clock = std::time::Instant::now();
+        let b = (!plan.batch.is_empty()).then(|| batch_of(plan, &runs, &fits));
+        (b, clock.elapsed().as_secs_f64())
+    };
+    let ((validations, tv), (batch, tb)) = rayon::join(validate_all, run_batch);
+    (seconds.validate, seconds.batch) = (tv, tb);
     progress.advance(1);
     errors.extend(
         validations
@@ -286,6 +324,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         errors.push(e.to_string());
     }
     Ok(PipelineReport {
+        seconds,
         runs,
         fits,
         validations,
@@ -413,6 +452,7 @@ impl PipelineReport {
         dir: &Path,
         command: &str,
     ) -> crate::Result<PathBuf> {
+        let clock = std::time::Instant::now();
         let logs = plan.logs();
         let rd = html::ReportDir::create(dir, &logs)?;
         let mut page = html::Page {
@@ -476,6 +516,18 @@ impl PipelineReport {
             .iter()
             .filter_map(|p| html::input_file(p).ok())
             .collect();
+        let t = &self.seconds;
+        let f = |s: f64| format!("{s:.2}");
+        page.timings = vec![
+            html::KeyValue::new("ingest (all logs, in parallel)", f(t.ingest)),
+            html::KeyValue::new("fit (each characteristic log once, in parallel)", f(t.fit)),
+            html::KeyValue::new("validate (beside the batch)", f(t.validate)),
+            html::KeyValue::new("batch (beside the validations)", f(t.batch)),
+            html::KeyValue::new(
+                "report (figures and this page, up to its writing)",
+                f(clock.elapsed().as_secs_f64()),
+            ),
+        ];
         rd.write_page(&page)
     }
 }

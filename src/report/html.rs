@@ -156,6 +156,8 @@ pub struct Page {
     pub fits: Vec<FitView>,
     /// Input files.
     pub inputs: Vec<InputFile>,
+    /// Wall seconds per stage (empty: not shown).
+    pub timings: Vec<KeyValue>,
 }
 
 /// Renders the page to HTML.
