@@ -270,3 +270,70 @@ fn check_continuation(laws: &[(&str, Model)], etas: &[f64]) -> (usize, usize) {
     }
     (compared, open)
 }
+
+/// The marching fallback's early stop (`SteadyConfig::early_stop`, stage 5
+/// of `steady_state`) may only classify a point as `not-settling` where
+/// the plain 20 000-period march from the same state does not settle
+/// either; where it fires it must save periods, and the range it reports
+/// must hold the amplitudes of the periods it saw. Checked on `etas` for
+/// every law from rest; returns (early stops, points).
+fn early_stop_only_where_march_does_not_settle(etas: &[f64]) -> (usize, usize) {
+    let cfg = SteadyConfig::default();
+    let (mut fired, mut points) = (0, 0);
+    for (name, m) in laws() {
+        for &eta in etas {
+            points += 1;
+            let (p, _) = steady_state(&m, eta, Init::rest(), &cfg).unwrap();
+            if p.method != "not-settling" {
+                continue;
+            }
+            fired += 1;
+            let (r, _) = march(&m, eta, Init::rest());
+            assert!(
+                !r.steady,
+                "{name} η {eta}: stopped early as not settling after {} periods, but the plain march settles (period {:?}, A1 {:?})",
+                p.periods,
+                r.period_multiple,
+                r.amplitude1
+            );
+            assert!(p.periods < cfg.max_periods, "{name} η {eta}: saved nothing");
+            assert!(!p.steady && p.period_multiple.is_none());
+            let g = p.range.expect("a not-settling point reports its range");
+            let a1 = p.amplitude1.unwrap();
+            assert!(
+                g.amplitude1_min <= g.amplitude1_max
+                    && g.amplitude2_min <= g.amplitude2_max
+                    && g.amplitude1_min > 0.0,
+                "{name} η {eta}: range {g:?}"
+            );
+            // The reported amplitude is a window of the last ≤ 50 periods:
+            // within the range seen (up to the window's merging of periods).
+            assert!(
+                a1 >= g.amplitude1_min * (1.0 - 1e-12),
+                "{name} η {eta}: A1 {a1} below the range {g:?}"
+            );
+        }
+    }
+    (fired, points)
+}
+
+/// CI subset of the grid below (the low-η region where period-3 orbits and
+/// non-periodic responses live, and a coarse pass over the rest).
+#[test]
+fn early_stop_only_where_march_does_not_settle_subset() {
+    let mut etas = grid(0.2, 0.45, 0.01);
+    etas.extend(grid(0.5, 1.6, 0.05));
+    let (fired, points) = early_stop_only_where_march_does_not_settle(&etas);
+    eprintln!("early stop fired at {fired} of {points} points");
+    assert!(fired > 0, "the subset must exercise the early stop");
+}
+
+/// The attractor issue's full grid: seven laws × η 0.2–1.6 in steps of
+/// 0.01, from rest. `cargo test --release --test attractor -- --ignored`.
+#[test]
+#[ignore = "long: seven laws x 141 eta, a 20000-period march at every early stop"]
+fn early_stop_only_where_march_does_not_settle_full_grid() {
+    let (fired, points) = early_stop_only_where_march_does_not_settle(&grid(0.2, 1.6, 0.01));
+    eprintln!("early stop fired at {fired} of {points} points");
+    assert!(fired > 0);
+}

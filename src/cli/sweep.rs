@@ -232,6 +232,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
                 method: v.method.to_string(),
                 periods: v.periods,
                 coexisting: false,
+                range: v.range,
             }
         })
         .collect();
@@ -317,6 +318,11 @@ struct CurveOut<'a> {
     stick_fraction: Vec<f64>,
     interrupted: Vec<bool>,
     coexisting: Vec<bool>,
+    amplitude1_min: Vec<Option<f64>>,
+    amplitude1_max: Vec<Option<f64>>,
+    amplitude2_min: Vec<Option<f64>>,
+    amplitude2_max: Vec<Option<f64>>,
+    method: Vec<&'a str>,
 }
 
 /// The `sweep --json` object.
@@ -349,6 +355,23 @@ fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
                 stick_fraction: c.iter().map(|r| r.stick_fraction).collect(),
                 interrupted: all(|r| r.interrupted),
                 coexisting: all(|r| r.coexisting),
+                amplitude1_min: c
+                    .iter()
+                    .map(|r| r.range.map(|g| g.amplitude1_min))
+                    .collect(),
+                amplitude1_max: c
+                    .iter()
+                    .map(|r| r.range.map(|g| g.amplitude1_max))
+                    .collect(),
+                amplitude2_min: c
+                    .iter()
+                    .map(|r| r.range.map(|g| g.amplitude2_min))
+                    .collect(),
+                amplitude2_max: c
+                    .iter()
+                    .map(|r| r.range.map(|g| g.amplitude2_max))
+                    .collect(),
+                method: c.iter().map(|r| r.method.as_str()).collect(),
             }
         })
         .collect()

@@ -5,7 +5,10 @@
 //! Columns: `curve`, `point` (indices in the family, for merging), `m`, `k`,
 //! `damping`, `rho_s`, `rho_d`, `slope`, `v_s`, `stop_below`, `direction`,
 //! `eta`, `amplitude1`, `amplitude2`, `steady`, `period_multiple`,
-//! `stick_fraction`, `interrupted`, `method`, `periods`, `coexisting`.
+//! `stick_fraction`, `interrupted`, `method`, `periods`, `coexisting`,
+//! `amplitude1_min`, `amplitude1_max`, `amplitude2_min`, `amplitude2_max`
+//! (the range of the per-period amplitudes where no steady state was found,
+//! [`crate::sim::sweep::AmplitudeRange`]; empty elsewhere).
 //!
 //! `coexisting` is true where the family holds another branch (direction
 //! `up`, `down` or `rest`) of the same model whose settled steady state at
@@ -72,6 +75,8 @@ pub struct FrcRow {
     pub periods: u64,
     /// Another branch of the same model settles elsewhere at this η.
     pub coexisting: bool,
+    /// Range of the per-period amplitudes where no steady state was found.
+    pub range: Option<crate::sim::sweep::AmplitudeRange>,
 }
 
 impl FrcRow {
@@ -88,6 +93,7 @@ impl FrcRow {
             interrupted: self.interrupted,
             periods: self.periods,
             method: "",
+            range: self.range,
         }
     }
 
@@ -285,6 +291,22 @@ pub fn write_frc(rows: &[FrcRow], meta: &TableMeta, path: &Path) -> Result<()> {
         Column::new(
             "coexisting".into(),
             rows.iter().map(|r| r.coexisting).collect::<Vec<bool>>(),
+        ),
+        Column::new(
+            "amplitude1_min".into(),
+            o(|r| r.range.map(|g| g.amplitude1_min)),
+        ),
+        Column::new(
+            "amplitude1_max".into(),
+            o(|r| r.range.map(|g| g.amplitude1_max)),
+        ),
+        Column::new(
+            "amplitude2_min".into(),
+            o(|r| r.range.map(|g| g.amplitude2_min)),
+        ),
+        Column::new(
+            "amplitude2_max".into(),
+            o(|r| r.range.map(|g| g.amplitude2_max)),
         ),
     ];
     let mut df =
@@ -502,6 +524,20 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
     } else {
         vec![None; n]
     };
+    // Optional: tables written before the range existed read as None.
+    let opt = |name: &str| -> Result<Vec<Option<f64>>> {
+        if df.column(name).is_ok() {
+            fcol(name)
+        } else {
+            Ok(vec![None; n])
+        }
+    };
+    let (r1lo, r1hi, r2lo, r2hi) = (
+        opt("amplitude1_min")?,
+        opt("amplitude1_max")?,
+        opt("amplitude2_min")?,
+        opt("amplitude2_max")?,
+    );
     let mut rows = Vec::with_capacity(n);
     for i in 0..n {
         let idx = |v: Option<u64>, name: &str| {
@@ -530,6 +566,15 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
             method: me[i].clone().unwrap_or_default(),
             periods: periods[i].unwrap_or(0),
             coexisting: co[i].unwrap_or(false),
+            range: match (r1lo[i], r1hi[i], r2lo[i], r2hi[i]) {
+                (Some(a), Some(b), Some(c), Some(d)) => Some(crate::sim::sweep::AmplitudeRange {
+                    amplitude1_min: a,
+                    amplitude1_max: b,
+                    amplitude2_min: c,
+                    amplitude2_max: d,
+                }),
+                _ => None,
+            },
         });
     }
     Ok(rows)

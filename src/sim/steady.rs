@@ -92,9 +92,22 @@ pub struct Tracker<'a, O: Observer> {
     stats: [PeriodStats; RING],
     streak: [u64; MAX_PERIOD_MULTIPLE + 1],
     dist: [[f64; MAX_PERIOD_MULTIPLE]; MAX_PERIOD_MULTIPLE + 1],
+    /// Smallest section distance d_p/scale (over p = 1..=MAX) since the
+    /// last [`Tracker::take_closest`].
+    closest: f64,
+    /// Range of the per-period half-amplitudes [min A1, max A1, min A2,
+    /// max A2] since the last [`Tracker::take_range`].
+    range: [f64; 4],
     /// Detected period multiple.
     pub steady: Option<u32>,
 }
+
+const EMPTY_RANGE: [f64; 4] = [
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+];
 
 impl<'a, O: Observer> Tracker<'a, O> {
     /// A tracker forwarding to `inner`.
@@ -113,8 +126,26 @@ impl<'a, O: Observer> Tracker<'a, O> {
             stats: [empty; RING],
             streak: [0; MAX_PERIOD_MULTIPLE + 1],
             dist: [[f64::INFINITY; MAX_PERIOD_MULTIPLE]; MAX_PERIOD_MULTIPLE + 1],
+            closest: f64::INFINITY,
+            range: EMPTY_RANGE,
             steady: None,
         }
+    }
+
+    /// The smallest relative section distance between an iterate and the
+    /// one p periods before (p = 1..=MAX, same contact mode) seen since the
+    /// last call, and restarts it: how close the trajectory came to closing
+    /// an orbit.
+    pub fn take_closest(&mut self) -> f64 {
+        std::mem::replace(&mut self.closest, f64::INFINITY)
+    }
+
+    /// The range of the per-period half-amplitudes `[min A1, max A1, min
+    /// A2, max A2]` seen since the last call (`None`: no period), and
+    /// restarts it.
+    pub fn take_range(&mut self) -> Option<[f64; 4]> {
+        let r = std::mem::replace(&mut self.range, EMPTY_RANGE);
+        r[0].is_finite().then_some(r)
     }
 
     /// Merged statistics over the last `w` periods (w ≤ periods seen, ≤ 64).
@@ -188,6 +219,12 @@ impl<O: Observer> Observer for Tracker<'_, O> {
     fn period(&mut self, n: u64, x: &[f64; 4], mode: Mode, stats: &PeriodStats) -> Flow {
         let idx = ((n - 1) % RING as u64) as usize;
         let stuck = matches!(mode, Mode::Stick { .. });
+        let (a1, a2) = (
+            0.5 * (stats.max[0] - stats.min[0]),
+            0.5 * (stats.max[1] - stats.min[1]),
+        );
+        let r = &mut self.range;
+        (r[0], r[1], r[2], r[3]) = (r[0].min(a1), r[1].max(a1), r[2].min(a2), r[3].max(a2));
         self.points[idx] = (*x, stuck);
         self.stats[idx] = *stats;
         self.n = n;
@@ -206,6 +243,7 @@ impl<O: Observer> Observer for Tracker<'_, O> {
             } else {
                 f64::INFINITY
             };
+            self.closest = self.closest.min(d / scale);
             // d(n − p), kept in a ring of p slots.
             let slot = (n % p as u64) as usize;
             let prev = self.dist[p][slot];

@@ -86,6 +86,9 @@ pub struct SteadyConfig {
     pub tol: f64,
     /// Use Newton shooting.
     pub shooting: bool,
+    /// Stop the marching fallback early where the section comes no closer
+    /// to any orbit ([`steady_state`], stage 5).
+    pub early_stop: bool,
 }
 
 impl Default for SteadyConfig {
@@ -95,6 +98,7 @@ impl Default for SteadyConfig {
             max_periods: 20_000,
             tol: 1e-9,
             shooting: true,
+            early_stop: true,
         }
     }
 }
@@ -119,8 +123,29 @@ pub struct Point {
     /// Forcing periods integrated (including shooting's trial periods).
     pub periods: u64,
     /// Which method settled it (`closed-form`, `marching`, `stick-proof`,
-    /// `shooting`, `not-settled`, `interrupted`, `chatter`).
+    /// `shooting`, `not-settled`, `not-settling`, `interrupted`, `chatter`).
+    /// `not-settled`: the marching budget ran out; `not-settling`: stopped
+    /// early, the section coming no closer to any orbit (see
+    /// [`steady_state`]).
     pub method: &'static str,
+    /// Where no steady state was found (`not-settled`, `not-settling`):
+    /// the range of the per-period half-amplitudes over the periods marched
+    /// after shooting. `None` elsewhere.
+    pub range: Option<AmplitudeRange>,
+}
+
+/// The range of the per-period half-amplitudes (A1/A, A2/A) of a response
+/// that does not settle.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct AmplitudeRange {
+    /// Smallest A1/A of a period.
+    pub amplitude1_min: f64,
+    /// Largest A1/A of a period.
+    pub amplitude1_max: f64,
+    /// Smallest A2/A of a period.
+    pub amplitude2_min: f64,
+    /// Largest A2/A of a period.
+    pub amplitude2_max: f64,
 }
 
 fn point_from(
@@ -141,6 +166,7 @@ fn point_from(
         interrupted: false,
         periods,
         method,
+        range: None,
     }
 }
 
@@ -198,6 +224,7 @@ fn closed_form(model: &Model, eta: f64, init: &Init) -> Option<(Point, Init)> {
             interrupted: false,
             periods: 0,
             method: "closed-form",
+            range: None,
         };
         return Some((
             p,
@@ -243,6 +270,7 @@ fn stuck_point(eta: f64, a1: f64, periods: u64, method: &'static str) -> Point {
         interrupted: false,
         periods,
         method,
+        range: None,
     }
 }
 
@@ -333,13 +361,39 @@ pub fn steady_state(
             block *= 2;
         }
     }
-    // 5. Time marching to the end of the budget.
-    let end = w.march(cfg.max_periods.saturating_sub(w.dwell));
-    if let Some(p) = failed(&end.status, eta, w.used) {
-        return Ok((p, Init::rest()));
-    }
-    if let Some(p) = w.tr.steady {
-        return Ok(w.settled(eta, p, t));
+    // 5. Time marching to the end of the budget, in blocks of EARLY_BLOCK
+    //    periods. Past EARLY_MIN periods, a trajectory whose section came
+    //    no closer to closing any orbit (the smallest distance between an
+    //    iterate and the one p periods before, p = 1..=MAX) in two blocks
+    //    in a row than in the block before them is not approaching a
+    //    periodic response (quasi-periodic or chaotic): it stops early. A
+    //    trajectory approaching an orbit, however slowly, comes closer
+    //    every block (geometric convergence).
+    w.tr.take_closest();
+    w.tr.take_range();
+    let mut closest = [f64::INFINITY; 3];
+    let mut method = "not-settled";
+    loop {
+        let left = cfg.max_periods.saturating_sub(w.dwell);
+        if left == 0 {
+            break;
+        }
+        let end = w.march(left.min(EARLY_BLOCK));
+        if let Some(p) = failed(&end.status, eta, w.used) {
+            return Ok((p, Init::rest()));
+        }
+        if let Some(p) = w.tr.steady {
+            return Ok(w.settled(eta, p, t));
+        }
+        closest = [closest[1], closest[2], w.tr.take_closest()];
+        if cfg.early_stop
+            && w.dwell >= EARLY_MIN
+            && closest[1].min(closest[2]) >= closest[0]
+            && w.dwell < cfg.max_periods
+        {
+            method = "not-settling";
+            break;
+        }
     }
     let n = w.tr.seen().clamp(1, 50);
     let Some(st) = w.tr.window(n) else {
@@ -347,12 +401,24 @@ pub fn steady_state(
             "no forcing period was integrated (period budget 0)".into(),
         ));
     };
-    let mut pt = point_from(eta, &st, 1, t, w.used, "not-settled");
+    let mut pt = point_from(eta, &st, 1, t, w.used, method);
     pt.steady = false;
     pt.period_multiple = None;
     pt.stick_fraction = (st.stick_time / (n as f64 * t)).clamp(0.0, 1.0);
+    pt.range = w.tr.take_range().map(|r| AmplitudeRange {
+        amplitude1_min: r[0],
+        amplitude1_max: r[1],
+        amplitude2_min: r[2],
+        amplitude2_max: r[3],
+    });
     Ok((pt, w.state))
 }
+
+/// Periods per block of the marching fallback (stage 5 of
+/// [`steady_state`]).
+const EARLY_BLOCK: u64 = 1000;
+/// Periods of a trajectory before the early stop may judge it.
+const EARLY_MIN: u64 = 4000;
 
 /// Shooting attempts before marching to the end of the budget.
 const SHOOTING_ATTEMPTS: usize = 3;
@@ -604,6 +670,7 @@ fn resonant(eta: f64) -> Point {
         interrupted: false,
         periods: 0,
         method: "resonance",
+        range: None,
     }
 }
 
@@ -623,6 +690,7 @@ fn failed(status: &Status, eta: f64, periods: u64) -> Option<Point> {
         interrupted: matches!(status, Status::Interrupted(_)),
         periods,
         method,
+        range: None,
     })
 }
 
