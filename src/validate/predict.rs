@@ -498,10 +498,36 @@ fn replay_one(
     opts: &PredictOptions,
 ) -> Vec<Option<(f64, f64)>> {
     let mut obs = Windows::new(windows.to_vec());
-    match run_schedule(model, sched, Init::rest(), opts.numeric, &mut obs) {
+    let shown = shown_part(sched, windows);
+    match run_schedule(model, &shown, Init::rest(), opts.numeric, &mut obs) {
         // An interruption ends the run: the windows after it stay empty.
         Ok(_) => obs.amplitudes(),
         Err(_) => vec![None; windows.len()],
+    }
+}
+
+/// The schedule up to the segment that holds the end of the last window:
+/// the segments after it change no amplitude shown (the replay runs
+/// forwards from rest), so they are not simulated.
+fn shown_part(sched: &Schedule, windows: &[(f64, f64, f64)]) -> Schedule {
+    let end = windows
+        .iter()
+        .map(|w| w.1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let mut start = 0.0;
+    let mut keep = 0;
+    for s in &sched.segments {
+        if start > end {
+            break;
+        }
+        keep += 1;
+        start += match s {
+            Segment::Dwell { duration, .. } | Segment::Ramp { duration, .. } => *duration,
+        };
+    }
+    Schedule {
+        segments: sched.segments[..keep.max(1)].to_vec(),
+        ..sched.clone()
     }
 }
 
@@ -861,6 +887,37 @@ pub fn score(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The replay stops with the segment that holds the last window's end:
+    /// a tail after it is not simulated, and the amplitudes of the windows
+    /// are bit-identical to a replay of the whole schedule.
+    #[test]
+    fn replay_skips_the_tail_after_the_last_window() {
+        let dwell = |eta, duration| Segment::Dwell { eta, duration };
+        let sched = Schedule {
+            segments: vec![dwell(0.8, 300.0), dwell(1.0, 300.0), dwell(1.2, 3000.0)],
+            phase: 0.0,
+            amplitude: 1.0,
+        };
+        let windows = vec![(200.0, 290.0, 0.2), (500.0, 590.0, 0.2)];
+        let cut = shown_part(&sched, &windows);
+        assert_eq!(cut.segments, sched.segments[..2].to_vec());
+        // A window ending inside the last segment keeps everything.
+        assert_eq!(shown_part(&sched, &[(0.0, 700.0, 1.0)]).segments.len(), 3);
+        let model = Model {
+            absorber: Absorber::default(),
+            law: Law::coulomb(0.4),
+            stop_below: None,
+        };
+        let opts = PredictOptions::default();
+        let whole = {
+            let mut obs = Windows::new(windows.clone());
+            run_schedule(&model, &sched, Init::rest(), opts.numeric, &mut obs).unwrap();
+            obs.amplitudes()
+        };
+        assert_eq!(replay_one(&model, &sched, &windows, &opts), whole);
+        assert!(whole.iter().all(Option::is_some));
+    }
 
     /// The Hermite extremum of samples of a cosine is its true maximum to
     /// the interpolation error O(h⁴).
