@@ -7,7 +7,7 @@
 //!   tests are ignored in the debug suite because the main job alone takes
 //!   minutes there).
 //! * Parsed values are compared, not bytes (key order may change). Keys
-//!   named `seconds` are left out; paths are written relative to
+//!   named `seconds` and `stage_seconds` (wall times) are left out; paths are written relative to
 //!   `<datasets>` and `<out>` (the test's temporary directory).
 //! * Numbers must agree to `GOLDEN_RTOL` relative (default 1e-12: a pure
 //!   move changes nothing). After a numeric change, every difference is
@@ -28,12 +28,13 @@ fn record_path(name: &str) -> PathBuf {
         .join(format!("{name}.json"))
 }
 
-/// Drops `seconds` keys and writes paths relative to the data and output
+/// Drops `seconds` and `stage_seconds` keys (wall times) and writes paths relative to the data and output
 /// directories.
 fn normalise(v: &mut Value, data: &str, out: &str) {
     match v {
         Value::Object(m) => {
             m.remove("seconds");
+            m.remove("stage_seconds");
             for x in m.values_mut() {
                 normalise(x, data, out);
             }

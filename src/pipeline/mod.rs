@@ -170,15 +170,19 @@ pub trait Progress: Sync {
 impl Progress for () {}
 
 /// Wall seconds per stage of [`run`] (and of the report, when written).
-/// `validate` and `batch` run side by side: each is its own wall time and
-/// together they overlap (`overlapping` names them), so the stages do not
-/// add up to the total.
+/// `fit_beside`, `validate` and `batch` run side by side: each is its own
+/// wall time and together they overlap (`overlapping` names them), so the
+/// stages do not add up to the total.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct StageSeconds {
     /// Reading every log (in parallel).
     pub ingest: f64,
-    /// Fitting every characteristic log once (in parallel).
+    /// Fitting the characteristic logs the validations and the batch need,
+    /// each once (in parallel).
     pub fit: f64,
+    /// Fitting the other characteristic logs (the plan's `fit` list), each
+    /// once, beside the validations and the batch.
+    pub fit_beside: f64,
     /// All validations (beside the batch).
     pub validate: f64,
     /// The batch comparison (beside the validations).
@@ -215,7 +219,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     let logs = plan.logs();
     let chars = plan.characteristic_logs();
     let mut seconds = StageSeconds {
-        overlapping: vec!["validate", "batch"],
+        overlapping: vec!["fit_beside", "validate", "batch"],
         ..StageSeconds::default()
     };
     let clock = std::time::Instant::now();
@@ -240,41 +244,42 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     progress.stage("fitting friction laws");
     // The logs that were read are fitted (in parallel, panic-guarded);
     // the others keep their read error.
-    let read: Vec<&Run> = chars.iter().filter_map(|p| runs[p].as_ref().ok()).collect();
-    let mut fitted =
-        identify::fit_runs(&read, &IdentifyOptions::default(), &|| progress.advance(1)).into_iter();
-    let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = BTreeMap::new();
-    for p in &chars {
-        // One fit per log read, in order: only a log that was read takes
-        // the next fit.
-        let f = match &runs[p] {
-            Ok(_) => fitted.next().unwrap_or_else(|| {
-                Err(crate::Error::Identify {
-                    path: p.clone(),
-                    source: identify::IdentifyError::Internal,
-                })
-            }),
-            Err(e) => {
-                progress.advance(1);
-                Err(crate::Error::Skipped {
-                    path: p.clone(),
-                    stage: "not read",
-                    cause: e.to_string(),
-                })
-            }
-        };
-        fits.insert(p.clone(), f);
-    }
-    let mut errors: Vec<String> = runs
-        .values()
-        .filter_map(|r| r.as_ref().err().map(|e| e.to_string()))
-        .collect();
-    // A log that was not read is reported once, by its read error.
-    errors.extend(fits.values().filter_map(|r| match r {
-        Err(crate::Error::Skipped { .. }) | Ok(_) => None,
-        Err(e) => Some(e.to_string()),
-    }));
-
+    let fit_some = |logs: &[PathBuf]| -> BTreeMap<PathBuf, crate::Result<LogFit>> {
+        let read: Vec<&Run> = logs.iter().filter_map(|p| runs[p].as_ref().ok()).collect();
+        let mut fitted =
+            identify::fit_runs(&read, &IdentifyOptions::default(), &|| progress.advance(1))
+                .into_iter();
+        let mut fits = BTreeMap::new();
+        for p in logs {
+            // One fit per log read, in order: only a log that was read takes
+            // the next fit.
+            let f = match &runs[p] {
+                Ok(_) => fitted.next().unwrap_or_else(|| {
+                    Err(crate::Error::Identify {
+                        path: p.clone(),
+                        source: identify::IdentifyError::Internal,
+                    })
+                }),
+                Err(e) => {
+                    progress.advance(1);
+                    Err(crate::Error::Skipped {
+                        path: p.clone(),
+                        stage: "not read",
+                        cause: e.to_string(),
+                    })
+                }
+            };
+            fits.insert(p.clone(), f);
+        }
+        fits
+    };
+    // The fits the validations and the batch need come first; the others
+    // (logs only fitted) run beside the validations and the batch.
+    let needed = |p: &PathBuf| {
+        plan.batch.contains(p) || plan.validate.iter().any(|v| &v.characteristic == p)
+    };
+    let (first, beside): (Vec<PathBuf>, Vec<PathBuf>) = chars.iter().cloned().partition(needed);
+    let fits = fit_some(&first);
     seconds.fit = clock.elapsed().as_secs_f64();
     // The validations and the batch need nothing from each other: they run
     // side by side (each collected in order).
@@ -312,8 +317,25 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         let b = (!plan.batch.is_empty()).then(|| batch_of(plan, &runs, &fits));
         (b, clock.elapsed().as_secs_f64())
     };
-    let ((validations, tv), (batch, tb)) = rayon::join(validate_all, run_batch);
-    (seconds.validate, seconds.batch) = (tv, tb);
+    let fit_beside = || {
+        let clock = std::time::Instant::now();
+        let f = fit_some(&beside);
+        (f, clock.elapsed().as_secs_f64())
+    };
+    let (((validations, tv), (batch, tb)), (more_fits, tf)) =
+        rayon::join(|| rayon::join(validate_all, run_batch), fit_beside);
+    (seconds.validate, seconds.batch, seconds.fit_beside) = (tv, tb, tf);
+    let mut fits = fits;
+    fits.extend(more_fits);
+    let mut errors: Vec<String> = runs
+        .values()
+        .filter_map(|r| r.as_ref().err().map(|e| e.to_string()))
+        .collect();
+    // A log that was not read is reported once, by its read error.
+    errors.extend(fits.values().filter_map(|r| match r {
+        Err(crate::Error::Skipped { .. }) | Ok(_) => None,
+        Err(e) => Some(e.to_string()),
+    }));
     progress.advance(1);
     errors.extend(
         validations
@@ -520,7 +542,14 @@ impl PipelineReport {
         let f = |s: f64| format!("{s:.2}");
         page.timings = vec![
             html::KeyValue::new("ingest (all logs, in parallel)", f(t.ingest)),
-            html::KeyValue::new("fit (each characteristic log once, in parallel)", f(t.fit)),
+            html::KeyValue::new(
+                "fit (the logs validation and batch use, each once, in parallel)",
+                f(t.fit),
+            ),
+            html::KeyValue::new(
+                "fit of the other logs (beside validation and batch)",
+                f(t.fit_beside),
+            ),
             html::KeyValue::new("validate (beside the batch)", f(t.validate)),
             html::KeyValue::new("batch (beside the validations)", f(t.batch)),
             html::KeyValue::new(
