@@ -5,7 +5,7 @@
 
 use super::rig::RigMeta;
 use super::run::Setpoint;
-use super::{unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{buffer_json, unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
 use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::Deserialize;
@@ -239,10 +239,24 @@ impl Collector<'_> {
                 self.setpoints.push((m.t_ns, m.frequency_hz, m.amplitude_m));
             }
             Role::Sensor(q) => {
-                let m: BufferMsg = decode(path, data, &where_)?;
                 let scale = info.scale;
                 let acc = self.accs.entry(q).or_default();
-                push_buffer(path, acc, m, scale, &where_)?;
+                let start = acc.values.len();
+                let (t0_ns, dt_ns) = match buffer_json::parse_buffer(data, scale, &mut acc.values) {
+                    Some(head) => head,
+                    None => {
+                        // Outside the fast path's subset: serde_json
+                        // decides (and names what is wrong).
+                        let m: BufferMsg = decode(path, data, &where_)?;
+                        acc.values.extend(
+                            m.value
+                                .into_iter()
+                                .map(|v| v.map_or(f64::NAN, |x| x * scale)),
+                        );
+                        (m.t0_ns, m.dt_ns)
+                    }
+                };
+                push_buffer(path, acc, t0_ns, dt_ns, start, &where_)?;
             }
         }
         Ok(())
@@ -406,53 +420,50 @@ fn decode<T: for<'de> Deserialize<'de>>(
     })
 }
 
-/// Appends one DAQ buffer, checking that time moves forward.
+/// Records one DAQ buffer whose values were appended to `acc.values` from
+/// index `start`, checking that time moves forward.
 fn push_buffer(
     path: &Path,
     acc: &mut Acc,
-    m: BufferMsg,
-    scale: f64,
+    t0_ns: u64,
+    dt_ns: u64,
+    start: usize,
     where_: &dyn Fn() -> String,
 ) -> Result<(), IngestError> {
-    if m.dt_ns == 0 {
+    if dt_ns == 0 {
         return Err(IngestError::invalid(
             path,
             format!("{}: dt_ns is 0", where_()),
         ));
     }
-    if m.value.is_empty() {
+    let n = (acc.values.len() - start) as u128;
+    if n == 0 {
         return Ok(());
     }
-    let n = m.value.len() as u128;
-    let end = m.t0_ns as u128 + (n - 1) * m.dt_ns as u128;
+    let end = t0_ns as u128 + (n - 1) * dt_ns as u128;
     if end > u64::MAX as u128 {
         return Err(IngestError::invalid(
             path,
             format!("{}: buffer runs past the end of the clock", where_()),
         ));
     }
-    if let Some(&(t0, dt, start)) = acc.buffers.last() {
-        let prev_n = (acc.values.len() - start) as u128;
+    if let Some(&(t0, dt, prev_start)) = acc.buffers.last() {
+        let prev_n = (start - prev_start) as u128;
         let prev_last = t0 as u128 + (prev_n - 1) * dt as u128;
-        if (m.t0_ns as u128) <= prev_last {
+        if (t0_ns as u128) <= prev_last {
             return Err(IngestError::invalid(
                 path,
                 format!(
                     "non-monotonic time on channel {}: buffer t0_ns {} is {:.6} s before the previous sample ({})",
                     acc.topic,
-                    m.t0_ns,
-                    (prev_last - m.t0_ns as u128) as f64 * 1e-9,
+                    t0_ns,
+                    (prev_last - t0_ns as u128) as f64 * 1e-9,
                     where_()
                 ),
             ));
         }
     }
-    acc.buffers.push((m.t0_ns, m.dt_ns, acc.values.len()));
-    acc.values.extend(
-        m.value
-            .into_iter()
-            .map(|v| v.map_or(f64::NAN, |x| x * scale)),
-    );
+    acc.buffers.push((t0_ns, dt_ns, start));
     Ok(())
 }
 
@@ -470,9 +481,22 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
             .buffers
             .get(k + 1)
             .map_or(acc.values.len(), |next| next.2);
-        for i in 0..(end - start) {
-            let ns = t0 as i128 - origin as i128 + i as i128 * dt as i128;
-            t.push(ns as f64 * 1e-9);
+        let n = end - start;
+        let base = t0 as i128 - origin as i128;
+        let last = base + n.saturating_sub(1) as i128 * dt as i128;
+        if i64::try_from(base).is_ok() && i64::try_from(last).is_ok() {
+            // The same integers in i64 (an i64 converts to the same f64 as
+            // the i128 of equal value, and much faster).
+            let (mut ns, dt) = (base as i64, dt as i64);
+            for _ in 0..n {
+                t.push(ns as f64 * 1e-9);
+                ns = ns.wrapping_add(dt);
+            }
+        } else {
+            for i in 0..n {
+                let ns = base + i as i128 * dt as i128;
+                t.push(ns as f64 * 1e-9);
+            }
         }
         dts.push(dt);
     }
