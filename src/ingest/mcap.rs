@@ -1,7 +1,12 @@
-//! MCAP rig logs: one linear, streaming pass over the file's records (chunks
-//! decompressed one at a time; zstd, lz4 or none), so files without a summary
-//! section read the same as indexed ones and memory stays bounded by the
-//! largest chunk plus the decoded samples.
+//! MCAP rig logs: one linear, streaming pass over the file's records, so
+//! files without a summary section read the same as indexed ones. A reader
+//! thread reads the file and decompresses its chunks one at a time (zstd,
+//! lz4 or none; mcap's sans-io reader, CRCs checked) and hands the records
+//! over in batches of about [`BATCH_BYTES`] through a bounded queue; this
+//! thread decodes them in file order (DAQ buffers by the fast path of
+//! `buffer_json`, serde_json otherwise). Results and errors are those of a
+//! single pass, and memory stays bounded by the largest chunk, a few
+//! batches and the decoded samples.
 
 use super::rig::RigMeta;
 use super::run::Setpoint;
@@ -12,6 +17,7 @@ use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 use std::path::Path;
+use std::sync::mpsc::{Receiver, SyncSender};
 
 /// Largest record or (de)compressed chunk accepted. A DAQ writes chunks of a
 /// few MiB at most; a larger length field is corruption and must not make us
@@ -83,13 +89,81 @@ fn mcap_error(path: &Path, e: mcap::McapError) -> IngestError {
     IngestError::invalid(path, msg)
 }
 
-/// Reads an MCAP rig log.
-pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
-    let mut file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+/// Bytes of records the reader thread gathers before handing them over.
+const BATCH_BYTES: usize = 256 << 10;
+
+/// Batches in flight between the reader thread and the decoder (queued,
+/// besides the one being filled and the one being decoded): with
+/// [`BATCH_BYTES`] this bounds the read-ahead to about a MiB.
+const BATCHES_QUEUED: usize = 2;
+
+/// Records read ahead by the reader thread, in file order: their bytes back
+/// to back, then how the reading ended if it did.
+#[derive(Default)]
+struct Batch {
+    data: Vec<u8>,
+    /// (opcode, end of its bytes in `data`), in file order.
+    records: Vec<(u8, usize)>,
+    /// `Some` in the last batch: the end of the file or the error that
+    /// stopped the reader (after the records of this batch).
+    end: Option<Result<(), ReadError>>,
+}
+
+/// Why the reader thread stopped early.
+enum ReadError {
+    Mcap(mcap::McapError),
+    Io(std::io::Error),
+}
+
+/// The reader thread: one linear pass over the file's records (chunks
+/// decompressed and CRC-checked by mcap's sans-io reader), sent in batches.
+/// Returns when the file ends, on the first error, or when the decoder
+/// hangs up.
+fn read_records(mut file: std::fs::File, tx: SyncSender<Batch>, pool: Receiver<Batch>) {
     let options = LinearReaderOptions::default()
         .with_record_length_limit(RECORD_LIMIT)
         .with_prevalidate_chunk_crcs(true);
     let mut reader = LinearReader::new_with_options(options);
+    let mut batch = Batch::default();
+    let end = loop {
+        match reader.next_event() {
+            None => break Ok(()),
+            Some(Err(e)) => break Err(ReadError::Mcap(e)),
+            Some(Ok(LinearReadEvent::ReadRequest(need))) => {
+                let buf = reader.insert(need);
+                let n = loop {
+                    match file.read(buf) {
+                        Ok(n) => break Ok(n),
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => break Err(e),
+                    }
+                };
+                match n {
+                    Ok(n) => reader.notify_read(n),
+                    Err(e) => break Err(ReadError::Io(e)),
+                }
+            }
+            Some(Ok(LinearReadEvent::Record { opcode, data })) => {
+                batch.data.extend_from_slice(data);
+                batch.records.push((opcode, batch.data.len()));
+                if batch.data.len() >= BATCH_BYTES {
+                    let next = pool.try_recv().unwrap_or_default();
+                    if tx.send(std::mem::replace(&mut batch, next)).is_err() {
+                        return; // the decoder stopped (an error of its own)
+                    }
+                }
+            }
+        }
+    };
+    batch.end = Some(end);
+    let _ = tx.send(batch);
+}
+
+/// Reads an MCAP rig log. A reader thread reads and decompresses the
+/// records while this thread decodes them, in file order; the result (or
+/// the first error) is the same as a single pass's.
+pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
+    let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
     let mut log = Collector {
         path,
         channels: HashMap::new(),
@@ -99,37 +173,29 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
         warnings: Vec::new(),
         n_messages: 0,
     };
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| mcap_error(path, e))? {
-            LinearReadEvent::ReadRequest(need) => {
-                let buf = reader.insert(need);
-                let n = loop {
-                    match file.read(buf) {
-                        Ok(n) => break n,
-                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                        Err(e) => return Err(IngestError::io(path, e)),
-                    }
-                };
-                reader.notify_read(n);
+    std::thread::scope(|s| {
+        let (tx, rx) = std::sync::mpsc::sync_channel(BATCHES_QUEUED);
+        let (pool_tx, pool_rx) = std::sync::mpsc::channel();
+        s.spawn(move || read_records(file, tx, pool_rx));
+        // Dropping `rx` on an early return stops the reader thread.
+        for mut batch in rx.iter() {
+            let mut start = 0;
+            for &(opcode, end) in &batch.records {
+                log.record(opcode, &batch.data[start..end])?;
+                start = end;
             }
-            LinearReadEvent::Record { opcode, data } => {
-                match mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))? {
-                    Record::Channel(ch) => log.channel(&ch)?,
-                    Record::Metadata(m) if m.name == "rig" => {
-                        if log.rig.is_some() {
-                            return Err(IngestError::invalid(
-                                path,
-                                "more than one `rig` metadata record",
-                            ));
-                        }
-                        log.rig = Some(m.metadata);
-                    }
-                    Record::Message { header, data } => log.message(&header, &data)?,
-                    _ => {}
-                }
+            match batch.end.take() {
+                None => {}
+                Some(Ok(())) => break,
+                Some(Err(ReadError::Mcap(e))) => return Err(mcap_error(path, e)),
+                Some(Err(ReadError::Io(e))) => return Err(IngestError::io(path, e)),
             }
+            batch.data.clear();
+            batch.records.clear();
+            let _ = pool_tx.send(batch);
         }
-    }
+        Ok(())
+    })?;
     log.finish()
 }
 
@@ -145,6 +211,26 @@ struct Collector<'a> {
 }
 
 impl Collector<'_> {
+    /// One record of the file, in file order.
+    fn record(&mut self, opcode: u8, data: &[u8]) -> Result<(), IngestError> {
+        let path = self.path;
+        match mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))? {
+            Record::Channel(ch) => self.channel(&ch)?,
+            Record::Metadata(m) if m.name == "rig" => {
+                if self.rig.is_some() {
+                    return Err(IngestError::invalid(
+                        path,
+                        "more than one `rig` metadata record",
+                    ));
+                }
+                self.rig = Some(m.metadata);
+            }
+            Record::Message { header, data } => self.message(&header, &data)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
     /// A channel record: classified; one channel per sensor quantity (the
     /// summary section may repeat a record, never change it).
     fn channel(&mut self, ch: &mcap::records::Channel) -> Result<(), IngestError> {

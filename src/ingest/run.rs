@@ -22,6 +22,7 @@
 //!   the last position sample.
 
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The longest run of missing samples that resampling bridges by linear
@@ -430,7 +431,20 @@ fn resample(
             .find(|c| c.quantity == q)
             .map(|c| interpolate(&c.t, &c.v, 1.0 / c.rate_hz, &grid))
     };
-    let col = |q: Quantity| resample(q).unwrap_or_else(|| vec![f64::NAN; rows]);
+    // Columns are independent: interpolated in parallel, each by the same
+    // sequential code (identical whatever the thread count).
+    let mut cols: Vec<Option<Vec<f64>>> = Quantity::ALL.par_iter().map(|&q| resample(q)).collect();
+    let mut take = |q: Quantity| {
+        let k = Quantity::ALL.iter().position(|&p| p == q)?;
+        cols[k].take()
+    };
+    let mut col = |q: Quantity| take(q).unwrap_or_else(|| vec![f64::NAN; rows]);
+    let (x0, x1, x2, v2) = (
+        col(Quantity::X0),
+        col(Quantity::X1),
+        col(Quantity::X2),
+        col(Quantity::V2),
+    );
     let setpoint_hz = if setpoints.is_empty() {
         None
     } else {
@@ -438,12 +452,12 @@ fn resample(
     };
     Ok(Resampled {
         rate_hz,
-        x0: col(Quantity::X0),
-        x1: col(Quantity::X1),
-        x2: col(Quantity::X2),
-        v2: col(Quantity::V2),
-        a2: resample(Quantity::A2),
-        normal_force: resample(Quantity::NormalForce),
+        x0,
+        x1,
+        x2,
+        v2,
+        a2: take(Quantity::A2),
+        normal_force: take(Quantity::NormalForce),
         setpoint_hz,
         t: grid,
     })
