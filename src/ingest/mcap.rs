@@ -176,7 +176,10 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
     std::thread::scope(|s| {
         let (tx, rx) = std::sync::mpsc::sync_channel(BATCHES_QUEUED);
         let (pool_tx, pool_rx) = std::sync::mpsc::channel();
-        s.spawn(move || read_records(file, tx, pool_rx));
+        std::thread::Builder::new()
+            .name("mcap-reader".into())
+            .spawn_scoped(s, move || read_records(file, tx, pool_rx))
+            .map_err(|e| IngestError::io(path, e))?;
         // Dropping `rx` on an early return stops the reader thread.
         for mut batch in rx.iter() {
             let mut start = 0;
@@ -190,9 +193,12 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
                 Some(Err(ReadError::Mcap(e))) => return Err(mcap_error(path, e)),
                 Some(Err(ReadError::Io(e))) => return Err(IngestError::io(path, e)),
             }
-            batch.data.clear();
-            batch.records.clear();
-            let _ = pool_tx.send(batch);
+            // Recycle the buffers, unless a huge record inflated them.
+            if batch.data.capacity() <= 2 * BATCH_BYTES {
+                batch.data.clear();
+                batch.records.clear();
+                let _ = pool_tx.send(batch);
+            }
         }
         Ok(())
     })?;

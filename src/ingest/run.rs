@@ -235,23 +235,34 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         .filter_map(|c| c.t.last().copied())
         .fold(f64::NEG_INFINITY, f64::max)
         - origin;
-    let mut out_channels = Vec::with_capacity(channels.len());
+    // Channels are independent: analysed in parallel, gaps kept in channel
+    // order (identical whatever the thread count).
+    let analysed: Vec<(Channel, Vec<Gap>)> = channels
+        .into_par_iter()
+        .map(|c| {
+            let mut t = c.t;
+            for x in &mut t {
+                *x -= origin;
+            }
+            let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
+            let mut gaps = Vec::new();
+            find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
+            let channel = Channel {
+                quantity: c.quantity,
+                source: c.source,
+                rate_hz: 1.0 / c.dt_s,
+                t,
+                v: c.v,
+                dropouts,
+            };
+            (channel, gaps)
+        })
+        .collect();
+    let mut out_channels = Vec::with_capacity(analysed.len());
     let mut gaps = Vec::new();
-    for c in channels {
-        let mut t = c.t;
-        for x in &mut t {
-            *x -= origin;
-        }
-        let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
-        find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
-        out_channels.push(Channel {
-            quantity: c.quantity,
-            source: c.source,
-            rate_hz: 1.0 / c.dt_s,
-            t,
-            v: c.v,
-            dropouts,
-        });
+    for (c, g) in analysed {
+        out_channels.push(c);
+        gaps.extend(g);
     }
     for s in &mut setpoints {
         s.t_s -= origin;
