@@ -1,17 +1,23 @@
-//! MCAP rig logs: one linear, streaming pass over the file's records (chunks
-//! decompressed one at a time; zstd, lz4 or none), so files without a summary
-//! section read the same as indexed ones and memory stays bounded by the
-//! largest chunk plus the decoded samples.
+//! MCAP rig logs: one linear, streaming pass over the file's records, so
+//! files without a summary section read the same as indexed ones. A reader
+//! thread reads the file and decompresses its chunks one at a time (zstd,
+//! lz4 or none; mcap's sans-io reader, CRCs checked) and hands the records
+//! over in batches of about [`BATCH_BYTES`] through a bounded queue; this
+//! thread decodes them in file order (DAQ buffers by the fast path of
+//! `buffer_json`, serde_json otherwise). Results and errors are those of a
+//! single pass, and memory stays bounded by the largest chunk, a few
+//! batches and the decoded samples.
 
 use super::rig::RigMeta;
 use super::run::Setpoint;
-use super::{unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{buffer_json, unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
 use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::Deserialize;
 use std::collections::{BTreeMap, HashMap};
 use std::io::Read;
 use std::path::Path;
+use std::sync::mpsc::{Receiver, SyncSender};
 
 /// Largest record or (de)compressed chunk accepted. A DAQ writes chunks of a
 /// few MiB at most; a larger length field is corruption and must not make us
@@ -83,13 +89,81 @@ fn mcap_error(path: &Path, e: mcap::McapError) -> IngestError {
     IngestError::invalid(path, msg)
 }
 
-/// Reads an MCAP rig log.
-pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
-    let mut file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+/// Bytes of records the reader thread gathers before handing them over.
+const BATCH_BYTES: usize = 256 << 10;
+
+/// Batches in flight between the reader thread and the decoder (queued,
+/// besides the one being filled and the one being decoded): with
+/// [`BATCH_BYTES`] this bounds the read-ahead to about a MiB.
+const BATCHES_QUEUED: usize = 2;
+
+/// Records read ahead by the reader thread, in file order: their bytes back
+/// to back, then how the reading ended if it did.
+#[derive(Default)]
+struct Batch {
+    data: Vec<u8>,
+    /// (opcode, end of its bytes in `data`), in file order.
+    records: Vec<(u8, usize)>,
+    /// `Some` in the last batch: the end of the file or the error that
+    /// stopped the reader (after the records of this batch).
+    end: Option<Result<(), ReadError>>,
+}
+
+/// Why the reader thread stopped early.
+enum ReadError {
+    Mcap(mcap::McapError),
+    Io(std::io::Error),
+}
+
+/// The reader thread: one linear pass over the file's records (chunks
+/// decompressed and CRC-checked by mcap's sans-io reader), sent in batches.
+/// Returns when the file ends, on the first error, or when the decoder
+/// hangs up.
+fn read_records(mut file: std::fs::File, tx: SyncSender<Batch>, pool: Receiver<Batch>) {
     let options = LinearReaderOptions::default()
         .with_record_length_limit(RECORD_LIMIT)
         .with_prevalidate_chunk_crcs(true);
     let mut reader = LinearReader::new_with_options(options);
+    let mut batch = Batch::default();
+    let end = loop {
+        match reader.next_event() {
+            None => break Ok(()),
+            Some(Err(e)) => break Err(ReadError::Mcap(e)),
+            Some(Ok(LinearReadEvent::ReadRequest(need))) => {
+                let buf = reader.insert(need);
+                let n = loop {
+                    match file.read(buf) {
+                        Ok(n) => break Ok(n),
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => break Err(e),
+                    }
+                };
+                match n {
+                    Ok(n) => reader.notify_read(n),
+                    Err(e) => break Err(ReadError::Io(e)),
+                }
+            }
+            Some(Ok(LinearReadEvent::Record { opcode, data })) => {
+                batch.data.extend_from_slice(data);
+                batch.records.push((opcode, batch.data.len()));
+                if batch.data.len() >= BATCH_BYTES {
+                    let next = pool.try_recv().unwrap_or_default();
+                    if tx.send(std::mem::replace(&mut batch, next)).is_err() {
+                        return; // the decoder stopped (an error of its own)
+                    }
+                }
+            }
+        }
+    };
+    batch.end = Some(end);
+    let _ = tx.send(batch);
+}
+
+/// Reads an MCAP rig log. A reader thread reads and decompresses the
+/// records while this thread decodes them, in file order; the result (or
+/// the first error) is the same as a single pass's.
+pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
+    let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
     let mut log = Collector {
         path,
         channels: HashMap::new(),
@@ -99,37 +173,35 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
         warnings: Vec::new(),
         n_messages: 0,
     };
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| mcap_error(path, e))? {
-            LinearReadEvent::ReadRequest(need) => {
-                let buf = reader.insert(need);
-                let n = loop {
-                    match file.read(buf) {
-                        Ok(n) => break n,
-                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                        Err(e) => return Err(IngestError::io(path, e)),
-                    }
-                };
-                reader.notify_read(n);
+    std::thread::scope(|s| {
+        let (tx, rx) = std::sync::mpsc::sync_channel(BATCHES_QUEUED);
+        let (pool_tx, pool_rx) = std::sync::mpsc::channel();
+        std::thread::Builder::new()
+            .name("mcap-reader".into())
+            .spawn_scoped(s, move || read_records(file, tx, pool_rx))
+            .map_err(|e| IngestError::io(path, e))?;
+        // Dropping `rx` on an early return stops the reader thread.
+        for mut batch in rx.iter() {
+            let mut start = 0;
+            for &(opcode, end) in &batch.records {
+                log.record(opcode, &batch.data[start..end])?;
+                start = end;
             }
-            LinearReadEvent::Record { opcode, data } => {
-                match mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))? {
-                    Record::Channel(ch) => log.channel(&ch)?,
-                    Record::Metadata(m) if m.name == "rig" => {
-                        if log.rig.is_some() {
-                            return Err(IngestError::invalid(
-                                path,
-                                "more than one `rig` metadata record",
-                            ));
-                        }
-                        log.rig = Some(m.metadata);
-                    }
-                    Record::Message { header, data } => log.message(&header, &data)?,
-                    _ => {}
-                }
+            match batch.end.take() {
+                None => {}
+                Some(Ok(())) => break,
+                Some(Err(ReadError::Mcap(e))) => return Err(mcap_error(path, e)),
+                Some(Err(ReadError::Io(e))) => return Err(IngestError::io(path, e)),
+            }
+            // Recycle the buffers, unless a huge record inflated them.
+            if batch.data.capacity() <= 2 * BATCH_BYTES {
+                batch.data.clear();
+                batch.records.clear();
+                let _ = pool_tx.send(batch);
             }
         }
-    }
+        Ok(())
+    })?;
     log.finish()
 }
 
@@ -145,6 +217,26 @@ struct Collector<'a> {
 }
 
 impl Collector<'_> {
+    /// One record of the file, in file order.
+    fn record(&mut self, opcode: u8, data: &[u8]) -> Result<(), IngestError> {
+        let path = self.path;
+        match mcap::parse_record(opcode, data).map_err(|e| mcap_error(path, e))? {
+            Record::Channel(ch) => self.channel(&ch)?,
+            Record::Metadata(m) if m.name == "rig" => {
+                if self.rig.is_some() {
+                    return Err(IngestError::invalid(
+                        path,
+                        "more than one `rig` metadata record",
+                    ));
+                }
+                self.rig = Some(m.metadata);
+            }
+            Record::Message { header, data } => self.message(&header, &data)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
     /// A channel record: classified; one channel per sensor quantity (the
     /// summary section may repeat a record, never change it).
     fn channel(&mut self, ch: &mcap::records::Channel) -> Result<(), IngestError> {
@@ -239,10 +331,24 @@ impl Collector<'_> {
                 self.setpoints.push((m.t_ns, m.frequency_hz, m.amplitude_m));
             }
             Role::Sensor(q) => {
-                let m: BufferMsg = decode(path, data, &where_)?;
                 let scale = info.scale;
                 let acc = self.accs.entry(q).or_default();
-                push_buffer(path, acc, m, scale, &where_)?;
+                let start = acc.values.len();
+                let (t0_ns, dt_ns) = match buffer_json::parse_buffer(data, scale, &mut acc.values) {
+                    Some(head) => head,
+                    None => {
+                        // Outside the fast path's subset: serde_json
+                        // decides (and names what is wrong).
+                        let m: BufferMsg = decode(path, data, &where_)?;
+                        acc.values.extend(
+                            m.value
+                                .into_iter()
+                                .map(|v| v.map_or(f64::NAN, |x| x * scale)),
+                        );
+                        (m.t0_ns, m.dt_ns)
+                    }
+                };
+                push_buffer(path, acc, t0_ns, dt_ns, start, &where_)?;
             }
         }
         Ok(())
@@ -406,53 +512,50 @@ fn decode<T: for<'de> Deserialize<'de>>(
     })
 }
 
-/// Appends one DAQ buffer, checking that time moves forward.
+/// Records one DAQ buffer whose values were appended to `acc.values` from
+/// index `start`, checking that time moves forward.
 fn push_buffer(
     path: &Path,
     acc: &mut Acc,
-    m: BufferMsg,
-    scale: f64,
+    t0_ns: u64,
+    dt_ns: u64,
+    start: usize,
     where_: &dyn Fn() -> String,
 ) -> Result<(), IngestError> {
-    if m.dt_ns == 0 {
+    if dt_ns == 0 {
         return Err(IngestError::invalid(
             path,
             format!("{}: dt_ns is 0", where_()),
         ));
     }
-    if m.value.is_empty() {
+    let n = (acc.values.len() - start) as u128;
+    if n == 0 {
         return Ok(());
     }
-    let n = m.value.len() as u128;
-    let end = m.t0_ns as u128 + (n - 1) * m.dt_ns as u128;
+    let end = t0_ns as u128 + (n - 1) * dt_ns as u128;
     if end > u64::MAX as u128 {
         return Err(IngestError::invalid(
             path,
             format!("{}: buffer runs past the end of the clock", where_()),
         ));
     }
-    if let Some(&(t0, dt, start)) = acc.buffers.last() {
-        let prev_n = (acc.values.len() - start) as u128;
+    if let Some(&(t0, dt, prev_start)) = acc.buffers.last() {
+        let prev_n = (start - prev_start) as u128;
         let prev_last = t0 as u128 + (prev_n - 1) * dt as u128;
-        if (m.t0_ns as u128) <= prev_last {
+        if (t0_ns as u128) <= prev_last {
             return Err(IngestError::invalid(
                 path,
                 format!(
                     "non-monotonic time on channel {}: buffer t0_ns {} is {:.6} s before the previous sample ({})",
                     acc.topic,
-                    m.t0_ns,
-                    (prev_last - m.t0_ns as u128) as f64 * 1e-9,
+                    t0_ns,
+                    (prev_last - t0_ns as u128) as f64 * 1e-9,
                     where_()
                 ),
             ));
         }
     }
-    acc.buffers.push((m.t0_ns, m.dt_ns, acc.values.len()));
-    acc.values.extend(
-        m.value
-            .into_iter()
-            .map(|v| v.map_or(f64::NAN, |x| x * scale)),
-    );
+    acc.buffers.push((t0_ns, dt_ns, start));
     Ok(())
 }
 
@@ -470,9 +573,22 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
             .buffers
             .get(k + 1)
             .map_or(acc.values.len(), |next| next.2);
-        for i in 0..(end - start) {
-            let ns = t0 as i128 - origin as i128 + i as i128 * dt as i128;
-            t.push(ns as f64 * 1e-9);
+        let n = end - start;
+        let base = t0 as i128 - origin as i128;
+        let last = base + n.saturating_sub(1) as i128 * dt as i128;
+        if i64::try_from(base).is_ok() && i64::try_from(last).is_ok() {
+            // The same integers in i64 (an i64 converts to the same f64 as
+            // the i128 of equal value, and much faster).
+            let (mut ns, dt) = (base as i64, dt as i64);
+            for _ in 0..n {
+                t.push(ns as f64 * 1e-9);
+                ns = ns.wrapping_add(dt);
+            }
+        } else {
+            for i in 0..n {
+                let ns = base + i as i128 * dt as i128;
+                t.push(ns as f64 * 1e-9);
+            }
         }
         dts.push(dt);
     }

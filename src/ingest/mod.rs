@@ -14,6 +14,7 @@
 //! channel map), `parquet` (tables, also the writer of canonical runs),
 //! [`rig`] (metadata), `run` (gaps and the common time base).
 
+mod buffer_json;
 mod csv;
 mod json;
 mod mcap;

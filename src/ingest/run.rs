@@ -22,6 +22,7 @@
 //!   the last position sample.
 
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// The longest run of missing samples that resampling bridges by linear
@@ -234,20 +235,34 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         .filter_map(|c| c.t.last().copied())
         .fold(f64::NEG_INFINITY, f64::max)
         - origin;
-    let mut out_channels = Vec::with_capacity(channels.len());
+    // Channels are independent: analysed in parallel, gaps kept in channel
+    // order (identical whatever the thread count).
+    let analysed: Vec<(Channel, Vec<Gap>)> = channels
+        .into_par_iter()
+        .map(|c| {
+            let mut t = c.t;
+            for x in &mut t {
+                *x -= origin;
+            }
+            let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
+            let mut gaps = Vec::new();
+            find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
+            let channel = Channel {
+                quantity: c.quantity,
+                source: c.source,
+                rate_hz: 1.0 / c.dt_s,
+                t,
+                v: c.v,
+                dropouts,
+            };
+            (channel, gaps)
+        })
+        .collect();
+    let mut out_channels = Vec::with_capacity(analysed.len());
     let mut gaps = Vec::new();
-    for c in channels {
-        let t: Vec<f64> = c.t.iter().map(|t| t - origin).collect();
-        let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
-        find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
-        out_channels.push(Channel {
-            quantity: c.quantity,
-            source: c.source,
-            rate_hz: 1.0 / c.dt_s,
-            t,
-            v: c.v,
-            dropouts,
-        });
+    for (c, g) in analysed {
+        out_channels.push(c);
+        gaps.extend(g);
     }
     for s in &mut setpoints {
         s.t_s -= origin;
@@ -427,7 +442,20 @@ fn resample(
             .find(|c| c.quantity == q)
             .map(|c| interpolate(&c.t, &c.v, 1.0 / c.rate_hz, &grid))
     };
-    let col = |q: Quantity| resample(q).unwrap_or_else(|| vec![f64::NAN; rows]);
+    // Columns are independent: interpolated in parallel, each by the same
+    // sequential code (identical whatever the thread count).
+    let mut cols: Vec<Option<Vec<f64>>> = Quantity::ALL.par_iter().map(|&q| resample(q)).collect();
+    let mut take = |q: Quantity| {
+        let k = Quantity::ALL.iter().position(|&p| p == q)?;
+        cols[k].take()
+    };
+    let mut col = |q: Quantity| take(q).unwrap_or_else(|| vec![f64::NAN; rows]);
+    let (x0, x1, x2, v2) = (
+        col(Quantity::X0),
+        col(Quantity::X1),
+        col(Quantity::X2),
+        col(Quantity::V2),
+    );
     let setpoint_hz = if setpoints.is_empty() {
         None
     } else {
@@ -435,12 +463,12 @@ fn resample(
     };
     Ok(Resampled {
         rate_hz,
-        x0: col(Quantity::X0),
-        x1: col(Quantity::X1),
-        x2: col(Quantity::X2),
-        v2: col(Quantity::V2),
-        a2: resample(Quantity::A2),
-        normal_force: resample(Quantity::NormalForce),
+        x0,
+        x1,
+        x2,
+        v2,
+        a2: take(Quantity::A2),
+        normal_force: take(Quantity::NormalForce),
         setpoint_hz,
         t: grid,
     })
@@ -477,10 +505,10 @@ fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mu
             kind,
         })
     };
-    let valid: Vec<usize> = (0..v.len()).filter(|&i| v[i].is_finite()).collect();
-    let (Some(&first), Some(&last)) = (valid.first(), valid.last()) else {
+    let Some(first) = v.iter().position(|x| x.is_finite()) else {
         return;
     };
+    let last = v.iter().rposition(|x| x.is_finite()).unwrap_or(first);
     let late = |a: f64, b: f64| b - a > 1.5 * dt;
     // Leading edge.
     if late(0.0, t[0]) {
@@ -489,20 +517,24 @@ fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mu
         push(0.0_f64.max(t[0]), t[first], GapKind::Dropout);
     }
     // Interior: between consecutive valid samples.
-    for w in valid.windows(2) {
-        let (a, b) = (w[0], w[1]);
+    let mut a = first;
+    for b in first + 1..=last {
+        if !v[b].is_finite() {
+            continue;
+        }
         if b == a + 1 {
             if late(t[a], t[b]) {
                 push(t[a], t[b], GapKind::Missing);
             }
-            continue;
+        } else {
+            let lost_time = (a..b).any(|i| late(t[i], t[i + 1]));
+            if lost_time {
+                push(t[a], t[b], GapKind::Missing);
+            } else if b - a - 1 > MAX_BRIDGE_SAMPLES {
+                push(t[a], t[b], GapKind::Dropout);
+            }
         }
-        let lost_time = (a..b).any(|i| late(t[i], t[i + 1]));
-        if lost_time {
-            push(t[a], t[b], GapKind::Missing);
-        } else if b - a - 1 > MAX_BRIDGE_SAMPLES {
-            push(t[a], t[b], GapKind::Dropout);
-        }
+        a = b;
     }
     // Trailing edge.
     let n = t.len();
@@ -516,32 +548,43 @@ fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mu
 /// Linear interpolation of (t, v) onto `grid`, bridging holes of at most
 /// [`MAX_BRIDGE_SAMPLES`] missing samples only; NaN elsewhere.
 pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f64> {
-    let valid: Vec<usize> = (0..v.len()).filter(|&i| v[i].is_finite()).collect();
     let mut out = vec![f64::NAN; grid.len()];
-    if valid.is_empty() {
+    let next_valid = |from: usize| (from..v.len()).find(|&i| v[i].is_finite());
+    let Some(first) = next_valid(0) else {
         return out;
-    }
+    };
     // Grid points this close to a sample take its value (float noise only).
     let eps = dt * 1e-6;
-    let mut j = 0; // index into `valid`: valid[j] is the last valid sample <= g
+    // `a`: the last valid sample <= g; `b`: the next valid sample, if any;
+    // `bridged`: whether the hole between them is short enough (cached).
+    let (mut a, mut b) = (first, next_valid(first + 1));
+    let mut bridged: Option<bool> = None;
     for (k, &g) in grid.iter().enumerate() {
-        let first = valid[0];
         if g < t[first] - eps {
             continue;
         }
-        while j + 1 < valid.len() && t[valid[j + 1]] <= g + eps {
-            j += 1;
+        while let Some(nb) = b {
+            if t[nb] > g + eps {
+                break;
+            }
+            a = nb;
+            b = next_valid(nb + 1);
+            bridged = None;
         }
-        let a = valid[j];
         if (g - t[a]).abs() <= eps {
             out[k] = v[a];
             continue;
         }
-        if j + 1 >= valid.len() {
+        let Some(b) = b else {
             continue; // past the last valid sample
-        }
-        let b = valid[j + 1];
-        if missing_between(t[b] - t[a], dt) > MAX_BRIDGE_SAMPLES {
+        };
+        let bridged = *bridged.get_or_insert_with(|| {
+            let span = t[b] - t[a];
+            // Under 1.5 intervals apart nothing is missing (the usual case;
+            // spares `missing_between` its rounding).
+            span / dt < 1.5 || missing_between(span, dt) <= MAX_BRIDGE_SAMPLES
+        });
+        if !bridged {
             continue;
         }
         let w = (g - t[a]) / (t[b] - t[a]);

@@ -1,0 +1,373 @@
+//! Fast path for DAQ buffer payloads (`{"t0_ns":..,"dt_ns":..,"value":[..]}`):
+//! one pass over the borrowed bytes that appends the values straight to a
+//! channel's sample vector, without a per-message `Vec<Option<f64>>`.
+//!
+//! It handles a strict subset of what serde_json accepts for `BufferMsg`:
+//! a JSON object with exactly the keys `t0_ns`, `dt_ns` and `value` (any
+//! order, no escapes, JSON whitespace anywhere), unsigned integer times and
+//! an array of numbers and `null`s. Anything else (unknown or repeated keys,
+//! malformed numbers, out-of-range values, trailing bytes, ...) returns
+//! `None` with the output vector unchanged, and the caller decodes the
+//! payload with serde_json as before; so acceptance and error messages stay
+//! serde_json's.
+//!
+//! Numbers are correctly rounded, like serde_json's with `float_roundtrip`:
+//! exactly representable mantissa and power of ten (Clinger's fast path, one
+//! rounding) or else the standard library's correctly rounding
+//! `f64::from_str` on the token. Correct rounding is unique, so the values
+//! are bit-identical to serde_json's.
+
+/// Powers of ten exactly representable in an f64.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+/// Largest integer below which every integer is an exact f64.
+const EXACT_INT: u64 = 1 << 53;
+
+/// Parses a DAQ buffer payload: appends `value[i] * scale` (NaN for `null`)
+/// to `out` and returns `(t0_ns, dt_ns, values appended)`. `None` when the
+/// payload is outside the handled subset (see the module doc); `out` is then
+/// as on entry.
+pub(super) fn parse_buffer(data: &[u8], scale: f64, out: &mut Vec<f64>) -> Option<(u64, u64)> {
+    let start = out.len();
+    let r = Parser { b: data, i: 0 }.buffer(scale, out);
+    if r.is_none() {
+        out.truncate(start);
+    }
+    r
+}
+
+struct Parser<'a> {
+    b: &'a [u8],
+    i: usize,
+}
+
+impl Parser<'_> {
+    #[inline(always)]
+    fn peek(&self) -> Option<u8> {
+        self.b.get(self.i).copied()
+    }
+
+    #[inline(always)]
+    fn ws(&mut self) {
+        while let Some(b' ' | b'\n' | b'\t' | b'\r') = self.peek() {
+            self.i += 1;
+        }
+    }
+
+    #[inline(always)]
+    fn eat(&mut self, c: u8) -> Option<()> {
+        if self.peek() == Some(c) {
+            self.i += 1;
+            Some(())
+        } else {
+            None
+        }
+    }
+
+    fn buffer(mut self, scale: f64, out: &mut Vec<f64>) -> Option<(u64, u64)> {
+        let (mut t0, mut dt, mut seen_value) = (None, None, false);
+        self.ws();
+        self.eat(b'{')?;
+        loop {
+            self.ws();
+            self.eat(b'"')?;
+            let key_start = self.i;
+            let len = self.b[key_start..].iter().position(|&c| c == b'"')?;
+            let key = &self.b[key_start..key_start + len];
+            self.i = key_start + len + 1;
+            self.ws();
+            self.eat(b':')?;
+            self.ws();
+            match key {
+                b"t0_ns" if t0.is_none() => t0 = Some(self.uint()?),
+                b"dt_ns" if dt.is_none() => dt = Some(self.uint()?),
+                b"value" if !seen_value => {
+                    self.values(scale, out)?;
+                    seen_value = true;
+                }
+                _ => return None, // unknown, escaped or repeated key
+            }
+            self.ws();
+            match self.peek()? {
+                b',' => self.i += 1,
+                b'}' => {
+                    self.i += 1;
+                    break;
+                }
+                _ => return None,
+            }
+        }
+        self.ws();
+        if self.i != self.b.len() || !seen_value {
+            return None;
+        }
+        Some((t0?, dt?))
+    }
+
+    /// A JSON unsigned integer that fits a u64.
+    fn uint(&mut self) -> Option<u64> {
+        let first = self.peek()?;
+        if !first.is_ascii_digit() {
+            return None;
+        }
+        self.i += 1;
+        let mut v = u64::from(first - b'0');
+        if first == b'0' {
+            if matches!(self.peek(), Some(b'0'..=b'9')) {
+                return None;
+            }
+        } else {
+            while let Some(c @ b'0'..=b'9') = self.peek() {
+                v = v.checked_mul(10)?.checked_add(u64::from(c - b'0'))?;
+                self.i += 1;
+            }
+        }
+        if matches!(self.peek(), Some(b'.' | b'e' | b'E')) {
+            return None; // a float where serde wants an integer
+        }
+        Some(v)
+    }
+
+    /// The `value` array.
+    fn values(&mut self, scale: f64, out: &mut Vec<f64>) -> Option<()> {
+        self.eat(b'[')?;
+        self.ws();
+        if self.eat(b']').is_some() {
+            return Some(());
+        }
+        loop {
+            self.ws();
+            if self.peek()? == b'n' {
+                if self.b.get(self.i..self.i + 4)? != b"null" {
+                    return None;
+                }
+                self.i += 4;
+                out.push(f64::NAN);
+            } else {
+                let x = self.number()?;
+                // x * 1.0 == x for every finite x: skip the multiply.
+                out.push(if scale == 1.0 { x } else { x * scale });
+            }
+            self.ws();
+            match self.peek()? {
+                b',' => self.i += 1,
+                b']' => {
+                    self.i += 1;
+                    return Some(());
+                }
+                _ => return None,
+            }
+        }
+    }
+
+    /// A JSON number as a finite f64, correctly rounded.
+    #[inline(always)]
+    fn number(&mut self) -> Option<f64> {
+        let (v, end) = number(self.b, self.i)?;
+        self.i = end;
+        Some(v)
+    }
+}
+
+/// Advances `i` over ASCII digits, accumulating them into `acc` (wrapping;
+/// exact while at most 19 digits are taken). Returns how many it took.
+#[inline(always)]
+fn digits(b: &[u8], i: &mut usize, acc: &mut u64) -> usize {
+    let from = *i;
+    let (mut j, mut a) = (*i, *acc);
+    while j < b.len() {
+        let d = b[j].wrapping_sub(b'0');
+        if d > 9 {
+            break;
+        }
+        a = a.wrapping_mul(10).wrapping_add(u64::from(d));
+        j += 1;
+    }
+    *i = j;
+    *acc = a;
+    j - from
+}
+
+/// The JSON number starting at `b[start]` as a finite, correctly rounded
+/// f64, and the index just past it; `None` if it is not a JSON number, not
+/// finite, or has a huge exponent (left to serde_json).
+#[inline(never)]
+fn number(b: &[u8], start: usize) -> Option<(f64, usize)> {
+    let mut i = start;
+    let negative = b.get(i) == Some(&b'-');
+    if negative {
+        i += 1;
+    }
+    // Digits of the integer and fraction parts as one integer (exact while
+    // there are at most 19 of them; leading zeros add nothing).
+    let mut mantissa: u64 = 0;
+    // Integer part: 0 or [1-9][0-9]*.
+    let int_start = i;
+    let mut n_digits = digits(b, &mut i, &mut mantissa);
+    if n_digits == 0 || (b[int_start] == b'0' && n_digits > 1) {
+        return None;
+    }
+    let mut exp10: i64 = 0;
+    if b.get(i) == Some(&b'.') {
+        i += 1;
+        let n = digits(b, &mut i, &mut mantissa);
+        if n == 0 {
+            return None;
+        }
+        n_digits += n;
+        exp10 = -(n as i64);
+    }
+    if let Some(b'e' | b'E') = b.get(i) {
+        i += 1;
+        let exp_negative = match b.get(i) {
+            Some(b'-') => {
+                i += 1;
+                true
+            }
+            Some(b'+') => {
+                i += 1;
+                false
+            }
+            _ => false,
+        };
+        let mut e: u64 = 0;
+        let n = digits(b, &mut i, &mut e);
+        if n == 0 || n > 4 {
+            return None; // no exponent digits, or a huge exponent
+        }
+        exp10 += if exp_negative { -(e as i64) } else { e as i64 };
+    }
+    if n_digits <= 19 && mantissa <= EXACT_INT && (-22..=22).contains(&exp10) {
+        // Both operands exact: one correctly rounded operation (and a
+        // finite result: at most 2^53 * 1e22).
+        let m = mantissa as f64;
+        let v = if exp10 < 0 {
+            m / POW10[(-exp10) as usize]
+        } else {
+            m * POW10[exp10 as usize]
+        };
+        return Some((if negative { -v } else { v }, i));
+    }
+    // The token is a valid JSON number, hence valid for from_str.
+    let token = std::str::from_utf8(&b[start..i]).ok()?;
+    let v = token.parse::<f64>().ok()?;
+    v.is_finite().then_some((v, i))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_buffer;
+    use proptest::prelude::*;
+    use serde::Deserialize;
+
+    #[derive(Deserialize)]
+    struct BufferMsg {
+        t0_ns: u64,
+        dt_ns: u64,
+        value: Vec<Option<f64>>,
+    }
+
+    /// The fast path agrees with serde_json: where it accepts, serde_json
+    /// accepts with bit-identical values; where serde_json refuses, it
+    /// refuses (and leaves the output as it was).
+    fn agrees(text: &str) -> bool {
+        let mut out = vec![7.0];
+        let fast = parse_buffer(text.as_bytes(), 1.0, &mut out);
+        let slow: Result<BufferMsg, _> = serde_json::from_str(text);
+        match (fast, slow) {
+            (Some((t0, dt)), Ok(m)) => {
+                let want: Vec<u64> = std::iter::once(7.0f64.to_bits())
+                    .chain(m.value.iter().map(|v| v.map_or(f64::NAN, |x| x).to_bits()))
+                    .collect();
+                let got: Vec<u64> = out.iter().map(|v| v.to_bits()).collect();
+                assert_eq!((t0, dt), (m.t0_ns, m.dt_ns), "{text}");
+                assert_eq!(got, want, "{text}");
+                true
+            }
+            (Some(_), Err(e)) => panic!("fast path accepted what serde_json refuses ({e}): {text}"),
+            (None, _) => {
+                assert_eq!(out, vec![7.0], "{text}");
+                false
+            }
+        }
+    }
+
+    fn buffer(values: &[String]) -> String {
+        format!(
+            r#"{{"t0_ns":1700000000123456789,"dt_ns":2000000,"value":[{}]}}"#,
+            values.join(",")
+        )
+    }
+
+    #[test]
+    fn canonical_payloads_take_the_fast_path() {
+        let cases = [
+            r#"{"t0_ns":1,"dt_ns":2,"value":[]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[null,1,-0,-0.0,0.5,-9.6e-05,1E+3]}"#,
+            " {\"value\" : [ 1 , null ] ,\n\"dt_ns\":0,\t\"t0_ns\":18446744073709551615}\r\n",
+            r#"{"t0_ns":0,"dt_ns":1,"value":[0.1,0.00013,123456789012345678901234,1e-320,4.9e-324,1.7976931348623157e308]}"#,
+            r#"{"t0_ns":0,"dt_ns":1,"value":[9007199254740993,9007199254740992.5,0.30000000000000004]}"#,
+        ];
+        for c in cases {
+            assert!(agrees(c), "{c}");
+        }
+    }
+
+    #[test]
+    fn everything_else_is_left_to_serde_json() {
+        let cases = [
+            "",
+            "[1,2,[3]]",
+            r#"{"t0_ns":1,"dt_ns":2}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1],"extra":3}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1],"value":[2]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1,]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1],}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1]} x"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[01]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1.]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[.5]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[+1]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1e]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1e999]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[-1e99999]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[NaN]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[nul]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1"#,
+            r#"{"t0_ns":1.0,"dt_ns":2,"value":[1]}"#,
+            r#"{"t0_ns":-1,"dt_ns":2,"value":[1]}"#,
+            r#"{"t0_ns":18446744073709551616,"dt_ns":2,"value":[1]}"#,
+            r#"{"t0\u005fns":1,"dt_ns":2,"value":[1]}"#,
+        ];
+        for c in cases {
+            assert!(!agrees(c), "{c}");
+        }
+    }
+
+    fn number() -> impl Strategy<Value = String> {
+        prop_oneof![
+            any::<f64>()
+                .prop_filter("finite", |x| x.is_finite())
+                .prop_map(|x| format!("{x}")),
+            any::<f64>()
+                .prop_filter("finite", |x| x.is_finite())
+                .prop_map(|x| format!("{x:e}")),
+            (-1e-2f64..1e-2, 0usize..20).prop_map(|(x, p)| format!("{x:.p$}")),
+            (-1e-3f64..1e-3).prop_map(|x| format!("{x:.2e}")),
+            "-?(0|[1-9][0-9]{0,25})(\\.[0-9]{1,25})?([eE][-+]?[0-9]{1,3})?",
+            "-?[0-9]{0,3}\\.?[0-9]{0,3}[eE]?[-+]?[0-9]{0,2}",
+            Just("null".to_string()),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        #[test]
+        fn agrees_with_serde_json(values in proptest::collection::vec(number(), 0..12)) {
+            agrees(&buffer(&values));
+        }
+    }
+}
