@@ -32,7 +32,6 @@ use super::linalg::C64;
 use super::phase::{absorber, LinearPhase};
 use super::SimError;
 use crate::model::{Law, Model};
-use std::cell::Cell;
 use std::f64::consts::PI;
 
 /// The contact state of M2.
@@ -488,16 +487,11 @@ impl Sim {
             let (hit, x_end) = match mode {
                 Mode::Stick { z2 } => {
                     let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
-                    // The marching cursor is shared: arbitrary offsets are
-                    // evaluated from it (within one step, no libm).
-                    let cur = Cell::new(self.stick.cursor(&p));
-                    let eval = |d: f64| stick_jet(self.stick.jet_near(&p, &cur.get(), d), z2);
+                    let eval = |d: f64| stick_jet(self.stick.jet(&p, d), z2);
+                    let mut cur = self.stick.cursor(&p);
                     let next = |b: f64| {
-                        let mut c = cur.get();
-                        if b == c.delta + self.stick.step {
-                            let j = stick_jet(self.stick.advance(&p, &mut c), z2);
-                            cur.set(c);
-                            j
+                        if b == cur.delta + self.stick.step {
+                            stick_jet(self.stick.advance(&p, &mut cur), z2)
                         } else {
                             eval(b)
                         }
@@ -522,14 +516,11 @@ impl Sim {
                 }
                 Mode::Slip { dir } => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
-                    let cur = Cell::new(self.slip.cursor(&p));
-                    let eval = |d: f64| slip_jet(self.slip.jet_near(&p, &cur.get(), d));
+                    let eval = |d: f64| slip_jet(self.slip.jet(&p, d));
+                    let mut cur = self.slip.cursor(&p);
                     let next = |b: f64| {
-                        let mut c = cur.get();
-                        if b == c.delta + self.slip.step {
-                            let j = slip_jet(self.slip.advance(&p, &mut c));
-                            cur.set(c);
-                            j
+                        if b == cur.delta + self.slip.step {
+                            slip_jet(self.slip.advance(&p, &mut cur))
                         } else {
                             eval(b)
                         }
