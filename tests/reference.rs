@@ -68,8 +68,10 @@ fn h1_events_and_final_state_match_40_digit_reference() {
         worst_f = worst_f.max((end.x[i] - num(xr)).abs());
     }
     eprintln!("H1: worst event time rel err {worst_t:e}, worst event state abs err {worst_x:e}, final {worst_f:e}");
-    // Issue target: about 1e-12 relative (states are O(1), so absolute).
-    assert!(worst_t < 1e-12, "event times: {worst_t:e}");
-    assert!(worst_x < 1e-12, "event states: {worst_x:e}");
-    assert!(worst_f < 1e-12, "final state: {worst_f:e}");
+    // Issue target: event times to 1e-15 relative, states to 1e-14 (they
+    // are O(1), so absolute). Measured: 6.6e-16, 7.8e-15, 3.3e-15 (the
+    // engine before evaluating from its cursor: 6.8e-16, 5.6e-15, 3.3e-15).
+    assert!(worst_t < 1e-15, "event times: {worst_t:e}");
+    assert!(worst_x < 1e-14, "event states: {worst_x:e}");
+    assert!(worst_f < 1e-14, "final state: {worst_f:e}");
 }

@@ -207,16 +207,21 @@ where
 {
     // The refinement's last evaluation is usually at the root it returns:
     // remember it so the hit's jet is not computed twice.
-    let memo: std::cell::Cell<Option<(f64, Jet<N>)>> = std::cell::Cell::new(None);
+    // (A NaN offset matches nothing.)
+    let memo: std::cell::RefCell<(f64, Jet<N>)> = std::cell::RefCell::new((
+        f64::NAN,
+        Jet {
+            x: [0.0; N],
+            dx: [0.0; N],
+            ddx: [0.0; N],
+        },
+    ));
     let eval = |d: f64| -> Jet<N> {
-        if let Some((m, j)) = memo.get() {
-            if m == d {
-                return j;
-            }
+        let mut m = memo.borrow_mut();
+        if m.0 != d {
+            *m = (d, eval(d));
         }
-        let j = eval(d);
-        memo.set(Some((d, j)));
-        j
+        m.1
     };
     let j0 = eval(0.0);
     let mut a = 0.0;

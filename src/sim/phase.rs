@@ -87,6 +87,9 @@ pub struct Started<const N: usize> {
     xc: [f64; N],
     u: C64,
     s0: f64,
+    /// The forcing phasor at the start, U·e^{iηs0} (one sincos per phase,
+    /// shared by the modal projection, the δ = 0 jet and the cursor).
+    e0: C64,
     y0: [C64; N],
 }
 
@@ -158,11 +161,11 @@ impl<const N: usize> LinearPhase<N> {
             }
         }
         let mut y0 = [C64::new(0.0, 0.0); N];
+        let e0 = u * C64::from_polar(1.0, self.eta * s0);
         if let Repr::Modal { md, xh, .. } = &self.repr {
-            let e = u * C64::from_polar(1.0, self.eta * s0);
             let mut r = [0.0; N];
             for i in 0..N {
-                r[i] = x0[i] - xc[i] - (xh[i] * e).re;
+                r[i] = x0[i] - xc[i] - (xh[i] * e0).re;
             }
             for (k, yk) in y0.iter_mut().enumerate() {
                 for (i, ri) in r.iter().enumerate() {
@@ -176,6 +179,7 @@ impl<const N: usize> LinearPhase<N> {
             xc,
             u,
             s0,
+            e0,
             y0,
         }
     }
@@ -207,7 +211,7 @@ impl<const N: usize> LinearPhase<N> {
         m[N][N + 1] = -self.eta * delta;
         m[N + 1][N] = self.eta * delta;
         let e = linalg::expm(&m, n);
-        let w = p.u * C64::from_polar(1.0, self.eta * p.s0);
+        let w = p.e0;
         let mut y = [0.0; MAX_AUG];
         y[..N].copy_from_slice(&p.x0);
         y[N] = w.re;
@@ -228,8 +232,7 @@ impl<const N: usize> LinearPhase<N> {
             // Exactly the initial state: the modal reconstruction carries
             // rounding of order ε·cond(V), which must not move a switching
             // function off the boundary the phase starts on.
-            let e = p.u * C64::from_polar(1.0, self.eta * p.s0);
-            let (d1, d2) = self.derivs_e(p, &p.x0, e);
+            let (d1, d2) = self.derivs_e(p, &p.x0, p.e0);
             return (p.x0, d1, d2);
         }
         match &self.repr {
@@ -262,7 +265,7 @@ impl<const N: usize> LinearPhase<N> {
     pub fn cursor(&self, p: &Started<N>) -> Cursor<N> {
         Cursor {
             z: p.y0,
-            e: p.u * C64::from_polar(1.0, self.eta * p.s0),
+            e: p.e0,
             delta: 0.0,
         }
     }
