@@ -6,7 +6,7 @@ use super::args::ShapeArgs;
 use crate::io::Output;
 use crate::report::plot::{self, FrcCurve, FrcFigure};
 use crate::report::table::{self, FrcRow};
-use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
+use crate::sim::sweep::{self, AmplitudeRange, CurveSpec, Direction, Shard, SteadyConfig};
 use crate::sim::SimError;
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
@@ -342,6 +342,11 @@ fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
         .map(|c| {
             let h = c[0];
             let all = |f: fn(&FrcRow) -> bool| c.iter().map(|r| f(r)).collect::<Vec<_>>();
+            let range = |f: fn(&AmplitudeRange) -> f64| {
+                c.iter()
+                    .map(|r| r.range.as_ref().map(f))
+                    .collect::<Vec<_>>()
+            };
             CurveOut {
                 rho_s: h.rho_s,
                 rho_d: h.rho_d,
@@ -355,22 +360,10 @@ fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
                 stick_fraction: c.iter().map(|r| r.stick_fraction).collect(),
                 interrupted: all(|r| r.interrupted),
                 coexisting: all(|r| r.coexisting),
-                amplitude1_min: c
-                    .iter()
-                    .map(|r| r.range.map(|g| g.amplitude1_min))
-                    .collect(),
-                amplitude1_max: c
-                    .iter()
-                    .map(|r| r.range.map(|g| g.amplitude1_max))
-                    .collect(),
-                amplitude2_min: c
-                    .iter()
-                    .map(|r| r.range.map(|g| g.amplitude2_min))
-                    .collect(),
-                amplitude2_max: c
-                    .iter()
-                    .map(|r| r.range.map(|g| g.amplitude2_max))
-                    .collect(),
+                amplitude1_min: range(|g| g.amplitude1_min),
+                amplitude1_max: range(|g| g.amplitude1_max),
+                amplitude2_min: range(|g| g.amplitude2_min),
+                amplitude2_max: range(|g| g.amplitude2_max),
                 method: c.iter().map(|r| r.method.as_str()).collect(),
             }
         })

@@ -27,6 +27,7 @@
 //! to name missing shards, even one that held whole curves (or no rows).
 
 use crate::error::{Error, Result};
+use crate::sim::sweep::AmplitudeRange;
 use polars::prelude::*;
 use std::path::Path;
 
@@ -76,7 +77,7 @@ pub struct FrcRow {
     /// Another branch of the same model settles elsewhere at this η.
     pub coexisting: bool,
     /// Range of the per-period amplitudes where no steady state was found.
-    pub range: Option<crate::sim::sweep::AmplitudeRange>,
+    pub range: Option<AmplitudeRange>,
 }
 
 impl FrcRow {
@@ -169,6 +170,17 @@ pub struct TableMeta {
 }
 
 const CSV_TAG: &str = "# stickslip sweep table:";
+
+/// One bound of an [`AmplitudeRange`].
+type RangeBound = fn(&AmplitudeRange) -> f64;
+
+/// The columns of [`FrcRow::range`], in table order.
+const RANGE_COLUMNS: [(&str, RangeBound); 4] = [
+    ("amplitude1_min", |g| g.amplitude1_min),
+    ("amplitude1_max", |g| g.amplitude1_max),
+    ("amplitude2_min", |g| g.amplitude2_min),
+    ("amplitude2_max", |g| g.amplitude2_max),
+];
 
 impl TableMeta {
     fn pairs(&self) -> Vec<(String, String)> {
@@ -292,23 +304,16 @@ pub fn write_frc(rows: &[FrcRow], meta: &TableMeta, path: &Path) -> Result<()> {
             "coexisting".into(),
             rows.iter().map(|r| r.coexisting).collect::<Vec<bool>>(),
         ),
-        Column::new(
-            "amplitude1_min".into(),
-            o(|r| r.range.map(|g| g.amplitude1_min)),
-        ),
-        Column::new(
-            "amplitude1_max".into(),
-            o(|r| r.range.map(|g| g.amplitude1_max)),
-        ),
-        Column::new(
-            "amplitude2_min".into(),
-            o(|r| r.range.map(|g| g.amplitude2_min)),
-        ),
-        Column::new(
-            "amplitude2_max".into(),
-            o(|r| r.range.map(|g| g.amplitude2_max)),
-        ),
     ];
+    let mut cols = cols;
+    for (name, f) in RANGE_COLUMNS {
+        cols.push(Column::new(
+            name.into(),
+            rows.iter()
+                .map(|r| r.range.as_ref().map(f))
+                .collect::<Vec<Option<f64>>>(),
+        ));
+    }
     let mut df =
         DataFrame::new(rows.len(), cols).map_err(|e| fail(path, "cannot build the table", e))?;
     let mut out = crate::io::AtomicFile::create(path)?;
@@ -525,19 +530,14 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
         vec![None; n]
     };
     // Optional: tables written before the range existed read as None.
-    let opt = |name: &str| -> Result<Vec<Option<f64>>> {
-        if df.column(name).is_ok() {
-            fcol(name)
+    let mut range_cols = Vec::with_capacity(RANGE_COLUMNS.len());
+    for (name, _) in RANGE_COLUMNS {
+        range_cols.push(if df.column(name).is_ok() {
+            fcol(name)?
         } else {
-            Ok(vec![None; n])
-        }
-    };
-    let (r1lo, r1hi, r2lo, r2hi) = (
-        opt("amplitude1_min")?,
-        opt("amplitude1_max")?,
-        opt("amplitude2_min")?,
-        opt("amplitude2_max")?,
-    );
+            vec![None; n]
+        });
+    }
     let mut rows = Vec::with_capacity(n);
     for i in 0..n {
         let idx = |v: Option<u64>, name: &str| {
@@ -566,15 +566,16 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
             method: me[i].clone().unwrap_or_default(),
             periods: periods[i].unwrap_or(0),
             coexisting: co[i].unwrap_or(false),
-            range: match (r1lo[i], r1hi[i], r2lo[i], r2hi[i]) {
-                (Some(a), Some(b), Some(c), Some(d)) => Some(crate::sim::sweep::AmplitudeRange {
-                    amplitude1_min: a,
-                    amplitude1_max: b,
-                    amplitude2_min: c,
-                    amplitude2_max: d,
+            range: range_cols
+                .iter()
+                .map(|c| c[i])
+                .collect::<Option<Vec<f64>>>()
+                .map(|v| AmplitudeRange {
+                    amplitude1_min: v[0],
+                    amplitude1_max: v[1],
+                    amplitude2_min: v[2],
+                    amplitude2_max: v[3],
                 }),
-                _ => None,
-            },
         });
     }
     Ok(rows)

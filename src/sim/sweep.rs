@@ -324,12 +324,8 @@ pub fn steady_state(
         used: 0,
     };
     // 2. Transient, watched on the section.
-    let end = w.march(cfg.transient.min(cfg.max_periods));
-    if let Some(p) = failed(&end.status, eta, w.used) {
-        return Ok((p, Init::rest()));
-    }
-    if let Some(p) = w.tr.steady {
-        return Ok(w.settled(eta, p, t));
+    if let Some(r) = w.march_watched(cfg.transient.min(cfg.max_periods), eta, t) {
+        return Ok(r);
     }
     // 3. Proven permanent stick.
     if let Some(r) = stick_proof(model, eta, &w.state, w.used) {
@@ -351,12 +347,8 @@ pub fn steady_state(
             if left == 0 {
                 break;
             }
-            let end = w.march(block.min(left));
-            if let Some(p) = failed(&end.status, eta, w.used) {
-                return Ok((p, Init::rest()));
-            }
-            if let Some(p) = w.tr.steady {
-                return Ok(w.settled(eta, p, t));
+            if let Some(r) = w.march_watched(block.min(left), eta, t) {
+                return Ok(r);
             }
             block *= 2;
         }
@@ -378,12 +370,8 @@ pub fn steady_state(
         if left == 0 {
             break;
         }
-        let end = w.march(left.min(EARLY_BLOCK));
-        if let Some(p) = failed(&end.status, eta, w.used) {
-            return Ok((p, Init::rest()));
-        }
-        if let Some(p) = w.tr.steady {
-            return Ok(w.settled(eta, p, t));
+        if let Some(r) = w.march_watched(left.min(EARLY_BLOCK), eta, t) {
+            return Ok(r);
         }
         closest = [closest[1], closest[2], w.tr.take_closest()];
         if cfg.early_stop
@@ -482,6 +470,19 @@ impl Walk<'_, '_> {
             mode: end.mode,
         };
         end
+    }
+
+    /// Marches `n` more periods and returns the point where that ends the
+    /// search: an interruption or chatter (continue from rest), or a
+    /// section that repeats (the settled point). `None`: march on.
+    #[inline(always)]
+    fn march_watched(&mut self, n: u64, eta: f64, t: f64) -> Option<(Point, Init)> {
+        let end = self.march(n);
+        if let Some(p) = failed(&end.status, eta, self.used) {
+            return Some((p, Init::rest()));
+        }
+        let p = self.tr.steady?;
+        Some(self.settled(eta, p, t))
     }
 
     /// The point of a trajectory the detector found period-`p`, and the
