@@ -278,7 +278,10 @@ fn check_continuation(laws: &[(&str, Model)], etas: &[f64]) -> (usize, usize) {
 /// must hold the amplitudes of the periods it saw. Checked on `etas` for
 /// every law from rest; returns (early stops, points).
 fn early_stop_only_where_march_does_not_settle(etas: &[f64]) -> (usize, usize) {
-    let cfg = SteadyConfig::default();
+    let cfg = SteadyConfig {
+        early_stop: true,
+        ..SteadyConfig::default()
+    };
     let (mut fired, mut points) = (0, 0);
     for (name, m) in laws() {
         for &eta in etas {
@@ -336,4 +339,38 @@ fn early_stop_only_where_march_does_not_settle_full_grid() {
     let (fired, points) = early_stop_only_where_march_does_not_settle(&grid(0.2, 1.6, 0.01));
     eprintln!("early stop fired at {fired} of {points} points");
     assert!(fired > 0);
+}
+
+/// The counterexample that keeps the early stop off by default: on another
+/// absorber (m = 2, k = 0.5, D = 0.01; ρs 0.8, ρd 0.48, η 0.62) the
+/// trajectory from rest wanders for thousands of periods, so the early stop
+/// fires, yet the plain march settles after 12 045 periods. The default
+/// must find that steady state.
+#[test]
+fn early_stop_counterexample_settles_by_default() {
+    let m = Model {
+        absorber: Absorber {
+            m: 2.0,
+            k: 0.5,
+            damping: 0.01,
+        },
+        law: Law::Linear {
+            rho_s: 0.8,
+            rho_d: 0.48,
+            slope: 0.0,
+        },
+        stop_below: None,
+    };
+    let eta = 0.62;
+    let (r, _) = march(&m, eta, Init::rest());
+    assert!(r.steady, "the plain march settles here");
+    let (p, _) = steady_state(&m, eta, Init::rest(), &SteadyConfig::default()).unwrap();
+    assert!(p.steady, "default steady_state: {}", p.method);
+    assert!(rel(p.amplitude1.unwrap(), r.amplitude1.unwrap()) <= 1e-6);
+    let early = SteadyConfig {
+        early_stop: true,
+        ..SteadyConfig::default()
+    };
+    let (q, _) = steady_state(&m, eta, Init::rest(), &early).unwrap();
+    assert_eq!(q.method, "not-settling", "the early stop misfires here");
 }
