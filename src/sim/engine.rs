@@ -32,6 +32,7 @@ use super::linalg::C64;
 use super::phase::{absorber, LinearPhase};
 use super::SimError;
 use crate::model::{Law, Model};
+use std::cell::Cell;
 use std::f64::consts::PI;
 
 /// The contact state of M2.
@@ -487,11 +488,16 @@ impl Sim {
             let (hit, x_end) = match mode {
                 Mode::Stick { z2 } => {
                     let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
-                    let eval = |d: f64| stick_jet(self.stick.jet(&p, d), z2);
-                    let mut cur = self.stick.cursor(&p);
+                    // The marching cursor is shared: arbitrary offsets are
+                    // evaluated from it (within one step, no libm).
+                    let cur = Cell::new(self.stick.cursor(&p));
+                    let eval = |d: f64| stick_jet(self.stick.jet_near(&p, &cur.get(), d), z2);
                     let next = |b: f64| {
-                        if b == cur.delta + self.stick.step {
-                            stick_jet(self.stick.advance(&p, &mut cur), z2)
+                        let mut c = cur.get();
+                        if b == c.delta + self.stick.step {
+                            let j = stick_jet(self.stick.advance(&p, &mut c), z2);
+                            cur.set(c);
+                            j
                         } else {
                             eval(b)
                         }
@@ -516,11 +522,14 @@ impl Sim {
                 }
                 Mode::Slip { dir } => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
-                    let eval = |d: f64| slip_jet(self.slip.jet(&p, d));
-                    let mut cur = self.slip.cursor(&p);
+                    let cur = Cell::new(self.slip.cursor(&p));
+                    let eval = |d: f64| slip_jet(self.slip.jet_near(&p, &cur.get(), d));
                     let next = |b: f64| {
-                        if b == cur.delta + self.slip.step {
-                            slip_jet(self.slip.advance(&p, &mut cur))
+                        let mut c = cur.get();
+                        if b == c.delta + self.slip.step {
+                            let j = slip_jet(self.slip.advance(&p, &mut c));
+                            cur.set(c);
+                            j
                         } else {
                             eval(b)
                         }
@@ -897,6 +906,16 @@ fn slip_jet((x, dx, ddx): ([f64; 4], [f64; 4], [f64; 4])) -> Jet<4> {
 /// Locates the extremes of ζ1 and ζ2 inside a step (sign changes of ζ1',
 /// ζ2') exactly. (Within a slip with friction ζ2' cannot change sign, a
 /// zero of ζ2' is an event; without friction it can.)
+///
+/// Only the extreme *value* is wanted, and it is stationary in time: from
+/// the Hermite guess, Newton steps on ζ' (up to [`EXTREMUM_NEWTON`]) until
+/// the next step dt = −ζ'/ζ'' is below 1e-6 of the step length h ≤
+/// 1/(fastest rate); the value is then ζ − ζ'²/(2ζ''), whose neglected
+/// term ζ'''·dt³/6 is below 2e-19 of the motion's size (|ζ'''| is at most
+/// the fastest rate cubed times it), far below rounding. Usually
+/// three solution evaluations where refining the time to machine precision
+/// took five or six. Where Newton leaves the bracket or has not converged,
+/// the time is refined to machine precision as before.
 #[inline]
 pub(crate) fn track_extremum<E: Fn(f64) -> Jet<4>>(
     eval: &E,
@@ -912,19 +931,131 @@ pub(crate) fn track_extremum<E: Fn(f64) -> Jet<4>>(
             let sgn = va.signum();
             let g =
                 events::hermite_guess(a, sgn * va, sgn * ja.ddx[c], b, sgn * vb, sgn * jb.ddx[c]);
-            let r = events::refine(
-                |d| {
-                    let j = eval(d);
-                    (sgn * j.dx[c], sgn * j.ddx[c], 0.0)
-                },
-                a,
-                b,
-                b,
-                g,
-            );
-            let j = eval(r);
-            st.add(j.x[0], j.x[2]);
+            match extremum_newton(eval, c, a, b, g) {
+                Some((value, j)) => {
+                    // The extreme of ζc, and the other coordinate at the
+                    // trajectory point next to it.
+                    let mut p = [j.x[0], j.x[2]];
+                    p[c / 2] = value;
+                    st.add(p[0], p[1]);
+                }
+                None => {
+                    let r = events::refine(
+                        |d| {
+                            let j = eval(d);
+                            (sgn * j.dx[c], sgn * j.ddx[c], 0.0)
+                        },
+                        a,
+                        b,
+                        b,
+                        g,
+                    );
+                    let j = eval(r);
+                    st.add(j.x[0], j.x[2]);
+                }
+            }
         }
     }
     st.add(jb.x[0], jb.x[2]);
+}
+
+/// Newton steps allowed by [`track_extremum`] before it falls back to
+/// refining the time.
+const EXTREMUM_NEWTON: usize = 4;
+
+/// The extreme value of coordinate `c` inside (a, b) from the guess `g` by
+/// Newton steps on its velocity (see [`track_extremum`]), with the jet of
+/// the last point evaluated; `None` where Newton leaves (a, b) or does not
+/// converge.
+#[inline]
+fn extremum_newton<E: Fn(f64) -> Jet<4>>(
+    eval: &E,
+    c: usize,
+    a: f64,
+    b: f64,
+    g: f64,
+) -> Option<(f64, Jet<4>)> {
+    let tol = 1e-6 * (b - a);
+    let mut t = if g > a && g < b { g } else { 0.5 * (a + b) };
+    for _ in 0..EXTREMUM_NEWTON {
+        let j = eval(t);
+        let (v, acc) = (j.dx[c], j.ddx[c]);
+        if acc == 0.0 || !acc.is_finite() {
+            return None;
+        }
+        let dt = -v / acc;
+        if dt.abs() <= tol {
+            return Some((j.x[c] - 0.5 * v * v / acc, j));
+        }
+        t += dt;
+        if !(t > a && t < b) {
+            return None;
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// ζ1 = cos t + 0.3 sin(2.7t + 0.4) (fastest rate 2.7) and
+    /// ζ2 = 0.5 cos(0.6t + 1), with their derivatives.
+    fn jet(t: f64) -> Jet<4> {
+        let (w, p) = (2.7, 0.4);
+        let (v, q) = (0.6, 1.0);
+        let x1 = t.cos() + 0.3 * (w * t + p).sin();
+        let d1 = -t.sin() + 0.3 * w * (w * t + p).cos();
+        let dd1 = -t.cos() - 0.3 * w * w * (w * t + p).sin();
+        let x2 = 0.5 * (v * t + q).cos();
+        let d2 = -0.5 * v * (v * t + q).sin();
+        let dd2 = -0.5 * v * v * (v * t + q).cos();
+        Jet {
+            x: [x1, d1, x2, d2],
+            dx: [d1, dd1, d2, dd2],
+            ddx: [dd1, 0.0, dd2, 0.0],
+        }
+    }
+
+    /// The extremes from Newton plus the quadratic correction equal the
+    /// extremes at times refined to machine precision (the previous
+    /// method), to rounding, step by step over 40 steps with many extremes
+    /// of both coordinates.
+    #[test]
+    fn extremum_value_matches_refined_time() {
+        let h = 1.0 / 2.7;
+        let mut found = 0;
+        for k in 0..40 {
+            let (a, b) = (k as f64 * h, (k + 1) as f64 * h);
+            let (ja, jb) = (jet(a), jet(b));
+            let mut fast = PeriodStats::new(&ja.x);
+            let mut exact = PeriodStats::new(&ja.x);
+            track_extremum(&jet, &mut fast, a, &ja, b, &jb);
+            for c in [0, 2] {
+                if ja.dx[c] * jb.dx[c] < 0.0 {
+                    found += 1;
+                    let sgn = ja.dx[c].signum();
+                    let r = events::refine(
+                        |d| {
+                            let j = jet(d);
+                            (sgn * j.dx[c], sgn * j.ddx[c], 0.0)
+                        },
+                        a,
+                        b,
+                        b,
+                        f64::NAN,
+                    );
+                    let j = jet(r);
+                    exact.add(j.x[0], j.x[2]);
+                }
+            }
+            exact.add(jb.x[0], jb.x[2]);
+            for i in 0..2 {
+                for (f, e) in [(fast.min[i], exact.min[i]), (fast.max[i], exact.max[i])] {
+                    assert!((f - e).abs() <= 4.0 * f64::EPSILON, "step {k}: {f} vs {e}");
+                }
+            }
+        }
+        assert!(found >= 8, "{found} extremes");
+    }
 }

@@ -29,6 +29,33 @@ use super::linalg::{self, Aug, Modal, C64, MAX_AUG};
 /// abandoned for the matrix exponential (its error grows like cond·ε).
 const MAX_COND: f64 = 1e6;
 
+/// Sub-steps per bracketing step in the table of anchor factors used by
+/// [`LinearPhase::jet_near`]: the remaining offset r from the nearest table
+/// point has |λr|, |ηr| ≤ 1/(2·SUB).
+const SUB: usize = 16;
+
+/// 1/k!, k = 0..=9: Taylor coefficients of the exponential.
+const INV_FACT: [f64; 10] = [
+    1.0,
+    1.0,
+    1.0 / 2.0,
+    1.0 / 6.0,
+    1.0 / 24.0,
+    1.0 / 120.0,
+    1.0 / 720.0,
+    1.0 / 5040.0,
+    1.0 / 40320.0,
+    1.0 / 362880.0,
+];
+
+/// `TAYLOR_RADIUS[n]`: the largest |w| for which the degree-n Taylor
+/// polynomial of e^w has relative error below 2⁻⁵⁶ (remainder bound
+/// |w|^{n+1}/(n+1)!·e^{2|w|}/(1 − |w|/(n+2)), the e^{2|w|} covering
+/// |e^w| ≥ e^{−|w|}); index 0 is unused. Rounded down.
+const TAYLOR_RADIUS: [f64; 10] = [
+    0.0, 5.26e-9, 4.36e-6, 1.35e-4, 1.10e-3, 4.63e-3, 1.31e-2, 2.91e-2, 5.48e-2, 9.15e-2,
+];
+
 #[derive(Debug, Clone, Copy)]
 enum Repr<const N: usize> {
     /// Modal form with the unit-amplitude harmonic response X. Complex
@@ -64,6 +91,10 @@ pub struct LinearPhase<const N: usize> {
     pub step: f64,
     lam_step: [C64; N],
     eta_step: C64,
+    /// e^{λ·j·h/SUB} and e^{iη·j·h/SUB} for j = −SUB..=SUB (index j + SUB):
+    /// anchors within a step for [`LinearPhase::jet_near`].
+    lam_sub: [[C64; N]; 2 * SUB + 1],
+    eta_sub: [C64; 2 * SUB + 1],
 }
 
 /// The exact solution marched on the bracketing grid δ = j·h: modal terms
@@ -74,8 +105,10 @@ pub struct LinearPhase<const N: usize> {
 pub struct Cursor<const N: usize> {
     z: [C64; N],
     e: C64,
-    /// Offset δ of the cursor.
+    /// Offset δ of the cursor (accumulated like the bracketing grid).
     pub delta: f64,
+    /// Steps taken: the factors are those of the offset `steps·h` exactly.
+    steps: f64,
 }
 
 /// A phase started from a given state: evaluates the exact solution at any
@@ -127,9 +160,18 @@ impl<const N: usize> LinearPhase<N> {
         };
         let step = 1.0 / fastest;
         let mut lam_step = [C64::new(0.0, 0.0); N];
+        let mut lam_sub = [[C64::new(0.0, 0.0); N]; 2 * SUB + 1];
+        let mut eta_sub = [C64::new(0.0, 0.0); 2 * SUB + 1];
         if let Repr::Modal { md, .. } = &repr {
             for k in 0..N {
                 lam_step[k] = (md.lambda[k] * step).exp();
+            }
+            for (j, (ls, es)) in lam_sub.iter_mut().zip(eta_sub.iter_mut()).enumerate() {
+                let off = (j as f64 - SUB as f64) * (step / SUB as f64);
+                for k in 0..N {
+                    ls[k] = (md.lambda[k] * off).exp();
+                }
+                *es = C64::from_polar(1.0, eta * off);
             }
         }
         Some(Self {
@@ -142,6 +184,8 @@ impl<const N: usize> LinearPhase<N> {
             step,
             lam_step,
             eta_step: C64::from_polar(1.0, eta * step),
+            lam_sub,
+            eta_sub,
         })
     }
 
@@ -267,13 +311,74 @@ impl<const N: usize> LinearPhase<N> {
             z: p.y0,
             e: p.e0,
             delta: 0.0,
+            steps: 0.0,
         }
+    }
+
+    /// The jet at offset δ evaluated from a nearby cursor instead of the
+    /// phase start: for |δ − c| ≤ h (the bracketing step, so |λ(δ − c)| ≤ 1)
+    /// the cursor's modal and forcing factors are multiplied by a tabulated
+    /// e^{λ·j·h/SUB}, e^{iη·j·h/SUB} (nearest j) and by e^{λr}, e^{iηr} for
+    /// the rest |r| ≤ h/(2·SUB), taken from a Taylor polynomial whose degree
+    /// keeps its truncation below 2⁻⁵⁶ relative (no libm call). Each factor
+    /// is exact to a few ε, so the result differs from [`LinearPhase::jet`]
+    /// by rounding only (the cursor's own drift, a few ε per step, is of the
+    /// order of the argument rounding ε·|λδ| of the direct evaluation).
+    /// Elsewhere, at δ = 0 and for the matrix-exponential form: `jet`.
+    #[inline]
+    pub fn jet_near(
+        &self,
+        p: &Started<N>,
+        c: &Cursor<N>,
+        delta: f64,
+    ) -> ([f64; N], [f64; N], [f64; N]) {
+        if let (
+            Repr::Modal {
+                md,
+                xh,
+                terms,
+                nterms,
+            },
+            true,
+        ) = (&self.repr, delta != 0.0 && *nterms_of(&self.repr) <= 2)
+        {
+            let t = delta - c.steps * self.step;
+            // Nearest table point j = round(t·SUB/h) (as an index j + SUB).
+            let q = t * (SUB as f64 * self.fastest) + (SUB as f64 + 0.5);
+            if q >= 0.0 && q < (2 * SUB + 1) as f64 {
+                let idx = q as usize;
+                let r = t - (idx as f64 - SUB as f64) * (self.step / SUB as f64);
+                let wmax = (self.fastest * r).abs();
+                let mut n = 1;
+                while n < 9 && wmax > TAYLOR_RADIUS[n] {
+                    n += 1;
+                }
+                // Up to two modal terms and the forcing: three Horner chains.
+                let mut w = [C64::new(0.0, 0.0); 3];
+                for (wi, &(k, _)) in w.iter_mut().zip(&terms[..*nterms]) {
+                    *wi = md.lambda[k] * r;
+                }
+                w[2] = C64::new(0.0, self.eta * r);
+                let f = exp_taylor(&w, n);
+                let ls = &self.lam_sub[idx];
+                let mut z = [C64::new(0.0, 0.0); N];
+                for (&fi, &(k, _)) in f.iter().zip(&terms[..*nterms]) {
+                    z[k] = c.z[k] * ls[k] * fi;
+                }
+                let e = c.e * self.eta_sub[idx] * f[2];
+                let x = self.modal_state(md, xh, terms, *nterms, p, &z, e);
+                let (d1, d2) = self.derivs_e(p, &x, e);
+                return (x, d1, d2);
+            }
+        }
+        self.jet(p, delta)
     }
 
     /// Advances the cursor by one bracketing step and returns the jet there.
     #[inline]
     pub fn advance(&self, p: &Started<N>, c: &mut Cursor<N>) -> ([f64; N], [f64; N], [f64; N]) {
         c.delta += self.step;
+        c.steps += 1.0;
         match &self.repr {
             Repr::Modal {
                 md,
@@ -339,6 +444,28 @@ impl<const N: usize> LinearPhase<N> {
         }
         (d1, d2)
     }
+}
+
+/// Number of modal terms (0 for the matrix-exponential form).
+#[inline]
+fn nterms_of<const N: usize>(r: &Repr<N>) -> &usize {
+    match r {
+        Repr::Modal { nterms, .. } => nterms,
+        Repr::Expm => &0,
+    }
+}
+
+/// e^{w_i} for |w_i| ≤ `TAYLOR_RADIUS[n]`: the degree-n Taylor polynomial by
+/// Horner's rule, the chains interleaved (fixed length: kept in registers).
+#[inline(always)]
+fn exp_taylor<const M: usize>(w: &[C64; M], n: usize) -> [C64; M] {
+    let mut p = [C64::new(INV_FACT[n], 0.0); M];
+    for &cf in INV_FACT[..n].iter().rev() {
+        for (pi, wi) in p.iter_mut().zip(w) {
+            *pi = *pi * wi + cf;
+        }
+    }
+    p
 }
 
 /// Pairs conjugate eigenvalues: returns the representative terms with their
