@@ -326,13 +326,26 @@ pub fn steady_state(
         dwell: 0,
         used: 0,
     };
-    // 2. Transient, watched on the section.
-    if let Some(r) = w.march_watched(cfg.transient.min(cfg.max_periods), eta, t) {
-        return Ok(r);
-    }
-    // 3. Proven permanent stick.
-    if let Some(r) = stick_proof(model, eta, &w.state, w.used) {
-        return Ok(r);
+    // 2. Transient, watched on the section, with 3. the proof of a
+    //    permanent stick tried after 2, 4, 8, … periods of it: once it
+    //    holds it holds for good (the stuck position stays, the free
+    //    motion's energy only decreases), so the rest of the transient
+    //    would end in the same closed form.
+    let transient = cfg.transient.min(cfg.max_periods);
+    let mut marched = 0;
+    let mut chunk = PROOF_FIRST.min(transient);
+    loop {
+        if let Some(r) = w.march_watched(chunk, eta, t) {
+            return Ok(r);
+        }
+        marched += chunk;
+        if let Some(r) = stick_proof(model, eta, &w.state, w.used) {
+            return Ok(r);
+        }
+        if marched >= transient {
+            break;
+        }
+        chunk = marched.min(transient - marched);
     }
     // 4. Newton shooting on the p-th iterate, accepted only where the
     //    trajectory itself is seen to approach the orbit found; between
@@ -404,6 +417,10 @@ pub fn steady_state(
     });
     Ok((pt, w.state))
 }
+
+/// Transient periods before the first attempt at the permanent-stick proof
+/// (then after twice as many, and so on, to the end of the transient).
+const PROOF_FIRST: u64 = 2;
 
 /// Periods per block of the marching fallback (stage 5 of
 /// [`steady_state`]).
