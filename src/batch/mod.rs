@@ -143,7 +143,7 @@ use crate::identify::LogFit;
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Law, Model};
 use crate::sim::engine::Init;
-use crate::sim::sweep::{curve, steady_state, Direction, SteadyConfig};
+use crate::sim::sweep::{curve, steady_state_with, Direction, SteadyConfig};
 use crate::sim::SimError;
 use crate::stats::golden_section;
 use crate::Result;

@@ -63,7 +63,12 @@ pub fn worst_case(
         .map(|&d| match d {
             Direction::Rest => etas
                 .par_iter()
-                .map(|&e| steady_state(&model, e, Init::rest(), cfg).map(|(p, _)| p))
+                .map_init(
+                    || None,
+                    |engine, &e| {
+                        steady_state_with(engine, &model, e, Init::rest(), cfg).map(|(p, _)| p)
+                    },
+                )
                 .collect(),
             _ => curve(&model, etas, d, cfg),
         })

@@ -159,21 +159,18 @@ impl<const N: usize> LinearPhase<N> {
             _ => Repr::Expm,
         };
         let step = 1.0 / fastest;
-        let mut lam_step = [C64::new(0.0, 0.0); N];
-        let mut lam_sub = [[C64::new(0.0, 0.0); N]; 2 * SUB + 1];
-        let mut eta_sub = [C64::new(0.0, 0.0); 2 * SUB + 1];
-        if let Repr::Modal { md, .. } = &repr {
-            for k in 0..N {
-                lam_step[k] = (md.lambda[k] * step).exp();
-            }
-            for (j, (ls, es)) in lam_sub.iter_mut().zip(eta_sub.iter_mut()).enumerate() {
-                let off = (j as f64 - SUB as f64) * (step / SUB as f64);
-                for k in 0..N {
-                    ls[k] = (md.lambda[k] * off).exp();
-                }
-                *es = C64::from_polar(1.0, eta * off);
-            }
-        }
+        let (lam_step, lam_sub) = match &repr {
+            Repr::Modal { md, .. } => lam_tables(md, step),
+            Repr::Expm => (
+                [C64::new(0.0, 0.0); N],
+                [[C64::new(0.0, 0.0); N]; 2 * SUB + 1],
+            ),
+        };
+        let eta_sub = if matches!(repr, Repr::Modal { .. }) {
+            eta_table(eta, step)
+        } else {
+            [C64::new(0.0, 0.0); 2 * SUB + 1]
+        };
         Some(Self {
             a,
             b,
@@ -186,6 +183,51 @@ impl<const N: usize> LinearPhase<N> {
             eta_step: C64::from_polar(1.0, eta * step),
             lam_sub,
             eta_sub,
+        })
+    }
+
+    /// The same phase system at another forcing frequency η, bit-identical
+    /// to `LinearPhase::new(a, b, η)` but cheaper: the eigen-decomposition
+    /// (which does not depend on η) is reused, and so are the modal step
+    /// tables where the bracketing step stays the same (η below the
+    /// fastest mode). A sweep over η calls this once per point.
+    pub fn at_eta(&self, eta: f64) -> Option<Self> {
+        let Repr::Modal {
+            md, terms, nterms, ..
+        } = &self.repr
+        else {
+            return Self::new(self.a, self.b, eta);
+        };
+        let Some(xh) = linalg::shifted_solve(&self.a, C64::new(0.0, eta), &self.b) else {
+            return Self::new(self.a, self.b, eta);
+        };
+        let fastest = md
+            .lambda
+            .iter()
+            .map(|l| l.norm())
+            .fold(0.0, f64::max)
+            .max(eta);
+        let step = 1.0 / fastest;
+        let (lam_step, lam_sub) = if step.to_bits() == self.step.to_bits() {
+            (self.lam_step, self.lam_sub)
+        } else {
+            lam_tables(md, step)
+        };
+        Some(Self {
+            eta,
+            repr: Repr::Modal {
+                md: *md,
+                xh,
+                terms: *terms,
+                nterms: *nterms,
+            },
+            fastest,
+            step,
+            lam_step,
+            eta_step: C64::from_polar(1.0, eta * step),
+            lam_sub,
+            eta_sub: eta_table(eta, step),
+            ..*self
         })
     }
 
@@ -466,6 +508,34 @@ fn exp_taylor<const M: usize>(w: &[C64; M], n: usize) -> [C64; M] {
         }
     }
     p
+}
+
+/// The modal factors e^{λh} of one bracketing step h and e^{λ·j·h/SUB},
+/// j = −SUB..=SUB, of the table of [`LinearPhase::jet_near`].
+#[allow(clippy::type_complexity)]
+fn lam_tables<const N: usize>(md: &Modal<N>, step: f64) -> ([C64; N], [[C64; N]; 2 * SUB + 1]) {
+    let mut lam_step = [C64::new(0.0, 0.0); N];
+    let mut lam_sub = [[C64::new(0.0, 0.0); N]; 2 * SUB + 1];
+    for k in 0..N {
+        lam_step[k] = (md.lambda[k] * step).exp();
+    }
+    for (j, ls) in lam_sub.iter_mut().enumerate() {
+        let off = (j as f64 - SUB as f64) * (step / SUB as f64);
+        for k in 0..N {
+            ls[k] = (md.lambda[k] * off).exp();
+        }
+    }
+    (lam_step, lam_sub)
+}
+
+/// The forcing factors e^{iη·j·h/SUB}, j = −SUB..=SUB.
+fn eta_table(eta: f64, step: f64) -> [C64; 2 * SUB + 1] {
+    let mut eta_sub = [C64::new(0.0, 0.0); 2 * SUB + 1];
+    for (j, es) in eta_sub.iter_mut().enumerate() {
+        let off = (j as f64 - SUB as f64) * (step / SUB as f64);
+        *es = C64::from_polar(1.0, eta * off);
+    }
+    eta_sub
 }
 
 /// Pairs conjugate eigenvalues: returns the representative terms with their

@@ -307,7 +307,20 @@ pub fn steady_state(
     init: Init,
     cfg: &SteadyConfig,
 ) -> Result<(Point, Init), SimError> {
-    let t = 2.0 * std::f64::consts::PI / eta;
+    steady_state_with(&mut None, model, eta, init, cfg)
+}
+
+/// [`steady_state`] with the engine of the previous point of a sweep in
+/// `engine` (replaced by this point's): the model's eigen-decompositions
+/// are reused ([`Sim::at_eta`]) where it is the same model. Results are
+/// bit-identical to [`steady_state`].
+pub fn steady_state_with(
+    engine: &mut Option<Sim>,
+    model: &Model,
+    eta: f64,
+    init: Init,
+    cfg: &SteadyConfig,
+) -> Result<(Point, Init), SimError> {
     // 1. Closed forms.
     if let Some(r) = closed_form(model, eta, &init) {
         return Ok(r);
@@ -317,10 +330,27 @@ pub fn steady_state(
             "the period budget (max_periods) must be at least 1".into(),
         ));
     }
-    let sim = Sim::new(model, eta)?;
+    let sim = match engine.as_ref() {
+        Some(s) if s.model() == model => s.at_eta(eta)?,
+        _ => Sim::new(model, eta)?,
+    };
+    let r = march_to_steady(&sim, model, eta, init, cfg);
+    *engine = Some(sim);
+    r
+}
+
+/// Stages 2–5 of [`steady_state`] on the engine `sim` at η.
+fn march_to_steady(
+    sim: &Sim,
+    model: &Model,
+    eta: f64,
+    init: Init,
+    cfg: &SteadyConfig,
+) -> Result<(Point, Init), SimError> {
+    let t = 2.0 * std::f64::consts::PI / eta;
     let mut unit = ();
     let mut w = Walk {
-        sim: &sim,
+        sim,
         tr: Tracker::new(&mut unit, cfg.tol, true),
         state: init,
         dwell: 0,
@@ -861,13 +891,14 @@ pub fn curve(
     }
     let mut out: Vec<Option<Point>> = vec![None; etas.len()];
     let mut state = Init::rest();
+    let mut engine = None;
     for i in order {
         let start = if direction == Direction::Rest {
             Init::rest()
         } else {
             state
         };
-        let (p, next) = steady_state(model, etas[i], start, cfg)?;
+        let (p, next) = steady_state_with(&mut engine, model, etas[i], start, cfg)?;
         state = next;
         out[i] = Some(p);
     }
@@ -979,33 +1010,37 @@ pub fn family(
         .collect();
     let parts: Result<Vec<Vec<Row>>, SimError> = mine
         .par_iter()
-        .map(|&(c, p)| {
-            let spec = &specs[c];
-            match p {
-                Some(p) => {
-                    let (v, _) = steady_state(&spec.model, etas[p], Init::rest(), cfg)?;
-                    tick(1);
-                    Ok(vec![Row {
-                        curve: c,
-                        point: p,
-                        value: v,
-                    }])
-                }
-                None => {
-                    let pts = curve(&spec.model, etas, spec.direction, cfg)?;
-                    tick(pts.len() as u64);
-                    Ok(pts
-                        .into_iter()
-                        .enumerate()
-                        .map(|(p, v)| Row {
+        .map_init(
+            || None,
+            |engine, &(c, p)| {
+                let spec = &specs[c];
+                match p {
+                    Some(p) => {
+                        let (v, _) =
+                            steady_state_with(engine, &spec.model, etas[p], Init::rest(), cfg)?;
+                        tick(1);
+                        Ok(vec![Row {
                             curve: c,
                             point: p,
                             value: v,
-                        })
-                        .collect())
+                        }])
+                    }
+                    None => {
+                        let pts = curve(&spec.model, etas, spec.direction, cfg)?;
+                        tick(pts.len() as u64);
+                        Ok(pts
+                            .into_iter()
+                            .enumerate()
+                            .map(|(p, v)| Row {
+                                curve: c,
+                                point: p,
+                                value: v,
+                            })
+                            .collect())
+                    }
                 }
-            }
-        })
+            },
+        )
         .collect();
     let mut rows: Vec<Row> = parts?.into_iter().flatten().collect();
     rows.sort_by_key(|r| (r.curve, r.point));

@@ -32,7 +32,7 @@ use crate::model::{Absorber, Law, LawKind, Model, Scales, Schedule, Segment, SiL
 use crate::sim::engine::{Event, Init, Observer};
 use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
-use crate::sim::sweep::{steady_state, SteadyConfig};
+use crate::sim::sweep::{steady_state_with, SteadyConfig};
 use crate::sim::SimError;
 use crate::stats::quantile_sorted;
 use crate::stats::Rng;
@@ -543,12 +543,13 @@ fn steady_one(
 ) -> Vec<Option<(f64, f64)>> {
     let mut state = Init::rest();
     let mut out = Vec::with_capacity(etas.len());
+    let mut engine = None;
     for (i, &eta) in etas.iter().enumerate() {
         let c = SteadyConfig {
             max_periods: budgets.map_or(cfg.max_periods, |b| b[i]),
             ..*cfg
         };
-        match steady_state(model, eta, state, &c) {
+        match steady_state_with(&mut engine, model, eta, state, &c) {
             Ok((p, next)) => {
                 state = next;
                 out.push(match (p.amplitude1, p.amplitude2) {
