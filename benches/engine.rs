@@ -49,6 +49,11 @@ fn steady_period(c: &mut Criterion) {
     c.bench_function("set-up: Sim::new (eigen-decompositions)", |b| {
         b.iter(|| Sim::new(black_box(&model), 0.6).unwrap())
     });
+    // A sweep's next point: the same model retuned to another eta.
+    let other = Sim::new(&model, 0.55).unwrap();
+    c.bench_function("set-up: Sim::at_eta (next point of a sweep)", |b| {
+        b.iter(|| black_box(&other).at_eta(black_box(0.6)).unwrap())
+    });
 }
 
 criterion_group!(benches, steady_period);
