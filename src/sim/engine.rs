@@ -944,7 +944,9 @@ fn slip_jet((x, dx, ddx): ([f64; 4], [f64; 4], [f64; 4])) -> Jet<4> {
 /// the fastest rate cubed times it), far below rounding. Usually
 /// three solution evaluations where refining the time to machine precision
 /// took five or six. Where Newton leaves the bracket or has not converged,
-/// the time is refined to machine precision as before.
+/// the time is refined to machine precision as before. (The numerical
+/// engines call this on their own integration steps and dense output,
+/// whose interpolation error is far above the neglected term.)
 #[inline]
 pub(crate) fn track_extremum<E: Fn(f64) -> Jet<4>>(
     eval: &E,

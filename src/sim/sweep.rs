@@ -7,7 +7,9 @@
 //! 3. a **proven permanent stick**: M2 sticks at the section and the
 //!    1-DOF motion can never load the pad up to ρs — the contact force is
 //!    bounded by its steady part plus a bound on the decaying free part from
-//!    its (non-increasing) energy — so the answer is the 1-DOF closed form;
+//!    its (non-increasing) energy — so the answer is the 1-DOF closed form
+//!    (tried after 2, 4, 8 and 16 periods of the transient: a proof that
+//!    holds stays true);
 //! 4. **Newton shooting** on the p-th return map P^p (p ≤ 8, the smallest
 //!    p whose section return distance ‖x_n − x_{n−p}‖ is within 4× the
 //!    best), with a finite-difference Jacobian in the stuck or slipping
@@ -43,7 +45,8 @@
 //! `Direction::Rest` starts every η from rest.
 //!
 //! Curves are independent, so families run in parallel (rayon) with results
-//! identical for any thread count.
+//! identical for any thread count. Along a curve the model is set up once
+//! and retuned to each η ([`steady_state_with`], [`Sim::at_eta`]).
 
 use faer::linalg::solvers::Solve;
 
