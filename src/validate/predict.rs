@@ -531,39 +531,97 @@ fn shown_part(sched: &Schedule, windows: &[(f64, f64, f64)]) -> Schedule {
     }
 }
 
-/// The steady-state curve of one law at `etas`, continued in the given
-/// order from rest; `budgets[i]` caps the marching fallback at point i
-/// (None: `cfg.max_periods`). A point that fails (an interruption) has no
+/// One law's steady-state curve at the measured η, continued in the
+/// sweep's order from rest and advanced a stretch of points at a time;
+/// `budgets[i]` caps the marching fallback at point i (None:
+/// `cfg.max_periods`). A point that fails (an interruption) has no
 /// amplitude and the continuation restarts from rest after it.
-fn steady_one(
-    model: &Model,
-    etas: &[f64],
-    cfg: &SteadyConfig,
-    budgets: Option<&[u64]>,
-) -> Vec<Option<(f64, f64)>> {
-    let mut state = Init::rest();
-    let mut out = Vec::with_capacity(etas.len());
-    let mut engine = None;
-    for (i, &eta) in etas.iter().enumerate() {
-        let c = SteadyConfig {
-            max_periods: budgets.map_or(cfg.max_periods, |b| b[i]),
-            ..*cfg
-        };
-        match steady_state_with(&mut engine, model, eta, state, &c) {
-            Ok((p, next)) => {
-                state = next;
-                out.push(match (p.amplitude1, p.amplitude2) {
-                    (Some(a1), Some(a2)) if p.steady => Some((a1, a2)),
-                    _ => None,
-                });
-            }
-            Err(_) => {
-                state = Init::rest();
-                out.push(None);
+struct Continuation<'m> {
+    model: &'m Model,
+    state: Init,
+    engine: Option<crate::sim::Sim>,
+    out: Vec<Option<(f64, f64)>>,
+}
+
+impl<'m> Continuation<'m> {
+    fn new(model: &'m Model) -> Self {
+        Self {
+            model,
+            state: Init::rest(),
+            engine: None,
+            out: Vec::new(),
+        }
+    }
+
+    /// Continues up to point `upto` (exclusive) of `etas`.
+    fn advance(&mut self, etas: &[f64], upto: usize, cfg: &SteadyConfig, budgets: Option<&[u64]>) {
+        while self.out.len() < upto.min(etas.len()) {
+            let i = self.out.len();
+            let c = SteadyConfig {
+                max_periods: budgets.map_or(cfg.max_periods, |b| b[i]),
+                ..*cfg
+            };
+            match steady_state_with(&mut self.engine, self.model, etas[i], self.state, &c) {
+                Ok((p, next)) => {
+                    self.state = next;
+                    self.out.push(match (p.amplitude1, p.amplitude2) {
+                        (Some(a1), Some(a2)) if p.steady => Some((a1, a2)),
+                        _ => None,
+                    });
+                }
+                Err(_) => {
+                    self.state = Init::rest();
+                    self.out.push(None);
+                }
             }
         }
     }
-    out
+}
+
+/// Points per stretch of [`steady_all`]'s pipeline.
+const STRETCH: usize = 16;
+
+/// The steady states of the central law and of the draws. A draw's
+/// marching budget at a point is `band_max_periods` where the central law
+/// has a steady state there and `band_unsettled_periods` where it has none
+/// (a point with no periodic response for the central law rarely has one
+/// for a nearby law, and its band needs half the draws), so the draws
+/// follow the central continuation: they run a stretch behind it, side by
+/// side with its next stretch, instead of waiting for all of it (the
+/// central continuation is sequential and the longest single task of a
+/// validation). Every continuation computes exactly what it would alone.
+fn steady_all(
+    model: &Model,
+    draws: &[Model],
+    etas: &[f64],
+    opts: &PredictOptions,
+) -> (Amps, Vec<Amps>) {
+    let budget = |c: &Option<(f64, f64)>| {
+        if c.is_some() {
+            opts.band_max_periods
+        } else {
+            opts.band_unsettled_periods
+        }
+        .min(opts.steady.max_periods)
+    };
+    let n = etas.len();
+    let mut central = Continuation::new(model);
+    let mut followers: Vec<Continuation> = draws.iter().map(Continuation::new).collect();
+    central.advance(etas, STRETCH, &opts.steady, None);
+    while followers.iter().any(|f| f.out.len() < n) {
+        let ready = central.out.len();
+        let budgets: Vec<u64> = central.out.iter().map(budget).collect();
+        rayon::join(
+            || central.advance(etas, ready + STRETCH, &opts.steady, None),
+            || {
+                followers
+                    .par_iter_mut()
+                    .for_each(|f| f.advance(etas, ready, &opts.steady, Some(&budgets)))
+            },
+        );
+    }
+    central.advance(etas, n, &opts.steady, None);
+    (central.out, followers.into_iter().map(|f| f.out).collect())
 }
 
 /// Central values and the 2.5–97.5 % band (over the central run and the
@@ -712,18 +770,10 @@ pub fn predict_with(
     let sched = schedule(frc)?;
     let windows = replay_windows(frc, opts);
 
-    // The central law (steady state and replay side by side), then the
-    // draws in parallel, collected in order. A draw's marching budget is
-    // `band_max_periods` where the central law has a steady state and
-    // `band_unsettled_periods` where it has none (a point with no periodic
-    // response for the central law rarely has one for a nearby law, and
-    // its band needs half the draws).
-    // The central steady state is one sequential continuation (seconds
-    // where points have no periodic response and run the whole budget), so
-    // it runs beside the replays, which need nothing from it; the draws'
-    // steady states follow, with budgets from the central one.
-    let (c_steady, (c_replay, d_replay)) = rayon::join(
-        || steady_one(&model, &etas, &opts.steady, None),
+    // The steady states (the central continuation, the draws' a stretch
+    // behind it) beside the replays, which need nothing from them.
+    let ((c_steady, d_steady), (c_replay, d_replay)) = rayon::join(
+        || steady_all(&model, &models, &etas, opts),
         || {
             rayon::join(
                 || replay_one(&model, &sched, &windows, opts),
@@ -736,21 +786,6 @@ pub fn predict_with(
             )
         },
     );
-    let budgets: Vec<u64> = c_steady
-        .iter()
-        .map(|c| {
-            if c.is_some() {
-                opts.band_max_periods
-            } else {
-                opts.band_unsettled_periods
-            }
-            .min(opts.steady.max_periods)
-        })
-        .collect();
-    let d_steady: Vec<Amps> = models
-        .par_iter()
-        .map(|m| steady_one(m, &etas, &opts.steady, Some(&budgets)))
-        .collect();
     let (c_steady, c_replay) = (&c_steady, &c_replay);
     let steady = banded(&etas, c_steady, &d_steady);
     let replay = banded(&etas, c_replay, &d_replay);
