@@ -134,7 +134,7 @@ impl<const N: usize> LinearPhase<N> {
         let md = linalg::modal(&a);
         let fastest = md
             .as_ref()
-            .map(|m| m.lambda.iter().map(|l| l.norm()).fold(0.0, f64::max))
+            .map(modal_rate)
             .unwrap_or_else(|| {
                 (0..N)
                     .map(|i| (0..N).map(|j| a[i][j].abs()).sum::<f64>())
@@ -159,17 +159,16 @@ impl<const N: usize> LinearPhase<N> {
             _ => Repr::Expm,
         };
         let step = 1.0 / fastest;
-        let (lam_step, lam_sub) = match &repr {
-            Repr::Modal { md, .. } => lam_tables(md, step),
+        // The matrix-exponential form marches and evaluates without tables.
+        let ((lam_step, lam_sub), eta_sub) = match &repr {
+            Repr::Modal { md, .. } => (lam_tables(md, step), eta_table(eta, step)),
             Repr::Expm => (
-                [C64::new(0.0, 0.0); N],
-                [[C64::new(0.0, 0.0); N]; 2 * SUB + 1],
+                (
+                    [C64::new(0.0, 0.0); N],
+                    [[C64::new(0.0, 0.0); N]; 2 * SUB + 1],
+                ),
+                [C64::new(0.0, 0.0); 2 * SUB + 1],
             ),
-        };
-        let eta_sub = if matches!(repr, Repr::Modal { .. }) {
-            eta_table(eta, step)
-        } else {
-            [C64::new(0.0, 0.0); 2 * SUB + 1]
         };
         Some(Self {
             a,
@@ -201,12 +200,7 @@ impl<const N: usize> LinearPhase<N> {
         let Some(xh) = linalg::shifted_solve(&self.a, C64::new(0.0, eta), &self.b) else {
             return Self::new(self.a, self.b, eta);
         };
-        let fastest = md
-            .lambda
-            .iter()
-            .map(|l| l.norm())
-            .fold(0.0, f64::max)
-            .max(eta);
+        let fastest = modal_rate(md).max(eta);
         let step = 1.0 / fastest;
         let (lam_step, lam_sub) = if step.to_bits() == self.step.to_bits() {
             (self.lam_step, self.lam_sub)
@@ -374,22 +368,22 @@ impl<const N: usize> LinearPhase<N> {
         c: &Cursor<N>,
         delta: f64,
     ) -> ([f64; N], [f64; N], [f64; N]) {
-        if let (
-            Repr::Modal {
-                md,
-                xh,
-                terms,
-                nterms,
-            },
-            true,
-        ) = (&self.repr, delta != 0.0 && *nterms_of(&self.repr) <= 2)
+        if let Repr::Modal {
+            md,
+            xh,
+            terms,
+            nterms,
+        } = &self.repr
         {
+            if delta == 0.0 || *nterms > 2 {
+                return self.jet(p, delta);
+            }
             let t = delta - c.steps * self.step;
             // Nearest table point j = round(t·SUB/h) (as an index j + SUB).
             let q = t * (SUB as f64 * self.fastest) + (SUB as f64 + 0.5);
             if q >= 0.0 && q < (2 * SUB + 1) as f64 {
                 let idx = q as usize;
-                let r = t - (idx as f64 - SUB as f64) * (self.step / SUB as f64);
+                let r = t - table_offset(idx, self.step);
                 let wmax = (self.fastest * r).abs();
                 let mut n = 1;
                 while n < 9 && wmax > TAYLOR_RADIUS[n] {
@@ -488,13 +482,15 @@ impl<const N: usize> LinearPhase<N> {
     }
 }
 
-/// Number of modal terms (0 for the matrix-exponential form).
+/// The largest |λ| of a modal decomposition (the fastest mode's rate).
+fn modal_rate<const N: usize>(md: &Modal<N>) -> f64 {
+    md.lambda.iter().map(|l| l.norm()).fold(0.0, f64::max)
+}
+
+/// Offset of table point j (index j + SUB) for the bracketing step `step`.
 #[inline]
-fn nterms_of<const N: usize>(r: &Repr<N>) -> &usize {
-    match r {
-        Repr::Modal { nterms, .. } => nterms,
-        Repr::Expm => &0,
-    }
+fn table_offset(j: usize, step: f64) -> f64 {
+    (j as f64 - SUB as f64) * (step / SUB as f64)
 }
 
 /// e^{w_i} for |w_i| ≤ `TAYLOR_RADIUS[n]`: the degree-n Taylor polynomial by
@@ -520,7 +516,7 @@ fn lam_tables<const N: usize>(md: &Modal<N>, step: f64) -> ([C64; N], [[C64; N];
         lam_step[k] = (md.lambda[k] * step).exp();
     }
     for (j, ls) in lam_sub.iter_mut().enumerate() {
-        let off = (j as f64 - SUB as f64) * (step / SUB as f64);
+        let off = table_offset(j, step);
         for k in 0..N {
             ls[k] = (md.lambda[k] * off).exp();
         }
@@ -532,7 +528,7 @@ fn lam_tables<const N: usize>(md: &Modal<N>, step: f64) -> ([C64; N], [[C64; N];
 fn eta_table(eta: f64, step: f64) -> [C64; 2 * SUB + 1] {
     let mut eta_sub = [C64::new(0.0, 0.0); 2 * SUB + 1];
     for (j, es) in eta_sub.iter_mut().enumerate() {
-        let off = (j as f64 - SUB as f64) * (step / SUB as f64);
+        let off = table_offset(j, step);
         *es = C64::from_polar(1.0, eta * off);
     }
     eta_sub

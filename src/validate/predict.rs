@@ -608,7 +608,7 @@ fn steady_all(
     let mut central = Continuation::new(model);
     let mut followers: Vec<Continuation> = draws.iter().map(Continuation::new).collect();
     central.advance(etas, STRETCH, &opts.steady, None);
-    while followers.iter().any(|f| f.out.len() < n) {
+    loop {
         let ready = central.out.len();
         let budgets: Vec<u64> = central.out.iter().map(budget).collect();
         rayon::join(
@@ -619,8 +619,10 @@ fn steady_all(
                     .for_each(|f| f.advance(etas, ready, &opts.steady, Some(&budgets)))
             },
         );
+        if ready == n {
+            break;
+        }
     }
-    central.advance(etas, n, &opts.steady, None);
     (central.out, followers.into_iter().map(|f| f.out).collect())
 }
 
