@@ -29,7 +29,7 @@
 
 use super::events::{self, EventFn, Jet};
 use super::linalg::C64;
-use super::phase::{absorber, LinearPhase};
+use super::phase::{absorber, LinearPhase, Sampler};
 use super::SimError;
 use crate::model::{Law, Model};
 use std::cell::Cell;
@@ -489,6 +489,8 @@ impl Sim {
         let mut stick_time = 0.0;
         let mut stats = PeriodStats::new(&x);
         let mut instant = 0u32;
+        let mut samp_stick = Sampler::<2>::default();
+        let mut samp_slip = Sampler::<4>::default();
         let end = |n: u64, s: f64, x: [f64; 4], mode, status, events, stick_time| RunEnd {
             status,
             periods: n,
@@ -502,18 +504,20 @@ impl Sim {
             let in_tail = n == periods;
             let left = if in_tail { tail - s } else { t - s };
             let tau0 = n as f64 * t;
-            // Requested samples inside each step [a, b] of the phase.
-            let mut sampler = |a: f64, b: f64, f: &dyn Fn(f64) -> Jet<4>, obs: &mut O| {
-                while let Some(ts) = pending {
-                    let rel = ts - (tau0 + s);
-                    if rel > b {
-                        break;
+            // Requested samples inside each step [a, b] of the phase, from
+            // the phase's sample evaluator f(δ) → (state, rate).
+            let mut sampler =
+                |a: f64, b: f64, f: &mut dyn FnMut(f64) -> ([f64; 4], [f64; 4]), obs: &mut O| {
+                    while let Some(ts) = pending {
+                        let rel = ts - (tau0 + s);
+                        if rel > b {
+                            break;
+                        }
+                        let (x, dx) = f(rel.max(a));
+                        obs.sample(ts, &x, &dx);
+                        pending = obs.next_sample();
                     }
-                    let j = f(rel.max(a));
-                    obs.sample(ts, &j.x, &j.dx);
-                    pending = obs.next_sample();
-                }
-            };
+                };
             let (hit, x_end) = match mode {
                 Mode::Stick { z2 } => {
                     let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
@@ -531,6 +535,11 @@ impl Sim {
                             eval(b)
                         }
                     };
+                    samp_stick.begin_phase();
+                    let mut sample = |d: f64| {
+                        let (y, dy) = self.stick.sample_near(&p, &cur.get(), &mut samp_stick, d);
+                        ([y[0], y[1], z2, 0.0], [dy[0], dy[1], 0.0, 0.0])
+                    };
                     let fns = self.stick_events(z2);
                     let nf = if self.rho_s.is_finite() { 2 } else { 0 };
                     let (hit, jb) = events::first_event(
@@ -544,7 +553,7 @@ impl Sim {
                             if extremes {
                                 track_extremum(&eval, &mut stats, a, ja, b, jb);
                             }
-                            sampler(a, b, &eval, obs);
+                            sampler(a, b, &mut sample, obs);
                         },
                     );
                     (hit, jb)
@@ -563,6 +572,9 @@ impl Sim {
                             eval(b)
                         }
                     };
+                    samp_slip.begin_phase();
+                    let mut sample =
+                        |d: f64| self.slip.sample_near(&p, &cur.get(), &mut samp_slip, d);
                     let (fns, nf) = self.slip_events(dir, frictionless);
                     let (hit, jb) = events::first_event(
                         &eval,
@@ -575,7 +587,7 @@ impl Sim {
                             if extremes {
                                 track_extremum(&eval, &mut stats, a, ja, b, jb);
                             }
-                            sampler(a, b, &eval, obs);
+                            sampler(a, b, &mut sample, obs);
                         },
                     );
                     (hit, jb)
