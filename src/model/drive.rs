@@ -48,6 +48,31 @@ pub enum Drive {
 }
 
 impl Drive {
+    /// ζ0 alone at τ (what a right-hand side needs): one cosine for the
+    /// harmonic and chirp drives instead of [`Drive::eval`]'s sine and
+    /// cosine; the same value as `eval(τ).0`.
+    #[inline]
+    pub fn position(&self, tau: f64) -> f64 {
+        match self {
+            Drive::Harmonic {
+                eta,
+                phase,
+                amplitude,
+            } => amplitude * (eta * tau + phase).cos(),
+            Drive::Chirp {
+                eta0,
+                eta1,
+                duration,
+                phase,
+                amplitude,
+            } => {
+                let rate = (eta1 - eta0) / duration;
+                amplitude * (phase + eta0 * tau + 0.5 * rate * tau * tau).cos()
+            }
+            Drive::Sampled { .. } => self.eval(tau).0,
+        }
+    }
+
     /// ζ0, ζ0' and ζ0'' at τ.
     #[inline]
     pub fn eval(&self, tau: f64) -> (f64, f64, f64) {

@@ -380,6 +380,29 @@ impl Law {
         }
     }
 
+    /// g, dg/dv and d²g/dv² at speed v ≥ 0 (one exponential for the
+    /// Stribeck law).
+    #[inline]
+    pub fn sliding_jet(&self, v: f64) -> (f64, f64, f64) {
+        match *self {
+            Law::Linear { rho_d, slope, .. } => (rho_d + slope * v, slope, 0.0),
+            Law::Stribeck {
+                rho_s,
+                rho_d,
+                slope,
+                v_s,
+            } => {
+                let r = v / v_s;
+                let e = (rho_s - rho_d) * (-r * r).exp();
+                (
+                    rho_d + e + slope * v,
+                    slope - 2.0 * r / v_s * e,
+                    -2.0 / (v_s * v_s) * e * (1.0 - 2.0 * r * r),
+                )
+            }
+        }
+    }
+
     /// dg/dv at speed v ≥ 0.
     #[inline]
     pub fn sliding_slope(&self, v: f64) -> f64 {
@@ -501,7 +524,43 @@ impl fmt::Display for Law {
 
 #[cfg(test)]
 mod tests {
+
     use super::*;
+
+    /// `sliding_jet` agrees with `sliding`, `sliding_slope` and a central
+    /// difference of the slope for both law families.
+    #[test]
+    fn sliding_jet_matches_parts() {
+        for law in [
+            Law::Stribeck {
+                rho_s: 1.0,
+                rho_d: 0.6,
+                slope: 0.01,
+                v_s: 0.3,
+            },
+            Law::Linear {
+                rho_s: 1.0,
+                rho_d: 0.8,
+                slope: -0.02,
+            },
+        ] {
+            for v in [0.0, 0.05, 0.2, 0.3, 0.7, 2.0] {
+                let (g, g1, g2) = law.sliding_jet(v);
+                assert!((g - law.sliding(v)).abs() <= 1e-15, "{law:?} {v}");
+                assert!((g1 - law.sliding_slope(v)).abs() <= 1e-15, "{law:?} {v}");
+                let (e, sl) = (1e-6, |v: f64| law.sliding_slope(v));
+                let fd = if v >= e {
+                    (sl(v + e) - sl(v - e)) / (2.0 * e)
+                } else {
+                    (sl(v + e) - sl(v)) / e
+                };
+                assert!(
+                    (g2 - fd).abs() <= 1e-4 * (1.0 + g2.abs()),
+                    "{law:?} {v}: {g2} vs {fd}"
+                );
+            }
+        }
+    }
 
     #[test]
     fn kinds_round_trip_through_names_serde_and_families() {

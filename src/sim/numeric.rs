@@ -36,20 +36,10 @@ impl Switch<4> for NumSwitch {
         match self {
             NumSwitch::Lin(f) => f.eval(j),
             NumSwitch::Friction { dir, thr, model } => {
-                let law = &model.law;
                 let u = dir * j.x[3];
                 let (du, ddu) = (dir * j.dx[3], dir * j.ddx[3]);
-                let g1 = law.sliding_slope(u.max(0.0));
-                // g'' by a central difference of the analytic g' (only used
-                // as the curvature of the grazing test).
-                let e = 1e-6 * (1.0 + u.abs());
-                let g2 = (law.sliding_slope(u + e) - law.sliding_slope((u - e).max(0.0)))
-                    / (u + e - (u - e).max(0.0));
-                (
-                    law.sliding(u.max(0.0)) - thr,
-                    g1 * du,
-                    g2 * du * du + g1 * ddu,
-                )
+                let (g, g1, g2) = model.law.sliding_jet(u.max(0.0));
+                (g - thr, g1 * du, g2 * du * du + g1 * ddu)
             }
         }
     }
@@ -140,9 +130,14 @@ impl NumericSim {
     }
 
     fn rhs(&self, mode: Mode, t: f64, x: &[f64; 4]) -> [f64; 4] {
+        self.rhs_at(mode, self.drive.position(t), x)
+    }
+
+    /// The right-hand side for the drive's position z0.
+    #[inline]
+    fn rhs_at(&self, mode: Mode, z0: f64, x: &[f64; 4]) -> [f64; 4] {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
-        let (z0, _, _) = self.drive.eval(t);
         match mode {
             Mode::Stick { z2 } => [
                 x[1],
@@ -171,8 +166,9 @@ impl NumericSim {
     fn jet(&self, mode: Mode, t: f64, x: [f64; 4]) -> Jet<4> {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
-        let dx = self.rhs(mode, t, &x);
-        let (_, dz0, _) = self.drive.eval(t);
+        // One drive evaluation for the rate and its derivative.
+        let (z0, dz0, _) = self.drive.eval(t);
+        let dx = self.rhs_at(mode, z0, &x);
         let ddx = match mode {
             Mode::Stick { .. } => [
                 dx[1],
@@ -328,21 +324,22 @@ impl NumericSim {
             };
             let t0 = t;
             let x0 = x;
-            let eval = |d: f64| {
-                let y = if d == 0.0 {
+            // The state at offset d in the step (dense output).
+            let state = |d: f64| {
+                let mut y = if d == 0.0 {
                     x0
                 } else if d == step.h {
                     step.y1
                 } else {
                     step.eval(d)
                 };
-                let mut y = y;
                 if let Mode::Stick { z2 } = mode {
                     y[2] = z2;
                     y[3] = 0.0;
                 }
-                self.jet(mode, t0 + d, y)
+                y
             };
+            let eval = |d: f64| self.jet(mode, t0 + d, state(d));
             let (fns, nf) = self.switches(mode);
             let (hit, jb) = events::first_event(
                 &eval,
@@ -359,8 +356,10 @@ impl NumericSim {
                         if ts > t0 + b {
                             break;
                         }
-                        let j = eval((ts - t0).max(a));
-                        obs.sample(ts, &j.x, &j.dx);
+                        // State and rate only (no second derivative).
+                        let d = (ts - t0).max(a);
+                        let y = state(d);
+                        obs.sample(ts, &y, &self.rhs(mode, t0 + d, &y));
                         pending = obs.next_sample();
                     }
                 },
