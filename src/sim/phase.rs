@@ -429,7 +429,7 @@ impl<const N: usize> LinearPhase<N> {
     /// cursor, as [`LinearPhase::jet_near`] takes them (tabulated anchor
     /// times a Taylor polynomial); `None` at δ = 0, off the table, with
     /// more than two modal terms and for the matrix-exponential form.
-    #[inline]
+    #[inline(always)]
     fn factors_near(&self, c: &Cursor<N>, delta: f64) -> Option<([C64; N], C64)> {
         let Repr::Modal {
             md, terms, nterms, ..
@@ -588,7 +588,7 @@ impl<const N: usize> LinearPhase<N> {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn modal_state(
         &self,
@@ -613,7 +613,7 @@ impl<const N: usize> LinearPhase<N> {
         x
     }
 
-    #[inline]
+    #[inline(always)]
     fn derivs_e(&self, p: &Started<N>, x: &[f64; N], e: C64) -> ([f64; N], [f64; N]) {
         let (z, dz) = (e.re, -self.eta * e.im);
         let mut d1 = [0.0; N];
