@@ -17,7 +17,7 @@ use super::linear;
 
 /// Largest period multiple detected.
 pub const MAX_PERIOD_MULTIPLE: usize = 8;
-const RING: usize = 64;
+pub(crate) const RING: usize = 64;
 
 /// What to simulate.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,6 +89,7 @@ pub struct Tracker<'a, O: Observer> {
     stop_when_steady: bool,
     n: u64,
     points: [([f64; 4], bool); RING],
+    modes: [Mode; RING],
     stats: [PeriodStats; RING],
     streak: [u64; MAX_PERIOD_MULTIPLE + 1],
     dist: [[f64; MAX_PERIOD_MULTIPLE]; MAX_PERIOD_MULTIPLE + 1],
@@ -123,6 +124,7 @@ impl<'a, O: Observer> Tracker<'a, O> {
             stop_when_steady,
             n: 0,
             points: [([0.0; 4], false); RING],
+            modes: [Mode::Slip { dir: 1.0 }; RING],
             stats: [empty; RING],
             streak: [0; MAX_PERIOD_MULTIPLE + 1],
             dist: [[f64::INFINITY; MAX_PERIOD_MULTIPLE]; MAX_PERIOD_MULTIPLE + 1],
@@ -154,23 +156,43 @@ impl<'a, O: Observer> Tracker<'a, O> {
         if w == 0 {
             return None;
         }
-        let mut acc = self.stats[((self.n - 1) % RING as u64) as usize];
-        for j in 1..w {
-            let s = &self.stats[((self.n - 1 - j) % RING as u64) as usize];
-            for i in 0..2 {
-                acc.min[i] = acc.min[i].min(s.min[i]);
-                acc.max[i] = acc.max[i].max(s.max[i]);
-            }
-            acc.stick_time += s.stick_time;
-        }
-        Some(acc)
+        merge_back((0..w).map(|j| &self.stats[((self.n - 1 - j) % RING as u64) as usize]))
     }
+}
+
+/// Merges per-period statistics given from the last period backwards (the
+/// order fixes the rounding of the summed stick time).
+pub(crate) fn merge_back<'s>(
+    mut periods: impl Iterator<Item = &'s PeriodStats>,
+) -> Option<PeriodStats> {
+    let mut acc = *periods.next()?;
+    for s in periods {
+        for i in 0..2 {
+            acc.min[i] = acc.min[i].min(s.min[i]);
+            acc.max[i] = acc.max[i].max(s.max[i]);
+        }
+        acc.stick_time += s.stick_time;
+    }
+    Some(acc)
 }
 
 impl<O: Observer> Tracker<'_, O> {
     /// Section periods seen so far.
     pub fn seen(&self) -> u64 {
         self.n
+    }
+
+    /// The section state `back` periods before the last one with its
+    /// contact mode, as a state to restart from; `None` beyond the ring
+    /// (64) or before the start.
+    pub fn section_mode(&self, back: u64) -> Option<Init> {
+        (back < self.n && back < RING as u64).then(|| {
+            let i = ((self.n - 1 - back) % RING as u64) as usize;
+            Init {
+                x: self.points[i].0,
+                mode: self.modes[i],
+            }
+        })
     }
 
     /// The section state `back` periods before the last one (0: the last)
@@ -226,6 +248,7 @@ impl<O: Observer> Observer for Tracker<'_, O> {
         let r = &mut self.range;
         (r[0], r[1], r[2], r[3]) = (r[0].min(a1), r[1].max(a1), r[2].min(a2), r[3].max(a2));
         self.points[idx] = (*x, stuck);
+        self.modes[idx] = mode;
         self.stats[idx] = *stats;
         self.n = n;
         let scale = 1.0 + x.iter().fold(0.0f64, |a, v| a.max(v.abs()));

@@ -52,7 +52,7 @@ use faer::linalg::solvers::Solve;
 
 use super::engine::{net_force, Flow, Init, Mode, Observer, PeriodStats, Sim, Status};
 use super::linear;
-use super::steady::{Tracker, MAX_PERIOD_MULTIPLE};
+use super::steady::{merge_back, Tracker, MAX_PERIOD_MULTIPLE, RING};
 use super::SimError;
 use crate::model::Model;
 
@@ -350,14 +350,29 @@ fn march_to_steady(
     init: Init,
     cfg: &SteadyConfig,
 ) -> Result<(Point, Init), SimError> {
+    march_to_steady_extremes(sim, model, eta, init, cfg, false)
+}
+
+/// [`march_to_steady`], locating every period's extremes from the start
+/// when `eager` (the reference the lazy default is tested against).
+fn march_to_steady_extremes(
+    sim: &Sim,
+    model: &Model,
+    eta: f64,
+    init: Init,
+    cfg: &SteadyConfig,
+    eager: bool,
+) -> Result<(Point, Init), SimError> {
     let t = 2.0 * std::f64::consts::PI / eta;
     let mut unit = ();
     let mut w = Walk {
         sim,
         tr: Tracker::new(&mut unit, cfg.tol, true),
+        start: init,
         state: init,
         dwell: 0,
         used: 0,
+        exact_from: eager.then_some(0),
     };
     // 2. Transient, watched on the section, with 3. the proof of a
     //    permanent stick tried after 2, 4, 8, … periods of it: once it
@@ -412,6 +427,8 @@ fn march_to_steady(
     //    every block (geometric convergence).
     w.tr.take_closest();
     w.tr.take_range();
+    // The amplitude range needs every period's exact extremes from here on.
+    w.exact_from = Some(w.dwell);
     let mut closest = [f64::INFINITY; 3];
     let mut method = "not-settled";
     loop {
@@ -433,7 +450,7 @@ fn march_to_steady(
         }
     }
     let n = w.tr.seen().clamp(1, 50);
-    let Some(st) = w.tr.window(n) else {
+    let Some(st) = w.window(n) else {
         return Err(SimError::Unsupported(
             "no forcing period was integrated (period budget 0)".into(),
         ));
@@ -473,11 +490,32 @@ const VERIFY_ITERATES: usize = 3;
 struct Offset<'t, 'a> {
     tr: &'t mut Tracker<'a, ()>,
     base: u64,
+    /// Locate the extremes exactly (see [`Walk::exact_from`]).
+    extremes: bool,
+}
+
+/// Records the statistics of each period of a re-run window.
+struct Periods {
+    stats: [PeriodStats; RING],
+    n: usize,
+}
+
+impl Observer for Periods {
+    fn wants_extremes(&self) -> bool {
+        true
+    }
+    fn period(&mut self, _n: u64, _x: &[f64; 4], _m: Mode, s: &PeriodStats) -> Flow {
+        if self.n < RING {
+            self.stats[self.n] = *s;
+            self.n += 1;
+        }
+        Flow::Continue
+    }
 }
 
 impl Observer for Offset<'_, '_> {
     fn wants_extremes(&self) -> bool {
-        true
+        self.extremes
     }
     fn period(&mut self, n: u64, x: &[f64; 4], mode: Mode, stats: &PeriodStats) -> Flow {
         self.tr.period(self.base + n, x, mode, stats)
@@ -490,9 +528,18 @@ impl Observer for Offset<'_, '_> {
 struct Walk<'s, 'a> {
     sim: &'s Sim,
     tr: Tracker<'a, ()>,
+    /// The state the walk started from (dwell 0).
+    start: Init,
     state: Init,
     dwell: u64,
     used: u64,
+    /// The dwell from which the march locates every period's extremes
+    /// (`None`: not yet). The transient and shooting stages march without
+    /// them (a third of a stick-slip period's cost); a settled point's
+    /// statistics come from re-running its last periods from their
+    /// recorded section state ([`Walk::window`]), which repeats the same
+    /// trajectory bit for bit.
+    exact_from: Option<u64>,
 }
 
 /// What a shooting attempt concluded.
@@ -514,6 +561,7 @@ impl Walk<'_, '_> {
         let mut off = Offset {
             tr: &mut self.tr,
             base: self.dwell,
+            extremes: self.exact_from.is_some(),
         };
         let end = self.sim.run(self.state, n, &mut off);
         self.dwell += end.periods;
@@ -543,7 +591,6 @@ impl Walk<'_, '_> {
     /// multiple of p periods of its dwell (see [`curve`]).
     fn settled(&mut self, eta: f64, p: u32, t: f64) -> (Point, Init) {
         let st = self
-            .tr
             .window(p as u64)
             .expect("the detector has seen at least 2p periods");
         let extra = (p as u64 - self.dwell % p as u64) % p as u64;
@@ -560,6 +607,37 @@ impl Walk<'_, '_> {
             point_from(eta, &st, p, t, self.used, "marching"),
             self.state,
         )
+    }
+
+    /// Merged statistics with exact extremes over the last `w` periods
+    /// marched (w ≤ periods seen, ≤ 64): the tracker's own where those
+    /// periods were marched with extremes, else those of a re-run of the
+    /// window from its recorded section state (the engine's trajectory
+    /// does not depend on whether extremes are located, and a run started
+    /// at a period boundary repeats the continuing one bit for bit: unit
+    /// test `lazy_extremes_are_bit_identical`).
+    fn window(&mut self, w: u64) -> Option<PeriodStats> {
+        let n = self.tr.seen();
+        let w = w.min(n).min(RING as u64);
+        if w == 0 {
+            return None;
+        }
+        if self.exact_from.is_some_and(|d| n - w >= d) {
+            return self.tr.window(w);
+        }
+        let from = if w == n {
+            self.start
+        } else {
+            self.tr.section_mode(w)?
+        };
+        let mut rec = Periods {
+            stats: [PeriodStats::new_at(&from.x); RING],
+            n: 0,
+        };
+        let end = self.sim.run(from, w, &mut rec);
+        self.used += end.periods;
+        debug_assert_eq!(Some(end.x), self.tr.section(0).map(|s| s.0));
+        merge_back(rec.stats[..rec.n].iter().rev())
     }
 
     /// Picks the period multiple the section iterates suggest (the
@@ -1053,6 +1131,67 @@ pub fn family(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Marching without extremes and re-running a settled point's last
+    /// periods gives bit for bit the point (amplitudes, stick fraction,
+    /// period multiple, method, range) and the continuation state of
+    /// marching with extremes throughout, over settled-by-marching,
+    /// shooting, stick-proof and not-settled points (budgets 40 and 200),
+    /// from rest and continued.
+    #[test]
+    fn lazy_extremes_are_bit_identical() {
+        let ab = crate::model::Absorber {
+            damping: 0.003,
+            ..crate::model::Absorber::default()
+        };
+        let mut methods = std::collections::BTreeSet::new();
+        for (rho, ratio) in [(0.5, 0.8), (0.9, 0.8), (1.2, 1.0), (0.375, 1.0)] {
+            let model = Model {
+                absorber: ab,
+                law: crate::model::Law::Linear {
+                    rho_s: rho,
+                    rho_d: ratio * rho,
+                    slope: 0.0,
+                },
+                stop_below: None,
+            };
+            for budget in [40, 200] {
+                let cfg = SteadyConfig {
+                    max_periods: budget,
+                    ..SteadyConfig::default()
+                };
+                let mut state = Init::rest();
+                for k in 0..24 {
+                    let eta = 0.3 + 0.05 * k as f64;
+                    let sim = Sim::new(&model, eta).unwrap();
+                    for init in [Init::rest(), state] {
+                        let lazy = march_to_steady_extremes(&sim, &model, eta, init, &cfg, false);
+                        let eager = march_to_steady_extremes(&sim, &model, eta, init, &cfg, true);
+                        let ((a, sa), (b, sb)) = (lazy.unwrap(), eager.unwrap());
+                        let same = |x: Option<f64>, y: Option<f64>| {
+                            x.map(f64::to_bits) == y.map(f64::to_bits)
+                        };
+                        assert!(
+                            same(a.amplitude1, b.amplitude1)
+                                && same(a.amplitude2, b.amplitude2)
+                                && a.stick_fraction.to_bits() == b.stick_fraction.to_bits()
+                                && a.period_multiple == b.period_multiple
+                                && a.method == b.method
+                                && a.steady == b.steady
+                                && a.range == b.range
+                                && sa == sb,
+                            "ρs {rho} η {eta} budget {budget}: {a:?} vs {b:?}"
+                        );
+                        methods.insert(a.method);
+                    }
+                    state = march_to_steady(&sim, &model, eta, state, &cfg).unwrap().1;
+                }
+            }
+        }
+        for m in ["marching", "shooting", "not-settled"] {
+            assert!(methods.contains(m), "no {m} point among {methods:?}");
+        }
+    }
     use crate::model::{Absorber, Law};
 
     fn coulomb(rs: f64) -> Model {
