@@ -222,6 +222,8 @@ impl Default for BatchOptions {
             ratio_variants: true,
             steady: SteadyConfig {
                 max_periods: DEFAULT_MAX_PERIODS,
+                // The worst case reads amplitudes only, not their ranges.
+                ranges: false,
                 ..SteadyConfig::default()
             },
         }

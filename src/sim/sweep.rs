@@ -95,6 +95,11 @@ pub struct SteadyConfig {
     /// m = 2, k = 0.5, D = 0.01, ρs 0.8, ρd 0.48, η 0.62 from rest it fired
     /// on a transient that settles after 12 045 periods.
     pub early_stop: bool,
+    /// Record the range of the per-period amplitudes of a point that does
+    /// not settle (`Point::range`, the sweep's `amplitude1_min` …): it needs
+    /// every period's exact extremes through the final marching stage. Off
+    /// where no one reads it (batch, validation): the same points, faster.
+    pub ranges: bool,
 }
 
 impl Default for SteadyConfig {
@@ -105,6 +110,7 @@ impl Default for SteadyConfig {
             tol: 1e-9,
             shooting: true,
             early_stop: false,
+            ranges: true,
         }
     }
 }
@@ -428,7 +434,9 @@ fn march_to_steady_extremes(
     w.tr.take_closest();
     w.tr.take_range();
     // The amplitude range needs every period's exact extremes from here on.
-    w.exact_from = Some(w.dwell);
+    if cfg.ranges {
+        w.exact_from = Some(w.dwell);
+    }
     let mut closest = [f64::INFINITY; 3];
     let mut method = "not-settled";
     loop {
@@ -436,8 +444,24 @@ fn march_to_steady_extremes(
         if left == 0 {
             break;
         }
-        if let Some(r) = w.march_watched(left.min(EARLY_BLOCK), eta, t) {
-            return Ok(r);
+        // Without ranges, the last block locates extremes only over the
+        // final window whose amplitudes an unsettled point reports.
+        let block = left.min(EARLY_BLOCK);
+        let tail = if w.exact_from.is_none() && block == left {
+            block.min(FINAL_WINDOW)
+        } else {
+            0
+        };
+        if block > tail {
+            if let Some(r) = w.march_watched(block - tail, eta, t) {
+                return Ok(r);
+            }
+        }
+        if tail > 0 {
+            w.exact_from = Some(w.dwell);
+            if let Some(r) = w.march_watched(tail, eta, t) {
+                return Ok(r);
+            }
         }
         closest = [closest[1], closest[2], w.tr.take_closest()];
         if cfg.early_stop
@@ -449,7 +473,7 @@ fn march_to_steady_extremes(
             break;
         }
     }
-    let n = w.tr.seen().clamp(1, 50);
+    let n = w.tr.seen().clamp(1, FINAL_WINDOW);
     let Some(st) = w.window(n) else {
         return Err(SimError::Unsupported(
             "no forcing period was integrated (period budget 0)".into(),
@@ -459,18 +483,24 @@ fn march_to_steady_extremes(
     pt.steady = false;
     pt.period_multiple = None;
     pt.stick_fraction = (st.stick_time / (n as f64 * t)).clamp(0.0, 1.0);
-    pt.range = w.tr.take_range().map(|r| AmplitudeRange {
-        amplitude1_min: r[0],
-        amplitude1_max: r[1],
-        amplitude2_min: r[2],
-        amplitude2_max: r[3],
-    });
+    pt.range =
+        w.tr.take_range()
+            .filter(|_| cfg.ranges)
+            .map(|r| AmplitudeRange {
+                amplitude1_min: r[0],
+                amplitude1_max: r[1],
+                amplitude2_min: r[2],
+                amplitude2_max: r[3],
+            });
     Ok((pt, w.state))
 }
 
 /// Transient periods before the first attempt at the permanent-stick proof
 /// (then after twice as many, and so on, to the end of the transient).
 const PROOF_FIRST: u64 = 2;
+
+/// Periods whose merged statistics give an unsettled point's amplitudes.
+const FINAL_WINDOW: u64 = 50;
 
 /// Periods per block of the marching fallback (stage 5 of
 /// [`steady_state`]).
@@ -1183,6 +1213,24 @@ mod tests {
                             "ρs {rho} η {eta} budget {budget}: {a:?} vs {b:?}"
                         );
                         methods.insert(a.method);
+                        // Without the range: the same point, no range.
+                        let no_range = SteadyConfig {
+                            ranges: false,
+                            ..cfg
+                        };
+                        let (c, sc) =
+                            march_to_steady_extremes(&sim, &model, eta, init, &no_range, false)
+                                .unwrap();
+                        assert!(
+                            same(c.amplitude1, b.amplitude1)
+                                && same(c.amplitude2, b.amplitude2)
+                                && c.stick_fraction.to_bits() == b.stick_fraction.to_bits()
+                                && c.period_multiple == b.period_multiple
+                                && c.method == b.method
+                                && c.range.is_none()
+                                && sc == sb,
+                            "ρs {rho} η {eta} budget {budget}, no range: {c:?} vs {b:?}"
+                        );
                     }
                     state = march_to_steady(&sim, &model, eta, state, &cfg).unwrap().1;
                 }

@@ -98,6 +98,8 @@ impl Default for PredictOptions {
             seed: 0x0ba5_e11e,
             steady: SteadyConfig {
                 max_periods: DEFAULT_STEADY_PERIODS,
+                // Unsettled points are not scored: no amplitude ranges.
+                ranges: false,
                 ..SteadyConfig::default()
             },
             numeric: NumericOptions {
