@@ -111,15 +111,16 @@ pub struct Cursor<const N: usize> {
     steps: f64,
 }
 
-/// Samples rotated on from a libm-exact one before it is re-anchored (see
+/// Samples rotated on from one evaluated like `jet_near` (tabulated
+/// factors, exact to a few ε) before the next such anchor (see
 /// [`LinearPhase::sample_near`]).
 pub const SAMPLE_RUN: u32 = 16;
 
 /// The trajectory sampler's state for one phase system over a run: the
 /// sample spacing Δ with its factors e^{λΔ}, e^{iηΔ} (made once the spacing
 /// repeats, kept across phases), and within the current phase the last
-/// sample's offset and factors and the samples rotated since a libm-exact
-/// one.
+/// sample's offset and factors and the samples rotated since the last
+/// anchor.
 #[derive(Debug, Clone, Copy)]
 pub struct Sampler<const N: usize> {
     gap: f64,
@@ -476,7 +477,7 @@ impl<const N: usize> LinearPhase<N> {
     /// deviation d = δ − δp − Δ of this spacing (degree-2 Taylor, exact to
     /// 2⁻⁵⁶ for |λd| ≤ 4.36e-6: sample times carry their log's rounding and
     /// jitter). So each sample is evaluated at its own time; each rotation
-    /// adds a few ε and a libm-exact evaluation re-anchors every
+    /// adds a few ε and an evaluation like `jet_near` re-anchors every
     /// [`SAMPLE_RUN`] samples (unit test `samples_match_jet`). Output-error
     /// fits sample thousands of times per event: this is their hot path.
     #[inline]
