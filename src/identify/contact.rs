@@ -131,8 +131,7 @@ pub struct Contact {
 /// the ~40 evaluations of the drive fit's frequency search cost a few
 /// multiplications per sample instead of a sine and a cosine.
 fn sine_fit(t: &[f64], x: &[f64], w: f64) -> Option<(f64, f64, f64, f64, usize)> {
-    let mut ne = super::smooth::Normal::new(3);
-    // Sums of the upper triangle of XᵀX (rows [1, c, s]), Xᵀy and yᵀy.
+    // Sums of XᵀX (rows [1, c, s]), Xᵀy and yᵀy.
     let (mut sc, mut ss, mut scc, mut scs, mut sss) = (0.0, 0.0, 0.0, 0.0, 0.0);
     let (mut sy, mut scy, mut ssy, mut syy) = (0.0, 0.0, 0.0, 0.0);
     let mut n = 0usize;
@@ -153,16 +152,17 @@ fn sine_fit(t: &[f64], x: &[f64], w: f64) -> Option<(f64, f64, f64, f64, usize)>
             n += 1;
         }
     }
-    ne.xtx[0] = vec![n as f64, sc, ss];
-    ne.xtx[1][1] = scc;
-    ne.xtx[1][2] = scs;
-    ne.xtx[2][2] = sss;
-    ne.xty = vec![sy, scy, ssy];
-    ne.yty = syy;
-    ne.n = n;
-    let p = ne.solve()?;
-    let rss = (ne.yty - p.iter().zip(&ne.xty).map(|(a, b)| a * b).sum::<f64>()).max(0.0);
-    Some((p[0], p[1], p[2], rss, ne.n))
+    // The normal equations of the three-parameter fit, solved as
+    // `smooth::Normal` would (symmetric XᵀX, small dense solve).
+    let xtx = vec![
+        vec![n as f64, sc, ss],
+        vec![sc, scc, scs],
+        vec![ss, scs, sss],
+    ];
+    let xty = [sy, scy, ssy];
+    let p = super::smooth::solve_small(&xtx, &xty)?;
+    let rss = (syy - p.iter().zip(&xty).map(|(a, b)| a * b).sum::<f64>()).max(0.0);
+    Some((p[0], p[1], p[2], rss, n))
 }
 
 /// Samples a rotation is carried over before it is re-anchored with libm
