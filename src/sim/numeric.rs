@@ -267,6 +267,7 @@ impl NumericSim {
         let mut h = self.ode.h_max * 0.1;
         let mut f0 = self.rhs(mode, t, &x);
         let mut instant = 0u32;
+        let mut carry: Option<Jet<4>> = None;
         // Events are counted per forcing period (per 2π/fastest drive
         // frequency for other drives), as in the exact engine.
         let window = period.unwrap_or(2.0 * std::f64::consts::PI / self.drive.fastest());
@@ -287,6 +288,9 @@ impl NumericSim {
                 .filter(|&e| e <= duration);
             let boundary = period_end.unwrap_or(duration);
             if boundary - t <= 4.0 * f64::EPSILON * boundary.abs().max(1.0) {
+                if t != boundary {
+                    carry = None; // the step ended within rounding of it
+                }
                 t = boundary;
                 stats.add(x[0], x[2]);
                 while let Some(ts) = pending {
@@ -310,7 +314,20 @@ impl NumericSim {
                 }
                 continue;
             }
-            let f = |tt: f64, y: &[f64; 4]| self.rhs(mode, tt, y);
+            // Dormand–Prince's last two stages (and the FSAL derivative)
+            // share the time t + h: the drive there is evaluated once.
+            let memo = std::cell::Cell::new((f64::NAN, 0.0));
+            let f = |tt: f64, y: &[f64; 4]| {
+                let (mt, mz) = memo.get();
+                let z0 = if tt == mt {
+                    mz
+                } else {
+                    let z = self.drive.position(tt);
+                    memo.set((tt, z));
+                    z
+                };
+                self.rhs_at(mode, z0, y)
+            };
             let Some((step, h_next)) = self.ode.step(&f, t, &x, &f0, h, boundary) else {
                 return end(
                     t,
@@ -339,7 +356,12 @@ impl NumericSim {
                 }
                 y
             };
-            let eval = |d: f64| self.jet(mode, t0 + d, state(d));
+            // The jet at the step's start is the last step's end jet (same
+            // mode, time and state) unless an event intervened.
+            let eval = |d: f64| match carry {
+                Some(j) if d == 0.0 => j,
+                _ => self.jet(mode, t0 + d, state(d)),
+            };
             let (fns, nf) = self.switches(mode);
             let (hit, jb) = events::first_event(
                 &eval,
@@ -372,6 +394,7 @@ impl NumericSim {
                     }
                     t = t0 + step.h;
                     x = jb.x;
+                    carry = Some(jb);
                     f0 = step.f1;
                     h = h_next;
                     instant = 0;
@@ -387,6 +410,7 @@ impl NumericSim {
                         stats.stick_time += hit.delta;
                     }
                     t = t0 + hit.delta;
+                    carry = None;
                     let (z0, _, _) = self.drive.eval(t);
                     match apply(
                         switch(&self.model, mode, hit.which, &hit.jet.x, z0, t),
