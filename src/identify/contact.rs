@@ -120,6 +120,9 @@ pub struct Contact {
     pub half_window: usize,
     /// Things the user should know.
     pub warnings: Vec<String>,
+    /// How many of `warnings` the velocity stage gave (the acceleration
+    /// stage's follow): what [`compute_reusing`] keeps of a base.
+    pub(crate) velocity_warnings: usize,
 }
 
 /// Fits `x ≈ c + a·cos ωt + b·sin ωt` at angular frequency `w`; returns
@@ -279,24 +282,31 @@ fn estimate_frequency(t: &[f64], x: &[f64]) -> Option<f64> {
 /// Shifts a uniformly sampled signal by `lag` seconds: out(t) = y(t + lag)
 /// (linear interpolation; NaN where a neighbour is missing).
 pub(crate) fn shift(y: &[f64], dt: f64, lag: f64) -> Vec<f64> {
+    let (k, f) = shift_split(dt, lag);
+    (0..y.len() as i64).map(|i| shifted(y, k, f, i)).collect()
+}
+
+/// A shift of `lag` seconds as whole samples k and a fraction f in [0, 1).
+#[inline]
+fn shift_split(dt: f64, lag: f64) -> (i64, f64) {
     let s = lag / dt;
     let k = s.floor();
-    let f = s - k;
-    let k = k as i64;
-    (0..y.len() as i64)
-        .map(|i| {
-            let j = i + k;
-            if j < 0 || j + 1 >= y.len() as i64 {
-                return f64::NAN;
-            }
-            let (a, b) = (y[j as usize], y[j as usize + 1]);
-            if f == 0.0 {
-                a
-            } else {
-                a * (1.0 - f) + b * f
-            }
-        })
-        .collect()
+    (k as i64, s - k)
+}
+
+/// Sample i of [`shift`]'s output for the split (k, f).
+#[inline]
+fn shifted(y: &[f64], k: i64, f: f64, i: i64) -> f64 {
+    let j = i + k;
+    if j < 0 || j + 1 >= y.len() as i64 {
+        return f64::NAN;
+    }
+    let (a, b) = (y[j as usize], y[j as usize + 1]);
+    if f == 0.0 {
+        a
+    } else {
+        a * (1.0 - f) + b * f
+    }
 }
 
 /// The lag (s) of `y` against the reference `r` that minimises
@@ -304,9 +314,11 @@ pub(crate) fn shift(y: &[f64], dt: f64, lag: f64) -> Vec<f64> {
 /// error; None if there is too little overlapping data.
 fn estimate_lag(y: &[f64], r: &[f64], dt: f64, max_lag: f64) -> Option<(f64, f64)> {
     let sse = |lag: f64| {
-        let ys = shift(y, dt, lag);
+        // `shift`'s samples, computed in place (no vector per lag).
+        let (k, f) = shift_split(dt, lag);
         let (mut s, mut n) = (0.0, 0usize);
-        for (a, b) in ys.iter().zip(r) {
+        for (i, b) in r.iter().enumerate().take(y.len()) {
+            let a = shifted(y, k, f, i as i64);
             if a.is_finite() && b.is_finite() {
                 s += (a - b).powi(2);
                 n += 1;
@@ -526,37 +538,83 @@ fn acceleration(
 /// Computes the contact force of `run` with the sensor gains `g` (1 = as
 /// logged).
 pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
+    compute_reusing(run, g, None)
+}
+
+/// [`compute`], taking from `base` (the contact of the same run with gains
+/// `base.0`) every stage whose inputs `g` leaves unchanged: the drive fit
+/// (x0's gain), the velocity stage with its lag and offset search (x2's
+/// and v2's gains, same window), the accelerometer stage (also a2's gain)
+/// and ẋ1 (x1's gain). The result is [`compute`]'s, bit for bit: a reused
+/// stage would repeat the same operations on the same numbers. The
+/// calibration budget re-computes the contact with one gain perturbed at a
+/// time, so most of each re-computation is reused.
+pub(crate) fn compute_reusing(
+    run: &Run,
+    g: &Gains,
+    base: Option<(&Gains, &Contact)>,
+) -> Option<Contact> {
     let rs = &run.resampled;
     let rig = &run.rig;
     let dt = 1.0 / rs.rate_hz;
     let scale = |v: &[f64], k: f64| -> Vec<f64> { v.iter().map(|x| x * k).collect() };
-    let x0 = scale(&rs.x0, g.x0);
     let x1 = scale(&rs.x1, g.x1);
     let x2 = scale(&rs.x2, g.x2);
-    let v2_raw = scale(&rs.v2, g.v2);
-    let mut warnings = Vec::new();
 
-    let drive = fit_drive(&rs.t, &x0, rig.drive_frequency_hz)?;
+    let drive = match base {
+        Some((bg, c)) if bg.x0 == g.x0 => c.drive,
+        _ => fit_drive(&rs.t, &scale(&rs.x0, g.x0), rig.drive_frequency_hz)?,
+    };
     // Window: about 1/60 of a drive period (≈ 10 ms at 1.72 Hz), at least 2.
     let half = ((rs.rate_hz / drive.frequency_hz / 60.0).round() as usize).max(2);
+    // Later stages are reused only over the same window.
+    let base = base.filter(|(_, c)| c.half_window == half);
 
-    let dx2 = savgol(&x2, dt, half, 3, 1);
-    let (v2, v2_lag_s, v2_offset) = velocity(run, v2_raw, &x2, dx2, (dt, half), &mut warnings);
-    let v2_smooth = savgol(&v2, dt, half, 3, 0);
-    let dv2 = savgol(&v2, dt, half, 3, 1);
+    // Velocity stage (x2, v2).
+    let same_velocity = base.filter(|(bg, _)| bg.x2 == g.x2 && bg.v2 == g.v2);
+    let mut warnings;
+    let (v2, v2_lag_s, v2_offset, v2_smooth) = match same_velocity {
+        Some((_, c)) => {
+            warnings = c.warnings[..c.velocity_warnings].to_vec();
+            (c.v2.clone(), c.v2_lag_s, c.v2_offset, c.v2_smooth.clone())
+        }
+        None => {
+            warnings = Vec::new();
+            let dx2 = savgol(&x2, dt, half, 3, 1);
+            let v2_raw = scale(&rs.v2, g.v2);
+            let (v2, lag, offset) = velocity(run, v2_raw, &x2, dx2, (dt, half), &mut warnings);
+            let v2_smooth = savgol(&v2, dt, half, 3, 0);
+            (v2, lag, offset, v2_smooth)
+        }
+    };
+    let velocity_warnings = warnings.len();
 
+    // Acceleration stage (a2, or the derivative of v2).
     let mut a2_offset = 0.0;
     let mut a2_sensor = None;
-    let (a2, a2_lag_s, source) = match &rs.a2 {
-        Some(a) if run.has_acceleration => {
+    let (a2, a2_lag_s, source) = match (same_velocity, &rs.a2) {
+        (Some((bg, c)), Some(_)) if run.has_acceleration && bg.a2 == g.a2 => {
+            warnings.extend_from_slice(&c.warnings[c.velocity_warnings..]);
+            a2_offset = c.a2_offset;
+            a2_sensor = c.a2_sensor.clone();
+            (c.a2.clone(), c.a2_lag_s, c.acceleration_source)
+        }
+        (Some((_, c)), _) if !run.has_acceleration || rs.a2.is_none() => {
+            (c.a2.clone(), None, "savitzky-golay")
+        }
+        (_, Some(a)) if run.has_acceleration => {
+            let dv2 = savgol(&v2, dt, half, 3, 1);
             let acc = acceleration(scale(a, g.a2), &v2, &dv2, (dt, half), &mut warnings);
             a2_offset = acc.offset;
             a2_sensor = Some(acc.sensor);
             (acc.merged, Some(acc.lag), "accelerometer")
         }
-        _ => (dv2, None, "savitzky-golay"),
+        _ => (savgol(&v2, dt, half, 3, 1), None, "savitzky-golay"),
     };
-    let v1 = savgol(&x1, dt, half, 3, 1);
+    let v1 = match base {
+        Some((bg, c)) if bg.x1 == g.x1 => c.v1.clone(),
+        _ => savgol(&x1, dt, half, 3, 1),
+    };
     let (m2, k2, d) = (rig.m2_kg, rig.k2_n_per_m, rig.d_n_s_per_m);
     let passive: Vec<f64> = (0..rs.len())
         .map(|i| -k2 * (x2[i] - x1[i]) + d * v1[i])
@@ -585,6 +643,7 @@ pub fn compute(run: &Run, g: &Gains) -> Option<Contact> {
         acceleration_source: source,
         half_window: half,
         warnings,
+        velocity_warnings,
     })
 }
 

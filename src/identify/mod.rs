@@ -166,6 +166,18 @@ pub struct Characteristic {
 
 /// Computes the friction characteristic of `run` (sensor gains `gains`).
 pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
+    characteristic_reusing(run, gains, None)
+}
+
+/// [`characteristic`], reusing the stages of `base` (the characteristic of
+/// the same run with gains `base.0`) whose inputs are unchanged (see
+/// [`contact::compute_reusing`]; the segmentation where its inputs are
+/// bitwise the same). Bit for bit [`characteristic`]'s result.
+fn characteristic_reusing(
+    run: &Run,
+    gains: &Gains,
+    base: Option<(&Gains, &Characteristic)>,
+) -> Result<Characteristic> {
     let bad = |source: IdentifyError| Error::Identify {
         path: run.source.clone(),
         source,
@@ -173,7 +185,8 @@ pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
     if run.rig.test != TestKind::Characteristic {
         return Err(bad(IdentifyError::NotCharacteristic));
     }
-    let mut contact = contact::compute(run, gains).ok_or_else(|| {
+    let base_contact = base.map(|(g, ch)| (g, &ch.contact));
+    let mut contact = contact::compute_reusing(run, gains, base_contact).ok_or_else(|| {
         // A log shorter than two periods of its nominal drive cannot show
         // the sinusoid: say so rather than blame the drive channel.
         let duration = run.duration_s();
@@ -198,13 +211,33 @@ pub fn characteristic(run: &Run, gains: &Gains) -> Result<Characteristic> {
             needed_s: 2.0 * period,
         }));
     }
-    let seg = segment::segment(
-        &contact.v2,
-        &contact.v2_smooth,
-        (contact.acceleration_source == "accelerometer").then_some(&contact.a2[..]),
-        contact.half_window,
-        SMOOTH_DEGREE,
-    );
+    let accel =
+        |c: &contact::Contact| (c.acceleration_source == "accelerometer").then(|| c.a2.clone());
+    let same = |a: &[f64], b: &[f64]| {
+        a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
+    };
+    let reused = base.and_then(|(_, ch)| {
+        let c = &ch.contact;
+        let inputs_same = c.half_window == contact.half_window
+            && same(&c.v2, &contact.v2)
+            && same(&c.v2_smooth, &contact.v2_smooth)
+            && match (accel(c), accel(&contact)) {
+                (Some(a), Some(b)) => same(&a, &b),
+                (None, None) => true,
+                _ => false,
+            };
+        inputs_same.then(|| ch.segmentation.clone())
+    });
+    let seg = match reused {
+        Some(seg) => seg,
+        None => segment::segment(
+            &contact.v2,
+            &contact.v2_smooth,
+            (contact.acceleration_source == "accelerometer").then_some(&contact.a2[..]),
+            contact.half_window,
+            SMOOTH_DEGREE,
+        ),
+    };
     for (i, st) in seg.stick.iter().enumerate() {
         if *st {
             // The physics gives ẋ2 = ẍ2 = 0 while sticking.
@@ -523,6 +556,7 @@ pub fn fit_runs(
 /// 1 + u, each shift taken as a rectangular ±u error (σ = |δ|/√3).
 fn calibration_variance(
     run: &Run,
+    base: &Characteristic,
     ef: &EquationFit,
     opts: &IdentifyOptions,
     q0: &[f64; 8],
@@ -563,7 +597,7 @@ fn calibration_variance(
             seed: opts.fit.seed,
         };
         for g in perturbed {
-            let Ok(ch) = characteristic(run, &g) else {
+            let Ok(ch) = characteristic_reusing(run, &g, Some((&Gains::default(), base))) else {
                 continue;
             };
             let Ok(f) = fit::fit(&ch.contact, &ch.segmentation, &forced) else {
@@ -740,7 +774,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
 
     // Calibration budget: re-run with each sensor's gain at +u, same law.
     let u = opts.gain_uncertainty;
-    let var = calibration_variance(run, &ef, opts, &q0);
+    let var = calibration_variance(run, &base, &ef, opts, &q0);
     let cal = |k: usize| 1.96 * var[k].sqrt();
     let fs = a * k2;
     let combine = |est: f64, stat: Option<(f64, f64)>, scale: f64, k: usize| -> Option<Interval> {
@@ -910,4 +944,60 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         untested,
         fit: ef,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ingest::{IngestOptions, Quantity};
+
+    /// The calibration budget's re-computations reuse the base's stages
+    /// and give the plain computation's characteristic bit for bit: every
+    /// single-gain perturbation and a double one, with an accelerometer,
+    /// without one, and without a velocity channel (the Debug form prints
+    /// every f64 so that distinct values print differently).
+    #[test]
+    fn reusing_characteristic_is_bit_identical() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");
+        let full = crate::ingest::read(&path, &IngestOptions::default()).unwrap();
+        let mut no_acc = full.clone();
+        no_acc.has_acceleration = false;
+        no_acc.resampled.a2 = None;
+        let mut no_vel = no_acc.clone();
+        no_vel.channels.retain(|c| c.quantity != Quantity::V2);
+        no_vel.resampled.v2 = vec![f64::NAN; no_vel.resampled.v2.len()];
+        assert!(full.has_acceleration && !no_vel.has_velocity());
+        let u = 1.01;
+        let one = Gains::default();
+        let gains = [
+            Gains { x0: u, ..one },
+            Gains { x1: u, ..one },
+            Gains { x2: u, ..one },
+            Gains { v2: u, ..one },
+            Gains { a2: u, ..one },
+            Gains {
+                x1: u,
+                a2: u,
+                ..one
+            },
+            one,
+        ];
+        for run in [&full, &no_acc, &no_vel] {
+            let base = characteristic(run, &one).unwrap();
+            for g in &gains {
+                let plain = characteristic(run, g).unwrap();
+                let reused = characteristic_reusing(run, g, Some((&one, &base))).unwrap();
+                assert_eq!(
+                    format!("{:?}", plain.contact),
+                    format!("{:?}", reused.contact),
+                    "{g:?}"
+                );
+                assert_eq!(
+                    format!("{:?}", plain.segmentation),
+                    format!("{:?}", reused.segmentation),
+                    "{g:?}"
+                );
+            }
+        }
+    }
 }

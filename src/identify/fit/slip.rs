@@ -144,11 +144,13 @@ pub(super) fn irls(
     let mut coef = Vec::new();
     let mut res = vec![0.0; samples.len()];
     let mut prev: Option<Vec<f64>> = None;
+    // The regressors do not change between iterations: evaluated once.
+    let rows: Vec<Row> = samples.iter().map(|smp| basis(kind, smp, vs)).collect();
     for _ in 0..8 {
-        let p = basis(kind, &samples[0], vs).len();
+        let p = rows.first().map_or(0, |r| r.len());
         let mut ne = Normal::new(p);
-        for (smp, wi) in samples.iter().zip(&w) {
-            ne.add(&basis(kind, smp, vs), smp.r, *wi);
+        for ((smp, wi), x) in samples.iter().zip(&w).zip(&rows) {
+            ne.add(x, smp.r, *wi);
         }
         coef = ne.solve()?;
         // Converged: the weights would not change the fit any more.
@@ -158,9 +160,8 @@ pub(super) fn irls(
                 .all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + b.abs()))
         });
         prev = Some(coef.clone());
-        for (k, smp) in samples.iter().enumerate() {
-            let x = basis(kind, smp, vs);
-            res[k] = smp.r - x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();
+        for ((rk, smp), x) in res.iter_mut().zip(samples).zip(&rows) {
+            *rk = smp.r - x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();
         }
         let sigma = mad_sigma(&res).max(1e-12);
         let c = 1.345 * sigma;
