@@ -489,6 +489,16 @@ impl LogFit {
 
 /// The quantities whose calibration sensitivity is propagated.
 fn quantities(f: &EquationFit, a: f64, k2: f64, ss: f64) -> [f64; 8] {
+    let forced = fit::Forced {
+        law: f.law,
+        rs_lower_bound_n: f.rs_lower_bound_n,
+        rs_upper_bound_n: f.rs_upper_bound_n,
+    };
+    quantities_of(&forced, a, k2, ss)
+}
+
+/// [`quantities`] of a law and its bounds on Rs.
+fn quantities_of(f: &fit::Forced, a: f64, k2: f64, ss: f64) -> [f64; 8] {
     let [rs, rd, slope, rho_s, rho_d, dstar] = f.law.si_and_rho(a * k2, ss);
     [
         rs,
@@ -591,19 +601,15 @@ fn calibration_variance(
                 ..Gains::default()
             });
         }
-        let forced = FitOptions {
-            law: Some(ef.law.kind),
-            bootstrap: 0,
-            seed: opts.fit.seed,
-        };
         for g in perturbed {
             let Ok(ch) = characteristic_reusing(run, &g, Some((&Gains::default(), base))) else {
                 continue;
             };
-            let Ok(f) = fit::fit(&ch.contact, &ch.segmentation, &forced) else {
+            let Ok(f) = fit::fit_forced(&ch.contact, &ch.segmentation, ef.law.kind, opts.fit.seed)
+            else {
                 continue;
             };
-            let q = quantities(&f, ch.contact.drive.amplitude_m, k2, ss);
+            let q = quantities_of(&f, ch.contact.drive.amplitude_m, k2, ss);
             for k in 0..8 {
                 let d = q[k] - q0[k];
                 if d.is_finite() {
@@ -950,6 +956,61 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
 mod tests {
     use super::*;
     use crate::ingest::{IngestOptions, Quantity};
+
+    /// The calibration re-fit of one family gives what the full fit with
+    /// that law forced reports, bit for bit: every family on a log that
+    /// sticks, one that never sticks (N1.2: the reversal bound), a stuck
+    /// one (N30) and a Stribeck pad, with and without perturbed gains.
+    #[test]
+    fn forced_refit_matches_full_fit() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets");
+        let kinds = [
+            LawKind::Coulomb,
+            LawKind::Decreasing,
+            LawKind::StaticDynamic,
+            LawKind::Stribeck,
+        ];
+        let mut compared = 0;
+        for name in [
+            "char_N4.mcap",
+            "char_N1.2.mcap",
+            "char_N30.mcap",
+            "law_stribeck.mcap",
+        ] {
+            let run = crate::ingest::read(&dir.join(name), &IngestOptions::default()).unwrap();
+            for g in [
+                Gains::default(),
+                Gains {
+                    x2: 1.01,
+                    ..Gains::default()
+                },
+            ] {
+                let ch = characteristic(&run, &g).unwrap();
+                let (c, seg) = (&ch.contact, &ch.segmentation);
+                for kind in kinds {
+                    let opts = FitOptions {
+                        law: Some(kind),
+                        bootstrap: 0,
+                        seed: 7,
+                    };
+                    let full = fit::fit(c, seg, &opts);
+                    let forced = fit::fit_forced(c, seg, kind, 7);
+                    match (full, forced) {
+                        (Ok(f), Ok(r)) => {
+                            let a = quantities(&f, 1e-3, 100.0, 2.0);
+                            let b = quantities_of(&r, 1e-3, 100.0, 2.0);
+                            assert_eq!(format!("{a:?}"), format!("{b:?}"), "{name} {kind:?}");
+                            assert_eq!(f.law.kind, r.law.kind, "{name} {kind:?}");
+                            compared += 1;
+                        }
+                        (Err(_), Err(_)) => {}
+                        (f, r) => panic!("{name} {kind:?}: {:?} vs {:?}", f.is_ok(), r.is_ok()),
+                    }
+                }
+            }
+        }
+        assert!(compared >= 28, "{compared}");
+    }
 
     /// The calibration budget's re-computations reuse the base's stages
     /// and give the plain computation's characteristic bit for bit: every

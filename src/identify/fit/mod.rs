@@ -283,6 +283,78 @@ pub fn fit(
     })
 }
 
+/// What the calibration budget reads of a re-fit with the law forced to
+/// `kind` and no bootstrap: the law and the bounds on Rs, as [`fit`] would
+/// report them.
+pub(crate) struct Forced {
+    /// The law ([`EquationFit::law`]).
+    pub law: SiLaw,
+    /// [`EquationFit::rs_lower_bound_n`].
+    pub rs_lower_bound_n: Option<f64>,
+    /// [`EquationFit::rs_upper_bound_n`].
+    pub rs_upper_bound_n: Option<f64>,
+}
+
+/// [`fit`] with the law forced to `kind` and no bootstrap, reduced to what
+/// [`Forced`] holds: only that family's candidate is fitted (the others,
+/// the criteria and the effective sample size only inform a choice that is
+/// already made). The numbers are [`fit`]'s, bit for bit; where the family
+/// cannot be fitted (the choice then falls to BIC) it is [`fit`] itself.
+pub(crate) fn fit_forced(
+    c: &Contact,
+    seg: &Segmentation,
+    kind: LawKind,
+    seed: u64,
+) -> Result<Forced, super::IdentifyError> {
+    let opts = FitOptions {
+        law: Some(kind),
+        bootstrap: 0,
+        seed,
+    };
+    let full = |opts: &FitOptions| {
+        fit(c, seg, opts).map(|f| Forced {
+            law: f.law,
+            rs_lower_bound_n: f.rs_lower_bound_n,
+            rs_upper_bound_n: f.rs_upper_bound_n,
+        })
+    };
+    let gauge = slip::Gauge::new(c);
+    let (samples, _) = slip::slip_samples(c, seg, &gauge);
+    if seg.stuck() || samples.len() < 20 {
+        return full(&opts);
+    }
+    let never_sticks = seg.never_sticks();
+    let stribeck_vs = (kind == LawKind::Stribeck && !never_sticks)
+        .then(|| stribeck::stribeck_velocity(&samples, seg.hi))
+        .flatten();
+    let vs = stribeck_vs.unwrap_or(1.0);
+    if kind == LawKind::Stribeck && stribeck_vs.is_none() {
+        return full(&opts); // no Stribeck candidate: fit chooses by BIC
+    }
+    let Some((coef, w, res)) = slip::irls(&samples, kind, vs) else {
+        return full(&opts);
+    };
+    let chosen = select::Cand {
+        kind,
+        coef,
+        w,
+        res,
+        vs,
+    };
+    let brks = bounds::breakaways(c, seg, &gauge);
+    let mut law = select::to_law(&chosen, &brks);
+    let mut rs_upper = None;
+    if never_sticks {
+        rs_upper = bounds::reversal_upper_bound(c, seg, &gauge, &chosen.coef);
+        law.rs_n = f64::NAN;
+    }
+    Ok(Forced {
+        law,
+        rs_lower_bound_n: None,
+        rs_upper_bound_n: rs_upper,
+    })
+}
+
 impl EquationFit {
     /// The fit of a stuck log: only a lower bound on Rs (every other
     /// parameter NaN); `kind` is the family asked for.
