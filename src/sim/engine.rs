@@ -576,12 +576,47 @@ impl Sim {
                     );
                     (hit.map(|h| (h.delta, h.which, h.jet.x)), jb.x)
                 }
+                // With exact extremes every step's jet is wanted: the
+                // finder marches jets.
+                Mode::Slip { dir } if extremes => {
+                    let p = self.slip.start(x, s, u, self.slip_c(dir));
+                    let cur = Cell::new(self.slip.cursor(&p));
+                    let eval = |d: f64| slip_jet(self.slip.jet_near(&p, &cur.get(), d));
+                    let next = |b: f64| {
+                        let mut c = cur.get();
+                        if b == c.delta + self.slip.step {
+                            let j = slip_jet(self.slip.advance(&p, &mut c));
+                            cur.set(c);
+                            j
+                        } else {
+                            eval(b)
+                        }
+                    };
+                    samp_slip.begin_phase();
+                    let mut sample =
+                        |d: f64| self.slip.sample_near(&p, &cur.get(), &mut samp_slip, d);
+                    let (fns, nf) = self.slip_events(dir, frictionless);
+                    let (hit, jb) = events::first_event(
+                        &eval,
+                        next,
+                        &fns[..nf],
+                        left,
+                        self.slip.step,
+                        self.resolution * t,
+                        |a, ja, b, jb| {
+                            track_extremum(&eval, &mut stats, a, ja, b, jb);
+                            sampler(a, b, &mut sample, obs);
+                        },
+                    );
+                    (hit.map(|h| (h.delta, h.which, h.jet.x)), jb.x)
+                }
                 Mode::Slip { dir } => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
                     // The event finder sees phase points, on which the
                     // switching functions are projections (a few complex
                     // multiply-adds); jets are assembled only where needed.
                     // The cursor is borrowed in place (no copies of it).
+                    // (Without extremes: the steady-state marches.)
                     let cur = RefCell::new(self.slip.cursor(&p));
                     let point = |d: f64| self.slip.point_near(&p, &cur.borrow(), d);
                     let next = |b: f64| {
@@ -591,17 +626,6 @@ impl Sim {
                         } else {
                             self.slip.point_near(&p, &c, b)
                         }
-                    };
-                    let eval = |d: f64| slip_jet(self.slip.jet_near(&p, &cur.borrow(), d));
-                    let last = Cell::new((f64::NAN, slip_jet(([0.0; 4], [0.0; 4], [0.0; 4]))));
-                    let jet_at = |d: f64, q: &Point<4>| {
-                        let (dl, jl) = last.get();
-                        if dl == d {
-                            return jl;
-                        }
-                        let j = slip_jet(self.slip.jet_of(&p, q));
-                        last.set((d, j));
-                        j
                     };
                     samp_slip.begin_phase();
                     let mut sample =
@@ -622,13 +646,7 @@ impl Sim {
                         left,
                         self.slip.step,
                         self.resolution * t,
-                        |a, qa, b, qb| {
-                            if extremes {
-                                let (ja, jb) = (jet_at(a, qa), jet_at(b, qb));
-                                track_extremum(&eval, &mut stats, a, &ja, b, &jb);
-                            }
-                            sampler(a, b, &mut sample, obs);
-                        },
+                        |a, _, b, _| sampler(a, b, &mut sample, obs),
                     );
                     let hit = hit.map(|h| (h.delta, h.which, self.slip.state_of(&p, &h.jet)));
                     (hit, self.slip.state_of(&p, &qb))
