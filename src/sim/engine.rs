@@ -29,10 +29,10 @@
 
 use super::events::{self, EventFn, Jet};
 use super::linalg::C64;
-use super::phase::{absorber, LinearPhase, Sampler};
+use super::phase::{absorber, LinearPhase, Point, Projection, Sampler};
 use super::SimError;
 use crate::model::{Law, Model};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::f64::consts::PI;
 
 /// The contact state of M2.
@@ -263,6 +263,15 @@ fn check_work(stick: &LinearPhase<2>, slip: &LinearPhase<4>, eta: f64) -> Result
     Ok(())
 }
 
+/// The slip's switching functions' gradients ±e3 projected on its closed
+/// form (see [`Sim::slip_events`]).
+fn slip_projections(slip: &LinearPhase<4>) -> [Projection<4>; 2] {
+    [
+        slip.projection([0.0, 0.0, 0.0, 1.0]),
+        slip.projection([0.0, 0.0, 0.0, -1.0]),
+    ]
+}
+
 /// The engine for one model at one forcing frequency: all per-parameter-set
 /// work (eigen-decompositions, particular solutions) is done here, once.
 #[derive(Debug, Clone)]
@@ -272,6 +281,9 @@ pub struct Sim {
     period: f64,
     stick: LinearPhase<2>,
     slip: LinearPhase<4>,
+    /// The slip's switching functions projected on its closed form:
+    /// gradients e3 and −e3 (ζ2' and −ζ2').
+    slip_proj: [Projection<4>; 2],
     rho_s: f64,
     rho_d: f64,
     /// Speed at which the slip friction reaches the interruption level.
@@ -307,6 +319,7 @@ impl Sim {
         )
         .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
         check_work(&stick, &slip, eta)?;
+        let slip_proj = slip_projections(&slip);
         let thr = model.interrupt_level();
         let v_interrupt = if rho_d < thr {
             Some(0.0)
@@ -321,6 +334,7 @@ impl Sim {
             period: 2.0 * PI / eta,
             stick,
             slip,
+            slip_proj,
             rho_s: model.law.rho_s(),
             rho_d,
             v_interrupt,
@@ -343,11 +357,13 @@ impl Sim {
             .at_eta(eta)
             .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
         check_work(&stick, &slip, eta)?;
+        let slip_proj = slip_projections(&slip);
         Ok(Self {
             eta,
             period: 2.0 * PI / eta,
             stick,
             slip,
+            slip_proj,
             ..self.clone()
         })
     }
@@ -522,7 +538,9 @@ impl Sim {
                 Mode::Stick { z2 } => {
                     let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
                     // The marching cursor is shared: arbitrary offsets are
-                    // evaluated from it (within one step, no libm).
+                    // evaluated from it (within one step, no libm). (The
+                    // two-dimensional stick state is as cheap as projecting
+                    // its two switching functions on the closed form.)
                     let cur = Cell::new(self.stick.cursor(&p));
                     let eval = |d: f64| stick_jet(self.stick.jet_near(&p, &cur.get(), d), z2);
                     let next = |b: f64| {
@@ -556,9 +574,11 @@ impl Sim {
                             sampler(a, b, &mut sample, obs);
                         },
                     );
-                    (hit, jb)
+                    (hit.map(|h| (h.delta, h.which, h.jet.x)), jb.x)
                 }
-                Mode::Slip { dir } => {
+                // With exact extremes every step's jet is wanted: the
+                // finder marches jets.
+                Mode::Slip { dir } if extremes => {
                     let p = self.slip.start(x, s, u, self.slip_c(dir));
                     let cur = Cell::new(self.slip.cursor(&p));
                     let eval = |d: f64| slip_jet(self.slip.jet_near(&p, &cur.get(), d));
@@ -584,13 +604,52 @@ impl Sim {
                         self.slip.step,
                         self.resolution * t,
                         |a, ja, b, jb| {
-                            if extremes {
-                                track_extremum(&eval, &mut stats, a, ja, b, jb);
-                            }
+                            track_extremum(&eval, &mut stats, a, ja, b, jb);
                             sampler(a, b, &mut sample, obs);
                         },
                     );
-                    (hit, jb)
+                    (hit.map(|h| (h.delta, h.which, h.jet.x)), jb.x)
+                }
+                Mode::Slip { dir } => {
+                    let p = self.slip.start(x, s, u, self.slip_c(dir));
+                    // The event finder sees phase points, on which the
+                    // switching functions are projections (a few complex
+                    // multiply-adds); jets are assembled only where needed.
+                    // The cursor is borrowed in place (no copies of it).
+                    // (Without extremes: the steady-state marches.)
+                    let cur = RefCell::new(self.slip.cursor(&p));
+                    let point = |d: f64| self.slip.point_near(&p, &cur.borrow(), d);
+                    let next = |b: f64| {
+                        let mut c = cur.borrow_mut();
+                        if b == c.delta + self.slip.step {
+                            self.slip.advance_point(&p, &mut c)
+                        } else {
+                            self.slip.point_near(&p, &c, b)
+                        }
+                    };
+                    samp_slip.begin_phase();
+                    let mut sample =
+                        |d: f64| self.slip.sample_near(&p, &cur.borrow(), &mut samp_slip, d);
+                    let (fns, nf) = self.slip_events(dir, frictionless);
+                    // End of the slip: gradient dir·e3; interruption: −dir·e3.
+                    let (pe, ps) = if dir > 0.0 { (0, 1) } else { (1, 0) };
+                    let (x0, d1, d2) = self.slip.jet_of(&p, &Point::Start);
+                    let j0 = [x0, d1, d2];
+                    let sw = [
+                        self.slip.switch(&self.slip_proj[pe], &p, fns[0].g0, &j0),
+                        self.slip.switch(&self.slip_proj[ps], &p, fns[1].g0, &j0),
+                    ];
+                    let (hit, qb) = events::first_event(
+                        &point,
+                        next,
+                        &sw[..nf],
+                        left,
+                        self.slip.step,
+                        self.resolution * t,
+                        |a, _, b, _| sampler(a, b, &mut sample, obs),
+                    );
+                    let hit = hit.map(|h| (h.delta, h.which, self.slip.state_of(&p, &h.jet)));
+                    (hit, self.slip.state_of(&p, &qb))
                 }
             };
             match hit {
@@ -599,7 +658,7 @@ impl Sim {
                         stick_time += left;
                         stats.stick_time += left;
                     }
-                    x = x_end.x;
+                    x = x_end;
                     if let Mode::Stick { z2 } = mode {
                         x[2] = z2;
                         x[3] = 0.0;
@@ -619,8 +678,8 @@ impl Sim {
                         return end(n, 0.0, x, mode, Status::Stopped, events, stick_time);
                     }
                 }
-                Some(h) => {
-                    if h.delta == 0.0 {
+                Some((h_delta, h_which, h_x)) => {
+                    if h_delta == 0.0 {
                         instant += 1;
                         if instant > MAX_INSTANT_SWITCHES {
                             return end(
@@ -641,14 +700,14 @@ impl Sim {
                         instant = 0;
                     }
                     if let Mode::Stick { .. } = mode {
-                        stick_time += h.delta;
-                        stats.stick_time += h.delta;
+                        stick_time += h_delta;
+                        stats.stick_time += h_delta;
                     }
-                    s += h.delta;
+                    s += h_delta;
                     let tau = n as f64 * t + s;
                     let (z0, _) = self.stick.drive(u, s);
                     match apply(
-                        switch(&self.model, mode, h.which, &h.jet.x, z0, tau),
+                        switch(&self.model, mode, h_which, &h_x, z0, tau),
                         tau,
                         obs,
                         &mut events,

@@ -37,13 +37,27 @@ pub struct EventFn<const N: usize> {
     pub g0: f64,
 }
 
-/// A switching function of the state: h, h' and h'' along a trajectory.
-pub trait Switch<const N: usize> {
-    /// h, h', h'' at a jet.
-    fn eval(&self, j: &Jet<N>) -> (f64, f64, f64);
+/// A switching function: h, h' and h'' along a trajectory, at a point `P`
+/// of it (a [`Jet`], or any representation from which the function can be
+/// evaluated more cheaply, e.g. a closed-form phase's modal factors).
+pub trait Switch<P> {
+    /// h, h', h'' at a point.
+    fn eval(&self, j: &P) -> (f64, f64, f64);
+
+    /// For the bracketing steps: h exactly as [`Switch::eval`] gives it,
+    /// h' possibly cheaper, and a bound on how far that h' may be from
+    /// `eval`'s (0: it is `eval`'s). The finder decides on these where it
+    /// can and evaluates with `eval` where an event is bracketed or a
+    /// minimum may be inside (so it finds exactly what it finds with
+    /// `eval` alone).
+    #[inline(always)]
+    fn quick(&self, j: &P) -> (f64, f64, f64) {
+        let (h, d, _) = self.eval(j);
+        (h, d, 0.0)
+    }
 }
 
-impl<const N: usize> Switch<N> for EventFn<N> {
+impl<const N: usize> Switch<Jet<N>> for EventFn<N> {
     /// h, h', h'' at a jet.
     #[inline]
     fn eval(&self, j: &Jet<N>) -> (f64, f64, f64) {
@@ -159,13 +173,13 @@ pub fn hermite_guess(a: f64, fa: f64, da: f64, b: f64, fb: f64, db: f64) -> f64 
 
 /// The first event of a phase.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Hit<const N: usize> {
+pub struct Hit<P> {
     /// Offset from the phase start.
     pub delta: f64,
     /// Index of the switching function that fired.
     pub which: usize,
-    /// State there.
-    pub jet: Jet<N>,
+    /// The solution there (a [`Jet`], or the point type of the evaluator).
+    pub jet: P,
 }
 
 /// Finds the earliest zero of the switching functions `fns` on (0, end]
@@ -190,7 +204,7 @@ pub struct Hit<const N: usize> {
 /// generic closures inline into it. Split, the refinement would need the
 /// memo, the brackets and the step ends passed in and out of each call.
 #[allow(clippy::too_many_arguments)]
-pub fn first_event<const N: usize, W, E, M, S>(
+pub fn first_event<P, W, E, M, S>(
     eval: &E,
     mut next: M,
     fns: &[W],
@@ -198,48 +212,50 @@ pub fn first_event<const N: usize, W, E, M, S>(
     step: f64,
     scale: f64,
     mut on_step: S,
-) -> (Option<Hit<N>>, Jet<N>)
+) -> (Option<Hit<P>>, P)
 where
-    W: Switch<N>,
-    E: Fn(f64) -> Jet<N>,
-    M: FnMut(f64) -> Jet<N>,
-    S: FnMut(f64, &Jet<N>, f64, &Jet<N>),
+    P: Copy,
+    W: Switch<P>,
+    E: Fn(f64) -> P,
+    M: FnMut(f64) -> P,
+    S: FnMut(f64, &P, f64, &P),
 {
     // The refinement's last evaluation is usually at the root it returns:
     // remember it so the hit's jet is not computed twice.
-    // (A NaN offset matches nothing.)
-    let memo: std::cell::RefCell<(f64, Jet<N>)> = std::cell::RefCell::new((
-        f64::NAN,
-        Jet {
-            x: [0.0; N],
-            dx: [0.0; N],
-            ddx: [0.0; N],
-        },
-    ));
-    let eval = |d: f64| -> Jet<N> {
+    let j0 = eval(0.0);
+    let memo: std::cell::RefCell<(f64, P)> = std::cell::RefCell::new((0.0, j0));
+    let eval = |d: f64| -> P {
         let mut m = memo.borrow_mut();
         if m.0 != d {
             *m = (d, eval(d));
         }
         m.1
     };
-    let j0 = eval(0.0);
     let mut a = 0.0;
     let mut ja = j0;
     // Lower bracket ends per function (nonzero only for boundary starts).
     let mut lo = [0.0f64; 4];
     debug_assert!(fns.len() <= lo.len());
     let mut boundary = [false; 4];
+    // h, h' and the bound of h' (`Switch::quick`) of each function at the
+    // step's ends (those at its end are the next step's start values).
+    let mut va = [(0.0, 0.0, 0.0); 4];
     for (i, f) in fns.iter().enumerate() {
-        boundary[i] = f.eval(&j0).0 <= 0.0;
+        let (h, d, _) = f.eval(&j0);
+        va[i] = (h, d, 0.0);
+        boundary[i] = h <= 0.0;
     }
+    let mut vb = va;
     loop {
         let b = (a + step).min(end);
         let jb = next(b);
         let mut best: Option<(f64, usize)> = None;
+        for (v, f) in vb.iter_mut().zip(fns) {
+            *v = f.quick(&jb);
+        }
         for (i, f) in fns.iter().enumerate() {
-            let (ha, da, _) = f.eval(&ja);
-            let (hb, db, _) = f.eval(&jb);
+            let (ha, qa, ta) = va[i];
+            let (hb, qb, tb) = vb[i];
             let mut lo_i = a;
             if boundary[i] && a == 0.0 {
                 // Leave the boundary: find a point with h > 0 inside (0, b].
@@ -284,15 +300,21 @@ where
                 continue;
             }
             if hb <= 0.0 && ha > 0.0 {
+                let (_, da, _) = f.eval(&ja);
+                let (_, db, _) = f.eval(&jb);
                 let g = hermite_guess(lo_i, ha, da, b, hb, db);
                 let r = refine(|d| deriv1(f, &eval(d)), lo_i, b, scale, g);
                 if best.is_none_or(|(d, _)| r < d) {
                     best = Some((r, i));
                 }
-            } else if ha > 0.0 && hb > 0.0 && da < 0.0 && db > 0.0 {
+            } else if ha > 0.0 && hb > 0.0 && qa < ta && qb > -tb {
+                // Maybe h' < 0 at a and > 0 at b: decided on eval's h'.
+                let (_, da, dda) = f.eval(&ja);
+                let (_, db, ddb) = f.eval(&jb);
+                if !(da < 0.0 && db > 0.0) {
+                    continue;
+                }
                 // A minimum inside: grazing candidate.
-                let (_, _, dda) = f.eval(&ja);
-                let (_, _, ddb) = f.eval(&jb);
                 let g = hermite_guess(a, -da, -dda, b, -db, -ddb);
                 let tm = refine(|d| deriv2(f, &eval(d)), a, b, scale, g);
                 let (hm, _, _) = f.eval(&eval(tm));
@@ -322,18 +344,19 @@ where
         }
         a = b;
         ja = jb;
+        va = vb;
     }
 }
 
 #[inline]
-fn deriv1<const N: usize, W: Switch<N>>(f: &W, j: &Jet<N>) -> (f64, f64, f64) {
+fn deriv1<P, W: Switch<P>>(f: &W, j: &P) -> (f64, f64, f64) {
     f.eval(j)
 }
 
 /// h' and h'' oriented for a minimum: h' < 0 before, > 0 after, so the root
 /// of −h' is refined with f(a) > 0 ≥ f(b).
 #[inline]
-fn deriv2<const N: usize, W: Switch<N>>(f: &W, j: &Jet<N>) -> (f64, f64, f64) {
+fn deriv2<P, W: Switch<P>>(f: &W, j: &P) -> (f64, f64, f64) {
     let (_, d, dd) = f.eval(j);
     (-d, -dd, 0.0)
 }

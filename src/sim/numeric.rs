@@ -30,7 +30,7 @@ enum NumSwitch {
     Friction { dir: f64, thr: f64, model: Model },
 }
 
-impl Switch<4> for NumSwitch {
+impl Switch<Jet<4>> for NumSwitch {
     #[inline]
     fn eval(&self, j: &Jet<4>) -> (f64, f64, f64) {
         match self {

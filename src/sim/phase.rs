@@ -23,6 +23,7 @@
 //! the phase falls back to the matrix exponential of the augmented system
 //! `[x, Re, Im, 1]`, which is exact for every matrix.
 
+use super::events::Switch;
 use super::linalg::{self, Aug, Modal, C64, MAX_AUG};
 
 /// Condition number of the eigenvector matrix above which the modal form is
@@ -166,6 +167,132 @@ pub struct Started<const N: usize> {
     /// shared by the modal projection, the δ = 0 jet and the cursor).
     e0: C64,
     y0: [C64; N],
+}
+
+/// A point of a started phase's solution as the event finder sees it:
+/// what the closed form has at an offset δ before the state is assembled.
+/// Switching functions are evaluated on it by projection
+/// ([`PhaseSwitch`]); the state and its derivatives only where they are
+/// needed ([`LinearPhase::jet_of`]). Small (56 bytes for N = 4): the event
+/// finder copies points at every bracketing step.
+#[derive(Debug, Clone, Copy)]
+pub enum Point<const N: usize> {
+    /// δ = 0: exactly the initial state (see [`LinearPhase::jet`]).
+    Start,
+    /// The factors z_t = y0_k·e^{λ_k δ} of the (at most two) representative
+    /// modal terms t (eigenvalue k = `terms[t]`) and the forcing phasor
+    /// e = U·e^{iη(s0+δ)}.
+    Modal {
+        /// Modal factors, by term.
+        z: [C64; 2],
+        /// Forcing phasor.
+        e: C64,
+    },
+    /// The state and the forcing phasor (matrix-exponential form, and
+    /// modal forms with more than two terms).
+    Full {
+        /// State.
+        x: [f64; N],
+        /// Forcing phasor.
+        e: C64,
+    },
+}
+
+/// A linear switching function h = g·x + g0 projected on a phase system's
+/// closed form: with x(δ) = x_c + Re(X·e) + Σ_k w_k·Re(V_k·z_k),
+///
+/// ```text
+/// h(δ)  = (g0 + g·x_c) + Re(β·e)      + Σ_k Re(α_k·z_k),
+/// h'(δ) =                Re(iη·β·e)   + Σ_k Re(λ_k·α_k·z_k),
+/// h''(δ) =               Re(−η²·β·e)  + Σ_k Re(λ_k²·α_k·z_k),
+/// ```
+///
+/// β = g·X, α_k = w_k·g·V_k: a few complex multiply-adds per evaluation
+/// instead of the state and its two derivatives. The coefficients depend on
+/// g and the phase system only (not on the phase's start): made once.
+/// Summed in the order of [`LinearPhase::jet`]'s state, so that for a
+/// gradient ±e_i the value h is that of the state component bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub struct Projection<const N: usize> {
+    g: [f64; N],
+    /// g = ±e_i: the projected h is the state component's, bit for bit.
+    unit: bool,
+    /// α_t·{1, λ_t, λ_t²} by term t (zero past the terms).
+    modal: [[C64; 3]; 2],
+    /// β·{1, iη, −η²}.
+    forced: [C64; 3],
+}
+
+/// A [`Projection`] at one started phase: the switching function
+/// h = g·x + g0 on that phase's [`Point`]s.
+#[derive(Debug, Clone, Copy)]
+pub struct PhaseSwitch<'a, const N: usize> {
+    proj: &'a Projection<N>,
+    phase: &'a LinearPhase<N>,
+    p: &'a Started<N>,
+    g0: f64,
+    /// g·x_c.
+    gxc: f64,
+    /// h, h', h'' at δ = 0 from the exact initial jet.
+    h0: (f64, f64, f64),
+}
+
+/// Relative bound used for the projected h' against the jet's (rounding
+/// of either is a few ε·cond(V) of the terms summed, cond(V) < 1e6).
+const PROJ_SLACK: f64 = 1e-8;
+
+impl<const N: usize> Switch<Point<N>> for PhaseSwitch<'_, N> {
+    /// From the jet of the point, exactly as [`super::events::EventFn`]
+    /// evaluates it.
+    #[inline(always)]
+    fn eval(&self, pt: &Point<N>) -> (f64, f64, f64) {
+        match pt {
+            Point::Start => self.h0,
+            _ => {
+                let (x, d1, d2) = self.phase.jet_of(self.p, pt);
+                dot_jet(&self.proj.g, self.g0, &[x, d1, d2])
+            }
+        }
+    }
+
+    /// By projection (see [`Projection`]): h bit for bit as `eval` for a
+    /// gradient ±e_i (summed in the state's order, g0 last), h' to
+    /// [`PROJ_SLACK`] of the terms summed.
+    #[inline(always)]
+    fn quick(&self, pt: &Point<N>) -> (f64, f64, f64) {
+        let re = |a: C64, b: C64| a.re * b.re - a.im * b.im;
+        match pt {
+            Point::Modal { z, e } if self.proj.unit => {
+                let (f, m) = (&self.proj.forced, &self.proj.modal);
+                let (h0, h1, h2) = (re(f[0], *e), re(m[0][0], z[0]), re(m[1][0], z[1]));
+                let (d0, d1, d2) = (re(f[1], *e), re(m[0][1], z[0]), re(m[1][1], z[1]));
+                let h = self.g0 + (self.gxc + h0 + h1 + h2);
+                let size = d0.abs()
+                    + d1.abs()
+                    + d2.abs()
+                    + self.phase.fastest * (self.gxc.abs() + h0.abs() + h1.abs() + h2.abs());
+                (h, d0 + d1 + d2, PROJ_SLACK * size)
+            }
+            Point::Start => (self.h0.0, self.h0.1, 0.0),
+            _ => {
+                let (h, d, _) = self.eval(pt);
+                (h, d, 0.0)
+            }
+        }
+    }
+}
+
+/// g·x + g0, g·x', g·x'' of a jet (in the order [`super::events::EventFn`]
+/// sums them).
+#[inline(always)]
+fn dot_jet<const N: usize>(g: &[f64; N], g0: f64, j: &[[f64; N]; 3]) -> (f64, f64, f64) {
+    let (mut h, mut d, mut dd) = (g0, 0.0, 0.0);
+    for i in 0..N {
+        h += g[i] * j[0][i];
+        d += g[i] * j[1][i];
+        dd += g[i] * j[2][i];
+    }
+    (h, d, dd)
 }
 
 impl<const N: usize> LinearPhase<N> {
@@ -589,6 +716,185 @@ impl<const N: usize> LinearPhase<N> {
         }
     }
 
+    /// The projection of the switching function with gradient g on this
+    /// phase system (see [`Projection`]).
+    pub fn projection(&self, g: [f64; N]) -> Projection<N> {
+        let nonzero = g.iter().filter(|v| **v != 0.0).count();
+        let mut pr = Projection {
+            g,
+            unit: nonzero == 1 && g.iter().any(|v| v.abs() == 1.0),
+            modal: [[C64::new(0.0, 0.0); 3]; 2],
+            forced: [C64::new(0.0, 0.0); 3],
+        };
+        if let Repr::Modal {
+            md,
+            xh,
+            terms,
+            nterms,
+        } = &self.repr
+        {
+            let mut beta = C64::new(0.0, 0.0);
+            for i in 0..N {
+                beta += xh[i] * g[i];
+            }
+            let ie = C64::new(0.0, self.eta);
+            pr.forced = [beta, beta * ie, beta * (ie * ie)];
+            if *nterms <= 2 {
+                for (t, &(k, w)) in terms[..*nterms].iter().enumerate() {
+                    let mut alpha = C64::new(0.0, 0.0);
+                    for i in 0..N {
+                        alpha += md.v[i][k] * g[i];
+                    }
+                    alpha *= w;
+                    let l = md.lambda[k];
+                    pr.modal[t] = [alpha, alpha * l, alpha * l * l];
+                }
+            }
+        }
+        pr
+    }
+
+    /// The switching function h = g·x + g0 (g that of `proj`) on the points
+    /// of the started phase `p`, whose jet at δ = 0 (`jet_of` the start
+    /// point, shared by a phase's functions) is `j0`.
+    #[inline]
+    pub fn switch<'a>(
+        &'a self,
+        proj: &'a Projection<N>,
+        p: &'a Started<N>,
+        g0: f64,
+        j0: &[[f64; N]; 3],
+    ) -> PhaseSwitch<'a, N> {
+        let mut gxc = 0.0;
+        for i in 0..N {
+            gxc += proj.g[i] * p.xc[i];
+        }
+        PhaseSwitch {
+            proj,
+            phase: self,
+            p,
+            g0,
+            gxc,
+            h0: dot_jet(&proj.g, g0, j0),
+        }
+    }
+
+    /// The modal factors by eigenvalue (as [`LinearPhase::modal_state`]
+    /// takes them) of a point's factors by term.
+    #[inline(always)]
+    fn by_eigenvalue(terms: &[(usize, f64); N], nterms: usize, zt: &[C64; 2]) -> [C64; N] {
+        let mut z = [C64::new(0.0, 0.0); N];
+        for (&(k, _), &v) in terms[..nterms].iter().zip(zt) {
+            z[k] = v;
+        }
+        z
+    }
+
+    /// The factors by term of factors by eigenvalue.
+    #[inline(always)]
+    fn by_term(terms: &[(usize, f64); N], nterms: usize, z: &[C64; N]) -> [C64; 2] {
+        let mut zt = [C64::new(0.0, 0.0); 2];
+        for (v, &(k, _)) in zt.iter_mut().zip(&terms[..nterms]) {
+            *v = z[k];
+        }
+        zt
+    }
+
+    /// The [`Point`] at offset δ, evaluated like [`LinearPhase::jet_near`]
+    /// (whose jet is [`LinearPhase::jet_of`] this point, bit for bit).
+    #[inline]
+    pub fn point_near(&self, p: &Started<N>, c: &Cursor<N>, delta: f64) -> Point<N> {
+        if delta == 0.0 {
+            return Point::Start;
+        }
+        if let Repr::Modal { terms, nterms, .. } = &self.repr {
+            if let Some((z, e)) = self.factors_near(c, delta) {
+                return Point::Modal {
+                    z: Self::by_term(terms, *nterms, &z),
+                    e,
+                };
+            }
+            if *nterms <= 2 {
+                let Repr::Modal { md, .. } = &self.repr else {
+                    unreachable!()
+                };
+                let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
+                let mut z = [C64::new(0.0, 0.0); 2];
+                for (v, &(k, _)) in z.iter_mut().zip(&terms[..*nterms]) {
+                    *v = p.y0[k] * (md.lambda[k] * delta).exp();
+                }
+                return Point::Modal { z, e };
+            }
+        }
+        let (x, _, _) = self.jet(p, delta);
+        let e = p.u * C64::from_polar(1.0, self.eta * (p.s0 + delta));
+        Point::Full { x, e }
+    }
+
+    /// Advances the cursor by one bracketing step and returns the
+    /// [`Point`] there (the jet of [`LinearPhase::advance`] is its
+    /// [`LinearPhase::jet_of`]).
+    #[inline(always)]
+    pub fn advance_point(&self, p: &Started<N>, c: &mut Cursor<N>) -> Point<N> {
+        match &self.repr {
+            Repr::Modal { terms, nterms, .. } if *nterms <= 2 => {
+                c.delta += self.step;
+                c.steps += 1.0;
+                let mut z = [C64::new(0.0, 0.0); 2];
+                for (v, &(k, _)) in z.iter_mut().zip(&terms[..*nterms]) {
+                    c.z[k] *= self.lam_step[k];
+                    *v = c.z[k];
+                }
+                c.e *= self.eta_step;
+                Point::Modal { z, e: c.e }
+            }
+            _ => {
+                let (x, _, _) = self.advance(p, c);
+                let e = if self.is_modal() {
+                    c.e
+                } else {
+                    p.u * C64::from_polar(1.0, self.eta * (p.s0 + c.delta))
+                };
+                Point::Full { x, e }
+            }
+        }
+    }
+
+    /// The state and its first two derivatives at a [`Point`] of the
+    /// started phase `p`.
+    #[inline]
+    pub fn jet_of(&self, p: &Started<N>, pt: &Point<N>) -> ([f64; N], [f64; N], [f64; N]) {
+        let (x, e) = match pt {
+            Point::Start => (p.x0, p.e0),
+            Point::Modal { e, .. } => (self.state_of(p, pt), *e),
+            Point::Full { x, e } => (*x, *e),
+        };
+        let (d1, d2) = self.derivs_e(p, &x, e);
+        (x, d1, d2)
+    }
+
+    /// The state at a [`Point`] (the first part of [`LinearPhase::jet_of`]).
+    #[inline]
+    pub fn state_of(&self, p: &Started<N>, pt: &Point<N>) -> [f64; N] {
+        match pt {
+            Point::Start => p.x0,
+            Point::Modal { z, e } => {
+                let Repr::Modal {
+                    md,
+                    xh,
+                    terms,
+                    nterms,
+                } = &self.repr
+                else {
+                    unreachable!("modal point of a matrix-exponential phase")
+                };
+                let z = Self::by_eigenvalue(terms, *nterms, z);
+                self.modal_state(md, xh, terms, *nterms, p, &z, *e)
+            }
+            Point::Full { x, .. } => *x,
+        }
+    }
+
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
     fn modal_state(
@@ -823,6 +1129,72 @@ mod tests {
         assert!(worst <= 1.0, "samples off by {worst} of the bound");
         // About 15 of 16 of the ~770 samples outside the coarse jitter.
         assert!(rotated > 650, "only {rotated} samples rotated");
+    }
+
+    /// A switching function on phase points: `eval` is the function of the
+    /// assembled jet bit for bit; `quick` projects on the closed form, with
+    /// h bit for bit for the gradients ±e3 of the slip's switching
+    /// functions (any offset) and h' within its bound, which is itself
+    /// far above rounding yet far below h' (on grid points: marched cursor;
+    /// off-grid: tabulated factors; far offsets: libm factors; δ = 0: the
+    /// exact start). The matrix-exponential form evaluates the jet itself.
+    #[test]
+    fn projected_switch_matches_jet() {
+        use crate::sim::events::{EventFn, Jet};
+        let ab = Absorber::default();
+        let (ph, ex) = both_reprs(
+            absorber::slip_matrix(&ab, -0.04),
+            absorber::slip_input(&ab),
+            0.6,
+        );
+        let u = C64::from_polar(1.0, 0.7);
+        let c = [0.0, 0.0, 0.0, -0.375];
+        let x0 = [0.3, -0.1, 0.2, 0.05];
+        let grads = [
+            ([0.0, 0.0, 0.0, 1.0], 0.0),
+            ([0.0, 0.0, 0.0, -1.0], 0.0),
+            ([0.0, 0.0, 0.0, -1.0], 0.3),
+            ([1.0, ab.damping, -1.0, -ab.damping], 0.375),
+        ];
+        let (mut worst, mut projected) = (0.0f64, 0);
+        for phase in [&ph, &ex] {
+            let p = phase.start(x0, 1.3, u, c);
+            let (xs, ds, dds) = phase.jet_of(&p, &Point::Start);
+            let j0 = [xs, ds, dds];
+            for (g, g0) in grads {
+                let proj = phase.projection(g);
+                let sw = phase.switch(&proj, &p, g0, &j0);
+                let ev = EventFn { g, g0 };
+                let mut pts = vec![(0.0, Point::Start)];
+                let mut cur = phase.cursor(&p);
+                for _ in 0..6 {
+                    let q = phase.advance_point(&p, &mut cur);
+                    pts.push((cur.delta, q));
+                    for f in [0.13, 0.5, 0.91] {
+                        let d = cur.delta + f * phase.step;
+                        pts.push((d, phase.point_near(&p, &cur, d)));
+                    }
+                }
+                pts.push((40.0, phase.point_near(&p, &cur, 40.0)));
+                for (d, q) in pts {
+                    let (x, dx, ddx) = phase.jet_of(&p, &q);
+                    assert_eq!(phase.state_of(&p, &q), x);
+                    let want = ev.eval(&Jet { x, dx, ddx });
+                    assert_eq!(sw.eval(&q), want, "δ = {d}");
+                    let (h, dq, tol) = sw.quick(&q);
+                    assert_eq!(h.to_bits(), want.0.to_bits(), "δ = {d}");
+                    assert!((dq - want.1).abs() <= tol, "δ = {d}: {dq} vs {}", want.1);
+                    if tol > 0.0 {
+                        projected += 1;
+                        // Rounding is ~1e-16 of the terms; the bound 1e-8.
+                        worst = worst.max((dq - want.1).abs() / tol);
+                        assert!(tol < 1e-6 * (want.1.abs() + dx[3].abs() + x[3].abs()));
+                    }
+                }
+            }
+        }
+        assert_eq!(projected, 3 * 25);
+        assert!(worst < 1e-6, "projected h' off by {worst} of its bound");
     }
 
     /// The modal closed form and the matrix exponential are two independent
