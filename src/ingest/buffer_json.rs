@@ -135,7 +135,12 @@ impl Parser<'_> {
 
     /// The `value` array.
     fn values(&mut self, scale: f64, out: &mut Vec<f64>) -> Option<()> {
-        self.i = values(self.b, self.i, scale, out)?;
+        // x * 1.0 == x for every finite x: unscaled values skip the multiply.
+        self.i = if scale == 1.0 {
+            values::<false>(self.b, self.i, scale, out)?
+        } else {
+            values::<true>(self.b, self.i, scale, out)?
+        };
         Some(())
     }
 }
@@ -148,9 +153,15 @@ fn is_ws(c: u8) -> bool {
 
 /// The `value` array starting at `b[i]`: appends its values times `scale`
 /// (NaN for `null`) to `out` and returns the index just past it. A
-/// function of its own, on locals, for a tight loop.
+/// function of its own, on locals, for a tight loop; `SCALED`: whether to
+/// multiply by `scale`.
 #[inline(never)]
-fn values(b: &[u8], mut i: usize, scale: f64, out: &mut Vec<f64>) -> Option<usize> {
+fn values<const SCALED: bool>(
+    b: &[u8],
+    mut i: usize,
+    scale: f64,
+    out: &mut Vec<f64>,
+) -> Option<usize> {
     let skip_ws = |mut i: usize| {
         while b.get(i).is_some_and(|&c| is_ws(c)) {
             i += 1;
@@ -176,13 +187,15 @@ fn values(b: &[u8], mut i: usize, scale: f64, out: &mut Vec<f64>) -> Option<usiz
             i = skip_ws(i);
             continue;
         } else {
-            let (x, end) = number_short(b, i)?;
+            let (x, end) = match number_short(b, i) {
+                (_, LONG_WAY) => number_long(b, i)?,
+                short => short,
+            };
             i = end;
-            // x * 1.0 == x for every finite x: skip the multiply.
-            if scale == 1.0 {
-                x
-            } else {
+            if SCALED {
                 x * scale
+            } else {
+                x
             }
         };
         out.push(x);
@@ -263,9 +276,11 @@ const POW10_INT: [u64; 8] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_0
 /// 7 fraction digits, an exponent of at most 2 digits, with a power of ten
 /// in Clinger's range. Those are read a word at a time and computed as
 /// [`number`] computes them (the same integer mantissa and the same one
-/// correctly rounded operation); anything else goes to [`number`].
+/// correctly rounded operation); anything else returns [`LONG_WAY`] as the
+/// end, for the caller to call [`number`] (which keeps this result in
+/// registers).
 #[inline(always)]
-fn number_short(b: &[u8], start: usize) -> Option<(f64, usize)> {
+fn number_short(b: &[u8], start: usize) -> (f64, usize) {
     let negative = b.get(start) == Some(&b'-');
     let mut i = start + usize::from(negative);
     let first = b.get(i).map_or(10, |c| c.wrapping_sub(b'0'));
@@ -279,7 +294,7 @@ fn number_short(b: &[u8], start: usize) -> Option<(f64, usize)> {
         let n = digit_run(x);
         // No digit, 8 or more, or a leading zero (invalid JSON): the long way.
         if n == 0 || n == 8 || (n > 1 && first == 0) {
-            return number(b, start);
+            return (0.0, LONG_WAY);
         }
         mantissa = digits_value(x, n);
         i += n;
@@ -289,7 +304,7 @@ fn number_short(b: &[u8], start: usize) -> Option<(f64, usize)> {
         let x = digit_values(load8(b, i + 1));
         let n = digit_run(x);
         if n == 0 || n == 8 {
-            return number(b, start);
+            return (0.0, LONG_WAY);
         }
         // At most 7 + 7 digits: below 10^14 < 2^53, exact.
         mantissa = mantissa * POW10_INT[n] + digits_value(x, n);
@@ -305,14 +320,14 @@ fn number_short(b: &[u8], start: usize) -> Option<(f64, usize)> {
         let x = digit_values(load8(b, i));
         let n = digit_run(x);
         if n == 0 || n > 2 {
-            return number(b, start);
+            return (0.0, LONG_WAY);
         }
         let e = digits_value(x, n) as i64;
         exp10 += if exp_negative { -e } else { e };
         i += n;
     }
     if !(-22..=22).contains(&exp10) {
-        return number(b, start);
+        return (0.0, LONG_WAY);
     }
     // Below 2^53: the same value through i64 (a single instruction).
     let m = mantissa as i64 as f64;
@@ -323,7 +338,17 @@ fn number_short(b: &[u8], start: usize) -> Option<(f64, usize)> {
     };
     // The sign bit set for a negative number (v >= +0): -v, without a branch.
     let v = f64::from_bits(v.to_bits() | u64::from(negative) << 63);
-    Some((v, i))
+    (v, i)
+}
+
+/// The end [`number_short`] returns for a number it leaves to [`number`].
+const LONG_WAY: usize = usize::MAX;
+
+/// [`number`], out of the way of the loop that rarely needs it.
+#[cold]
+#[inline(never)]
+fn number_long(b: &[u8], start: usize) -> Option<(f64, usize)> {
+    number(b, start)
 }
 
 /// Advances `i` over ASCII digits, accumulating them into `acc` (wrapping;
