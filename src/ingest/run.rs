@@ -393,11 +393,11 @@ fn strictly_increasing_finite(t: &[f64]) -> bool {
     let (Some(first), Some(last)) = (t.first(), t.last()) else {
         return true;
     };
-    let not_after = t
+    let after = t
         .iter()
         .zip(&t[1..])
-        .fold(0usize, |n, (a, b)| n + usize::from(!(b > a)));
-    not_after == 0 && first.is_finite() && last.is_finite()
+        .fold(0usize, |n, (a, b)| n + usize::from(b > a));
+    after == t.len() - 1 && first.is_finite() && last.is_finite()
 }
 
 /// How many of `v` are finite, and how many infinite (one pass).
