@@ -15,7 +15,9 @@
 //! exactly representable mantissa and power of ten (Clinger's fast path, one
 //! rounding) or else the standard library's correctly rounding
 //! `f64::from_str` on the token. Correct rounding is unique, so the values
-//! are bit-identical to serde_json's.
+//! are bit-identical to serde_json's. The short numbers a DAQ writes (at
+//! most 7 integer and 7 fraction digits) have their digits read eight bytes
+//! at a time (`number_short`), with no branch per digit.
 
 /// Powers of ten exactly representable in an f64.
 const POW10: [f64; 23] = [
@@ -133,43 +135,220 @@ impl Parser<'_> {
 
     /// The `value` array.
     fn values(&mut self, scale: f64, out: &mut Vec<f64>) -> Option<()> {
-        self.eat(b'[')?;
-        self.ws();
-        if self.eat(b']').is_some() {
-            return Some(());
-        }
-        loop {
-            self.ws();
-            if self.peek()? == b'n' {
-                if self.b.get(self.i..self.i + 4)? != b"null" {
-                    return None;
-                }
-                self.i += 4;
-                out.push(f64::NAN);
-            } else {
-                let x = self.number()?;
-                // x * 1.0 == x for every finite x: skip the multiply.
-                out.push(if scale == 1.0 { x } else { x * scale });
-            }
-            self.ws();
-            match self.peek()? {
-                b',' => self.i += 1,
-                b']' => {
-                    self.i += 1;
-                    return Some(());
-                }
-                _ => return None,
-            }
-        }
+        // x * 1.0 == x for every finite x: unscaled values skip the multiply.
+        self.i = if scale == 1.0 {
+            values::<false>(self.b, self.i, scale, out)?
+        } else {
+            values::<true>(self.b, self.i, scale, out)?
+        };
+        Some(())
     }
+}
 
-    /// A JSON number as a finite f64, correctly rounded.
-    #[inline(always)]
-    fn number(&mut self) -> Option<f64> {
-        let (v, end) = number(self.b, self.i)?;
-        self.i = end;
-        Some(v)
+/// Whether `c` is JSON whitespace.
+#[inline(always)]
+fn is_ws(c: u8) -> bool {
+    matches!(c, b' ' | b'\n' | b'\t' | b'\r')
+}
+
+/// The `value` array starting at `b[i]`: appends its values times `scale`
+/// (NaN for `null`) to `out` and returns the index just past it. A
+/// function of its own, on locals, for a tight loop; `SCALED`: whether to
+/// multiply by `scale`.
+#[inline(never)]
+fn values<const SCALED: bool>(
+    b: &[u8],
+    mut i: usize,
+    scale: f64,
+    out: &mut Vec<f64>,
+) -> Option<usize> {
+    let skip_ws = |mut i: usize| {
+        while b.get(i).is_some_and(|&c| is_ws(c)) {
+            i += 1;
+        }
+        i
+    };
+    if b.get(i) != Some(&b'[') {
+        return None;
     }
+    i = skip_ws(i + 1);
+    if b.get(i) == Some(&b']') {
+        return Some(i + 1);
+    }
+    loop {
+        let c = *b.get(i)?;
+        let x = if c == b'n' {
+            if b.get(i..i + 4)? != b"null" {
+                return None;
+            }
+            i += 4;
+            f64::NAN
+        } else if is_ws(c) {
+            i = skip_ws(i);
+            continue;
+        } else {
+            let (x, end) = match number_short(b, i) {
+                (_, LONG_WAY) => number_long(b, i)?,
+                short => short,
+            };
+            i = end;
+            if SCALED {
+                x * scale
+            } else {
+                x
+            }
+        };
+        out.push(x);
+        // The DAQ writes no whitespace: the separator comes first.
+        let mut c = *b.get(i)?;
+        if is_ws(c) {
+            i = skip_ws(i);
+            c = *b.get(i)?;
+        }
+        i += 1;
+        match c {
+            b',' => {}
+            b']' => return Some(i),
+            _ => return None,
+        }
+    }
+}
+
+/// The 8 bytes at `b[i..]` as a little-endian word (first byte lowest),
+/// zero-padded past the end of `b`.
+#[inline(always)]
+fn load8(b: &[u8], i: usize) -> u64 {
+    match b.get(i..).and_then(<[u8]>::first_chunk::<8>) {
+        Some(w) => u64::from_le_bytes(*w),
+        None => load_tail(b, i),
+    }
+}
+
+/// [`load8`] within the last 8 bytes of `b`.
+#[cold]
+#[inline(never)]
+fn load_tail(b: &[u8], i: usize) -> u64 {
+    let mut w = [0u8; 8];
+    for (d, s) in w.iter_mut().zip(b.get(i..).unwrap_or(&[])) {
+        *d = *s;
+    }
+    u64::from_le_bytes(w)
+}
+
+/// `w` with every ASCII digit byte turned into its value (0 to 9); other
+/// bytes become values above 9.
+#[inline(always)]
+fn digit_values(w: u64) -> u64 {
+    w ^ 0x3030_3030_3030_3030
+}
+
+/// How many bytes of `x` (from [`digit_values`], first byte lowest) are
+/// digits (at most 9) before the first that is not (8 if all are).
+#[inline(always)]
+fn digit_run(x: u64) -> usize {
+    // The top bit of each byte above 9: either the byte itself has it, or
+    // adding 0x76 sets it. A carry out of a byte (one above 0x89, itself
+    // flagged) only reaches the bytes after it, which do not count.
+    let flags = (x.wrapping_add(0x7676_7676_7676_7676) | x) & 0x8080_8080_8080_8080;
+    (flags.trailing_zeros() / 8) as usize
+}
+
+/// The integer whose decimal digits are the first `n` (1 to 8) bytes of
+/// `x`, digit values (first byte lowest, most significant).
+#[inline(always)]
+fn digits_value(x: u64, n: usize) -> u64 {
+    // The first `n` digits moved to the top: the bytes below them are
+    // zeros, i.e. leading zeros (the bytes after them drop out).
+    let v = x << (8 * (8 - n));
+    // Pairs, then the four pairs (the classic SWAR eight-digit parse).
+    let v = v.wrapping_mul(10).wrapping_add(v >> 8);
+    let pairs = 0x0000_00FF_0000_00FF;
+    let v = ((v & pairs).wrapping_mul(100 + (1_000_000 << 32)))
+        .wrapping_add(((v >> 16) & pairs).wrapping_mul(1 + (10_000 << 32)));
+    v >> 32
+}
+
+/// Powers of ten as integers, up to 10^7 (a fraction of at most 7 digits).
+const POW10_INT: [u64; 8] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000];
+
+/// The JSON number starting at `b[start]`, as [`number`] returns it, by a
+/// quicker route for the short numbers a DAQ writes: at most 7 integer and
+/// 7 fraction digits, an exponent of at most 2 digits, with a power of ten
+/// in Clinger's range. Those are read a word at a time and computed as
+/// [`number`] computes them (the same integer mantissa and the same one
+/// correctly rounded operation); anything else returns [`LONG_WAY`] as the
+/// end, for the caller to call [`number`] (which keeps this result in
+/// registers).
+#[inline(always)]
+fn number_short(b: &[u8], start: usize) -> (f64, usize) {
+    let negative = b.get(start) == Some(&b'-');
+    let mut i = start + usize::from(negative);
+    let first = b.get(i).map_or(10, |c| c.wrapping_sub(b'0'));
+    let mut mantissa;
+    if first <= 9 && b.get(i + 1) == Some(&b'.') {
+        // One integer digit (the usual case for values in SI units).
+        mantissa = u64::from(first);
+        i += 1;
+    } else {
+        let x = digit_values(load8(b, i));
+        let n = digit_run(x);
+        // No digit, 8 or more, or a leading zero (invalid JSON): the long way.
+        if n == 0 || n == 8 || (n > 1 && first == 0) {
+            return (0.0, LONG_WAY);
+        }
+        mantissa = digits_value(x, n);
+        i += n;
+    }
+    let mut exp10: i64 = 0;
+    if b.get(i) == Some(&b'.') {
+        let x = digit_values(load8(b, i + 1));
+        let n = digit_run(x);
+        if n == 0 || n == 8 {
+            return (0.0, LONG_WAY);
+        }
+        // At most 7 + 7 digits: below 10^14 < 2^53, exact.
+        mantissa = mantissa * POW10_INT[n] + digits_value(x, n);
+        exp10 = -(n as i64);
+        i += 1 + n;
+    }
+    if b.get(i).is_some_and(|&c| c | 0x20 == b'e') {
+        i += 1;
+        let exp_negative = b.get(i) == Some(&b'-');
+        if exp_negative || b.get(i) == Some(&b'+') {
+            i += 1;
+        }
+        let x = digit_values(load8(b, i));
+        let n = digit_run(x);
+        if n == 0 || n > 2 {
+            return (0.0, LONG_WAY);
+        }
+        let e = digits_value(x, n) as i64;
+        exp10 += if exp_negative { -e } else { e };
+        i += n;
+    }
+    if !(-22..=22).contains(&exp10) {
+        return (0.0, LONG_WAY);
+    }
+    // Below 2^53: the same value through i64 (a single instruction).
+    let m = mantissa as i64 as f64;
+    let v = if exp10 < 0 {
+        m / POW10[(-exp10) as usize]
+    } else {
+        m * POW10[exp10 as usize]
+    };
+    // The sign bit set for a negative number (v >= +0): -v, without a branch.
+    let v = f64::from_bits(v.to_bits() | u64::from(negative) << 63);
+    (v, i)
+}
+
+/// The end [`number_short`] returns for a number it leaves to [`number`].
+const LONG_WAY: usize = usize::MAX;
+
+/// [`number`], out of the way of the loop that rarely needs it.
+#[cold]
+#[inline(never)]
+fn number_long(b: &[u8], start: usize) -> Option<(f64, usize)> {
+    number(b, start)
 }
 
 /// Advances `i` over ASCII digits, accumulating them into `acc` (wrapping;
@@ -310,6 +489,14 @@ mod tests {
             " {\"value\" : [ 1 , null ] ,\n\"dt_ns\":0,\t\"t0_ns\":18446744073709551615}\r\n",
             r#"{"t0_ns":0,"dt_ns":1,"value":[0.1,0.00013,123456789012345678901234,1e-320,4.9e-324,1.7976931348623157e308]}"#,
             r#"{"t0_ns":0,"dt_ns":1,"value":[9007199254740993,9007199254740992.5,0.30000000000000004]}"#,
+            // Around the limits of the word-at-a-time route (7 and 8 digits,
+            // 2- and 3-digit exponents, Clinger's range), and numbers in the
+            // last 8 bytes of the payload.
+            r#"{"t0_ns":0,"dt_ns":1,"value":[1234567.1234567,-1234567.1234567,12345678.5,0.12345678,1e22,1e23,1.5e-22,9e-23,1.25e+07,1E-7,12.5e0,1e007,7,-0]}"#,
+            r#"{"t0_ns":0,"dt_ns":1,"value":[-9.6e-05,0.0024825,-0.000128,4.04]}"#,
+            r#"{"value":[null,-9.6e-5],"t0_ns":0,"dt_ns":1}"#,
+            r#"{"t0_ns":0,"dt_ns":1,"value":[-9.6e-5]}"#,
+            r#"{"t0_ns":0,"dt_ns":1,"value":[3]}"#,
         ];
         for c in cases {
             assert!(agrees(c), "{c}");
@@ -332,6 +519,15 @@ mod tests {
             r#"{"t0_ns":1,"dt_ns":2,"value":[.5]}"#,
             r#"{"t0_ns":1,"dt_ns":2,"value":[+1]}"#,
             r#"{"t0_ns":1,"dt_ns":2,"value":[1e]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1e+-5]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[-.5]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1.e5]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[01.5]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1e5.5]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[0.5e]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[-]}"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1.5"#,
+            r#"{"t0_ns":1,"dt_ns":2,"value":[1.5e-0"#,
             r#"{"t0_ns":1,"dt_ns":2,"value":[1e999]}"#,
             r#"{"t0_ns":1,"dt_ns":2,"value":[-1e99999]}"#,
             r#"{"t0_ns":1,"dt_ns":2,"value":[NaN]}"#,
@@ -359,6 +555,8 @@ mod tests {
             (-1e-3f64..1e-3).prop_map(|x| format!("{x:.2e}")),
             "-?(0|[1-9][0-9]{0,25})(\\.[0-9]{1,25})?([eE][-+]?[0-9]{1,3})?",
             "-?[0-9]{0,3}\\.?[0-9]{0,3}[eE]?[-+]?[0-9]{0,2}",
+            // Around the word-at-a-time route's limits (7/8 digits, 2/3-digit exponents).
+            "-?(0|[1-9][0-9]{0,8})(\\.[0-9]{1,9})?([eE][-+]?[0-9]{1,3})?",
             Just("null".to_string()),
         ]
     }

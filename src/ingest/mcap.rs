@@ -6,7 +6,10 @@
 //! thread decodes them in file order (DAQ buffers by the fast path of
 //! `buffer_json`, serde_json otherwise). Results and errors are those of a
 //! single pass, and memory stays bounded by the largest chunk, a few
-//! batches and the decoded samples.
+//! batches and the decoded samples. Before that pass, the message counts of
+//! the summary section's Statistics record (when the footer points to one)
+//! size each channel's sample vectors after its first buffer, so they do not
+//! regrow; they are only a hint, bounded by the file's length.
 
 use super::rig::RigMeta;
 use super::run::Setpoint;
@@ -164,6 +167,7 @@ fn read_records(mut file: std::fs::File, tx: SyncSender<Batch>, pool: Receiver<B
 /// the first error) is the same as a single pass's.
 pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
     let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let expected = expected_counts(path).unwrap_or_default();
     let mut log = Collector {
         path,
         channels: HashMap::new(),
@@ -172,6 +176,7 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
         setpoints: Vec::new(),
         warnings: Vec::new(),
         n_messages: 0,
+        expected,
     };
     std::thread::scope(|s| {
         let (tx, rx) = std::sync::mpsc::sync_channel(BATCHES_QUEUED);
@@ -214,6 +219,73 @@ struct Collector<'a> {
     setpoints: Vec<(u64, f64, Option<f64>)>,
     warnings: Vec<String>,
     n_messages: u64,
+    /// Messages per channel id announced by the summary section (a hint
+    /// for reserving sample vectors, see [`expected_counts`]).
+    expected: ExpectedCounts,
+}
+
+/// Messages per channel id as a log's summary section states them, and the
+/// file's length (which bounds what is reserved on their word).
+#[derive(Default)]
+struct ExpectedCounts {
+    messages: BTreeMap<u16, u64>,
+    file_len: u64,
+}
+
+/// Largest summary section read for [`expected_counts`].
+const SUMMARY_LIMIT: u64 = 16 << 20;
+
+/// The message counts of the summary section's Statistics record, if the
+/// file has a footer pointing to a summary with one. Only a sizing hint:
+/// anything unexpected gives `None` (the linear pass then judges the file,
+/// through a handle of its own).
+fn expected_counts(path: &Path) -> Option<ExpectedCounts> {
+    use std::io::{Seek, SeekFrom};
+    let mut file = std::fs::File::open(path).ok()?;
+    let file_len = file.metadata().ok()?.len();
+    // Footer record (opcode, length, 20 bytes) and the end magic.
+    let tail_len = 1 + 8 + 20 + mcap::MAGIC.len() as u64;
+    file.seek(SeekFrom::Start(file_len.checked_sub(tail_len)?))
+        .ok()?;
+    let mut tail = vec![0u8; tail_len as usize];
+    file.read_exact(&mut tail).ok()?;
+    let (footer, magic) = tail.split_at(1 + 8 + 20);
+    if magic != mcap::MAGIC || footer[0] != mcap::records::op::FOOTER {
+        return None;
+    }
+    let Ok(Record::Footer(f)) = mcap::parse_record(footer[0], &footer[9..]) else {
+        return None;
+    };
+    let summary_end = file_len - tail_len;
+    if f.summary_start == 0
+        || f.summary_start >= summary_end
+        || summary_end - f.summary_start > SUMMARY_LIMIT
+    {
+        return None;
+    }
+    file.seek(SeekFrom::Start(f.summary_start)).ok()?;
+    let mut summary = vec![0u8; (summary_end - f.summary_start) as usize];
+    file.read_exact(&mut summary).ok()?;
+    let mut rest = summary.as_slice();
+    while rest.len() >= 9 {
+        let (head, body) = rest.split_at(9);
+        let len = usize::try_from(u64::from_le_bytes(head[1..].try_into().ok()?)).ok()?;
+        if len > body.len() {
+            return None;
+        }
+        let (data, next) = body.split_at(len);
+        if head[0] == mcap::records::op::STATISTICS {
+            let Ok(Record::Statistics(st)) = mcap::parse_record(head[0], data) else {
+                return None;
+            };
+            return Some(ExpectedCounts {
+                messages: st.channel_message_counts,
+                file_len,
+            });
+        }
+        rest = next;
+    }
+    None
 }
 
 impl Collector<'_> {
@@ -333,6 +405,7 @@ impl Collector<'_> {
             Role::Sensor(q) => {
                 let scale = info.scale;
                 let acc = self.accs.entry(q).or_default();
+                let first = acc.buffers.is_empty();
                 let start = acc.values.len();
                 let (t0_ns, dt_ns) = match buffer_json::parse_buffer(data, scale, &mut acc.values) {
                     Some(head) => head,
@@ -349,6 +422,13 @@ impl Collector<'_> {
                     }
                 };
                 push_buffer(path, acc, t0_ns, dt_ns, start, &where_)?;
+                if first {
+                    reserve(
+                        acc,
+                        self.expected.messages.get(&header.channel_id),
+                        self.expected.file_len,
+                    );
+                }
             }
         }
         Ok(())
@@ -557,6 +637,23 @@ fn push_buffer(
     }
     acc.buffers.push((t0_ns, dt_ns, start));
     Ok(())
+}
+
+/// After a channel's first buffer: room for as many more as the summary
+/// announces, each as long as the first, so its vectors do not regrow
+/// (copying and touching fresh memory each time) while the log is read.
+/// The hint is trusted only up to one value per byte of the file.
+fn reserve(acc: &mut Acc, messages: Option<&u64>, file_len: u64) {
+    let Some(&messages) = messages else {
+        return;
+    };
+    let limit = usize::try_from(file_len).unwrap_or(usize::MAX);
+    let more = usize::try_from(messages.saturating_sub(1))
+        .unwrap_or(usize::MAX)
+        .min(limit);
+    acc.buffers.reserve(more);
+    acc.values
+        .reserve(more.saturating_mul(acc.values.len()).min(limit));
 }
 
 /// Seconds from `origin` to `t` (both ns), exact in integers first.
@@ -957,6 +1054,23 @@ mod tests {
         let sp = run.resampled.setpoint_hz.as_ref().expect("column");
         assert_eq!(sp[5], 1.0);
         assert_eq!(sp[15], 1.5);
+    }
+
+    #[test]
+    fn summary_message_counts_are_only_a_hint() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let with = Fixture::good().write(dir.path(), "with.mcap");
+        let counts = super::expected_counts(&with).expect("statistics");
+        assert_eq!(counts.messages.values().sum::<u64>(), 8);
+        let mut f = Fixture::good();
+        f.summary = false;
+        let without = f.write(dir.path(), "without.mcap");
+        assert!(super::expected_counts(&without).is_none());
+        // A file cut short has no footer: no hint.
+        let bytes = std::fs::read(&with).expect("read");
+        let cut = dir.path().join("cut.mcap");
+        std::fs::write(&cut, &bytes[..bytes.len() - 1]).expect("write");
+        assert!(super::expected_counts(&cut).is_none());
     }
 
     #[test]

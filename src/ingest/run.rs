@@ -221,7 +221,8 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         mut setpoints,
         mut warnings,
     } = raw;
-    let channels = check_channels(path, channels, &mut warnings)?;
+    let checked = check_channels(path, channels, &mut warnings)?;
+    let (channels, dropouts): (Vec<RawChannel>, Vec<usize>) = checked.into_iter().unzip();
     note_missing(path, format, &channels, &mut warnings)?;
     // Log start and end over all channels.
     let origin = origin.unwrap_or_else(|| {
@@ -239,12 +240,16 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     // order (identical whatever the thread count).
     let analysed: Vec<(Channel, Vec<Gap>)> = channels
         .into_par_iter()
-        .map(|c| {
+        .zip(dropouts)
+        .map(|(c, dropouts)| {
             let mut t = c.t;
-            for x in &mut t {
-                *x -= origin;
+            // x - (+0.0) == x for every x: an MCAP log's times already
+            // start at +0.0, so they skip this pass.
+            if origin.to_bits() != 0 {
+                for x in &mut t {
+                    *x -= origin;
+                }
             }
-            let dropouts = c.v.iter().filter(|v| v.is_nan()).count();
             let mut gaps = Vec::new();
             find_gaps(c.quantity, &t, &c.v, c.dt_s, log_end, &mut gaps);
             let channel = Channel {
@@ -296,11 +301,12 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
 /// The channels sorted by quantity, each checked: one channel per
 /// quantity, data present, time finite and increasing, a sane rate. An
 /// optional channel without a valid sample is dropped (with a warning).
+/// Each kept channel comes with its number of null (NaN) samples.
 fn check_channels(
     path: &Path,
     mut channels: Vec<RawChannel>,
     warnings: &mut Vec<String>,
-) -> Result<Vec<RawChannel>, IngestError> {
+) -> Result<Vec<(RawChannel, usize)>, IngestError> {
     channels.sort_by_key(|c| c.quantity);
     for w in channels.windows(2) {
         if w[0].quantity == w[1].quantity {
@@ -330,30 +336,36 @@ fn check_channels(
                 format!("{label}: no valid sample interval"),
             ));
         }
-        if let Some(i) = c.t.iter().position(|t| !t.is_finite()) {
-            return Err(IngestError::invalid(
-                path,
-                format!("{label}: sample {i} has no valid time"),
-            ));
+        // The usual case in one counting pass each (no early exit, so the
+        // compiler vectorises them); the exact first offender only if
+        // there is one.
+        if !strictly_increasing_finite(&c.t) {
+            if let Some(i) = c.t.iter().position(|t| !t.is_finite()) {
+                return Err(IngestError::invalid(
+                    path,
+                    format!("{label}: sample {i} has no valid time"),
+                ));
+            }
+            if let Some(i) = c.t.windows(2).position(|w| w[1] <= w[0]) {
+                return Err(IngestError::invalid(
+                    path,
+                    format!(
+                        "non-monotonic time on channel {label}: sample {} at {:.6} s does not follow {:.6} s",
+                        i + 1,
+                        c.t[i + 1],
+                        c.t[i]
+                    ),
+                ));
+            }
         }
-        if let Some(i) = c.t.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(IngestError::invalid(
-                path,
-                format!(
-                    "non-monotonic time on channel {label}: sample {} at {:.6} s does not follow {:.6} s",
-                    i + 1,
-                    c.t[i + 1],
-                    c.t[i]
-                ),
-            ));
-        }
-        if let Some(i) = c.v.iter().position(|v| v.is_infinite()) {
+        let (valid, infinite) = count_finite_infinite(&c.v);
+        if infinite > 0 {
+            let i = c.v.iter().position(|v| v.is_infinite()).unwrap_or(0);
             return Err(IngestError::invalid(
                 path,
                 format!("{label}: sample {i} is infinite"),
             ));
         }
-        let valid = c.v.iter().filter(|v| v.is_finite()).count();
         if valid == 0 {
             if c.quantity.required() {
                 return Err(IngestError::invalid(
@@ -366,9 +378,36 @@ fn check_channels(
             ));
             continue;
         }
-        kept.push(c);
+        // Neither finite nor infinite: NaN, a dropout.
+        let dropouts = c.v.len() - valid;
+        kept.push((c, dropouts));
     }
     Ok(kept)
+}
+
+/// Whether every time is finite and each follows the one before (the
+/// checks of `check_channels`, without locating the offender). Strictly
+/// increasing comparisons are false for NaN, and they leave room for an
+/// infinity only at the ends.
+fn strictly_increasing_finite(t: &[f64]) -> bool {
+    let (Some(first), Some(last)) = (t.first(), t.last()) else {
+        return true;
+    };
+    let after = t
+        .iter()
+        .zip(&t[1..])
+        .fold(0usize, |n, (a, b)| n + usize::from(b > a));
+    after == t.len() - 1 && first.is_finite() && last.is_finite()
+}
+
+/// How many of `v` are finite, and how many infinite (one pass).
+fn count_finite_infinite(v: &[f64]) -> (usize, usize) {
+    v.iter().fold((0, 0), |(finite, infinite), x| {
+        (
+            finite + usize::from(x.is_finite()),
+            infinite + usize::from(x.is_infinite()),
+        )
+    })
 }
 
 /// Refuses a log without a required channel; warns of each optional one
@@ -548,47 +587,58 @@ fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mu
 /// Linear interpolation of (t, v) onto `grid`, bridging holes of at most
 /// [`MAX_BRIDGE_SAMPLES`] missing samples only; NaN elsewhere.
 pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f64> {
-    let mut out = vec![f64::NAN; grid.len()];
-    let next_valid = |from: usize| (from..v.len()).find(|&i| v[i].is_finite());
+    // One pass writing each row once (no NaN fill first); the samples
+    // around the current row are kept in locals.
+    let mut out = Vec::with_capacity(grid.len());
+    let n = t.len().min(v.len());
+    let (t, v) = (&t[..n], &v[..n]);
+    let next_valid = |from: usize| (from..n).find(|&i| v[i].is_finite());
     let Some(first) = next_valid(0) else {
+        out.resize(grid.len(), f64::NAN);
         return out;
     };
     // Grid points this close to a sample take its value (float noise only).
     let eps = dt * 1e-6;
+    let start = t[first] - eps;
     // `a`: the last valid sample <= g; `b`: the next valid sample, if any;
     // `bridged`: whether the hole between them is short enough (cached).
-    let (mut a, mut b) = (first, next_valid(first + 1));
+    let (mut ta, mut va) = (t[first], v[first]);
+    let mut b = next_valid(first + 1);
     let mut bridged: Option<bool> = None;
-    for (k, &g) in grid.iter().enumerate() {
-        if g < t[first] - eps {
+    for &g in grid {
+        if g < start {
+            out.push(f64::NAN);
             continue;
         }
         while let Some(nb) = b {
             if t[nb] > g + eps {
                 break;
             }
-            a = nb;
+            (ta, va) = (t[nb], v[nb]);
             b = next_valid(nb + 1);
             bridged = None;
         }
-        if (g - t[a]).abs() <= eps {
-            out[k] = v[a];
+        if (g - ta).abs() <= eps {
+            out.push(va);
             continue;
         }
         let Some(b) = b else {
-            continue; // past the last valid sample
+            out.push(f64::NAN); // past the last valid sample
+            continue;
         };
+        let (tb, vb) = (t[b], v[b]);
         let bridged = *bridged.get_or_insert_with(|| {
-            let span = t[b] - t[a];
+            let span = tb - ta;
             // Under 1.5 intervals apart nothing is missing (the usual case;
             // spares `missing_between` its rounding).
             span / dt < 1.5 || missing_between(span, dt) <= MAX_BRIDGE_SAMPLES
         });
         if !bridged {
+            out.push(f64::NAN);
             continue;
         }
-        let w = (g - t[a]) / (t[b] - t[a]);
-        out[k] = v[a] + w * (v[b] - v[a]);
+        let w = (g - ta) / (tb - ta);
+        out.push(va + w * (vb - va));
     }
     out
 }
