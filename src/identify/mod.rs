@@ -211,8 +211,11 @@ fn characteristic_reusing(
             needed_s: 2.0 * period,
         }));
     }
-    let accel =
-        |c: &contact::Contact| (c.acceleration_source == "accelerometer").then(|| c.a2.clone());
+    // The segmentation's inputs: ẋ2, its smoothed form, ẍ2 from an
+    // accelerometer, the window. Reused where they are bitwise the base's.
+    fn accel(c: &contact::Contact) -> Option<&[f64]> {
+        (c.acceleration_source == "accelerometer").then_some(&c.a2[..])
+    }
     let same = |a: &[f64], b: &[f64]| {
         a.len() == b.len() && a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits())
     };
@@ -222,22 +225,21 @@ fn characteristic_reusing(
             && same(&c.v2, &contact.v2)
             && same(&c.v2_smooth, &contact.v2_smooth)
             && match (accel(c), accel(&contact)) {
-                (Some(a), Some(b)) => same(&a, &b),
+                (Some(a), Some(b)) => same(a, b),
                 (None, None) => true,
                 _ => false,
             };
         inputs_same.then(|| ch.segmentation.clone())
     });
-    let seg = match reused {
-        Some(seg) => seg,
-        None => segment::segment(
+    let seg = reused.unwrap_or_else(|| {
+        segment::segment(
             &contact.v2,
             &contact.v2_smooth,
-            (contact.acceleration_source == "accelerometer").then_some(&contact.a2[..]),
+            accel(&contact),
             contact.half_window,
             SMOOTH_DEGREE,
-        ),
-    };
+        )
+    });
     for (i, st) in seg.stick.iter().enumerate() {
         if *st {
             // The physics gives ẋ2 = ẍ2 = 0 while sticking.
