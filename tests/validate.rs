@@ -300,13 +300,23 @@ fn true_law_reproduces_the_truth() {
 }
 
 fn validate_json(characteristic: &str, sweep: &str, report: Option<&Path>) -> Value {
+    validate_json_with(characteristic, sweep, report, &[])
+}
+
+fn validate_json_with(
+    characteristic: &str,
+    sweep: &str,
+    report: Option<&Path>,
+    extra: &[&str],
+) -> Value {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_stickslip"));
     cmd.arg("validate")
         .arg("--characteristic")
         .arg(data(characteristic))
         .arg("--sweep")
         .arg(data(sweep))
-        .arg("--json");
+        .arg("--json")
+        .args(extra);
     if let Some(r) = report {
         cmd.arg("--report").arg(r);
     }
@@ -400,7 +410,7 @@ fn fitted_law_validates_on_stepped_sweeps() {
 /// sweep's ρ, i.e. on the characteristic log's and the sweep's drive gains.
 /// Before the draws carried both drive gains as common factors
 /// (`draw_laws`) the band missed the beat: 76 % (strict 51 %); with them
-/// 92 % (strict 82 %).
+/// 92 % (strict 82 %) with type-7 band edges, 96 % (85 %) with type 6.
 #[test]
 fn continuous_sweep_validates() {
     let v = validate_json("char_N4.mcap", "sweep_continuous_N4.mcap", None);
@@ -413,6 +423,55 @@ fn continuous_sweep_validates() {
     assert!(nrms < 0.05, "replay nrms A1 {nrms}");
     let cov = f(&v["score"]["replay_coverage_amplitude1"]);
     assert!(cov >= 0.8, "replay band coverage A1 {cov}");
+    // The default draws stop where every coverage is known to ±2.5
+    // percentage points (bootstrap standard error over the draws).
+    let b = &v["band_precision"];
+    eprintln!("band precision: {b}");
+    assert_eq!(v["draws"], b["draws"]);
+    assert!(b["reached"].as_bool().unwrap());
+    assert_eq!(f(&b["target"]), 0.025);
+    for k in [
+        "coverage_se_amplitude1",
+        "coverage_se_amplitude2",
+        "coverage_strict_se_amplitude1",
+        "coverage_strict_se_amplitude2",
+    ] {
+        assert!(f(&b[k]) <= 0.025, "{k}: {}", b[k]);
+    }
+}
+
+/// The number of a band's draws follows the precision its coverages need:
+/// a target the draws cannot reach within the cap draws the cap (twice the
+/// first round) and says so with the precision reached; a target of 0
+/// draws exactly `--samples`. (The continuous sweep's A1 coverage is known
+/// to ±2.4 percentage points from 40 draws and ±2.2 from 80.)
+#[test]
+fn band_draws_follow_the_precision_target() {
+    let v = validate_json_with(
+        "char_N7.2.mcap",
+        "sweep_stepped_N7.2.mcap",
+        None,
+        &["--samples", "50", "--band-coverage-se", "0"],
+    );
+    assert_eq!(v["draws"], 50);
+    assert_eq!(v["band_precision"]["draws_max"], 50);
+    let v = validate_json_with(
+        "char_N4.mcap",
+        "sweep_continuous_N4.mcap",
+        None,
+        &["--samples", "80", "--band-coverage-se", "0.01"],
+    );
+    let b = &v["band_precision"];
+    eprintln!("band precision: {b}");
+    assert_eq!(v["draws"], 80);
+    assert!(!b["reached"].as_bool().unwrap());
+    assert!(f(&b["coverage_se_amplitude1"]) > 0.01);
+    let warned = v["warnings"].as_array().unwrap().iter().any(|w| {
+        w.as_str()
+            .unwrap()
+            .contains("percentage points (bootstrap standard error over 80 drawn laws)")
+    });
+    assert!(warned, "{}", v["warnings"]);
 }
 
 /// The band's draws carry the sensors' common scale errors as common

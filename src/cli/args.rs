@@ -126,6 +126,20 @@ pub fn band_samples(s: &str) -> Result<usize, String> {
     count_in(s, 0, 2000, "each draw is a whole predicted sweep")
 }
 
+/// `--band-coverage-se` of validate/run: a fraction in [0, 0.5].
+pub fn coverage_se(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number"))?;
+    if !(0.0..=0.5).contains(&v) {
+        return Err(format!(
+            "{v} is outside 0..=0.5 (a standard error of a fraction)"
+        ));
+    }
+    Ok(v)
+}
+
 /// `--bootstrap`: replicates over drive periods.
 pub fn bootstrap_replicates(s: &str) -> Result<usize, String> {
     count_in(s, 0, 100_000, "beyond that the interval no longer improves")

@@ -23,10 +23,15 @@ pub struct RunArgs {
     /// Write the JSON result to this file (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Laws drawn from each fit's uncertainty for the prediction bands (0
-    /// to 2000).
-    #[arg(long, default_value_t = 40, value_parser = super::args::band_samples)]
+    /// Most laws drawn from each fit's uncertainty for the prediction bands
+    /// (0 to 2000): drawn in rounds (40, then doubling) until the replay
+    /// coverages are known to --band-coverage-se.
+    #[arg(long, default_value_t = crate::validate::predict::DEFAULT_BAND_SAMPLES, value_parser = super::args::band_samples)]
     pub samples: usize,
+    /// Bootstrap standard error to which the draws must fix every replay
+    /// coverage (a fraction, 0 to 0.5; 0: draw all --samples).
+    #[arg(long, default_value_t = 0.025, value_parser = super::args::coverage_se)]
+    pub band_coverage_se: f64,
     /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
     pub allow_mixed_rigs: bool,
@@ -72,6 +77,7 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     };
     let opts = pipeline::Options {
         samples: args.samples,
+        band_coverage_se: args.band_coverage_se,
         allow_mixed_rigs: args.allow_mixed_rigs,
     };
     let result = pipeline::run(&plan, &opts, &Bar(bar.clone()));

@@ -26,10 +26,16 @@ pub struct ValidateArgs {
     /// Write the JSON result to this file (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Laws drawn from the fit's uncertainty for the 95 % bands (0: none;
-    /// at most 2000: each is a whole predicted sweep).
-    #[arg(long, default_value_t = 40, value_parser = super::args::band_samples)]
+    /// Most laws drawn from the fit's uncertainty for the 95 % bands (0:
+    /// none; at most 2000: each is a whole predicted sweep): drawn in rounds
+    /// (40, then doubling) until the replay coverages are known to
+    /// --band-coverage-se.
+    #[arg(long, default_value_t = validate::predict::DEFAULT_BAND_SAMPLES, value_parser = super::args::band_samples)]
     pub samples: usize,
+    /// Bootstrap standard error to which the draws must fix every replay
+    /// coverage (a fraction, 0 to 0.5; 0: draw all --samples).
+    #[arg(long, default_value_t = 0.025, value_parser = super::args::coverage_se)]
+    pub band_coverage_se: f64,
     /// Relative gain uncertainty of each sensor in the calibration budget.
     #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
     pub gain_uncertainty: f64,
@@ -87,11 +93,12 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     let fit = identify::fit_log(&char_run, &opts)?;
     let t_fit = clock.elapsed().as_secs_f64();
     say(&format!(
-        "measuring the sweep and predicting it ({} laws for the bands)",
+        "measuring the sweep and predicting it (at most {} laws for the bands)",
         args.samples
     ));
     let mut vo = ValidateOptions::default();
     vo.predict.samples = args.samples;
+    vo.predict.band_coverage_se = args.band_coverage_se;
     vo.predict.steady.max_periods = args.max_periods;
     vo.frc.gain_uncertainty = args.gain_uncertainty;
     let clock = Instant::now();

@@ -143,8 +143,12 @@ impl Plan {
 /// Options of [`run`].
 #[derive(Debug, Clone)]
 pub struct Options {
-    /// Laws drawn from each fit's uncertainty for the prediction bands.
+    /// Most laws drawn from each fit's uncertainty for the prediction
+    /// bands.
     pub samples: usize,
+    /// Bootstrap standard error to which the draws fix the replay
+    /// coverages (see [`crate::validate::predict::BandPrecision`]).
+    pub band_coverage_se: f64,
     /// Use logs whose rig constants differ by more than 1 % together.
     pub allow_mixed_rigs: bool,
 }
@@ -153,6 +157,7 @@ impl Default for Options {
     fn default() -> Self {
         Self {
             samples: ValidateOptions::default().predict.samples,
+            band_coverage_se: ValidateOptions::default().predict.band_coverage_se,
             allow_mixed_rigs: false,
         }
     }
@@ -286,6 +291,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     progress.stage("validating against sweeps; batch: worst-case amplitudes");
     let mut vopts = ValidateOptions::default();
     vopts.predict.samples = opts.samples;
+    vopts.predict.band_coverage_se = opts.band_coverage_se;
     let validate_all = || -> (Vec<(Pair, crate::Result<Validation>)>, f64) {
         let clock = std::time::Instant::now();
         let v = plan

@@ -98,6 +98,11 @@ fn pct(x: Option<f64>) -> String {
     x.map_or("–".into(), |v| format!("{:.1} %", 100.0 * v))
 }
 
+/// A fraction in percentage points, one decimal ("–" if none).
+fn pp(x: Option<f64>) -> String {
+    x.map_or("–".into(), |v| format!("{:.1}", 100.0 * v))
+}
+
 /// The validation section of one sweep.
 pub fn validation_view(
     sweep: &Path,
@@ -150,7 +155,18 @@ pub fn validation_view(
             "replay band: median relative half-width of A1",
             pct(s.band_median_rel_halfwidth1),
         ),
-        KeyValue::new("laws drawn for the bands", p.draws.to_string()),
+        KeyValue::new(
+            "laws drawn for the bands",
+            format!(
+                "{} (at most {}; the coverages A1 / A2 are known to ±{} / ±{} percentage points, bootstrap standard error, target ±{}{})",
+                p.draws,
+                p.band.draws_max,
+                pp(p.band.coverage_se_amplitude1),
+                pp(p.band.coverage_se_amplitude2),
+                pp(Some(p.band.target)),
+                if p.band.reached || p.draws == 0 { "" } else { ": not reached" }
+            ),
+        ),
         KeyValue::new("law at the sweep's amplitude", law_text(&p.law)),
     ];
     let header = [

@@ -58,6 +58,7 @@ struct ValidationOut<'a> {
     replay_settled: &'a [Option<bool>],
     score: ScoreOut<'a>,
     draws: usize,
+    band_precision: &'a crate::validate::predict::BandPrecision,
     warnings: &'a [String],
 }
 
@@ -104,6 +105,7 @@ impl Validation {
                 points: pts.len(),
             },
             draws: p.draws,
+            band_precision: &p.band,
             warnings: &self.warnings,
         };
         crate::io::json::to_value(out)

@@ -9,11 +9,21 @@
 //!   drive phase, from rest), with the amplitude taken over each point's own
 //!   measurement window. It predicts unsettled steps too.
 //! * **Bands**: the fit's uncertainty is propagated by re-running both
-//!   predictions for `samples` laws drawn from the fit's 95 % intervals
-//!   (see [`draw_laws`]); the band is the 2.5–97.5 % range of the resulting
+//!   predictions for laws drawn from the fit's 95 % intervals (see
+//!   [`draw_laws`]); the band is the 2.5–97.5 % range of the resulting
 //!   amplitudes at each point (the central prediction included). Runs in
 //!   parallel; the draws come from a fixed seed and are collected in order,
 //!   so the bands do not depend on the thread count.
+//! * **How many draws** ([`BandPrecision`]): as many as the scores computed
+//!   from the band need. The draws come in rounds (`band_min_samples`,
+//!   then doubling, at most `samples`). After each round the Monte-Carlo
+//!   standard error of the replay coverages is estimated by resampling the
+//!   draws (a bootstrap in which every resample is a whole set of drawn
+//!   sweeps, so the errors' correlation along η is kept), and the draws
+//!   stop once every coverage is known to `band_coverage_se`. Where the cap
+//!   comes first, a warning gives the precision reached. Draw k is the same
+//!   law whatever the number drawn (one seeded sequence): a larger cap only
+//!   adds draws.
 //! * **Steady-state call**: a step counts as having reached its steady
 //!   state when the replay's amplitude over its window is within
 //!   [`PredictOptions::steady_tolerance`] of the steady-state prediction
@@ -34,8 +44,8 @@ use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
 use crate::sim::sweep::{steady_state_with, SteadyConfig};
 use crate::sim::SimError;
-use crate::stats::quantile_sorted;
 use crate::stats::Rng;
+use crate::stats::{quantile_sorted, quantile_unbiased_sorted};
 
 /// Why a prediction failed: a [`ValidateError`] of the inputs, or the
 /// simulation.
@@ -56,14 +66,29 @@ pub fn absorber(rig: &RigMeta) -> Absorber {
     rig.constants().absorber()
 }
 
+/// Default largest number of laws drawn for a band.
+pub const DEFAULT_BAND_SAMPLES: usize = 160;
+
 /// Default period budget of the fitted law's steady state per point.
 pub const DEFAULT_STEADY_PERIODS: u64 = 20_000;
 
 /// Options of the predictions.
 #[derive(Debug, Clone)]
 pub struct PredictOptions {
-    /// Laws drawn from the fit's intervals for the bands (0: no bands).
+    /// Most laws drawn from the fit's intervals for the bands (0: no
+    /// bands; see [`BandPrecision`] for how many are drawn).
     pub samples: usize,
+    /// Laws drawn in the first round (fewer if `samples` is smaller). 40:
+    /// with the central value the 2.5 % point is then an interpolation
+    /// between order statistics, not the smallest value (see
+    /// [`quantile_unbiased_sorted`]).
+    pub band_min_samples: usize,
+    /// Bootstrap standard error (a fraction) to which every replay
+    /// coverage must be known before the draws stop, or half a point's
+    /// share of the coverage (0.5/points) where that is larger: a coverage
+    /// of 21 steps is not known better than to about one step (0: always
+    /// draw `samples`).
+    pub band_coverage_se: f64,
     /// Seed of the draws.
     pub seed: u64,
     /// Steady-state solver settings.
@@ -94,7 +119,9 @@ pub struct PredictOptions {
 impl Default for PredictOptions {
     fn default() -> Self {
         Self {
-            samples: 40,
+            samples: DEFAULT_BAND_SAMPLES,
+            band_min_samples: 40,
+            band_coverage_se: 0.025,
             seed: 0x0ba5_e11e,
             steady: SteadyConfig {
                 max_periods: DEFAULT_STEADY_PERIODS,
@@ -192,6 +219,8 @@ pub struct Prediction {
     pub score: Score,
     /// Laws drawn for the bands.
     pub draws: usize,
+    /// How precisely the draws fix the band's scores.
+    pub band: BandPrecision,
     /// Things the user should know.
     pub warnings: Vec<String>,
 }
@@ -598,14 +627,7 @@ fn steady_all(
     etas: &[f64],
     opts: &PredictOptions,
 ) -> (Amps, Vec<Amps>) {
-    let budget = |c: &Option<(f64, f64)>| {
-        if c.is_some() {
-            opts.band_max_periods
-        } else {
-            opts.band_unsettled_periods
-        }
-        .min(opts.steady.max_periods)
-    };
+    let budget = |c: &Option<(f64, f64)>| draw_budget(c, opts);
     let n = etas.len();
     let mut central = Continuation::new(model);
     let mut followers: Vec<Continuation> = draws.iter().map(Continuation::new).collect();
@@ -628,6 +650,55 @@ fn steady_all(
     (central.out, followers.into_iter().map(|f| f.out).collect())
 }
 
+/// A draw's marching budget at a point where the central law's steady
+/// state is `c` (see [`steady_all`]).
+fn draw_budget(c: &Option<(f64, f64)>, opts: &PredictOptions) -> u64 {
+    if c.is_some() {
+        opts.band_max_periods
+    } else {
+        opts.band_unsettled_periods
+    }
+    .min(opts.steady.max_periods)
+}
+
+/// The steady states of more draws once the central continuation is known
+/// (a later round of draws): each exactly what [`steady_all`] gives it.
+fn steady_draws(draws: &[Model], central: &Amps, etas: &[f64], opts: &PredictOptions) -> Vec<Amps> {
+    let budgets: Vec<u64> = central.iter().map(|c| draw_budget(c, opts)).collect();
+    draws
+        .par_iter()
+        .map(|m| {
+            let mut f = Continuation::new(m);
+            f.advance(etas, etas.len(), &opts.steady, Some(&budgets));
+            f.out
+        })
+        .collect()
+}
+
+/// The 2.5–97.5 % band at one point, `[low1, high1, low2, high2]`, from
+/// its values over the central run and `n_draws` draws (a band needs at
+/// least half of the draws); `v1`, `v2` are scratch.
+fn band_of(
+    vals: impl Iterator<Item = Option<(f64, f64)>>,
+    n_draws: usize,
+    v1: &mut Vec<f64>,
+    v2: &mut Vec<f64>,
+) -> Option<[f64; 4]> {
+    v1.clear();
+    v2.clear();
+    for (a1, a2) in vals.flatten() {
+        v1.push(a1);
+        v2.push(a2);
+    }
+    if n_draws == 0 || v1.len() * 2 < n_draws + 1 {
+        return None;
+    }
+    v1.sort_by(f64::total_cmp);
+    v2.sort_by(f64::total_cmp);
+    let q = quantile_unbiased_sorted;
+    Some([q(v1, 0.025), q(v1, 0.975), q(v2, 0.025), q(v2, 0.975)])
+}
+
 /// Central values and the 2.5–97.5 % band (over the central run and the
 /// draws) per point. A band needs at least half of the draws.
 fn banded(
@@ -639,34 +710,165 @@ fn banded(
         eta: etas.to_vec(),
         ..Predicted::default()
     };
-    for i in 0..etas.len() {
-        let c = central[i];
+    let (mut v1, mut v2) = (Vec::new(), Vec::new());
+    for (i, &c) in central.iter().enumerate().take(etas.len()) {
         p.amplitude1.push(c.map(|v| v.0));
         p.amplitude2.push(c.map(|v| v.1));
-        let mut v1: Vec<f64> = Vec::with_capacity(draws.len() + 1);
-        let mut v2: Vec<f64> = Vec::with_capacity(draws.len() + 1);
-        for (a1, a2) in std::iter::once(c)
-            .chain(draws.iter().map(|d| d[i]))
-            .flatten()
-        {
-            v1.push(a1);
-            v2.push(a2);
-        }
-        if draws.is_empty() || v1.len() * 2 < draws.len() + 1 {
-            p.amplitude1_low.push(None);
-            p.amplitude1_high.push(None);
-            p.amplitude2_low.push(None);
-            p.amplitude2_high.push(None);
-            continue;
-        }
-        v1.sort_by(f64::total_cmp);
-        v2.sort_by(f64::total_cmp);
-        p.amplitude1_low.push(Some(quantile_sorted(&v1, 0.025)));
-        p.amplitude1_high.push(Some(quantile_sorted(&v1, 0.975)));
-        p.amplitude2_low.push(Some(quantile_sorted(&v2, 0.025)));
-        p.amplitude2_high.push(Some(quantile_sorted(&v2, 0.975)));
+        let vals = std::iter::once(c).chain(draws.iter().map(|d| d[i]));
+        let b = band_of(vals, draws.len(), &mut v1, &mut v2);
+        p.amplitude1_low.push(b.map(|b| b[0]));
+        p.amplitude1_high.push(b.map(|b| b[1]));
+        p.amplitude2_low.push(b.map(|b| b[2]));
+        p.amplitude2_high.push(b.map(|b| b[3]));
     }
     p
+}
+
+/// Fraction of the points whose measured value (within its uncertainty
+/// `u`, if given) lies inside the band (None: no band anywhere).
+fn coverage(
+    lo: &[Option<f64>],
+    hi: &[Option<f64>],
+    meas: &[f64],
+    u: Option<&[f64]>,
+) -> Option<f64> {
+    let n = meas.len();
+    (n > 0 && lo.iter().any(|l| l.is_some())).then(|| {
+        (0..n)
+            .filter(|&i| {
+                let ui = u.map_or(0.0, |u| if u[i].is_finite() { u[i] } else { 0.0 });
+                matches!((lo[i], hi[i]), (Some(l), Some(h)) if meas[i] + ui >= l && meas[i] - ui <= h)
+            })
+            .count() as f64
+            / n as f64
+    })
+}
+
+/// Median over the points of the band's half-width relative to the
+/// central value (None: no band).
+fn median_rel_halfwidth(
+    lo: &[Option<f64>],
+    hi: &[Option<f64>],
+    central: &[Option<f64>],
+) -> Option<f64> {
+    let mut half: Vec<f64> = (0..central.len())
+        .filter_map(|i| match (lo[i], hi[i], central[i]) {
+            (Some(l), Some(h), Some(c)) if c > 0.0 => Some(0.5 * (h - l) / c),
+            _ => None,
+        })
+        .collect();
+    half.sort_by(f64::total_cmp);
+    (!half.is_empty()).then(|| quantile_sorted(&half, 0.5))
+}
+
+/// How precisely the draws fix the scores computed from the replay band:
+/// bootstrap standard errors over the draws (see the module notes).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct BandPrecision {
+    /// Laws drawn.
+    pub draws: usize,
+    /// Most laws that could have been drawn (`samples`).
+    pub draws_max: usize,
+    /// Standard error of `replay_coverage_amplitude1` (a fraction).
+    pub coverage_se_amplitude1: Option<f64>,
+    /// Standard error of `replay_coverage_amplitude2`.
+    pub coverage_se_amplitude2: Option<f64>,
+    /// Standard error of `replay_coverage_strict_amplitude1`.
+    pub coverage_strict_se_amplitude1: Option<f64>,
+    /// Standard error of `replay_coverage_strict_amplitude2`.
+    pub coverage_strict_se_amplitude2: Option<f64>,
+    /// Standard error of `band_median_rel_halfwidth1`, relative to it.
+    pub halfwidth_rel_se: Option<f64>,
+    /// The target of the coverages' standard errors: `band_coverage_se`,
+    /// or 0.5/points where that is larger.
+    pub target: f64,
+    /// Every coverage is known to the target.
+    pub reached: bool,
+}
+
+/// Bootstrap resamples of [`band_precision`].
+const BOOTSTRAP: usize = 200;
+
+/// The bootstrap standard errors of the replay coverages and of the
+/// band's median half-width (`halfwidth`, over every draw): the band and its scores are recomputed for
+/// [`BOOTSTRAP`] resamples (with replacement) of the whole drawn sweeps.
+/// Deterministic: each resample has its own random stream of `seed`.
+fn band_precision(
+    frc: &MeasuredFrc,
+    central: &Amps,
+    draws: &[Amps],
+    draws_max: usize,
+    halfwidth: Option<f64>,
+    target: f64,
+    seed: u64,
+) -> BandPrecision {
+    let n = draws.len();
+    let mut out = BandPrecision {
+        draws: n,
+        draws_max,
+        target: target.max(0.5 / frc.points.len().max(1) as f64),
+        ..BandPrecision::default()
+    };
+    if n == 0 {
+        return out;
+    }
+    let m1: Vec<f64> = frc.points.iter().map(|p| p.amplitude1).collect();
+    let m2: Vec<f64> = frc.points.iter().map(|p| p.amplitude2).collect();
+    let u1: Vec<f64> = frc.points.iter().map(|p| p.amplitude1_u).collect();
+    let u2: Vec<f64> = frc.points.iter().map(|p| p.amplitude2_u).collect();
+    let c1: Vec<Option<f64>> = central.iter().map(|c| c.map(|v| v.0)).collect();
+    // Per resample: the four coverages and the median half-width.
+    let stats: Vec<[Option<f64>; 5]> = (0..BOOTSTRAP)
+        .into_par_iter()
+        .map(|b| {
+            let mut rng = Rng::with_stream(seed, 1 + b as u64);
+            let idx: Vec<usize> = (0..n).map(|_| rng.below(n)).collect();
+            let npts = central.len();
+            let mut e: [Vec<Option<f64>>; 4] = std::array::from_fn(|_| Vec::with_capacity(npts));
+            let (mut v1, mut v2) = (Vec::new(), Vec::new());
+            for (i, &c) in central.iter().enumerate() {
+                let vals = std::iter::once(c).chain(idx.iter().map(|&k| draws[k][i]));
+                let band = band_of(vals, n, &mut v1, &mut v2);
+                for (k, ek) in e.iter_mut().enumerate() {
+                    ek.push(band.map(|b| b[k]));
+                }
+            }
+            [
+                coverage(&e[0], &e[1], &m1, Some(&u1)),
+                coverage(&e[2], &e[3], &m2, Some(&u2)),
+                coverage(&e[0], &e[1], &m1, None),
+                coverage(&e[2], &e[3], &m2, None),
+                median_rel_halfwidth(&e[0], &e[1], &c1),
+            ]
+        })
+        .collect();
+    let sd = |k: usize| -> Option<f64> {
+        let v: Vec<f64> = stats.iter().filter_map(|s| s[k]).collect();
+        (v.len() >= 2).then(|| {
+            if v.iter().all(|x| *x == v[0]) {
+                return 0.0;
+            }
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+        })
+    };
+    out.coverage_se_amplitude1 = sd(0);
+    out.coverage_se_amplitude2 = sd(1);
+    out.coverage_strict_se_amplitude1 = sd(2);
+    out.coverage_strict_se_amplitude2 = sd(3);
+    out.halfwidth_rel_se = sd(4)
+        .zip(halfwidth)
+        .filter(|(_, h)| *h > 0.0)
+        .map(|(s, h)| s / h);
+    out.reached = [
+        out.coverage_se_amplitude1,
+        out.coverage_se_amplitude2,
+        out.coverage_strict_se_amplitude1,
+        out.coverage_strict_se_amplitude2,
+    ]
+    .iter()
+    .all(|s| s.is_none_or(|s| s <= out.target));
+    out
 }
 
 fn rms(pairs: &[(f64, f64)]) -> Option<f64> {
@@ -774,22 +976,73 @@ pub fn predict_with(
     let sched = schedule(frc)?;
     let windows = replay_windows(frc, opts);
 
-    // The steady states (the central continuation, the draws' a stretch
-    // behind it) beside the replays, which need nothing from them.
-    let ((c_steady, d_steady), (c_replay, d_replay)) = rayon::join(
-        || steady_all(&model, &models, &etas, opts),
+    // Round 1: the steady states (the central continuation, the draws' a
+    // stretch behind it) beside the replays, which need nothing from them.
+    let n_max = models.len();
+    let n0 = if opts.band_coverage_se > 0.0 {
+        opts.band_min_samples.max(1).min(n_max)
+    } else {
+        n_max
+    };
+    let replays = |ms: &[Model]| -> Vec<Amps> {
+        ms.par_iter()
+            .map(|m| replay_one(m, &sched, &windows, opts))
+            .collect()
+    };
+    let ((c_steady, mut d_steady), (c_replay, mut d_replay)) = rayon::join(
+        || steady_all(&model, &models[..n0], &etas, opts),
         || {
             rayon::join(
                 || replay_one(&model, &sched, &windows, opts),
-                || {
-                    models
-                        .par_iter()
-                        .map(|m| replay_one(m, &sched, &windows, opts))
-                        .collect::<Vec<Amps>>()
-                },
+                || replays(&models[..n0]),
             )
         },
     );
+    // Further rounds (twice as many draws each) until the coverages are
+    // known to the target or every draw is in.
+    let precision = |d_replay: &[Amps]| {
+        let hw = {
+            let r = banded(&etas, &c_replay, d_replay);
+            median_rel_halfwidth(&r.amplitude1_low, &r.amplitude1_high, &r.amplitude1)
+        };
+        band_precision(
+            frc,
+            &c_replay,
+            d_replay,
+            n_max,
+            hw,
+            opts.band_coverage_se,
+            opts.seed,
+        )
+    };
+    let mut band = precision(&d_replay);
+    while d_replay.len() < n_max && !band.reached {
+        let (lo, hi) = (d_replay.len(), (2 * d_replay.len()).min(n_max));
+        let (s, r) = rayon::join(
+            || steady_draws(&models[lo..hi], &c_steady, &etas, opts),
+            || replays(&models[lo..hi]),
+        );
+        d_steady.extend(s);
+        d_replay.extend(r);
+        band = precision(&d_replay);
+    }
+    if n_max > 0 && !band.reached {
+        let worst = [
+            band.coverage_se_amplitude1,
+            band.coverage_se_amplitude2,
+            band.coverage_strict_se_amplitude1,
+            band.coverage_strict_se_amplitude2,
+        ]
+        .into_iter()
+        .flatten()
+        .fold(0.0, f64::max);
+        warnings.push(format!(
+            "the replay band's coverages are known to ±{:.1} percentage points (bootstrap standard error over {} drawn laws), more than the target ±{:.1}: draw more laws (--samples) for a more precise band",
+            100.0 * worst,
+            band.draws,
+            100.0 * band.target
+        ));
+    }
     let (c_steady, c_replay) = (&c_steady, &c_replay);
     let steady = banded(&etas, c_steady, &d_steady);
     let replay = banded(&etas, c_replay, &d_replay);
@@ -809,7 +1062,8 @@ pub fn predict_with(
         steady_reached,
         replay_settled,
         score,
-        draws: models.len(),
+        draws: d_replay.len(),
+        band,
         warnings,
     })
 }
@@ -859,31 +1113,6 @@ pub fn score(
     let eta = |i: usize| frc.points[i].eta;
     let u1: Vec<f64> = frc.points.iter().map(|p| p.amplitude1_u).collect();
     let u2: Vec<f64> = frc.points.iter().map(|p| p.amplitude2_u).collect();
-    let coverage = |lo: &[Option<f64>], hi: &[Option<f64>], meas: &[f64], u: Option<&[f64]>| {
-        let n = meas.len();
-        (n > 0 && lo.iter().any(|l| l.is_some())).then(|| {
-            (0..n)
-                .filter(|&i| {
-                    let ui = u.map_or(0.0, |u| if u[i].is_finite() { u[i] } else { 0.0 });
-                    matches!((lo[i], hi[i]), (Some(l), Some(h)) if meas[i] + ui >= l && meas[i] - ui <= h)
-                })
-                .count() as f64
-                / n as f64
-        })
-    };
-    let mut half: Vec<f64> = (0..m1.len())
-        .filter_map(|i| {
-            match (
-                replay.amplitude1_low[i],
-                replay.amplitude1_high[i],
-                replay.amplitude1[i],
-            ) {
-                (Some(l), Some(h), Some(c)) if c > 0.0 => Some(0.5 * (h - l) / c),
-                _ => None,
-            }
-        })
-        .collect();
-    half.sort_by(f64::total_cmp);
     Score {
         rms_amplitude1: rms(&s1),
         rms_amplitude2: rms(&s2),
@@ -919,7 +1148,11 @@ pub fn score(
             &m2,
             None,
         ),
-        band_median_rel_halfwidth1: (!half.is_empty()).then(|| quantile_sorted(&half, 0.5)),
+        band_median_rel_halfwidth1: median_rel_halfwidth(
+            &replay.amplitude1_low,
+            &replay.amplitude1_high,
+            &replay.amplitude1,
+        ),
         steady_points: settled.len(),
     }
 }
