@@ -501,3 +501,39 @@ fn law_names_are_the_contract_spelling() {
     let v: Value = serde_json::from_slice(&res.stdout).unwrap();
     assert_eq!(v["fits"][0]["law"], "coulomb");
 }
+
+/// Drops wall-time keys (`seconds`, `stage_seconds`, …) from a JSON value.
+fn without_seconds(v: &mut Value) {
+    match v {
+        Value::Object(m) => {
+            m.retain(|k, _| !k.contains("seconds"));
+            m.values_mut().for_each(without_seconds);
+        }
+        Value::Array(a) => a.iter_mut().for_each(without_seconds),
+        _ => {}
+    }
+}
+
+/// The output-error refinement simulates a log's segments in parallel and
+/// books them in order, so a fit is the same whatever the thread count
+/// (every number equal, not merely close).
+#[test]
+fn fit_does_not_depend_on_thread_count() {
+    let run = |threads: &str| -> Value {
+        let out = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+            .env("RAYON_NUM_THREADS", threads)
+            .args(["fit", "--json"])
+            .arg(data("char_N4.mcap"))
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let mut v: Value = serde_json::from_slice(&out.stdout).unwrap();
+        without_seconds(&mut v);
+        v
+    };
+    assert_eq!(run("1"), run("3"));
+}

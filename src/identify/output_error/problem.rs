@@ -2,6 +2,7 @@
 //! residuals, the start-velocity projection, and the cost argmin minimises.
 
 use super::*;
+use rayon::prelude::*;
 
 /// Rig constants the model needs.
 #[derive(Debug, Clone, Copy)]
@@ -134,121 +135,28 @@ impl Problem<'_> {
         })
     }
 
-    /// The measured start of segment `k` plus `dx` (added to ζ1, ζ1', ζ2,
-    /// ζ2'; ζ2 and ζ2' of a stick start are exact and not changed).
+    /// The measured start of segment `k` plus `dx` (see
+    /// [`Segments::init`]).
     pub(super) fn init(&self, cx: &Ctx, k: usize, dx: [f64; 4]) -> Init {
-        let d = self.d;
-        let (a, w) = (d.a, self.rig.omega);
-        let (g1, g2) = cx.g;
-        let (p1, p2) = cx.off;
-        let an = d.anchors[d.segs[k].0];
-        let i = an.i;
-        let z1 = (d.x1s[i] / g1 - p1) / a + dx[0];
-        let dz1 = d.v1s[i] / g1 / (a * w) + dx[1];
-        match an.x2_stick {
-            Some(x2) => {
-                let z2 = (x2 / g2 - p2) / a + dx[2];
-                let f = z1 - z2 + self.rig.absorber.damping * dz1;
-                // A start outside the friction cone slides along F.
-                let mode = if f.abs() > cx.rs {
-                    Mode::Slip { dir: f.signum() }
-                } else {
-                    Mode::Stick { z2 }
-                };
-                Init {
-                    x: [z1, dz1, z2, 0.0],
-                    mode,
-                }
-            }
-            None => {
-                let v = d.v2s[i] / g2 / (a * w) + dx[3];
-                Init {
-                    x: [z1, dz1, (d.x2s[i] / g2 - p2) / a + dx[2], v],
-                    mode: Mode::Slip { dir: v.signum() },
-                }
-            }
+        self.segments().init(cx, k, dx)
+    }
+
+    /// The segment simulator of this problem (shared by threads).
+    pub(super) fn segments(&self) -> Segments<'_> {
+        Segments {
+            d: self.d,
+            rig: self.rig,
+            stride: self.stride,
         }
     }
 
-    /// Simulates segment `k` from `init`; its weighted residuals (r1, r2
-    /// interleaved) go to `buf` (cleared first).
-    pub(super) fn simulate(
-        &self,
-        cx: &Ctx,
-        k: usize,
-        init: Init,
-        buf: &mut Vec<f64>,
-    ) -> Option<()> {
-        buf.clear();
-        let d = self.d;
-        let w = self.rig.omega;
-        let (k0, k1) = d.segs[k];
-        let i = d.anchors[k0].i;
-        let end = d.anchors[k1].i;
-        let mut obs = Collect {
-            d,
-            omega: w,
-            i0: i,
-            next: i + self.stride,
-            end,
-            stride: self.stride,
-            g: cx.g,
-            off: cx.off,
-            buf,
-            sticks: (0, 0),
-            sticking: false,
-            idx: self.idx.borrow().is_some().then(Vec::new),
-        };
-        let dur = (d.t[end] - d.t[i]) * w;
-        let phase = 2.0 * PI * d.freq * d.t[i] - d.phase;
-        let status = match (&cx.sim, d.drive) {
-            (Some(sim), _) => sim.run_span(init, phase, 1.0, dur, &mut obs).status,
-            (None, DriveModel::Harmonic) => {
-                cx.numeric
-                    .as_ref()?
-                    .with_phase(phase)?
-                    .run(init, dur, &mut obs)
-                    .status
-            }
-            (None, DriveModel::Sampled) => {
-                let hi = (end + 3).min(d.x0.len());
-                let values: Vec<f64> = d.x0[i..hi].iter().map(|x| x / d.a).collect();
-                let drive = Drive::Sampled {
-                    dt: d.dt * w,
-                    values,
-                };
-                let sim = NumericSim::new(&cx.model, drive, NUMERIC).ok()?;
-                sim.run(init, dur, &mut obs).status
-            }
-        };
-        let sticks = obs.sticks;
-        if let (Some(v), Some(o)) = (self.idx.borrow_mut().as_mut(), obs.idx.as_ref()) {
-            v.extend_from_slice(o);
+    /// Books what a segment's simulation recorded besides its residuals.
+    fn note(&self, o: &SegOut) {
+        if let (Some(v), Some(i)) = (self.idx.borrow_mut().as_mut(), o.idx.as_ref()) {
+            v.extend_from_slice(i);
         }
         let c = self.sticks.get();
-        self.sticks.set((c.0 + sticks.0, c.1 + sticks.1));
-        (status == Status::Completed).then_some(())
-    }
-
-    /// Free start directions of segment `k`: ζ1 and ζ1' always, ζ2 and ζ2'
-    /// for a slip start (a stick start has ζ2' = 0 exactly and ζ2 from the
-    /// mean over the stick).
-    pub(super) fn free(&self, k: usize) -> &'static [[f64; 4]] {
-        let d = self.d;
-        if d.anchors[d.segs[k].0].x2_stick.is_some() {
-            &[
-                [DX, 0.0, 0.0, 0.0],
-                [0.0, DX, 0.0, 0.0],
-                [0.0, 0.0, DX, 0.0],
-            ]
-        } else {
-            &[
-                [DX, 0.0, 0.0, 0.0],
-                [0.0, DX, 0.0, 0.0],
-                [0.0, 0.0, DX, 0.0],
-                [0.0, 0.0, 0.0, DX],
-            ]
-        }
+        self.sticks.set((c.0 + o.sticks.0, c.1 + o.sticks.1));
     }
 
     /// The projection of the start-state errors at θ: per segment, the
@@ -258,17 +166,25 @@ impl Problem<'_> {
     /// linearised least-squares start of each segment).
     pub(super) fn projection(&self, th: &[f64], dx: Option<&[[f64; 4]]>) -> Option<Proj> {
         let cx = self.ctx(th)?;
-        let mut base = Vec::new();
-        let mut pert = Vec::new();
-        let mut segs = Vec::with_capacity(self.d.segs.len());
-        for k in 0..self.d.segs.len() {
+        let seg = self.segments();
+        let d = self.d;
+        // Segment by segment in parallel (independent; collected in order).
+        // The stick counts of these runs are not booked: nothing reads
+        // them (they are reset before the evaluations that report them).
+        let one = |k: usize| -> Option<SegProj> {
+            let mut base = Vec::new();
+            let mut pert = Vec::new();
             let x0 = dx.map_or([0.0; 4], |d| d[k]);
-            self.simulate(&cx, k, self.init(&cx, k, x0), &mut base)?;
+            seg.run(&cx, k, seg.init(&cx, k, x0), &mut base, false)
+                .ok
+                .then_some(())?;
             let mut cols: Vec<Vec<f64>> = Vec::new();
             let mut dirs: Vec<usize> = Vec::new();
-            for &e in self.free(k) {
+            for &e in free(d, k) {
                 let x = [0, 1, 2, 3].map(|j| x0[j] + e[j]);
-                self.simulate(&cx, k, self.init(&cx, k, x), &mut pert)?;
+                seg.run(&cx, k, seg.init(&cx, k, x), &mut pert, false)
+                    .ok
+                    .then_some(())?;
                 if pert.len() != base.len() {
                     return None;
                 }
@@ -291,13 +207,12 @@ impl Problem<'_> {
                 })
                 .collect::<Option<Vec<_>>>();
             let Some(inv) = inv else {
-                segs.push(SegProj {
+                return Some(SegProj {
                     cols: Vec::new(),
                     inv: Vec::new(),
                     dx: x0,
                     next: x0,
                 });
-                continue;
             };
             // Least-squares start change: δ = −G⁻¹ Sᵀ r (kept if small:
             // a start the data cannot place is left where it was measured).
@@ -311,13 +226,17 @@ impl Problem<'_> {
                     next[*j] += delta[a];
                 }
             }
-            segs.push(SegProj {
+            Some(SegProj {
                 cols,
                 inv,
                 dx: x0,
                 next,
-            });
-        }
+            })
+        };
+        let segs = (0..self.d.segs.len())
+            .into_par_iter()
+            .map(one)
+            .collect::<Option<Vec<SegProj>>>()?;
         Some(Proj { segs })
     }
 
@@ -332,26 +251,47 @@ impl Problem<'_> {
         mut out: Option<&mut Res>,
     ) -> Option<f64> {
         let cx = self.ctx(th)?;
-        let mut sum = 0.0;
-        let mut n = 0usize;
-        let mut buf = Vec::new();
-        for k in 0..self.d.segs.len() {
-            let x0 = proj.map_or([0.0; 4], |p| p.segs[k].dx);
-            self.simulate(&cx, k, self.init(&cx, k, x0), &mut buf)?;
-            if let Some(p) = proj {
-                let SegProj { cols, inv, .. } = &p.segs[k];
-                if !cols.is_empty() {
-                    if cols[0].len() != buf.len() {
-                        return None;
-                    }
-                    let b: Vec<f64> = cols.iter().map(|c| dot(c, &buf)).collect();
-                    for (a, ca) in cols.iter().enumerate() {
-                        let coef: f64 = (0..b.len()).map(|j| inv[a][j] * b[j]).sum();
-                        for (r, c) in buf.iter_mut().zip(ca) {
-                            *r -= coef * c;
+        let seg = self.segments();
+        let want_idx = self.idx.borrow().is_some();
+        let n_seg = self.d.segs.len();
+        let inits: Vec<Init> = (0..n_seg)
+            .map(|k| self.init(&cx, k, proj.map_or([0.0; 4], |p| p.segs[k].dx)))
+            .collect();
+        // The segments are independent: simulated in parallel, then
+        // booked in order (every sum as a sequential pass makes it, so
+        // the cost does not depend on the thread count), up to the first
+        // that fails.
+        let runs: Vec<(Vec<f64>, SegOut, bool)> = (0..n_seg)
+            .into_par_iter()
+            .map(|k| {
+                let mut buf = Vec::new();
+                let o = seg.run(&cx, k, inits[k], &mut buf, want_idx);
+                let mut fits = true;
+                if let (true, Some(p)) = (o.ok, proj) {
+                    let SegProj { cols, inv, .. } = &p.segs[k];
+                    if !cols.is_empty() {
+                        if cols[0].len() != buf.len() {
+                            fits = false;
+                        } else {
+                            let b: Vec<f64> = cols.iter().map(|c| dot(c, &buf)).collect();
+                            for (a, ca) in cols.iter().enumerate() {
+                                let coef: f64 = (0..b.len()).map(|j| inv[a][j] * b[j]).sum();
+                                for (r, c) in buf.iter_mut().zip(ca) {
+                                    *r -= coef * c;
+                                }
+                            }
                         }
                     }
                 }
+                (buf, o, fits)
+            })
+            .collect();
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        for (k, (buf, o, fits)) in runs.iter().enumerate() {
+            self.note(o);
+            if !o.ok || !fits {
+                return None;
             }
             sum += buf.iter().map(|r| r * r).sum::<f64>();
             n += buf.len() / 2;
@@ -435,6 +375,145 @@ impl Proj {
     /// The start corrections the projection was computed at.
     pub(super) fn current(&self) -> Vec<[f64; 4]> {
         self.segs.iter().map(|s| s.dx).collect()
+    }
+}
+
+/// Free start directions of segment `k`: ζ1 and ζ1' always, ζ2 and ζ2'
+/// for a slip start (a stick start has ζ2' = 0 exactly and ζ2 from the
+/// mean over the stick).
+fn free(d: &Data, k: usize) -> &'static [[f64; 4]] {
+    if d.anchors[d.segs[k].0].x2_stick.is_some() {
+        &[
+            [DX, 0.0, 0.0, 0.0],
+            [0.0, DX, 0.0, 0.0],
+            [0.0, 0.0, DX, 0.0],
+        ]
+    } else {
+        &[
+            [DX, 0.0, 0.0, 0.0],
+            [0.0, DX, 0.0, 0.0],
+            [0.0, 0.0, DX, 0.0],
+            [0.0, 0.0, 0.0, DX],
+        ]
+    }
+}
+
+/// The segment simulator of a [`Problem`]: what a simulation of one
+/// segment needs (no interior mutability, so threads can share it).
+#[derive(Clone, Copy)]
+pub(super) struct Segments<'a> {
+    d: &'a Data,
+    rig: Rig,
+    stride: usize,
+}
+
+/// One segment's simulation besides its residuals.
+pub(super) struct SegOut {
+    /// It ran to the segment's end.
+    ok: bool,
+    /// Compared samples at which the simulated M2 sticks, and stick runs.
+    sticks: (usize, usize),
+    /// Compared sample indices and the simulated ẍ2 there, if recorded.
+    idx: Option<Vec<(usize, f64)>>,
+}
+
+impl Segments<'_> {
+    /// The measured start of segment `k` plus `dx` (added to ζ1, ζ1', ζ2,
+    /// ζ2'; ζ2 and ζ2' of a stick start are exact and not changed).
+    pub(super) fn init(&self, cx: &Ctx, k: usize, dx: [f64; 4]) -> Init {
+        let d = self.d;
+        let (a, w) = (d.a, self.rig.omega);
+        let (g1, g2) = cx.g;
+        let (p1, p2) = cx.off;
+        let an = d.anchors[d.segs[k].0];
+        let i = an.i;
+        let z1 = (d.x1s[i] / g1 - p1) / a + dx[0];
+        let dz1 = d.v1s[i] / g1 / (a * w) + dx[1];
+        match an.x2_stick {
+            Some(x2) => {
+                let z2 = (x2 / g2 - p2) / a + dx[2];
+                let f = z1 - z2 + self.rig.absorber.damping * dz1;
+                // A start outside the friction cone slides along F.
+                let mode = if f.abs() > cx.rs {
+                    Mode::Slip { dir: f.signum() }
+                } else {
+                    Mode::Stick { z2 }
+                };
+                Init {
+                    x: [z1, dz1, z2, 0.0],
+                    mode,
+                }
+            }
+            None => {
+                let v = d.v2s[i] / g2 / (a * w) + dx[3];
+                Init {
+                    x: [z1, dz1, (d.x2s[i] / g2 - p2) / a + dx[2], v],
+                    mode: Mode::Slip { dir: v.signum() },
+                }
+            }
+        }
+    }
+
+    /// Simulates segment `k` from `init`; its weighted residuals (r1, r2
+    /// interleaved) go to `buf` (cleared first).
+    fn run(&self, cx: &Ctx, k: usize, init: Init, buf: &mut Vec<f64>, want_idx: bool) -> SegOut {
+        buf.clear();
+        let d = self.d;
+        let w = self.rig.omega;
+        let (k0, k1) = d.segs[k];
+        let i = d.anchors[k0].i;
+        let end = d.anchors[k1].i;
+        let mut obs = Collect {
+            d,
+            omega: w,
+            i0: i,
+            next: i + self.stride,
+            end,
+            stride: self.stride,
+            g: cx.g,
+            off: cx.off,
+            buf,
+            sticks: (0, 0),
+            sticking: false,
+            idx: want_idx.then(Vec::new),
+        };
+        let dur = (d.t[end] - d.t[i]) * w;
+        let phase = 2.0 * PI * d.freq * d.t[i] - d.phase;
+        let simulate = |obs: &mut Collect| -> Option<Status> {
+            Some(match (&cx.sim, d.drive) {
+                (Some(sim), _) => sim.run_span(init, phase, 1.0, dur, obs).status,
+                (None, DriveModel::Harmonic) => {
+                    cx.numeric
+                        .as_ref()?
+                        .with_phase(phase)?
+                        .run(init, dur, obs)
+                        .status
+                }
+                (None, DriveModel::Sampled) => {
+                    let hi = (end + 3).min(d.x0.len());
+                    let values: Vec<f64> = d.x0[i..hi].iter().map(|x| x / d.a).collect();
+                    let drive = Drive::Sampled {
+                        dt: d.dt * w,
+                        values,
+                    };
+                    let sim = NumericSim::new(&cx.model, drive, NUMERIC).ok()?;
+                    sim.run(init, dur, obs).status
+                }
+            })
+        };
+        match simulate(&mut obs) {
+            // Not simulated at all: nothing recorded.
+            None => SegOut {
+                ok: false,
+                sticks: (0, 0),
+                idx: None,
+            },
+            Some(status) => SegOut {
+                ok: status == Status::Completed,
+                sticks: obs.sticks,
+                idx: obs.idx,
+            },
+        }
     }
 }
 
