@@ -603,15 +603,18 @@ fn calibration_variance(
                 ..Gains::default()
             });
         }
-        for g in perturbed {
-            let Ok(ch) = characteristic_reusing(run, &g, Some((&Gains::default(), base))) else {
-                continue;
-            };
-            let Ok(f) = fit::fit_forced(&ch.contact, &ch.segmentation, ef.law.kind, opts.fit.seed)
-            else {
-                continue;
-            };
-            let q = quantities_of(&f, ch.contact.drive.amplitude_m, k2, ss);
+        // The perturbed re-fits are independent: in parallel, booked in
+        // order (the same sums as one pass).
+        let qs: Vec<Option<[f64; 8]>> = perturbed
+            .par_iter()
+            .map(|g| {
+                let ch = characteristic_reusing(run, g, Some((&Gains::default(), base))).ok()?;
+                let f = fit::fit_forced(&ch.contact, &ch.segmentation, ef.law.kind, opts.fit.seed)
+                    .ok()?;
+                Some(quantities_of(&f, ch.contact.drive.amplitude_m, k2, ss))
+            })
+            .collect();
+        for q in qs.into_iter().flatten() {
             for k in 0..8 {
                 let d = q[k] - q0[k];
                 if d.is_finite() {
