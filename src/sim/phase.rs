@@ -217,6 +217,8 @@ pub struct Projection<const N: usize> {
     g: [f64; N],
     /// g = ±e_i: the projected h is the state component's, bit for bit.
     unit: bool,
+    /// For g = ±e_i: i (the jet's other components are not needed).
+    axis: usize,
     /// α_t·{1, λ_t, λ_t²} by term t (zero past the terms).
     modal: [[C64; 3]; 2],
     /// β·{1, iη, −η²}.
@@ -243,11 +245,18 @@ const PROJ_SLACK: f64 = 1e-8;
 
 impl<const N: usize> Switch<Point<N>> for PhaseSwitch<'_, N> {
     /// From the jet of the point, exactly as [`super::events::EventFn`]
-    /// evaluates it.
+    /// evaluates it. For a gradient ±e_i only the jet's component i is
+    /// formed ([`LinearPhase::jet_component`]): the zero terms of g·x add
+    /// nothing, so h, h', h'' are the same numbers.
     #[inline(always)]
     fn eval(&self, pt: &Point<N>) -> (f64, f64, f64) {
         match pt {
             Point::Start => self.h0,
+            _ if self.proj.unit => {
+                let s = self.proj.g[self.proj.axis];
+                let (x, d1, d2) = self.phase.jet_component(self.p, pt, self.proj.axis);
+                (self.g0 + s * x, s * d1, s * d2)
+            }
             _ => {
                 let (x, d1, d2) = self.phase.jet_of(self.p, pt);
                 dot_jet(&self.proj.g, self.g0, &[x, d1, d2])
@@ -723,6 +732,7 @@ impl<const N: usize> LinearPhase<N> {
         let mut pr = Projection {
             g,
             unit: nonzero == 1 && g.iter().any(|v| v.abs() == 1.0),
+            axis: g.iter().position(|v| *v != 0.0).unwrap_or(0),
             modal: [[C64::new(0.0, 0.0); 3]; 2],
             forced: [C64::new(0.0, 0.0); 3],
         };
@@ -873,8 +883,34 @@ impl<const N: usize> LinearPhase<N> {
         (x, d1, d2)
     }
 
+    /// Component i of [`LinearPhase::jet_of`] (the same numbers: the
+    /// state and its rate are formed whole, the second derivative only in
+    /// row i).
+    #[inline(always)]
+    pub fn jet_component(&self, p: &Started<N>, pt: &Point<N>, i: usize) -> (f64, f64, f64) {
+        let (x, e) = match pt {
+            Point::Start => (p.x0, p.e0),
+            Point::Modal { e, .. } => (self.state_of(p, pt), *e),
+            Point::Full { x, e } => (*x, *e),
+        };
+        let (z, dz) = (e.re, -self.eta * e.im);
+        let mut d1 = [0.0; N];
+        for r in 0..N {
+            let mut s = self.b[r] * z + p.c[r];
+            for j in 0..N {
+                s += self.a[r][j] * x[j];
+            }
+            d1[r] = s;
+        }
+        let mut d2 = self.b[i] * dz;
+        for j in 0..N {
+            d2 += self.a[i][j] * d1[j];
+        }
+        (x[i], d1[i], d2)
+    }
+
     /// The state at a [`Point`] (the first part of [`LinearPhase::jet_of`]).
-    #[inline]
+    #[inline(always)]
     pub fn state_of(&self, p: &Started<N>, pt: &Point<N>) -> [f64; N] {
         match pt {
             Point::Start => p.x0,
