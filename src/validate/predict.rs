@@ -693,8 +693,8 @@ fn band_of(
     if n_draws == 0 || v1.len() * 2 < n_draws + 1 {
         return None;
     }
-    v1.sort_by(f64::total_cmp);
-    v2.sort_by(f64::total_cmp);
+    v1.sort_unstable_by(f64::total_cmp);
+    v2.sort_unstable_by(f64::total_cmp);
     let q = quantile_unbiased_sorted;
     Some([q(v1, 0.025), q(v1, 0.975), q(v2, 0.025), q(v2, 0.975)])
 }
