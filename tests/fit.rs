@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::{data, f, truth};
+use common::{bin, data, f, truth};
 use serde_json::Value;
 use std::process::Command;
 use std::sync::OnceLock;
@@ -520,7 +520,7 @@ fn without_seconds(v: &mut Value) {
 #[test]
 fn fit_does_not_depend_on_thread_count() {
     let run = |threads: &str| -> Value {
-        let out = Command::new(env!("CARGO_BIN_EXE_stickslip"))
+        let out = bin()
             .env("RAYON_NUM_THREADS", threads)
             .args(["fit", "--json"])
             .arg(data("char_N4.mcap"))
