@@ -590,19 +590,28 @@ impl<const N: usize> LinearPhase<N> {
         while n < 9 && wmax > TAYLOR_RADIUS[n] {
             n += 1;
         }
-        // Up to two modal terms and the forcing: three Horner chains.
-        let mut w = [C64::new(0.0, 0.0); 3];
-        for (wi, &(k, _)) in w.iter_mut().zip(&terms[..*nterms]) {
-            *wi = md.lambda[k] * r;
-        }
-        w[2] = C64::new(0.0, self.eta * r);
-        let f = exp_taylor(&w, n);
+        // Up to two modal terms and the forcing: a Horner chain each (two
+        // for one modal term, e.g. a stick phase; the chains are
+        // independent, so each factor is the same either way).
+        let eta_r = C64::new(0.0, self.eta * r);
+        let (fz, fe) = if *nterms == 1 {
+            let f = exp_taylor(&[md.lambda[terms[0].0] * r, eta_r], n);
+            ([f[0], C64::new(0.0, 0.0)], f[1])
+        } else {
+            let mut w = [C64::new(0.0, 0.0); 3];
+            for (wi, &(k, _)) in w.iter_mut().zip(&terms[..*nterms]) {
+                *wi = md.lambda[k] * r;
+            }
+            w[2] = eta_r;
+            let f = exp_taylor(&w, n);
+            ([f[0], f[1]], f[2])
+        };
         let ls = &self.lam_sub[idx];
         let mut z = [C64::new(0.0, 0.0); N];
-        for (&fi, &(k, _)) in f.iter().zip(&terms[..*nterms]) {
+        for (&fi, &(k, _)) in fz.iter().zip(&terms[..*nterms]) {
             z[k] = c.z[k] * ls[k] * fi;
         }
-        Some((z, c.e * self.eta_sub[idx] * f[2]))
+        Some((z, c.e * self.eta_sub[idx] * fe))
     }
 
     /// The state and its rate at offset δ for a trajectory sample: as
