@@ -790,9 +790,10 @@ pub struct BandPrecision {
 const BOOTSTRAP: usize = 200;
 
 /// The bootstrap standard errors of the replay coverages and of the
-/// band's median half-width (`halfwidth`, over every draw): the band and its scores are recomputed for
-/// [`BOOTSTRAP`] resamples (with replacement) of the whole drawn sweeps.
-/// Deterministic: each resample has its own random stream of `seed`.
+/// band's median half-width (`halfwidth`, over every draw): the band and
+/// its scores are recomputed for [`BOOTSTRAP`] resamples (with
+/// replacement) of the whole drawn sweeps. Deterministic: each resample
+/// has its own random stream of `seed`.
 fn band_precision(
     frc: &MeasuredFrc,
     central: &Amps,
