@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::{bin, data, f, truth};
+use common::{bin, data, f, json_of, truth};
 use serde_json::Value;
 use std::process::Command;
 use std::sync::OnceLock;
@@ -520,18 +520,12 @@ fn without_seconds(v: &mut Value) {
 #[test]
 fn fit_does_not_depend_on_thread_count() {
     let run = |threads: &str| -> Value {
-        let out = bin()
-            .env("RAYON_NUM_THREADS", threads)
-            .args(["fit", "--json"])
-            .arg(data("char_N4.mcap"))
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        let mut v = json_of(
+            bin()
+                .env("RAYON_NUM_THREADS", threads)
+                .args(["fit", "--json"])
+                .arg(data("char_N4.mcap")),
         );
-        let mut v: Value = serde_json::from_slice(&out.stdout).unwrap();
         without_seconds(&mut v);
         v
     };

@@ -15,7 +15,7 @@
 
 mod common;
 
-use common::{data, f, truth};
+use common::{bin, data, f, json_of, truth};
 use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
@@ -309,7 +309,7 @@ fn validate_json_with(
     report: Option<&Path>,
     extra: &[&str],
 ) -> Value {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_stickslip"));
+    let mut cmd = bin();
     cmd.arg("validate")
         .arg("--characteristic")
         .arg(data(characteristic))
@@ -320,13 +320,7 @@ fn validate_json_with(
     if let Some(r) = report {
         cmd.arg("--report").arg(r);
     }
-    let out = cmd.output().unwrap();
-    assert!(
-        out.status.success(),
-        "validate failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
+    json_of(&mut cmd)
 }
 
 /// The fitted law predicts the stepped sweeps within its band, and the

@@ -1001,12 +1001,11 @@ pub fn predict_with(
     );
     // Further rounds (twice as many draws each) until the coverages are
     // known to the target or every draw is in.
+    // The replay band of the draws so far and the precision of its scores.
     let precision = |d_replay: &[Amps]| {
-        let hw = {
-            let r = banded(&etas, &c_replay, d_replay);
-            median_rel_halfwidth(&r.amplitude1_low, &r.amplitude1_high, &r.amplitude1)
-        };
-        band_precision(
+        let r = banded(&etas, &c_replay, d_replay);
+        let hw = median_rel_halfwidth(&r.amplitude1_low, &r.amplitude1_high, &r.amplitude1);
+        let b = band_precision(
             frc,
             &c_replay,
             d_replay,
@@ -1014,9 +1013,10 @@ pub fn predict_with(
             hw,
             opts.band_coverage_se,
             opts.seed,
-        )
+        );
+        (r, b)
     };
-    let mut band = precision(&d_replay);
+    let (mut replay, mut band) = precision(&d_replay);
     while d_replay.len() < n_max && !band.reached {
         let (lo, hi) = (d_replay.len(), (2 * d_replay.len()).min(n_max));
         let (s, r) = rayon::join(
@@ -1025,7 +1025,7 @@ pub fn predict_with(
         );
         d_steady.extend(s);
         d_replay.extend(r);
-        band = precision(&d_replay);
+        (replay, band) = precision(&d_replay);
     }
     if n_max > 0 && !band.reached {
         let worst = [
@@ -1046,7 +1046,6 @@ pub fn predict_with(
     }
     let (c_steady, c_replay) = (&c_steady, &c_replay);
     let steady = banded(&etas, c_steady, &d_steady);
-    let replay = banded(&etas, c_replay, &d_replay);
 
     let (replay_settled, steady_reached) =
         steady_call(frc, c_replay, c_steady, opts.steady_tolerance);

@@ -29,6 +29,18 @@ pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_stickslip"))
 }
 
+/// Runs `cmd`, asserts that it succeeded (else panics with its stderr)
+/// and parses its stdout as one JSON value.
+pub fn json_of(cmd: &mut Command) -> Value {
+    let out = cmd.output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object on stdout")
+}
+
 /// A JSON number (panics with the value otherwise).
 pub fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
