@@ -5,15 +5,19 @@ use clap::Args;
 
 /// Parser of a relative gain uncertainty: a finite fraction in [0, 0.5).
 pub fn gain_fraction(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("`{s}` is not a number"))?;
+    let v = number(s)?;
     if v.is_finite() && (0.0..0.5).contains(&v) {
         Ok(v)
     } else {
         Err("must be a finite fraction in [0, 0.5)".into())
     }
+}
+
+/// A number (any f64 syntax, surrounding blanks ignored).
+fn number(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number"))
 }
 
 /// Parser of a period budget: 1 to 1e8 periods.
@@ -128,10 +132,7 @@ pub fn band_samples(s: &str) -> Result<usize, String> {
 
 /// `--band-coverage-se` of validate/run: a fraction in [0, 0.5].
 pub fn coverage_se(s: &str) -> Result<f64, String> {
-    let v: f64 = s
-        .trim()
-        .parse()
-        .map_err(|_| format!("{s:?} is not a number"))?;
+    let v = number(s)?;
     if !(0.0..=0.5).contains(&v) {
         return Err(format!(
             "{v} is outside 0..=0.5 (a standard error of a fraction)"
