@@ -29,11 +29,13 @@
 
 use super::events::{self, EventFn, Jet};
 use super::linalg::C64;
+use super::monodromy::Monodromy;
 use super::phase::{absorber, LinearPhase, Point, Projection, Sampler};
 use super::SimError;
 use crate::model::{Law, Model};
 use std::cell::{Cell, RefCell};
 use std::f64::consts::PI;
+use std::sync::{Arc, OnceLock};
 
 /// The contact state of M2.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -291,6 +293,9 @@ pub struct Sim {
     /// Event times are refined to `resolution · ε`-ish relative to the
     /// period (1: machine precision).
     resolution: f64,
+    /// The variational set-up for shooting's Jacobians, made on first use
+    /// and shared by the engines of the same model at other η.
+    monodromy: OnceLock<Option<Arc<Monodromy>>>,
 }
 
 impl Sim {
@@ -339,6 +344,7 @@ impl Sim {
             rho_d,
             v_interrupt,
             resolution: 1.0,
+            monodromy: OnceLock::new(),
         })
     }
 
@@ -389,6 +395,14 @@ impl Sim {
     /// Forcing period 2π/η.
     pub fn period(&self) -> f64 {
         self.period
+    }
+
+    /// The Jacobian machinery of the period map ([`Monodromy`]) for this
+    /// model, `None` where it does not apply; set up once per model.
+    pub fn monodromy(&self) -> Option<&Monodromy> {
+        self.monodromy
+            .get_or_init(|| Monodromy::new(self).map(Arc::new))
+            .as_deref()
     }
 
     /// The state at offset δ into a phase that starts at `x` with mode

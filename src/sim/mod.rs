@@ -5,6 +5,7 @@
 //! * [`events`]: bracketing and refinement of switching events;
 //! * [`engine`]: the event loop and its switching logic (derivation there);
 //! * [`linear`]: closed forms of the two linear limits (ρs = 0, ρs = ∞);
+//! * [`monodromy`]: the Jacobian of the period map for Newton shooting;
 //! * [`steady`]: amplitudes (paper eq. 6), steady-state and period-n
 //!   detection on the Poincaré section;
 //! * [`rk4`]: the paper's own method, classical RK4 with switching-time
@@ -18,6 +19,7 @@ pub mod engine;
 pub mod events;
 pub mod linalg;
 pub mod linear;
+pub mod monodromy;
 pub mod numeric;
 pub mod phase;
 pub mod rk4;

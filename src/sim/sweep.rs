@@ -12,8 +12,11 @@
 //!    holds stays true);
 //! 4. **Newton shooting** on the p-th return map P^p (p ≤ 8, the smallest
 //!    p whose section return distance ‖x_n − x_{n−p}‖ is within 4× the
-//!    best), with a finite-difference Jacobian in the stuck or slipping
-//!    coordinates of the section state; a converged, stable (spectral
+//!    best), with the Jacobian in the stuck or slipping coordinates of the
+//!    section state from the variational equations (phase exponentials and
+//!    saltation matrices at the events, [`super::monodromy`]: one run per
+//!    Newton iteration), or by forward differences where those do not hold
+//!    (grazing events, several switches at one instant); a converged, stable (spectral
 //!    radius < 1) fixed point x* with the start's contact mode is only a
 //!    *candidate*. Shooting may speed up convergence to the orbit the
 //!    trajectory is approaching, never pick another attractor: the
@@ -691,18 +694,20 @@ impl Walk<'_, '_> {
             // Fewer than two section points, or contact modes that never repeat.
             return Shot::Rejected;
         };
-        let Some(sh) = shoot(
+        let mut used = 0;
+        let shot = shoot(
             self.sim,
             model,
             self.state.x,
             self.state.mode,
             p as u64,
             cfg.tol,
-        ) else {
-            self.used += 4 * (1 + 4) * p as u64;
+            &mut used,
+        );
+        self.used += used;
+        let Some(sh) = shot else {
             return Shot::Rejected;
         };
-        self.used += sh.used;
         let dim = sh.dim;
         let lim = |x: &[f64; 4]| cfg.tol * (1.0 + x.iter().fold(0.0f64, |a, v| a.max(v.abs())));
         // The check: e_{k+1} = J·e_k + O(|e_k|²) for the deviations of the
@@ -866,17 +871,17 @@ struct Shooting {
     stuck: bool,
     /// Number of coordinates varied (3 stuck, 4 slipping).
     dim: usize,
-    /// Jacobian of P^p at `x` (finite differences, `dim`×`dim`).
+    /// Jacobian of P^p at `x` (`dim`×`dim`; variational where it holds,
+    /// else finite differences).
     jac: [[f64; 4]; 4],
-    /// Periods integrated.
-    used: u64,
 }
 
 /// Newton's method on P^p(x) − x for a section state of a period-p orbit.
 /// Stuck states vary (ζ1, ζ1', ζ2) with ζ2' = 0; slipping states all four
 /// components. Only a converged, stable (spectral radius < 1) fixed point
 /// with the start's contact mode is returned; whether the trajectory
-/// approaches it is the caller's check.
+/// approaches it is the caller's check. `used` counts the periods
+/// integrated, whatever the outcome.
 fn shoot(
     sim: &Sim,
     model: &Model,
@@ -884,6 +889,7 @@ fn shoot(
     mode0: Mode,
     p: u64,
     tol: f64,
+    used: &mut u64,
 ) -> Option<Shooting> {
     let stuck = matches!(mode0, Mode::Stick { .. });
     let dim = if stuck { 3 } else { 4 };
@@ -900,30 +906,49 @@ fn shoot(
             _ => None,
         }
     };
+    // The exact Jacobian from the variational equations where it holds
+    // (one run per iteration), else forward differences (dim + 1 runs).
+    let mono = sim.monodromy();
     let mut x = x0;
-    let mut used = 0;
     for _ in 0..8 {
-        let (px, pm) = map(&x)?;
-        used += p;
+        let mode = if stuck {
+            Mode::Stick { z2: x[2] }
+        } else {
+            mode0
+        };
+        let exact = mono.as_ref().and_then(|m| m.map(sim, Init { x, mode }, p));
+        let (px, pm) = match &exact {
+            Some((px, pm, _)) => (*px, *pm),
+            None => map(&x)?,
+        };
+        *used += p;
         if !same_kind(pm) {
             return None;
         }
         let scale = 1.0 + x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         let r: Vec<f64> = (0..dim).map(|i| px[i] - x[i]).collect();
         let rn = r.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        // Jacobian of P^p by forward differences.
         let mut j = faer::Mat::<f64>::zeros(dim, dim);
-        for c in 0..dim {
-            let h = 1e-7 * (1.0 + x[c].abs());
-            let mut xp = x;
-            xp[c] += h;
-            let (pp, pmm) = map(&xp)?;
-            used += p;
-            if !same_kind(pmm) {
-                return None;
-            }
+        if let Some((_, _, jm)) = &exact {
             for i in 0..dim {
-                j[(i, c)] = (pp[i] - px[i]) / h;
+                for c in 0..dim {
+                    j[(i, c)] = jm[i][c];
+                }
+            }
+        } else {
+            // Jacobian of P^p by forward differences.
+            for c in 0..dim {
+                let h = 1e-7 * (1.0 + x[c].abs());
+                let mut xp = x;
+                xp[c] += h;
+                let (pp, pmm) = map(&xp)?;
+                *used += p;
+                if !same_kind(pmm) {
+                    return None;
+                }
+                for i in 0..dim {
+                    j[(i, c)] = (pp[i] - px[i]) / h;
+                }
             }
         }
         if rn <= tol * scale {
@@ -949,7 +974,6 @@ fn shoot(
                 stuck,
                 dim,
                 jac,
-                used,
             });
         }
         let mut a = j.clone();

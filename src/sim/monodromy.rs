@@ -1,0 +1,421 @@
+//! The Jacobian of the exact engine's p-period map (the monodromy matrix),
+//! from the variational equations of the piecewise-linear system, for
+//! Newton shooting ([`super::sweep`]).
+//!
+//! Within a phase the flow is affine with a constant matrix A, so a
+//! perturbation of the state is carried by e^{AΔ} (Δ: the phase's length);
+//! the drive and the constant friction input drop out. At a switching
+//! event g(x) = 0 the perturbation jumps by the saltation matrix
+//!
+//! ```text
+//! S = I + (f⁺ − f⁻)·∇gᵀ / (∇g·f⁻)
+//! ```
+//!
+//! (f∓: the vector fields just before and after the event; Aizerman &
+//! Gantmacher 1958, Leine & Nijmeijer 2004, §7). For the absorber (state
+//! `[ζ1, ζ1', ζ2, ζ2']`, M2's equation normalised to unit mass) only ζ2''
+//! jumps at an event, so S differs from I in its last row only:
+//!
+//! * slip → stick (g = ζ2'): ζ2''⁺ = 0, S = I − e4·e4ᵀ (a stuck M2 has no
+//!   velocity perturbation);
+//! * stick → slip (g = F ∓ ρs, F = ζ1 − ζ2 + D(ζ1' − ζ2')):
+//!   S = I + e4·ζ2''⁺·∇Fᵀ/F', ∇F = (1, D, −1, −D), F' = ζ1' + D·ζ1'' in the
+//!   stick, ζ2''⁺ = F − ρd·dir (I when ρs = ρd);
+//! * reversal (g = ζ2'): S = I + e4·e4ᵀ·(ζ2''⁺ − ζ2''⁻)/ζ2''⁻.
+//!
+//! A stuck phase carries ζ2 as a constant input of M1's equation:
+//! e^{A4Δ} = [[E, B⁻¹(E − I)·c, 0], [0, 1, 0], [0, 0, 0]] with E = e^{BΔ}
+//! of the 2×2 stick matrix B and c = (0, 1/m).
+//!
+//! One run gives the Jacobian that forward differences need dim + 1 runs
+//! for, and it is exact where they carry an O(h) error. Where the formula
+//! does not hold — a grazing event (∇g·f⁻ ≈ 0), several switches at one
+//! instant, an interruption, a law the exact engine does not integrate, an
+//! ill-conditioned modal form — [`Monodromy::map`] returns `None` and the
+//! caller falls back to differences.
+
+use super::engine::{Event, EventKind, Init, Mode, Observer, Sim, Status};
+use super::linalg::{self, C64};
+use super::phase::absorber;
+use crate::model::{Absorber, Law};
+
+/// Condition number of an eigenvector matrix above which the modal
+/// exponential is not trusted (its error grows like cond·ε).
+const MAX_COND: f64 = 1e6;
+
+/// A denominator ∇g·f⁻ below this fraction of its terms' size is a grazing
+/// event, where the saltation matrix does not exist.
+const GRAZING: f64 = 1e-8;
+
+/// Per-model set-up of the variational propagation (independent of η).
+#[derive(Debug, Clone)]
+pub struct Monodromy {
+    ab: Absorber,
+    rho_d: f64,
+    slip: Spectral<4>,
+    stick: Spectral<2>,
+    /// B⁻¹ of the 2×2 stick matrix.
+    stick_inv: [[f64; 2]; 2],
+}
+
+/// Records a run's events (nothing else).
+#[derive(Default)]
+struct Events(Vec<Event>);
+
+impl Observer for Events {
+    fn event(&mut self, ev: &Event) {
+        self.0.push(*ev);
+    }
+    fn wants_extremes(&self) -> bool {
+        false
+    }
+}
+
+type M4 = [[f64; 4]; 4];
+
+/// Whether an event's rate `v` (∇g·f⁻) vanishes against the size of its
+/// terms (or is not a number).
+fn grazing(v: f64, size: f64) -> bool {
+    v.abs().partial_cmp(&(GRAZING * size)) != Some(std::cmp::Ordering::Greater)
+}
+
+fn identity() -> M4 {
+    let mut m = [[0.0; 4]; 4];
+    for (i, r) in m.iter_mut().enumerate() {
+        r[i] = 1.0;
+    }
+    m
+}
+
+fn mul(a: &M4, b: &M4) -> M4 {
+    let mut c = [[0.0; 4]; 4];
+    for i in 0..4 {
+        for k in 0..4 {
+            let aik = a[i][k];
+            if aik != 0.0 {
+                for j in 0..4 {
+                    c[i][j] += aik * b[k][j];
+                }
+            }
+        }
+    }
+    c
+}
+
+/// e^{AΔ} = Re(V·diag(e^{λΔ})·V⁻¹) = Σ_k Re(e^{λkΔ}·Pk) of a real matrix,
+/// with the spectral projectors Pk = V[:, k]·V⁻¹[k, :] precomputed; of a
+/// conjugate pair only one term is kept, weighted by 2.
+#[derive(Debug, Clone)]
+struct Spectral<const N: usize> {
+    terms: Vec<(C64, [[C64; N]; N])>,
+}
+
+impl<const N: usize> Spectral<N> {
+    fn new(a: &[[f64; N]; N]) -> Option<Self> {
+        let md = linalg::modal(a)?;
+        if md.cond > MAX_COND {
+            return None;
+        }
+        let mut terms = Vec::with_capacity(N);
+        let mut used = [false; N];
+        for k in 0..N {
+            if used[k] {
+                continue;
+            }
+            used[k] = true;
+            let lk = md.lambda[k];
+            let mut weight = 1.0;
+            if lk.im != 0.0 {
+                // Its conjugate's term is the conjugate of this one.
+                let tol = 1e-12 * lk.norm();
+                let pair =
+                    (0..N).find(|&j| !used[j] && (md.lambda[j] - lk.conj()).norm() <= tol)?;
+                used[pair] = true;
+                weight = 2.0;
+            }
+            let p: [[C64; N]; N] = std::array::from_fn(|i| {
+                std::array::from_fn(|j| md.v[i][k] * md.vinv[k][j] * weight)
+            });
+            terms.push((lk, p));
+        }
+        Some(Self { terms })
+    }
+
+    fn exp(&self, delta: f64) -> [[f64; N]; N] {
+        let mut out = [[0.0; N]; N];
+        for (l, p) in &self.terms {
+            let e = (*l * delta).exp();
+            for i in 0..N {
+                for j in 0..N {
+                    out[i][j] += e.re * p[i][j].re - e.im * p[i][j].im;
+                }
+            }
+        }
+        out
+    }
+}
+
+impl Monodromy {
+    /// The set-up for the engine's model; `None` for a law the exact engine
+    /// does not integrate, for a frictionless or never-slipping law, or
+    /// where a modal form is ill-conditioned.
+    pub fn new(sim: &Sim) -> Option<Self> {
+        let model = sim.model();
+        let Law::Linear { rho_d, slope, .. } = model.law else {
+            return None;
+        };
+        if model.law.is_frictionless() || model.law.is_always_stuck() {
+            return None;
+        }
+        let ab = model.absorber;
+        let slip = Spectral::new(&absorber::slip_matrix(&ab, slope))?;
+        let b = absorber::stick_matrix(&ab);
+        let stick = Spectral::new(&b)?;
+        let stick_inv = linalg::real_inverse(&b)?;
+        Some(Self {
+            ab,
+            rho_d,
+            slip,
+            stick,
+            stick_inv,
+        })
+    }
+
+    /// e^{A4Δ} of a stuck phase in the full state (see the module doc).
+    fn stick_flow(&self, delta: f64) -> M4 {
+        let e = self.stick.exp(delta);
+        let c1 = 1.0 / self.ab.m;
+        // B⁻¹(E − I)·c with c = (0, c1).
+        let w = [e[0][1] * c1, (e[1][1] - 1.0) * c1];
+        let col = [
+            self.stick_inv[0][0] * w[0] + self.stick_inv[0][1] * w[1],
+            self.stick_inv[1][0] * w[0] + self.stick_inv[1][1] * w[1],
+        ];
+        [
+            [e[0][0], e[0][1], col[0], 0.0],
+            [e[1][0], e[1][1], col[1], 0.0],
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 0.0],
+        ]
+    }
+
+    fn flow(&self, mode: Mode, delta: f64) -> M4 {
+        match mode {
+            Mode::Stick { .. } => self.stick_flow(delta),
+            Mode::Slip { .. } => self.slip.exp(delta),
+        }
+    }
+
+    /// The last row of the saltation matrix of event `ev` entered from
+    /// `before` (the rest of S is the identity), at drive ζ0 = `z0`; `None`
+    /// at a grazing event or an interruption.
+    fn saltation_row(&self, before: Mode, ev: &Event, z0: f64) -> Option<[f64; 4]> {
+        let ab = &self.ab;
+        let x = &ev.x;
+        let d = ab.damping;
+        let force = x[0] - x[2] + d * (x[1] - x[3]);
+        match (ev.kind, before) {
+            (EventKind::Stick, Mode::Slip { .. }) => Some([0.0; 4]),
+            (EventKind::SlipPlus | EventKind::SlipMinus, Mode::Stick { .. }) => {
+                let dir = if ev.kind == EventKind::SlipPlus {
+                    1.0
+                } else {
+                    -1.0
+                };
+                // F' along the stick's flow (ζ2' = ζ2'' = 0).
+                let acc1 = (-(1.0 + ab.k) * x[0] - d * x[1] + x[2] + ab.k * z0) / ab.m;
+                let rate = x[1] + d * acc1;
+                let size = x[1].abs() + d * acc1.abs();
+                if grazing(rate, size) {
+                    return None;
+                }
+                let jump = (force - self.rho_d * dir) / rate;
+                Some([jump, jump * d, -jump, -jump * d])
+            }
+            (EventKind::ReversePlus | EventKind::ReverseMinus, Mode::Slip { dir: old }) => {
+                let new = -old;
+                let acc_before = force - self.rho_d * old;
+                let acc_after = force - self.rho_d * new;
+                if grazing(acc_before, force.abs() + self.rho_d) {
+                    return None;
+                }
+                Some([0.0, 0.0, 0.0, acc_after / acc_before])
+            }
+            _ => None,
+        }
+    }
+
+    /// P^p(x) from `init` (p = `periods`) by `sim`, with the Jacobian
+    /// ∂P^p/∂x in the full state (rows and columns ζ1, ζ1', ζ2, ζ2'); for a
+    /// stuck start the columns of ζ1, ζ1' and ζ2 (ζ2' = 0, ζ2* = ζ2) are
+    /// the meaningful ones. `None` where the run does not complete or the
+    /// variational formula does not hold (see the module doc).
+    pub fn map(&self, sim: &Sim, init: Init, periods: u64) -> Option<([f64; 4], Mode, M4)> {
+        let mut rec = Events(Vec::with_capacity(8 * periods as usize));
+        let end = sim.run(init, periods, &mut rec);
+        if !matches!(end.status, Status::Completed) {
+            return None;
+        }
+        let eta = sim.eta();
+        let mut m = identity();
+        let mut mode = init.mode;
+        let mut t_prev = 0.0;
+        for ev in &rec.0 {
+            let delta = ev.tau - t_prev;
+            if delta <= 0.0 {
+                // Several switches at one instant.
+                return None;
+            }
+            m = mul(&self.flow(mode, delta), &m);
+            let row = self.saltation_row(mode, ev, (eta * ev.tau).cos())?;
+            // S·M with S = I except its last row `row` (+ e4 on the
+            // diagonal for the stick → slip and reversal jumps).
+            let last: [f64; 4] = std::array::from_fn(|j| {
+                let s: f64 = (0..4).map(|k| row[k] * m[k][j]).sum();
+                match ev.kind {
+                    EventKind::Stick => 0.0,
+                    EventKind::ReversePlus | EventKind::ReverseMinus => s,
+                    _ => m[3][j] + s,
+                }
+            });
+            m[3] = last;
+            mode = match ev.kind {
+                EventKind::Stick => Mode::Stick { z2: ev.x[2] },
+                EventKind::SlipPlus | EventKind::ReversePlus => Mode::Slip { dir: 1.0 },
+                _ => Mode::Slip { dir: -1.0 },
+            };
+            t_prev = ev.tau;
+        }
+        let delta = end.tau - t_prev;
+        if delta < 0.0 {
+            return None;
+        }
+        m = mul(&self.flow(mode, delta), &m);
+        Some((end.x, end.mode, m))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Model;
+
+    fn model(rho_s: f64, rho_d: f64, slope: f64) -> Model {
+        Model {
+            absorber: Absorber {
+                m: 4.0,
+                k: 1.0,
+                damping: 0.003,
+            },
+            law: Law::Linear {
+                rho_s,
+                rho_d,
+                slope,
+            },
+            stop_below: None,
+        }
+    }
+
+    /// Central differences of P^p in the coordinates shooting varies.
+    fn differences(sim: &Sim, x: [f64; 4], mode: Mode, p: u64) -> M4 {
+        let stuck = matches!(mode, Mode::Stick { .. });
+        let dim = if stuck { 3 } else { 4 };
+        let run = |y: [f64; 4]| {
+            let mode = if stuck {
+                Mode::Stick { z2: y[2] }
+            } else {
+                mode
+            };
+            let e = sim.run(Init { x: y, mode }, p, &mut ());
+            e.x
+        };
+        let mut j = [[0.0; 4]; 4];
+        for c in 0..dim {
+            let h = 1e-6 * (1.0 + x[c].abs());
+            let (mut a, mut b) = (x, x);
+            a[c] += h;
+            b[c] -= h;
+            let (pa, pb) = (run(a), run(b));
+            for i in 0..4 {
+                j[i][c] = (pa[i] - pb[i]) / (2.0 * h);
+            }
+        }
+        j
+    }
+
+    /// The variational Jacobian agrees with central differences on runs
+    /// with sticks, releases (ρs ≠ ρd, with and without slope) and
+    /// reversals, from stuck and slipping starts, over 1 and 3 periods.
+    #[test]
+    fn jacobian_matches_differences() {
+        let cases = [
+            // (ρs, ρd, slope, η): stick-slip with sticks, static > dynamic.
+            (0.375, 0.3, 0.0, 0.6),
+            (0.375, 0.375, 0.0, 0.6),
+            (0.5, 0.4, -0.02, 0.75),
+            // Light friction: slips through with reversals.
+            (0.05, 0.05, 0.0, 0.45),
+            (1.2, 0.9, 0.0, 0.7),
+        ];
+        let mut kinds = std::collections::BTreeSet::new();
+        for &(rs, rd, slope, eta) in &cases {
+            let m = model(rs, rd, slope);
+            let sim = Sim::new(&m, eta).unwrap();
+            let mono = Monodromy::new(&sim).unwrap();
+            // A state on the attractor (after a transient).
+            let e = sim.run(Init::rest(), 60, &mut ());
+            let start = Init {
+                x: e.x,
+                mode: e.mode,
+            };
+            for p in [1, 3] {
+                let mut rec = Events::default();
+                sim.run(start, p, &mut rec);
+                for ev in &rec.0 {
+                    kinds.insert(ev.kind.as_str());
+                }
+                let Some((x, mode, j)) = mono.map(&sim, start, p) else {
+                    panic!("no variational Jacobian for {rs} {rd} {slope} {eta} p {p}");
+                };
+                assert_eq!(x, e_map(&sim, start, p).0);
+                assert_eq!(mode, e_map(&sim, start, p).1);
+                let fd = differences(&sim, start.x, start.mode, p);
+                let dim = if matches!(start.mode, Mode::Stick { .. }) {
+                    3
+                } else {
+                    4
+                };
+                let scale = fd
+                    .iter()
+                    .flat_map(|r| r[..dim].iter())
+                    .fold(1.0f64, |a, v| a.max(v.abs()));
+                for i in 0..4 {
+                    for c in 0..dim {
+                        assert!(
+                            (j[i][c] - fd[i][c]).abs() <= 1e-7 * scale,
+                            "case {rs} {rd} {slope} {eta} p {p}: J[{i}][{c}] = {} against {} (differences)",
+                            j[i][c],
+                            fd[i][c]
+                        );
+                    }
+                }
+            }
+        }
+        // The cases exercise every kind of switch.
+        for k in ["stick", "slip+", "slip-", "reverse+", "reverse-"] {
+            assert!(kinds.contains(k), "no {k} event in the cases: {kinds:?}");
+        }
+    }
+
+    fn e_map(sim: &Sim, init: Init, p: u64) -> ([f64; 4], Mode) {
+        let e = sim.run(init, p, &mut ());
+        (e.x, e.mode)
+    }
+
+    #[test]
+    fn no_jacobian_for_laws_it_cannot_carry() {
+        let frictionless = model(0.0, 0.0, 0.0);
+        let sim = Sim::new(&frictionless, 0.6).unwrap();
+        assert!(Monodromy::new(&sim).is_none());
+    }
+}
