@@ -71,7 +71,8 @@ impl Observer for Events {
     }
 }
 
-type M4 = [[f64; 4]; 4];
+/// A 4×4 Jacobian in the state `[ζ1, ζ1', ζ2, ζ2']`.
+pub type M4 = [[f64; 4]; 4];
 
 /// Whether an event's rate `v` (∇g·f⁻) vanishes against the size of its
 /// terms (or is not a number).
@@ -256,11 +257,19 @@ impl Monodromy {
         if !matches!(end.status, Status::Completed) {
             return None;
         }
-        let eta = sim.eta();
+        let m = self.carry(init.mode, &rec.0, 0.0, end.tau, sim.eta())?;
+        Some((end.x, end.mode, m))
+    }
+
+    /// The Jacobian of the flow over the span [`t0`, `t1`] of a run (τ from
+    /// the run's start, drive cos(ητ)) that starts in `mode` and meets
+    /// `events` (in order, inside the span). `None` where the variational
+    /// formula does not hold (see the module doc).
+    pub fn carry(&self, mode: Mode, events: &[Event], t0: f64, t1: f64, eta: f64) -> Option<M4> {
         let mut m = identity();
-        let mut mode = init.mode;
-        let mut t_prev = 0.0;
-        for ev in &rec.0 {
+        let mut mode = mode;
+        let mut t_prev = t0;
+        for ev in events {
             let delta = ev.tau - t_prev;
             if delta <= 0.0 {
                 // Several switches at one instant.
@@ -268,8 +277,7 @@ impl Monodromy {
             }
             m = mul(&self.flow(mode, delta), &m);
             let row = self.saltation_row(mode, ev, (eta * ev.tau).cos())?;
-            // S·M with S = I except its last row `row` (+ e4 on the
-            // diagonal for the stick → slip and reversal jumps).
+            // S·M with S = I except its last row (see `saltation_row`).
             let last: [f64; 4] = std::array::from_fn(|j| {
                 let s: f64 = (0..4).map(|k| row[k] * m[k][j]).sum();
                 match ev.kind {
@@ -286,12 +294,11 @@ impl Monodromy {
             };
             t_prev = ev.tau;
         }
-        let delta = end.tau - t_prev;
+        let delta = t1 - t_prev;
         if delta < 0.0 {
             return None;
         }
-        m = mul(&self.flow(mode, delta), &m);
-        Some((end.x, end.mode, m))
+        Some(mul(&self.flow(mode, delta), &m))
     }
 }
 
