@@ -839,7 +839,8 @@ impl<const N: usize> LinearPhase<N> {
 
     /// [`LinearPhase::switch`] with the jet at δ = 0 formed here: for a
     /// gradient ±e_i only its component i ([`LinearPhase::jet_component`]),
-    /// whose h, h', h'' are `dot_jet`'s (the zero terms add nothing).
+    /// whose h, h', h'' are `dot_jet`'s (the zero terms add nothing), and
+    /// h', h'' only where h > 0 (see below).
     #[inline]
     pub fn switch_start<'a>(
         &'a self,
@@ -853,14 +854,24 @@ impl<const N: usize> LinearPhase<N> {
         }
         let i = proj.axis;
         let s = proj.g[i];
-        let (x, d1, d2) = self.jet_component(p, &Point::Start, i);
+        let h = g0 + s * p.x0[i];
+        // A phase starting on the boundary (h ≤ 0, e.g. ζ2' = 0 after an
+        // event) never has h', h'' read at δ = 0: the finder leaves the
+        // boundary from points inside the first step
+        // ([`super::events::first_event`]). They are formed where h > 0.
+        let h0 = if h > 0.0 {
+            let (x, d1, d2) = self.jet_component(p, &Point::Start, i);
+            (g0 + s * x, s * d1, s * d2)
+        } else {
+            (h, 0.0, 0.0)
+        };
         PhaseSwitch {
             proj,
             phase: self,
             p,
             g0,
             gxc: s * p.xc[i],
-            h0: (g0 + s * x, s * d1, s * d2),
+            h0,
         }
     }
 
@@ -1275,6 +1286,14 @@ mod tests {
             for (g, g0) in grads {
                 let proj = phase.projection(g);
                 let sw = phase.switch(&proj, &p, g0, &j0);
+                // From the start state alone: the same h at δ = 0, and the
+                // same h', h'' where h > 0 (on the boundary they are unread).
+                let (h0, q0) = (sw.eval(&Point::Start), phase.switch_start(&proj, &p, g0));
+                let q0 = q0.eval(&Point::Start);
+                assert_eq!(h0.0.to_bits(), q0.0.to_bits());
+                if h0.0 > 0.0 {
+                    assert_eq!(h0, q0);
+                }
                 let ev = EventFn { g, g0 };
                 let mut pts = vec![(0.0, Point::Start)];
                 let mut cur = phase.cursor(&p);
