@@ -30,7 +30,7 @@
 use super::events::{self, EventFn, Jet};
 use super::linalg::C64;
 use super::monodromy::Monodromy;
-use super::phase::{absorber, LinearPhase, Point, Projection, Sampler};
+use super::phase::{absorber, LinearPhase, Projection, Sampler};
 use super::SimError;
 use crate::model::{Law, Model};
 use std::cell::{Cell, RefCell};
@@ -647,11 +647,15 @@ impl Sim {
                     let (fns, nf) = self.slip_events(dir, frictionless);
                     // End of the slip: gradient dir·e3; interruption: −dir·e3.
                     let (pe, ps) = if dir > 0.0 { (0, 1) } else { (1, 0) };
-                    let (x0, d1, d2) = self.slip.jet_of(&p, &Point::Start);
-                    let j0 = [x0, d1, d2];
+                    // (The interruption's function only where it is used.)
+                    let sw0 = self.slip.switch_start(&self.slip_proj[pe], &p, fns[0].g0);
                     let sw = [
-                        self.slip.switch(&self.slip_proj[pe], &p, fns[0].g0, &j0),
-                        self.slip.switch(&self.slip_proj[ps], &p, fns[1].g0, &j0),
+                        sw0,
+                        if nf > 1 {
+                            self.slip.switch_start(&self.slip_proj[ps], &p, fns[1].g0)
+                        } else {
+                            sw0
+                        },
                     ];
                     let (hit, qb) = events::first_event(
                         &point,
@@ -662,8 +666,10 @@ impl Sim {
                         self.resolution * t,
                         |a, _, b, _| sampler(a, b, &mut sample, obs),
                     );
-                    let hit = hit.map(|h| (h.delta, h.which, self.slip.state_of(&p, &h.jet)));
-                    (hit, self.slip.state_of(&p, &qb))
+                    match hit {
+                        Some(h) => (Some((h.delta, h.which, self.slip.state_of(&p, &h.jet))), x),
+                        None => (None, self.slip.state_of(&p, &qb)),
+                    }
                 }
             };
             match hit {
@@ -719,9 +725,9 @@ impl Sim {
                     }
                     s += h_delta;
                     let tau = n as f64 * t + s;
-                    let (z0, _) = self.stick.drive(u, s);
+                    let z0 = || self.stick.drive(u, s).0;
                     match apply(
-                        switch(&self.model, mode, h_which, &h_x, z0, tau),
+                        switch_with(&self.model, mode, h_which, &h_x, z0, tau),
                         tau,
                         obs,
                         &mut events,
@@ -865,6 +871,21 @@ pub fn switch(
     z0: f64,
     tau: f64,
 ) -> Switched {
+    switch_with(model, mode, which, x, || z0, tau)
+}
+
+/// [`switch`] with the drive ζ0 evaluated only where it is needed (the
+/// tie-break of [`after_slip`] on the threshold): the exact engine's drive
+/// is a sincos.
+#[inline]
+pub(crate) fn switch_with<Z: FnOnce() -> f64>(
+    model: &Model,
+    mode: Mode,
+    which: usize,
+    x: &[f64; 4],
+    z0: Z,
+    tau: f64,
+) -> Switched {
     match mode {
         Mode::Stick { z2 } => {
             let dir = if which == 0 { 1.0 } else { -1.0 };
@@ -894,7 +915,7 @@ pub fn switch(
         }
         Mode::Slip { dir: old } => {
             let x = [x[0], x[1], x[2], 0.0];
-            let (kind, next, stop_first) = match after_slip(model, &x, z0) {
+            let (kind, next, stop_first) = match after_slip_with(model, &x, z0) {
                 Mode::Stick { z2 } => (EventKind::Stick, Mode::Stick { z2 }, false),
                 Mode::Slip { dir } if dir != old => {
                     let k = if dir > 0.0 {
@@ -974,6 +995,12 @@ pub(crate) fn apply<O: Observer + ?Sized>(
 /// The contact mode after a slip has come to rest (ζ2' = 0) with the drive
 /// at ζ0 = `z0`; see the module doc for the derivation.
 pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
+    after_slip_with(model, x, || z0)
+}
+
+/// [`after_slip`] with ζ0 evaluated only on the threshold.
+#[inline]
+fn after_slip_with<Z: FnOnce() -> f64>(model: &Model, x: &[f64; 4], z0: Z) -> Mode {
     let rho_s = model.law.rho_s();
     if rho_s == 0.0 {
         return Mode::Slip { dir: 1.0 };
@@ -994,7 +1021,7 @@ pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
     // cannot leave rest, comes back at once, and the tie-break repeated
     // itself: a false chatter. Sticking there is exact: the stick's own
     // switching function releases M2 as soon as |F| reaches ρs.)
-    let dd1 = (-ab.damping * x[1] - (1.0 + ab.k) * x[0] + x[2] + ab.k * z0) / ab.m;
+    let dd1 = (-ab.damping * x[1] - (1.0 + ab.k) * x[0] + x[2] + ab.k * z0()) / ab.m;
     let df = x[1] + ab.damping * dd1;
     if f.abs() < rho_s || f.signum() * df < 0.0 {
         Mode::Stick { z2: x[2] }

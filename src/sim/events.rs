@@ -234,12 +234,14 @@ where
     let mut a = 0.0;
     let mut ja = j0;
     // Lower bracket ends per function (nonzero only for boundary starts).
-    let mut lo = [0.0f64; 4];
-    debug_assert!(fns.len() <= lo.len());
-    let mut boundary = [false; 4];
+    // Every phase has at most two switching functions: per-step copies of
+    // these arrays stay small.
+    let mut lo = [0.0f64; 2];
+    assert!(fns.len() <= lo.len());
+    let mut boundary = [false; 2];
     // h, h' and the bound of h' (`Switch::quick`) of each function at the
     // step's ends (those at its end are the next step's start values).
-    let mut va = [(0.0, 0.0, 0.0); 4];
+    let mut va = [(0.0, 0.0, 0.0); 2];
     for (i, f) in fns.iter().enumerate() {
         let (h, d, _) = f.eval(&j0);
         va[i] = (h, d, 0.0);
