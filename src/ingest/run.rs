@@ -616,8 +616,10 @@ fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mu
 /// One pass over the rows. The bracketing valid samples `a` and `b` and
 /// whether the hole between them is bridged are kept in locals, updated as
 /// `b` is passed; past the last valid sample, `b`'s time is +inf (never
-/// passed) and nothing is bridged. The rare cases (nulls, holes) are out
-/// of line, so the loop has no call.
+/// passed) and nothing is bridged. An inner loop without calls (so its
+/// state stays in registers) writes rows and passes samples that are valid
+/// and at most 1.25 intervals after the previous one; anything else (nulls,
+/// holes) is passed by the outer loop.
 pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f64> {
     let n = t.len().min(v.len());
     let (t, v) = (&t[..n], &v[..n]);
@@ -635,31 +637,49 @@ pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f6
     } else {
         0.0
     };
+    // Rows before the first valid sample: a prefix (the grid does not
+    // decrease).
+    let lead = grid.iter().take_while(|&&g| g < start).count();
+    out[..lead].fill(f64::NAN);
+    let (grid, rows) = (&grid[lead..], &mut out[lead..]);
     let (mut ta, mut va) = (t[first], v[first]);
     let (mut b, mut tb, mut vb) = valid_after(t, v, first);
     let mut bridged = b < n && bridges(tb - ta, quick, dt);
-    for (o, &g) in out.iter_mut().zip(grid) {
-        if g < start {
-            *o = f64::NAN;
-            continue;
+    let mut row = 0;
+    while row < grid.len() {
+        while let (Some(&g), Some(o)) = (grid.get(row), rows.get_mut(row)) {
+            if tb <= g + eps {
+                // Pass b if the sample after it is valid and close.
+                match v.get(b + 1) {
+                    Some(&x) if x.is_finite() && t[b + 1] - tb <= quick => {
+                        (ta, va) = (tb, vb);
+                        (b, tb, vb) = (b + 1, t[b + 1], x);
+                        bridged = true;
+                        continue;
+                    }
+                    _ => break,
+                }
+            }
+            *o = if (g - ta).abs() <= eps {
+                va
+            } else if bridged {
+                let w = (g - ta) / (tb - ta);
+                va + w * (vb - va)
+            } else {
+                f64::NAN // a hole too long, or past the last valid sample
+            };
+            row += 1;
         }
-        // Pass every valid sample at or before g (+ eps).
+        // Pass every valid sample at or before this row's time (+ eps);
+        // the inner loop then writes the row.
+        let Some(&g) = grid.get(row) else {
+            break;
+        };
         while tb <= g + eps {
             (ta, va) = (tb, vb);
-            (b, tb, vb) = match v.get(b + 1) {
-                Some(&x) if x.is_finite() => (b + 1, t[b + 1], x),
-                _ => valid_after(t, v, b),
-            };
+            (b, tb, vb) = valid_after(t, v, b);
             bridged = b < n && bridges(tb - ta, quick, dt);
         }
-        *o = if (g - ta).abs() <= eps {
-            va
-        } else if bridged {
-            let w = (g - ta) / (tb - ta);
-            va + w * (vb - va)
-        } else {
-            f64::NAN // a hole too long, or past the last valid sample
-        };
     }
     out
 }
