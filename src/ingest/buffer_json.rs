@@ -76,10 +76,13 @@ impl Parser<'_> {
         loop {
             self.ws();
             self.eat(b'"')?;
-            let key_start = self.i;
-            let len = self.b[key_start..].iter().position(|&c| c == b'"')?;
-            let key = &self.b[key_start..key_start + len];
-            self.i = key_start + len + 1;
+            // The key runs to the next quote: one of the three, or the
+            // payload is left to serde_json.
+            let rest = &self.b[self.i..];
+            let key: &[u8] = [b"t0_ns".as_slice(), b"dt_ns", b"value"]
+                .into_iter()
+                .find(|k| rest.get(k.len()) == Some(&b'"') && rest.starts_with(k))?;
+            self.i += key.len() + 1;
             self.ws();
             self.eat(b':')?;
             self.ws();
@@ -109,23 +112,56 @@ impl Parser<'_> {
         Some((t0?, dt?))
     }
 
-    /// A JSON unsigned integer that fits a u64.
+    /// A JSON unsigned integer that fits a u64. Up to 19 digits (below
+    /// 10^19 < 2^64: no overflow) are read eight bytes at a time; longer
+    /// runs digit by digit with overflow checks.
     fn uint(&mut self) -> Option<u64> {
         let first = self.peek()?;
         if !first.is_ascii_digit() {
             return None;
         }
-        self.i += 1;
-        let mut v = u64::from(first - b'0');
+        let start = self.i;
+        let mut v = 0;
         if first == b'0' {
+            self.i += 1;
             if matches!(self.peek(), Some(b'0'..=b'9')) {
                 return None;
             }
         } else {
-            while let Some(c @ b'0'..=b'9') = self.peek() {
-                v = v.checked_mul(10)?.checked_add(u64::from(c - b'0'))?;
-                self.i += 1;
+            let mut n = 0;
+            loop {
+                let x = digit_values(load8(self.b, start + n));
+                let k = digit_run(x);
+                if k == 0 {
+                    break;
+                }
+                if n + k > 19 {
+                    return self.uint_long(start);
+                }
+                // v < 10^n: v * 10^k + (k digits) < 10^(n+k) <= 10^19 < 2^64.
+                v = v * POW10_INT9[k] + digits_value(x, k);
+                n += k;
+                if k < 8 {
+                    break;
+                }
             }
+            self.i = start + n;
+        }
+        if matches!(self.peek(), Some(b'.' | b'e' | b'E')) {
+            return None; // a float where serde wants an integer
+        }
+        Some(v)
+    }
+
+    /// [`Parser::uint`] for a run of 20 or more digits (not 0) at `start`.
+    #[cold]
+    #[inline(never)]
+    fn uint_long(&mut self, start: usize) -> Option<u64> {
+        self.i = start;
+        let mut v: u64 = 0;
+        while let Some(c @ b'0'..=b'9') = self.peek() {
+            v = v.checked_mul(10)?.checked_add(u64::from(c - b'0'))?;
+            self.i += 1;
         }
         if matches!(self.peek(), Some(b'.' | b'e' | b'E')) {
             return None; // a float where serde wants an integer
@@ -177,6 +213,50 @@ fn values<const SCALED: bool>(
     }
     loop {
         let c = *b.get(i)?;
+        // The DAQ's usual number, -?D.F{1,7} right before the separator,
+        // from one 16-byte window (not near the payload's end): the same
+        // mantissa and division as `number_short`'s, and the separator
+        // read from the fraction's word.
+        let negative = c == b'-';
+        let j = i + usize::from(negative);
+        if let Some(w) = b.get(j..).and_then(<[u8]>::first_chunk::<16>) {
+            let d0 = w[0].wrapping_sub(b'0');
+            let f = digit_values(u64::from_le_bytes([
+                w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9],
+            ]));
+            let n = digit_run(f);
+            if d0 <= 9 && w[1] == b'.' && (1..8).contains(&n) {
+                // Then the separator, or a negative two-digit exponent and
+                // the separator (`9.6e-05`); the power of ten 10^(n + e) is
+                // within Clinger's range (n + e <= 22 is checked).
+                let (e, end) = match w[2 + n] {
+                    sep @ (b',' | b']') => (0, (sep, 3 + n)),
+                    b'e' if w[3 + n] == b'-' => {
+                        let (e1, e2) = (w[4 + n].wrapping_sub(b'0'), w[5 + n].wrapping_sub(b'0'));
+                        let e = usize::from(e1) * 10 + usize::from(e2);
+                        if e1 <= 9 && e2 <= 9 && n + e <= 22 {
+                            (e, (w[6 + n], 7 + n))
+                        } else {
+                            (0, (0, 0))
+                        }
+                    }
+                    _ => (0, (0, 0)),
+                };
+                let (sep, len) = end;
+                if sep == b',' || sep == b']' {
+                    // At most 8 digits: exact in an f64.
+                    let m = u64::from(d0) * POW10_INT[n] + digits_value(f, n);
+                    let x = m as i64 as f64 / POW10[n + e];
+                    let x = f64::from_bits(x.to_bits() | u64::from(negative) << 63);
+                    out.push(if SCALED { x * scale } else { x });
+                    i = j + len;
+                    if sep == b']' {
+                        return Some(i);
+                    }
+                    continue;
+                }
+            }
+        }
         let x = if c == b'n' {
             if b.get(i..i + 4)? != b"null" {
                 return None;
@@ -270,6 +350,19 @@ fn digits_value(x: u64, n: usize) -> u64 {
 
 /// Powers of ten as integers, up to 10^7 (a fraction of at most 7 digits).
 const POW10_INT: [u64; 8] = [1, 10, 100, 1_000, 10_000, 100_000, 1_000_000, 10_000_000];
+
+/// Powers of ten as integers, up to 10^8 (a word of digits).
+const POW10_INT9: [u64; 9] = [
+    1,
+    10,
+    100,
+    1_000,
+    10_000,
+    100_000,
+    1_000_000,
+    10_000_000,
+    100_000_000,
+];
 
 /// The JSON number starting at `b[start]`, as [`number`] returns it, by a
 /// quicker route for the short numbers a DAQ writes: at most 7 integer and
@@ -494,6 +587,9 @@ mod tests {
             // last 8 bytes of the payload.
             r#"{"t0_ns":0,"dt_ns":1,"value":[1234567.1234567,-1234567.1234567,12345678.5,0.12345678,1e22,1e23,1.5e-22,9e-23,1.25e+07,1E-7,12.5e0,1e007,7,-0]}"#,
             r#"{"t0_ns":0,"dt_ns":1,"value":[-9.6e-05,0.0024825,-0.000128,4.04]}"#,
+            // The 16-byte window: exponents at Clinger's edge, 7 and 8
+            // fraction digits, E and e+, values in the last 16 bytes.
+            r#"{"t0_ns":0,"dt_ns":1,"value":[9.6e-05,-1.3e-05,1.5e-21,1.5e-22,1.2345678e-05,1.12345678e-05,1.5e+05,1.5E-05,1.5e-5,9.9e-99,0.1e-00,-0.0e-01,1.5e-05,2.5e-07]}"#,
             r#"{"value":[null,-9.6e-5],"t0_ns":0,"dt_ns":1}"#,
             r#"{"t0_ns":0,"dt_ns":1,"value":[-9.6e-5]}"#,
             r#"{"t0_ns":0,"dt_ns":1,"value":[3]}"#,
@@ -557,6 +653,8 @@ mod tests {
             "-?[0-9]{0,3}\\.?[0-9]{0,3}[eE]?[-+]?[0-9]{0,2}",
             // Around the word-at-a-time route's limits (7/8 digits, 2/3-digit exponents).
             "-?(0|[1-9][0-9]{0,8})(\\.[0-9]{1,9})?([eE][-+]?[0-9]{1,3})?",
+            // The DAQ's (Python's) form of small values.
+            "-?[0-9]\\.[0-9]{1,9}e[-+][0-9]{2}",
             Just("null".to_string()),
         ]
     }
@@ -566,6 +664,15 @@ mod tests {
         #[test]
         fn agrees_with_serde_json(values in proptest::collection::vec(number(), 0..12)) {
             agrees(&buffer(&values));
+        }
+
+        #[test]
+        fn times_agree_with_serde_json(
+            t0 in "[0-9]{1,24}|[1-9][0-9]{17,20}|1844674407370955161[0-9]",
+            dt in any::<u64>(),
+            tail in "|\\.0|e1|0|[ ,]",
+        ) {
+            agrees(&format!(r#"{{"t0_ns":{t0}{tail},"dt_ns":{dt},"value":[1.5]}}"#));
         }
     }
 }

@@ -676,11 +676,8 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
         if i64::try_from(base).is_ok() && i64::try_from(last).is_ok() {
             // The same integers in i64 (an i64 converts to the same f64 as
             // the i128 of equal value, and much faster).
-            let (mut ns, dt) = (base as i64, dt as i64);
-            for _ in 0..n {
-                t.push(ns as f64 * 1e-9);
-                ns = ns.wrapping_add(dt);
-            }
+            let (base, dt) = (base as i64, dt as i64);
+            t.extend((0..n as i64).map(|i| base.wrapping_add(i.wrapping_mul(dt)) as f64 * 1e-9));
         } else {
             for i in 0..n {
                 let ns = base + i as i128 * dt as i128;
