@@ -58,9 +58,9 @@ pub struct Monodromy {
     stick_inv: [[f64; 2]; 2],
 }
 
-/// Records a run's events (nothing else).
+/// Records a run's events (nothing else; no exact extremes).
 #[derive(Default)]
-struct Events(Vec<Event>);
+pub(crate) struct Events(pub(crate) Vec<Event>);
 
 impl Observer for Events {
     fn event(&mut self, ev: &Event) {

@@ -8,6 +8,7 @@
 //! the exact engine at machine precision.
 
 use super::engine::{Event, Init, Observer, RunEnd, Sim};
+use super::monodromy::Events;
 use super::numeric::{NumericOptions, NumericSim};
 use super::rk4::Rk4;
 use super::steady::{simulate_with, SimOptions, Summary};
@@ -26,16 +27,6 @@ pub struct WpRow {
     /// Worst relative error (None: the method failed on a scenario, e.g. it
     /// found a different event sequence; or a pure timing row).
     pub error: Option<f64>,
-}
-
-struct Events(Vec<Event>);
-impl Observer for Events {
-    fn event(&mut self, ev: &Event) {
-        self.0.push(*ev);
-    }
-    fn wants_extremes(&self) -> bool {
-        false
-    }
 }
 
 /// The scenarios: (name, model, η).
