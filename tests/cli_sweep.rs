@@ -312,3 +312,46 @@ fn merge_names_missing_shards() {
     let m = t.meta.unwrap();
     assert_eq!((m.shard, m.shards, m.curves, m.points), (1, 1, 2, 4));
 }
+
+/// A quasi-periodic point (the paper's absorber, ρs 1.004, ρd/ρs 0.8095,
+/// η 0.74, from rest) stops early as `not-settling` with its amplitude
+/// range; `--no-early-stop` marches the whole budget (`not-settled`).
+#[test]
+fn quasi_periodic_point_stops_early_unless_asked_not_to() {
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "sweep",
+            "--rho-s",
+            "1.0039651677740655",
+            "--rho-d-ratio",
+            "0.8095",
+            "--eta-min",
+            "0.74",
+            "--eta-max",
+            "0.74",
+            "--points",
+            "1",
+            "--from-rest",
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let out = bin().args(&args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        v["curves"][0].clone()
+    };
+    let early = run(&[]);
+    assert_eq!(early["method"][0], "not-settling");
+    assert_eq!(early["steady"][0], false);
+    let (lo, hi) = (
+        early["amplitude1_min"][0].as_f64().unwrap(),
+        early["amplitude1_max"][0].as_f64().unwrap(),
+    );
+    assert!(0.0 < lo && lo < hi, "range [{lo}, {hi}]");
+    let full = run(&["--no-early-stop", "--max-periods", "6000"]);
+    assert_eq!(full["method"][0], "not-settled");
+}

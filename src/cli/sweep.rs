@@ -63,6 +63,12 @@ pub struct SweepArgs {
     /// Period budget of the time-marching fallback per point (1 to 1e8).
     #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
     pub max_periods: u64,
+    /// March quasi-periodic points to the whole --max-periods budget (by
+    /// default they stop after 4000–5000 periods as `not-settling`, once
+    /// their section comes no closer to any orbit and their Lyapunov
+    /// exponent is about zero).
+    #[arg(long)]
+    pub no_early_stop: bool,
     /// Compute slice K of N of the family (1-based K), for job arrays.
     #[arg(long)]
     pub shard: Option<String>,
@@ -177,6 +183,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
     let etas = sweep::eta_grid(args.eta_min, args.eta_max, args.points);
     let cfg = SteadyConfig {
         max_periods: args.max_periods,
+        early_stop: !args.no_early_stop,
         ..SteadyConfig::default()
     };
     let total: u64 = specs.len() as u64 * etas.len() as u64 / shard.count as u64;
