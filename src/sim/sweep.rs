@@ -16,12 +16,12 @@
 //!    section state from the variational equations (phase exponentials and
 //!    saltation matrices at the events, [`super::monodromy`]: one run per
 //!    Newton iteration), or by forward differences where those do not hold
-//!    (grazing events, several switches at one instant); a converged, stable (spectral
-//!    radius < 1) fixed point x* with the start's contact mode is only a
-//!    *candidate*. Shooting may speed up convergence to the orbit the
-//!    trajectory is approaching, never pick another attractor: the
-//!    trajectory marches on p periods at a time and x* is accepted only
-//!    when its own iterates follow the linearisation,
+//!    (grazing events, several switches at one instant); a converged,
+//!    stable (spectral radius < 1) fixed point x* with the start's contact
+//!    mode is only a *candidate*. Shooting may speed up convergence to the
+//!    orbit the trajectory is approaching, never pick another attractor:
+//!    the trajectory marches on p periods at a time and x* is accepted
+//!    only when its own iterates follow the linearisation,
 //!    ‖e_{k+1} − J·e_k‖ ≤ 0.1·‖e_k‖ + 10·tol (e_k = x_{n+kp} − x*), for up
 //!    to three iterates or until it is within tol. Otherwise the trajectory
 //!    marches a block (16, 32, 64 periods) and shooting is tried again (three
