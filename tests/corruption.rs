@@ -3,18 +3,24 @@
 //! naming the file, or a run that satisfies the `Run` invariants.
 
 use proptest::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::OnceLock;
 use stickslip::ingest::{self, IngestOptions, Quantity, Run};
 use stickslip::synth::{self, LogFormat, SynthConfig, TestSpec};
 
-/// The directory of the valid logs and (path, bytes) of each.
-type Logs = (tempfile::TempDir, Vec<(PathBuf, Vec<u8>)>);
+/// One valid log: its file name, its bytes and (a CSV's) its channel map.
+struct Log {
+    name: &'static str,
+    bytes: Vec<u8>,
+    map: Option<Vec<u8>>,
+}
 
-/// Small valid logs, written once: MCAP (zstd, summary), MCAP (plain, no
-/// summary), CSV + map, Parquet.
-fn logs() -> &'static Logs {
-    static LOGS: OnceLock<Logs> = OnceLock::new();
+/// Small valid logs, made once and kept in memory (each case writes its
+/// own copy into its own temporary directory, so nothing outlives the
+/// test run): MCAP (zstd, summary), MCAP (plain, no summary), CSV + map,
+/// Parquet.
+fn logs() -> &'static [Log] {
+    static LOGS: OnceLock<Vec<Log>> = OnceLock::new();
     LOGS.get_or_init(|| {
         let dir = tempfile::tempdir().expect("tempdir");
         let mut out = Vec::new();
@@ -36,10 +42,25 @@ fn logs() -> &'static Logs {
             let p = dir.path().join(name);
             synth::write(&log, &p).expect("write");
             let bytes = std::fs::read(&p).expect("read");
-            out.push((p, bytes));
+            let map = (format == LogFormat::Csv)
+                .then(|| std::fs::read(p.with_extension("map.toml")).expect("map"));
+            out.push(Log { name, bytes, map });
         }
-        (dir, out)
+        out
     })
+}
+
+/// Writes `bytes` as the log `log.name` (with its map) into a fresh
+/// temporary directory, removed when the returned guard is dropped.
+fn materialise(log: &Log, bytes: &[u8]) -> (tempfile::TempDir, PathBuf) {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let p = dir.path().join(log.name);
+    std::fs::write(&p, bytes).expect("write");
+    if let Some(map) = &log.map {
+        // The CSV keeps its (intact) map beside it.
+        std::fs::write(p.with_extension("map.toml"), map).expect("map");
+    }
+    (dir, p)
 }
 
 /// What every run that ingest accepts must satisfy.
@@ -76,28 +97,21 @@ fn check_run(run: &Run) {
     assert!(run.rig.m2_kg > 0.0 && run.rig.k2_n_per_m > 0.0);
 }
 
-fn corrupt_and_read(src: &Path, bytes: &[u8], cut: usize, flips: &[(usize, u8)]) {
-    let mut b = bytes[..cut.min(bytes.len())].to_vec();
+fn corrupt_and_read(log: &Log, cut: usize, flips: &[(usize, u8)]) {
+    let mut b = log.bytes[..cut.min(log.bytes.len())].to_vec();
     for &(pos, x) in flips {
         if !b.is_empty() {
             let i = pos % b.len();
             b[i] ^= x.max(1);
         }
     }
-    let dir = tempfile::tempdir().expect("tempdir");
-    let name = src.file_name().expect("name");
-    let p = dir.path().join(name);
-    std::fs::write(&p, &b).expect("write");
-    if src.extension().is_some_and(|e| e == "csv") {
-        // The CSV keeps its (intact) map beside it.
-        let map = src.with_extension("map.toml");
-        std::fs::copy(&map, p.with_extension("map.toml")).expect("map");
-    }
+    let (_dir, p) = materialise(log, &b);
+    let name = log.name;
     match ingest::read(&p, &IngestOptions::default()) {
         Ok(run) => check_run(&run),
         Err(e) => {
             let msg = e.to_string();
-            assert!(msg.contains(&*name.to_string_lossy()), "{msg}");
+            assert!(msg.contains(name), "{msg}");
             assert!(!msg.contains('\n'), "multi-line error: {msg}");
         }
     }
@@ -113,10 +127,9 @@ proptest! {
         cut_frac in 0.0f64..=1.0,
         flips in prop::collection::vec((any::<usize>(), any::<u8>()), 0..6),
     ) {
-        let (_, logs) = logs();
-        let (path, bytes) = &logs[which];
-        let cut = (cut_frac * bytes.len() as f64) as usize;
-        corrupt_and_read(path, bytes, cut, &flips);
+        let log = &logs()[which];
+        let cut = (cut_frac * log.bytes.len() as f64) as usize;
+        corrupt_and_read(log, cut, &flips);
     }
 
     /// Whole file, a few flipped bytes only (the harder case: structure
@@ -126,9 +139,8 @@ proptest! {
         which in 0usize..4,
         flips in prop::collection::vec((any::<usize>(), any::<u8>()), 1..4),
     ) {
-        let (_, logs) = logs();
-        let (path, bytes) = &logs[which];
-        corrupt_and_read(path, bytes, bytes.len(), &flips);
+        let log = &logs()[which];
+        corrupt_and_read(log, log.bytes.len(), &flips);
     }
 }
 
@@ -136,9 +148,9 @@ proptest! {
 /// both outcomes).
 #[test]
 fn the_valid_logs_ingest() {
-    let (_, logs) = logs();
-    for (p, _) in logs {
-        let run = ingest::read(p, &IngestOptions::default()).expect("valid log");
+    for log in logs() {
+        let (_dir, p) = materialise(log, &log.bytes);
+        let run = ingest::read(&p, &IngestOptions::default()).expect("valid log");
         check_run(&run);
     }
 }
