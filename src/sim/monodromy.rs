@@ -207,9 +207,9 @@ impl Monodromy {
         }
     }
 
-    /// The last row of the saltation matrix of event `ev` entered from
-    /// `before` (the rest of S is the identity), at drive ζ0 = `z0`; `None`
-    /// at a grazing event or an interruption.
+    /// The last row of the saltation matrix S of event `ev` entered from
+    /// `before` (the other rows are those of I), at drive ζ0 = `z0`;
+    /// `None` at a grazing event or an interruption.
     fn saltation_row(&self, before: Mode, ev: &Event, z0: f64) -> Option<[f64; 4]> {
         let ab = &self.ab;
         let x = &ev.x;
@@ -231,7 +231,7 @@ impl Monodromy {
                     return None;
                 }
                 let jump = (force - self.rho_d * dir) / rate;
-                Some([jump, jump * d, -jump, -jump * d])
+                Some([jump, jump * d, -jump, 1.0 - jump * d])
             }
             (EventKind::ReversePlus | EventKind::ReverseMinus, Mode::Slip { dir: old }) => {
                 let new = -old;
@@ -277,16 +277,8 @@ impl Monodromy {
             }
             m = mul(&self.flow(mode, delta), &m);
             let row = self.saltation_row(mode, ev, (eta * ev.tau).cos())?;
-            // S·M with S = I except its last row (see `saltation_row`).
-            let last: [f64; 4] = std::array::from_fn(|j| {
-                let s: f64 = (0..4).map(|k| row[k] * m[k][j]).sum();
-                match ev.kind {
-                    EventKind::Stick => 0.0,
-                    EventKind::ReversePlus | EventKind::ReverseMinus => s,
-                    _ => m[3][j] + s,
-                }
-            });
-            m[3] = last;
+            // S·M with S = I except its last row.
+            m[3] = std::array::from_fn(|j| (0..4).map(|k| row[k] * m[k][j]).sum());
             mode = match ev.kind {
                 EventKind::Stick => Mode::Stick { z2: ev.x[2] },
                 EventKind::SlipPlus | EventKind::ReversePlus => Mode::Slip { dir: 1.0 },
