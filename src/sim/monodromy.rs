@@ -36,7 +36,7 @@
 
 use super::engine::{Event, EventKind, Init, Mode, Observer, Sim, Status};
 use super::linalg::{self, C64};
-use super::phase::absorber;
+use super::phase::{absorber, conjugate_terms};
 use crate::model::{Absorber, Law};
 
 /// Condition number of an eigenvector matrix above which the modal
@@ -117,28 +117,16 @@ impl<const N: usize> Spectral<N> {
         if md.cond > MAX_COND {
             return None;
         }
-        let mut terms = Vec::with_capacity(N);
-        let mut used = [false; N];
-        for k in 0..N {
-            if used[k] {
-                continue;
-            }
-            used[k] = true;
-            let lk = md.lambda[k];
-            let mut weight = 1.0;
-            if lk.im != 0.0 {
-                // Its conjugate's term is the conjugate of this one.
-                let tol = 1e-12 * lk.norm();
-                let pair =
-                    (0..N).find(|&j| !used[j] && (md.lambda[j] - lk.conj()).norm() <= tol)?;
-                used[pair] = true;
-                weight = 2.0;
-            }
-            let p: [[C64; N]; N] = std::array::from_fn(|i| {
-                std::array::from_fn(|j| md.v[i][k] * md.vinv[k][j] * weight)
-            });
-            terms.push((lk, p));
-        }
+        let (reps, n) = conjugate_terms(&md)?;
+        let terms = reps[..n]
+            .iter()
+            .map(|&(k, weight)| {
+                let p: [[C64; N]; N] = std::array::from_fn(|i| {
+                    std::array::from_fn(|j| md.v[i][k] * md.vinv[k][j] * weight)
+                });
+                (md.lambda[k], p)
+            })
+            .collect();
         Some(Self { terms })
     }
 

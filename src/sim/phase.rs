@@ -1120,7 +1120,7 @@ fn eta_table(eta: f64, step: f64) -> [C64; 2 * SUB + 1] {
 /// Pairs conjugate eigenvalues: returns the representative terms with their
 /// weights (2 for a pair, 1 for a real eigenvalue); `None` if the spectrum
 /// does not pair up (then the modal form is not used).
-fn conjugate_terms<const N: usize>(md: &Modal<N>) -> Option<([(usize, f64); N], usize)> {
+pub(crate) fn conjugate_terms<const N: usize>(md: &Modal<N>) -> Option<([(usize, f64); N], usize)> {
     let mut terms = [(0usize, 0.0f64); N];
     let mut n = 0;
     let mut used = [false; N];

@@ -1027,13 +1027,17 @@ fn shoot(
     let stuck = matches!(mode0, Mode::Stick { .. });
     let dim = if stuck { 3 } else { 4 };
     let same_kind = |m: Mode| matches!(m, Mode::Stick { .. }) == stuck;
-    let map = |x: &[f64; 4]| {
-        let mode = if stuck {
+    // A section state in the start's contact mode (a stuck M2 at its ζ2).
+    let start = |x: &[f64; 4]| Init {
+        x: *x,
+        mode: if stuck {
             Mode::Stick { z2: x[2] }
         } else {
             mode0
-        };
-        let e = sim.run(Init { x: *x, mode }, p, &mut ());
+        },
+    };
+    let map = |x: &[f64; 4]| {
+        let e = sim.run(start(x), p, &mut ());
         match e.status {
             Status::Completed => Some((e.x, e.mode)),
             _ => None,
@@ -1044,12 +1048,7 @@ fn shoot(
     let mono = sim.monodromy();
     let mut x = x0;
     for _ in 0..8 {
-        let mode = if stuck {
-            Mode::Stick { z2: x[2] }
-        } else {
-            mode0
-        };
-        let exact = mono.as_ref().and_then(|m| m.map(sim, Init { x, mode }, p));
+        let exact = mono.and_then(|m| m.map(sim, start(&x), p));
         let (px, pm) = match &exact {
             Some((px, pm, _)) => (*px, *pm),
             None => map(&x)?,
@@ -1099,11 +1098,7 @@ fn shoot(
             }
             return Some(Shooting {
                 x,
-                mode: if stuck {
-                    Mode::Stick { z2: x[2] }
-                } else {
-                    mode0
-                },
+                mode: start(&x).mode,
                 stuck,
                 dim,
                 jac,
