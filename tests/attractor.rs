@@ -385,6 +385,7 @@ fn early_stop_only_where_march_does_not_settle_other_absorber() {
     let (fired, points) =
         early_stop_only_where_march_does_not_settle(&other_absorber_laws(), &grid(0.3, 1.2, 0.01));
     eprintln!("early stop fired at {fired} of {points} points");
+    assert!(fired > 0, "the grid must exercise the early stop");
 }
 
 /// The counterexample of the early stop's first criterion: on another

@@ -332,7 +332,8 @@ mod tests {
 
     /// The variational Jacobian agrees with central differences on runs
     /// with sticks, releases (ρs ≠ ρd, with and without slope) and
-    /// reversals, from stuck and slipping starts, over 1 and 3 periods.
+    /// reversals, from stuck and slipping starts, over 1 and 3 periods, on
+    /// two absorbers.
     #[test]
     fn jacobian_matches_differences() {
         let cases = [
@@ -345,8 +346,29 @@ mod tests {
             (1.2, 0.9, 0.0, 0.7),
         ];
         let mut kinds = std::collections::BTreeSet::new();
-        for &(rs, rd, slope, eta) in &cases {
-            let m = model(rs, rd, slope);
+        // The same cases on a second absorber (m 2, k 0.5, D 0.01).
+        let other = Absorber {
+            m: 2.0,
+            k: 0.5,
+            damping: 0.01,
+        };
+        let models = cases.iter().flat_map(|&(rs, rd, slope, eta)| {
+            let paper = model(rs, rd, slope);
+            let second = Model {
+                absorber: other,
+                ..paper
+            };
+            [(paper, eta), (second, eta)]
+        });
+        for (m, eta) in models {
+            let Law::Linear {
+                rho_s: rs,
+                rho_d: rd,
+                slope,
+            } = m.law
+            else {
+                unreachable!()
+            };
             let sim = Sim::new(&m, eta).unwrap();
             let mono = Monodromy::new(&sim).unwrap();
             // A state on the attractor (after a transient).
@@ -362,7 +384,10 @@ mod tests {
                     kinds.insert(ev.kind.as_str());
                 }
                 let Some((x, mode, j)) = mono.map(&sim, start, p) else {
-                    panic!("no variational Jacobian for {rs} {rd} {slope} {eta} p {p}");
+                    panic!(
+                        "no variational Jacobian for m {} rho {rs} {rd} slope {slope} eta {eta} p {p}",
+                        m.absorber.m
+                    );
                 };
                 assert_eq!(x, e_map(&sim, start, p).0);
                 assert_eq!(mode, e_map(&sim, start, p).1);
@@ -380,7 +405,8 @@ mod tests {
                     for c in 0..dim {
                         assert!(
                             (j[i][c] - fd[i][c]).abs() <= 1e-7 * scale,
-                            "case {rs} {rd} {slope} {eta} p {p}: J[{i}][{c}] = {} against {} (differences)",
+                            "case m {} rho {rs} {rd} slope {slope} eta {eta} p {p}: J[{i}][{c}] = {} against {} (differences)",
+                            m.absorber.m,
                             j[i][c],
                             fd[i][c]
                         );
