@@ -174,6 +174,7 @@ struct WorstOut {
     branch: &'static str,
     unsettled: usize,
     coexisting_points: usize,
+    eta_evaluated: usize,
 }
 
 impl From<&Worst> for WorstOut {
@@ -186,6 +187,7 @@ impl From<&Worst> for WorstOut {
             branch: w.branch.as_str(),
             unsettled: w.unsettled,
             coexisting_points: w.coexisting,
+            eta_evaluated: w.points,
         }
     }
 }
@@ -239,6 +241,7 @@ struct BatchOut<'a> {
     damping: f64,
     eta_range: Interval,
     eta_points: usize,
+    eta_coarse_points: usize,
     setting_tolerance: f64,
     evaluations: usize,
     warnings: &'a [String],
@@ -326,6 +329,7 @@ impl Batch {
             damping: b.absorber.damping,
             eta_range: b.eta_range.into(),
             eta_points: b.eta_points,
+            eta_coarse_points: b.eta_coarse_points,
             setting_tolerance: b.setting_tolerance,
             evaluations: b.evaluations,
             warnings: &b.warnings,

@@ -2,7 +2,7 @@
 //! good candidates refined over their whole uncertainty boxes (stage 2),
 //! the recommended setting with its window, and the cliff below it.
 
-use super::worst::{geom_node, worst_case, Table};
+use super::worst::{geom_node, worst_case_on, DriveGrid, Table};
 use super::{BatchOptions, Cliff, Recommendation, REFINE};
 use crate::model::Absorber;
 use crate::sim::SimError;
@@ -12,7 +12,7 @@ pub(super) struct Search<'a> {
     /// The absorber.
     pub ab: Absorber,
     /// The η grid of a worst case.
-    pub etas: &'a [f64],
+    pub etas: &'a DriveGrid,
     /// The batch options.
     pub opts: &'a BatchOptions,
     /// The estimated ratio ρd/ρs.
@@ -220,7 +220,7 @@ impl Search<'_> {
         let mut w_bad = table.nodes[i].1[0];
         for _ in 0..7 {
             let m = (bad * good).sqrt();
-            let w = worst_case(&self.ab, m, self.ratio * m, self.etas, &self.opts.steady)?;
+            let w = worst_case_on(&self.ab, m, self.ratio * m, self.etas, &self.opts.steady)?;
             table.evaluations += 1;
             (self.tick)(1);
             if w.amplitude1 > threshold {

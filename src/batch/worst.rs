@@ -2,6 +2,7 @@
 //! level and its uncertainty box; the drive grid; the rig check.
 
 use super::*;
+use crate::sim::sweep::Point;
 
 /// The η grid of the drive range: `points` uniform values over `range`
 /// plus windows of step `fine_step` and half-width `fine_half` around η1,
@@ -13,8 +14,47 @@ pub fn drive_etas(
     fine_step: f64,
     fine_half: f64,
 ) -> Vec<f64> {
+    drive_grid(ab, range, points, fine_step, fine_half, 1).etas
+}
+
+/// The η grid of a worst case ([`worst_case_on`]): every η it may evaluate
+/// (the grid of [`drive_etas`], ascending) and which of them it evaluates
+/// in any case (the coarse grid).
+#[derive(Debug, Clone, PartialEq)]
+pub struct DriveGrid {
+    /// Every η the worst case may evaluate, ascending.
+    pub etas: Vec<f64>,
+    /// Per η: evaluated in any case. The others are evaluated only next to
+    /// a local maximum of a branch (see [`worst_case_on`]).
+    pub coarse: Vec<bool>,
+}
+
+impl DriveGrid {
+    /// Every η is evaluated (the uniform search of [`worst_case`]).
+    pub fn is_uniform(&self) -> bool {
+        self.coarse.iter().all(|&c| c)
+    }
+}
+
+/// The grid of [`drive_etas`] with its coarse part: every `stride`-th
+/// uniform point (and the last) and every `stride`-th point of each fine
+/// window, counted from its centre (η1, η0 or η2 itself, where the linear
+/// limits peak). `stride` 1 (or 0) evaluates every point.
+pub fn drive_grid(
+    ab: &Absorber,
+    range: (f64, f64),
+    points: usize,
+    fine_step: f64,
+    fine_half: f64,
+    stride: usize,
+) -> DriveGrid {
     let (lo, hi) = range;
-    let mut v = crate::sim::sweep::eta_grid(lo, hi, points);
+    let stride = stride.max(1);
+    let mut v: Vec<(f64, bool)> = crate::sim::sweep::eta_grid(lo, hi, points)
+        .into_iter()
+        .enumerate()
+        .map(|(i, e)| (e, i % stride == 0 || i + 1 == points))
+        .collect();
     if fine_step > 0.0 && fine_half > 0.0 {
         let (e1, e2) = ab.eta_linear();
         let k = (fine_half / fine_step).round() as i64;
@@ -22,14 +62,24 @@ pub fn drive_etas(
             for i in -k..=k {
                 let e = c + i as f64 * fine_step;
                 if e >= lo && e <= hi {
-                    v.push(e);
+                    v.push((e, i.rem_euclid(stride as i64) == 0));
                 }
             }
         }
     }
-    v.sort_by(f64::total_cmp);
-    v.dedup_by(|a, b| (*a - *b).abs() <= 1e-9 * b.abs().max(1.0));
-    v
+    v.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // Near-equal values: the first is kept, coarse if either is.
+    let mut out: Vec<(f64, bool)> = Vec::with_capacity(v.len());
+    for (e, c) in v {
+        match out.last_mut() {
+            Some(last) if (e - last.0).abs() <= 1e-9 * last.0.abs().max(1.0) => last.1 |= c,
+            _ => out.push((e, c)),
+        }
+    }
+    DriveGrid {
+        etas: out.iter().map(|p| p.0).collect(),
+        coarse: out.iter().map(|p| p.1).collect(),
+    }
 }
 
 /// The default drive range [0.5·η1, 1.4·η2] of an absorber.
@@ -40,6 +90,8 @@ pub fn default_eta_range(ab: &Absorber) -> (f64, f64) {
 
 /// W = max over `etas` of A1/A, the worse of the steady states continued
 /// upwards, downwards and from rest, for the law (ρs, ρd) without slope.
+/// Every η is evaluated; [`worst_case_on`] evaluates a coarse grid and
+/// refines it next to the branches' maxima.
 pub fn worst_case(
     ab: &Absorber,
     rho_s: f64,
@@ -47,18 +99,8 @@ pub fn worst_case(
     etas: &[f64],
     cfg: &SteadyConfig,
 ) -> std::result::Result<Worst, SimError> {
-    let model = Model {
-        absorber: *ab,
-        law: Law::Linear {
-            rho_s,
-            rho_d: rho_d.min(rho_s),
-            slope: 0.0,
-        },
-        stop_below: None,
-    };
-    model.law.validate()?;
-    let branches = [Direction::Up, Direction::Down, Direction::Rest];
-    let curves: std::result::Result<Vec<Vec<crate::sim::sweep::Point>>, SimError> = branches
+    let model = worst_model(ab, rho_s, rho_d)?;
+    let curves: std::result::Result<Vec<Vec<Point>>, SimError> = BRANCHES
         .par_iter()
         .map(|&d| match d {
             Direction::Rest => etas
@@ -74,9 +116,36 @@ pub fn worst_case(
         })
         .collect();
     let curves = curves?;
+    Ok(summarise(rho_s, rho_d.min(rho_s), etas, &curves))
+}
+
+/// The branches of a worst case, in the order of [`Worst::branch`] ties.
+const BRANCHES: [Direction; 3] = [Direction::Up, Direction::Down, Direction::Rest];
+
+/// The model of a worst case: the law (ρs, min(ρd, ρs)) without slope.
+pub(super) fn worst_model(
+    ab: &Absorber,
+    rho_s: f64,
+    rho_d: f64,
+) -> std::result::Result<Model, SimError> {
+    let model = Model {
+        absorber: *ab,
+        law: Law::Linear {
+            rho_s,
+            rho_d: rho_d.min(rho_s),
+            slope: 0.0,
+        },
+        stop_below: None,
+    };
+    model.law.validate()?;
+    Ok(model)
+}
+
+/// W and its counts from the three branches' points at `etas`.
+fn summarise(rho_s: f64, rho_d: f64, etas: &[f64], curves: &[Vec<Point>]) -> Worst {
     let mut w = Worst {
         rho_s,
-        rho_d: rho_d.min(rho_s),
+        rho_d,
         amplitude1: 0.0,
         eta: etas.first().copied().unwrap_or(f64::NAN),
         branch: Direction::Up,
@@ -84,6 +153,7 @@ pub fn worst_case(
         missing: 0,
         coexisting: 0,
         coexisting_eta: f64::NAN,
+        points: etas.len(),
     };
     for (i, &eta) in etas.iter().enumerate() {
         let differ = (0..curves.len()).any(|a| {
@@ -97,7 +167,7 @@ pub fn worst_case(
             }
         }
     }
-    for (d, c) in branches.iter().zip(&curves) {
+    for (d, c) in BRANCHES.iter().zip(curves) {
         for p in c {
             if !p.steady {
                 w.unsettled += 1;
@@ -114,7 +184,187 @@ pub fn worst_case(
             }
         }
     }
-    Ok(w)
+    w
+}
+
+/// A local maximum of a branch at or above this fraction of the largest
+/// A1/A seen so far has its neighbouring intervals refined.
+pub const REFINE_FRACTION: f64 = 0.5;
+
+/// One evaluated point of a continuation branch: the steady state, the
+/// section state it hands on, and the grid index it was continued from.
+#[derive(Debug, Clone, Copy)]
+struct Continued {
+    point: Point,
+    next: Init,
+    from: Option<usize>,
+}
+
+/// W on `grid` ([`worst_case`] when every η is coarse). Otherwise the three
+/// branches are computed on the coarse η, then, round by round, every
+/// interval next to a local maximum of a branch (A1/A at least
+/// [`REFINE_FRACTION`] of the largest so far) gets the grid point in its
+/// middle, until the maxima's neighbours are adjacent grid points. A point
+/// inserted into a continuation branch is continued from its predecessor
+/// (in the direction of the branch), and the branch is continued again
+/// from there until it reaches a steady state it had before (the same
+/// attractor: the rest of the branch stands). So a branch that jumps off
+/// next to its maximum is followed as far as the fine grid follows it;
+/// broad maxima (friction-damped) are found to the grid's resolution.
+/// Counts (`unsettled`, `coexisting`, `points`) are over the η evaluated.
+pub fn worst_case_on(
+    ab: &Absorber,
+    rho_s: f64,
+    rho_d: f64,
+    grid: &DriveGrid,
+    cfg: &SteadyConfig,
+) -> std::result::Result<Worst, SimError> {
+    if grid.is_uniform() {
+        return worst_case(ab, rho_s, rho_d, &grid.etas, cfg);
+    }
+    let model = worst_model(ab, rho_s, rho_d)?;
+    let etas = &grid.etas;
+    let n = etas.len();
+    let mut active = grid.coarse.clone();
+    let mut up: Vec<Option<Continued>> = vec![None; n];
+    let mut down: Vec<Option<Continued>> = vec![None; n];
+    let mut rest: Vec<Option<Point>> = vec![None; n];
+    let mut fresh: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
+    loop {
+        let order: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
+        let (r_up, (r_down, r_rest)) = rayon::join(
+            || continue_branch(&model, etas, &order, &mut up, cfg),
+            || {
+                rayon::join(
+                    || {
+                        let rev: Vec<usize> = order.iter().rev().copied().collect();
+                        continue_branch(&model, etas, &rev, &mut down, cfg)
+                    },
+                    || -> std::result::Result<Vec<(usize, Point)>, SimError> {
+                        fresh
+                            .par_iter()
+                            .map_init(
+                                || None,
+                                |engine, &i| {
+                                    steady_state_with(engine, &model, etas[i], Init::rest(), cfg)
+                                        .map(|(p, _)| (i, p))
+                                },
+                            )
+                            .collect()
+                    },
+                )
+            },
+        );
+        r_up?;
+        r_down?;
+        for (i, p) in r_rest? {
+            rest[i] = Some(p);
+        }
+        let a1 = |p: &Point| p.amplitude1.filter(|a| a.is_finite());
+        let value = |b: usize, i: usize| -> Option<f64> {
+            match b {
+                0 => up[i].as_ref().and_then(|c| a1(&c.point)),
+                1 => down[i].as_ref().and_then(|c| a1(&c.point)),
+                _ => rest[i].as_ref().and_then(a1),
+            }
+        };
+        let top = (0..3)
+            .flat_map(|b| order.iter().filter_map(move |&i| value(b, i)))
+            .fold(0.0f64, f64::max);
+        let mut add: Vec<usize> = Vec::new();
+        for b in 0..3 {
+            for (k, &i) in order.iter().enumerate() {
+                let Some(v) = value(b, i) else { continue };
+                if v < REFINE_FRACTION * top {
+                    continue;
+                }
+                let left = k.checked_sub(1).map(|k| order[k]);
+                let right = order.get(k + 1).copied();
+                let below = |j: Option<usize>| j.and_then(|j| value(b, j)).is_none_or(|u| u <= v);
+                if !(below(left) && below(right)) {
+                    continue;
+                }
+                if let Some(l) = left {
+                    if i - l > 1 {
+                        add.push((l + i) / 2);
+                    }
+                }
+                if let Some(r) = right {
+                    if r - i > 1 {
+                        add.push((i + r) / 2);
+                    }
+                }
+            }
+        }
+        add.sort_unstable();
+        add.dedup();
+        if add.is_empty() {
+            break;
+        }
+        for &i in &add {
+            active[i] = true;
+        }
+        fresh = add;
+    }
+    let order: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
+    let pick = |i: usize, b: usize| -> Point {
+        match b {
+            0 => up[i].expect("continued").point,
+            1 => down[i].expect("continued").point,
+            _ => rest[i].expect("from rest"),
+        }
+    };
+    let curves: Vec<Vec<Point>> = (0..3)
+        .map(|b| order.iter().map(|&i| pick(i, b)).collect())
+        .collect();
+    let at: Vec<f64> = order.iter().map(|&i| etas[i]).collect();
+    Ok(summarise(rho_s, rho_d.min(rho_s), &at, &curves))
+}
+
+/// Continues a branch over the grid indices `order` (in the branch's
+/// direction). A point is (re)computed when it is new, when its
+/// predecessor in `order` is not the one it was continued from, or when
+/// its predecessor was recomputed into a different steady state (or into
+/// one that settles where the old did not, or the reverse); otherwise it
+/// stands. Deterministic: the points are computed in order.
+fn continue_branch(
+    model: &Model,
+    etas: &[f64],
+    order: &[usize],
+    slots: &mut [Option<Continued>],
+    cfg: &SteadyConfig,
+) -> std::result::Result<(), SimError> {
+    let mut engine = None;
+    let mut prev: Option<usize> = None;
+    let mut prev_changed = false;
+    for &i in order {
+        let redo = match &slots[i] {
+            None => true,
+            Some(c) => c.from != prev || prev_changed,
+        };
+        if redo {
+            let start = prev
+                .and_then(|p| slots[p].as_ref().map(|c| c.next))
+                .unwrap_or_else(Init::rest);
+            let (point, next) = steady_state_with(&mut engine, model, etas[i], start, cfg)?;
+            prev_changed = match &slots[i] {
+                None => true,
+                Some(old) => {
+                    old.point.steady != point.steady
+                        || crate::sim::sweep::distinct_states(&old.point, &point)
+                }
+            };
+            slots[i] = Some(Continued {
+                point,
+                next,
+                from: prev,
+            });
+        } else {
+            prev_changed = false;
+        }
+        prev = Some(i);
+    }
+    Ok(())
 }
 
 /// W on a table of ρs nodes, computed lazily and reused: every node has W
@@ -122,7 +372,7 @@ pub fn worst_case(
 /// ends of the ratio's interval.
 pub(super) struct Table<'a> {
     pub(super) ab: Absorber,
-    pub(super) etas: &'a [f64],
+    pub(super) etas: &'a DriveGrid,
     pub(super) cfg: SteadyConfig,
     pub(super) ratios: Vec<f64>,
     /// Sorted ρs nodes and, per node, W for the first 1 or all ratios.
@@ -151,7 +401,7 @@ impl Table<'_> {
         let ws: std::result::Result<Vec<Worst>, SimError> = work
             .par_iter()
             .map(|&(r, q)| {
-                let w = worst_case(&ab, r, ratios[q] * r, etas, &cfg);
+                let w = worst_case_on(&ab, r, ratios[q] * r, etas, &cfg);
                 tick(1);
                 w
             })

@@ -63,6 +63,10 @@ pub struct BatchArgs {
     /// Half-width of each fine η window.
     #[arg(long, default_value_t = 0.025)]
     pub eta_fine_halfwidth: f64,
+    /// Evaluate every this-many uniform η at each ρs (with the fine
+    /// windows), the others only next to a branch's local maximum (1: every η).
+    #[arg(long, default_value_t = vb::DEFAULT_ETA_COARSE_STRIDE)]
+    pub eta_coarse_stride: usize,
     /// Smallest ρs of the worst-case grid.
     #[arg(long, default_value_t = 0.2)]
     pub rho_min: f64,
@@ -106,6 +110,7 @@ fn options(a: &BatchArgs) -> crate::Result<BatchOptions> {
         eta_points: a.eta_points,
         eta_fine_step: a.eta_fine_step,
         eta_fine_halfwidth: a.eta_fine_halfwidth,
+        eta_coarse_stride: a.eta_coarse_stride,
         rho_min: a.rho_min,
         rho_max: a.rho_max,
         rho_points: a.rho_points,
