@@ -77,11 +77,29 @@ impl<const N: usize> Switch<Jet<N>> for EventFn<N> {
 /// `scale` (the magnitude of the time the offsets are added to: resolving an
 /// offset of 1e-15 to 1e-31 would be meaningless once added to τ).
 pub fn refine<F: FnMut(f64) -> (f64, f64, f64)>(
+    f: F,
+    a: f64,
+    b: f64,
+    scale: f64,
+    guess: f64,
+) -> f64 {
+    refine_with(f, a, b, scale, guess, false)
+}
+
+/// [`refine`], with the Halley steps aimed a quarter of the resolution past
+/// the estimated root when `biased` (crossings in [`first_event`], whose
+/// first guess is within O(h⁶) so that one step lands within rounding of
+/// the root): the point evaluated there is then usually on the event side
+/// already and converged, and is returned, instead of a point just short
+/// of the root followed by one more evaluation a resolution past it.
+#[inline]
+fn refine_with<F: FnMut(f64) -> (f64, f64, f64)>(
     mut f: F,
     mut a: f64,
     mut b: f64,
     scale: f64,
     guess: f64,
+    biased: bool,
 ) -> f64 {
     // The result is always on the event side (f ≤ 0): a switching state
     // must satisfy its switching condition (e.g. |F| ≥ ρs at breakaway, so
@@ -117,7 +135,12 @@ pub fn refine<F: FnMut(f64) -> (f64, f64, f64)>(
             // Converged from the valid side: step just past the root.
             (x + res).min(b)
         } else if d != 0.0 && newton.is_finite() && newton > a && newton < b {
-            newton
+            let past = newton + 0.25 * res;
+            if biased && past < b {
+                past
+            } else {
+                newton
+            }
         } else {
             0.5 * (a + b)
         };
@@ -169,6 +192,43 @@ pub fn hermite_guess(a: f64, fa: f64, da: f64, b: f64, fb: f64, db: f64) -> f64 
         }
     }
     a + t * h
+}
+
+/// First guess of the root in [a, b] of f with f(a) > 0 ≥ f(b), from f,
+/// f', f'' at both ends: where f decreases at both ends (so throughout, a
+/// step holding at most one extremum of f), the quintic Hermite
+/// interpolant of the inverse function t(f) (t' = 1/f', t'' = −f''/f'³)
+/// evaluated at f = 0, within O(h⁶) of the root and without iterations;
+/// otherwise (or if that lands outside the bracket) [`hermite_guess`].
+#[inline]
+pub fn crossing_guess(
+    a: f64,
+    (fa, da, dda): (f64, f64, f64),
+    b: f64,
+    (fb, db, ddb): (f64, f64, f64),
+) -> f64 {
+    if da < 0.0 && db < 0.0 {
+        // In s = (f − fa)/(fb − fa) ∈ [0, 1]: t(s) with dt/ds = H/f' and
+        // d²t/ds² = −H²·f''/f'³, H = fb − fa.
+        let hh = fb - fa;
+        let s = -fa / hh;
+        let (ta1, tb1) = (hh / da, hh / db);
+        let (ta2, tb2) = (
+            -hh * hh * dda / (da * da * da),
+            -hh * hh * ddb / (db * db * db),
+        );
+        let (s2, s3) = (s * s, s * s * s);
+        let t = a
+            + (b - a) * (s3 * (10.0 - 15.0 * s + 6.0 * s2))
+            + ta1 * (s - s3 * (6.0 - 8.0 * s + 3.0 * s2))
+            + ta2 * (0.5 * s2 - 0.5 * s3 * (3.0 - 3.0 * s + s2))
+            - tb1 * (s3 * (4.0 - 7.0 * s + 3.0 * s2))
+            + tb2 * (0.5 * s3 * (1.0 - 2.0 * s + s2));
+        if t > a && t < b {
+            return t;
+        }
+    }
+    hermite_guess(a, fa, da, b, fb, db)
 }
 
 /// The first event of a phase.
@@ -302,10 +362,10 @@ where
                 continue;
             }
             if hb <= 0.0 && ha > 0.0 {
-                let (_, da, _) = f.eval(&ja);
-                let (_, db, _) = f.eval(&jb);
-                let g = hermite_guess(lo_i, ha, da, b, hb, db);
-                let r = refine(|d| deriv1(f, &eval(d)), lo_i, b, scale, g);
+                let (_, da, dda) = f.eval(&ja);
+                let (_, db, ddb) = f.eval(&jb);
+                let g = crossing_guess(lo_i, (ha, da, dda), b, (hb, db, ddb));
+                let r = refine_with(|d| deriv1(f, &eval(d)), lo_i, b, scale, g, true);
                 if best.is_none_or(|(d, _)| r < d) {
                     best = Some((r, i));
                 }
@@ -366,6 +426,39 @@ fn deriv2<P, W: Switch<P>>(f: &W, j: &P) -> (f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The inverse-Hermite first guess of a crossing of f = cos t − 0.3
+    /// (root acos 0.3): sixth order in the step (halving the step divides
+    /// the error by ~64) and far better than the cubic guess (order 4); with the
+    /// slope's sign changing in the bracket it falls back to the cubic one.
+    #[test]
+    fn crossing_guess_is_sixth_order() {
+        let root = 0.3f64.acos();
+        let f = |t: f64| (t.cos() - 0.3, -t.sin(), -t.cos());
+        let err = |h: f64| {
+            let (a, b) = (root - 0.4 * h, root + 0.6 * h);
+            let g = crossing_guess(a, f(a), b, f(b));
+            let (fa, da, _) = f(a);
+            let (fb, db, _) = f(b);
+            let cubic = hermite_guess(a, fa, da, b, fb, db);
+            ((g - root).abs(), (cubic - root).abs())
+        };
+        let (e1, _) = err(0.2);
+        let (e2, c2) = err(0.1);
+        // Measured: 1.2e-7, 1.9e-9 (cubic 7.4e-8), 3.1e-11 at h 0.2, 0.1, 0.05.
+        assert!(e2 < 0.1 * c2, "{e2} against cubic {c2}");
+        let order = (e1 / e2).log2();
+        assert!((5.0..7.5).contains(&order), "order {order} ({e1}, {e2})");
+        // cos t − 0.99 on [−0.5, 0.3]: f' changes sign, the cubic guess.
+        let g = |t: f64| (t.cos() - 0.99, -t.sin(), -t.cos());
+        let (a, b) = (-0.05, 0.3);
+        let (fa, da, _) = g(a);
+        let (fb, db, _) = g(b);
+        assert_eq!(
+            crossing_guess(a, g(a), b, g(b)),
+            hermite_guess(a, fa, da, b, fb, db)
+        );
+    }
 
     fn jet_cos(t: f64, w: f64, off: f64) -> Jet<1> {
         Jet {
