@@ -93,7 +93,7 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
                 v.push(KeyValue::new(
                     "coexisting stable states at the recommendation",
                     format!(
-                        "at {} of the grid's η nodes (first at η = {:.4}) the up, down and from-rest branches settle to different steady states (> 1e-6 relative); the worst case takes the worst of them, on this grid",
+                        "at {} of the η nodes evaluated (first at η = {:.4}) the up, down and from-rest branches settle to different steady states (> 1e-6 relative); the worst case takes the worst of them, on this grid",
                         r.worst.coexisting, r.worst.coexisting_eta
                     ),
                 ));
@@ -128,7 +128,7 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
     v.push(KeyValue::new(
         "model",
         format!(
-            "m = {:.4}, k = {:.4}, D = {:.5}; ρ = R/(A·K2) with A = {:.4} mm ({}; logs' median measured {:.4} mm); η ∈ [{:.4}, {:.4}], {} points per branch; {} worst-case evaluations",
+            "m = {:.4}, k = {:.4}, D = {:.5}; ρ = R/(A·K2) with A = {:.4} mm ({}; logs' median measured {:.4} mm); η ∈ [{:.4}, {:.4}], a grid of {} points per branch ({} coarse, evaluated at every ρs; the others next to a branch's maxima, {} to {} per ρs); {} worst-case evaluations",
             b.absorber.m,
             b.absorber.k,
             b.absorber.damping,
@@ -138,6 +138,9 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
             b.eta_range.0,
             b.eta_range.1,
             b.eta_points,
+            b.eta_coarse_points,
+            b.curve.iter().map(|c| c.worst.points).min().unwrap_or(0),
+            b.curve.iter().map(|c| c.worst.points).max().unwrap_or(0),
             b.evaluations
         ),
     ));
