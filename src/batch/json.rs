@@ -175,6 +175,7 @@ struct WorstOut {
     unsettled: usize,
     coexisting_points: usize,
     eta_evaluated: usize,
+    periods: u64,
 }
 
 impl From<&Worst> for WorstOut {
@@ -188,6 +189,7 @@ impl From<&Worst> for WorstOut {
             unsettled: w.unsettled,
             coexisting_points: w.coexisting,
             eta_evaluated: w.points,
+            periods: w.periods,
         }
     }
 }
@@ -244,6 +246,7 @@ struct BatchOut<'a> {
     eta_coarse_points: usize,
     setting_tolerance: f64,
     evaluations: usize,
+    periods: u64,
     warnings: &'a [String],
 }
 
@@ -332,6 +335,7 @@ impl Batch {
             eta_coarse_points: b.eta_coarse_points,
             setting_tolerance: b.setting_tolerance,
             evaluations: b.evaluations,
+            periods: b.periods,
             warnings: &b.warnings,
         };
         match crate::io::json::to_value(out) {

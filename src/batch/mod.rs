@@ -431,6 +431,9 @@ pub struct Worst {
     pub coexisting_eta: f64,
     /// η evaluated (per branch).
     pub points: usize,
+    /// Forcing periods integrated for it (every branch and point, points
+    /// continued again after a refinement included).
+    pub periods: u64,
 }
 
 /// One node of the worst-case curve.
@@ -534,6 +537,8 @@ pub struct Batch {
     pub cliff: Option<Cliff>,
     /// Worst-case evaluations (each: three branches over the η grid).
     pub evaluations: usize,
+    /// Forcing periods integrated by all of them.
+    pub periods: u64,
     /// Things the user should know.
     pub warnings: Vec<String>,
 }
@@ -601,7 +606,7 @@ fn settings_worst(
     etas: &DriveGrid,
     opts: &BatchOptions,
     tick: &(dyn Fn(u64) + Sync),
-) -> std::result::Result<usize, SimError> {
+) -> std::result::Result<(usize, u64), SimError> {
     let settings: Vec<f64> = logs
         .iter()
         .map(|l| l.model_rho_s)
@@ -622,7 +627,7 @@ fn settings_worst(
             k += 1;
         }
     }
-    Ok(setting_w.len())
+    Ok((setting_w.len(), setting_w.iter().map(|w| w.periods).sum()))
 }
 
 /// The batch comparison: μs, μd with intervals from the fitted logs, the
@@ -766,6 +771,7 @@ pub fn batch_with_progress(
         ratios,
         nodes: Vec::new(),
         evaluations: 0,
+        periods: 0,
         tick,
     };
     let sim_err = BatchError::Sim;
@@ -776,8 +782,9 @@ pub fn batch_with_progress(
         .map(|k| geom_node(rho_min, rho_max, steps, k))
         .collect();
     table.add(&coarse, false).map_err(sim_err)?;
-    table.evaluations +=
-        settings_worst(&mut logs, &ab, ratio, &etas, opts, tick).map_err(sim_err)?;
+    let (n, periods) = settings_worst(&mut logs, &ab, ratio, &etas, opts, tick).map_err(sim_err)?;
+    table.evaluations += n;
+    table.periods += periods;
     let search = recommend::Search {
         ab,
         etas: &etas,
@@ -859,6 +866,7 @@ pub fn batch_with_progress(
         recommendation_reason,
         cliff,
         evaluations: table.evaluations,
+        periods: table.periods,
         warnings,
     })
 }

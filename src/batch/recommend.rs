@@ -222,6 +222,7 @@ impl Search<'_> {
             let m = (bad * good).sqrt();
             let w = worst_case_on(&self.ab, m, self.ratio * m, self.etas, &self.opts.steady)?;
             table.evaluations += 1;
+            table.periods += w.periods;
             (self.tick)(1);
             if w.amplitude1 > threshold {
                 bad = m;

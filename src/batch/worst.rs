@@ -154,6 +154,7 @@ fn summarise(rho_s: f64, rho_d: f64, etas: &[f64], curves: &[Vec<Point>]) -> Wor
         coexisting: 0,
         coexisting_eta: f64::NAN,
         points: etas.len(),
+        periods: 0,
     };
     for (i, &eta) in etas.iter().enumerate() {
         let differ = (0..curves.len()).any(|a| {
@@ -169,6 +170,7 @@ fn summarise(rho_s: f64, rho_d: f64, etas: &[f64], curves: &[Vec<Point>]) -> Wor
     }
     for (d, c) in BRANCHES.iter().zip(curves) {
         for p in c {
+            w.periods += p.periods;
             if !p.steady {
                 w.unsettled += 1;
             }
@@ -230,6 +232,8 @@ pub fn worst_case_on(
     let mut down: Vec<Option<Continued>> = vec![None; n];
     let mut rest: Vec<Option<Point>> = vec![None; n];
     let mut fresh: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
+    // Periods of points continued again (their first result replaced).
+    let mut replaced = 0u64;
     loop {
         let order: Vec<usize> = (0..n).filter(|&i| active[i]).collect();
         let (r_up, (r_down, r_rest)) = rayon::join(
@@ -255,8 +259,7 @@ pub fn worst_case_on(
                 )
             },
         );
-        r_up?;
-        r_down?;
+        replaced += r_up? + r_down?;
         for (i, p) in r_rest? {
             rest[i] = Some(p);
         }
@@ -318,7 +321,9 @@ pub fn worst_case_on(
         .map(|b| order.iter().map(|&i| pick(i, b)).collect())
         .collect();
     let at: Vec<f64> = order.iter().map(|&i| etas[i]).collect();
-    Ok(summarise(rho_s, rho_d.min(rho_s), &at, &curves))
+    let mut w = summarise(rho_s, rho_d.min(rho_s), &at, &curves);
+    w.periods += replaced;
+    Ok(w)
 }
 
 /// Continues a branch over the grid indices `order` (in the branch's
@@ -326,14 +331,16 @@ pub fn worst_case_on(
 /// predecessor in `order` is not the one it was continued from, or when
 /// its predecessor was recomputed into a different steady state (or into
 /// one that settles where the old did not, or the reverse); otherwise it
-/// stands. Deterministic: the points are computed in order.
+/// stands. Deterministic: the points are computed in order. Returns the
+/// periods of the points it replaced.
 fn continue_branch(
     model: &Model,
     etas: &[f64],
     order: &[usize],
     slots: &mut [Option<Continued>],
     cfg: &SteadyConfig,
-) -> std::result::Result<(), SimError> {
+) -> std::result::Result<u64, SimError> {
+    let mut replaced = 0;
     let mut engine = None;
     let mut prev: Option<usize> = None;
     let mut prev_changed = false;
@@ -350,6 +357,7 @@ fn continue_branch(
             prev_changed = match &slots[i] {
                 None => true,
                 Some(old) => {
+                    replaced += old.point.periods;
                     old.point.steady != point.steady
                         || crate::sim::sweep::distinct_states(&old.point, &point)
                 }
@@ -364,7 +372,7 @@ fn continue_branch(
         }
         prev = Some(i);
     }
-    Ok(())
+    Ok(replaced)
 }
 
 /// W on a table of ρs nodes, computed lazily and reused: every node has W
@@ -378,6 +386,8 @@ pub(super) struct Table<'a> {
     /// Sorted ρs nodes and, per node, W for the first 1 or all ratios.
     pub(super) nodes: Vec<(f64, Vec<Worst>)>,
     pub(super) evaluations: usize,
+    /// Forcing periods integrated by the evaluations.
+    pub(super) periods: u64,
     pub(super) tick: &'a (dyn Fn(u64) + Sync),
 }
 
@@ -408,6 +418,7 @@ impl Table<'_> {
             .collect();
         let ws = ws?;
         self.evaluations += ws.len();
+        self.periods += ws.iter().map(|w| w.periods).sum::<u64>();
         for ((r, q), w) in work.into_iter().zip(ws) {
             match self.find(r) {
                 Some(i) => {
