@@ -20,28 +20,90 @@ use super::engine::{
 use super::events::{self, EventFn, Jet, Switch};
 use super::{linalg, phase::absorber, SimError};
 use crate::model::{Drive, Model};
+use std::cell::Cell;
 
 /// A switching function of the numerical engine.
 #[derive(Debug, Clone, Copy)]
-enum NumSwitch {
+enum NumSwitch<'a> {
     /// Linear in the state.
     Lin(EventFn<4>),
-    /// Slip interruption for a nonlinear law: h = g(dir·ζ2') − threshold.
-    Friction { dir: f64, thr: f64, model: Model },
+    /// Slip interruption for a nonlinear law: h = g(dir·ζ2') − threshold
+    /// (the law's decay taken from the run's memo).
+    Friction {
+        dir: f64,
+        thr: f64,
+        model: Model,
+        memo: &'a Memo,
+    },
 }
 
-impl Switch<Jet<4>> for NumSwitch {
+impl Switch<Jet<4>> for NumSwitch<'_> {
     #[inline]
     fn eval(&self, j: &Jet<4>) -> (f64, f64, f64) {
         match self {
             NumSwitch::Lin(f) => f.eval(j),
-            NumSwitch::Friction { dir, thr, model } => {
+            NumSwitch::Friction {
+                dir,
+                thr,
+                model,
+                memo,
+            } => {
                 let u = dir * j.x[3];
                 let (du, ddu) = (dir * j.dx[3], dir * j.ddx[3]);
-                let (g, g1, g2) = model.law.sliding_jet(u.max(0.0));
+                let v = u.max(0.0);
+                let (g, g1, g2) = model.law.sliding_jet_with(v, memo.decay(&model.law, v));
                 (g - thr, g1 * du, g2 * du * du + g1 * ddu)
             }
         }
+    }
+}
+
+/// What a run evaluates repeatedly at one argument, kept from the last
+/// evaluation: the drive at a time (a step's last two stages and the jet
+/// at its end share the time t + h: one sine-cosine for all) and the law's
+/// decay ([`crate::model::Law::decay`]) at a speed (the last stage, the
+/// jet's rate and slope and the interruption function share the end
+/// state's ζ2'). The values are those of a fresh evaluation (the drive's
+/// position from `eval` is the one `position` gives: the same cosine).
+#[derive(Debug)]
+struct Memo {
+    drive: Cell<(f64, (f64, f64, f64))>,
+    decay: Cell<(f64, f64)>,
+}
+
+impl Memo {
+    fn new() -> Self {
+        Self {
+            drive: Cell::new((f64::NAN, (0.0, 0.0, 0.0))),
+            decay: Cell::new((f64::NAN, 0.0)),
+        }
+    }
+
+    /// The drive's ζ0, ζ0', ζ0'' at τ.
+    #[inline]
+    fn drive(&self, drive: &Drive, tau: f64) -> (f64, f64, f64) {
+        let (t, v) = self.drive.get();
+        if t == tau {
+            return v;
+        }
+        let v = drive.eval(tau);
+        self.drive.set((tau, v));
+        v
+    }
+
+    /// The law's decay at speed v.
+    #[inline]
+    fn decay(&self, law: &crate::model::Law, v: f64) -> f64 {
+        if let crate::model::Law::Linear { .. } = law {
+            return 1.0;
+        }
+        let (w, e) = self.decay.get();
+        if w == v {
+            return e;
+        }
+        let e = law.decay(v);
+        self.decay.set((v, e));
+        e
     }
 }
 
@@ -129,13 +191,13 @@ impl NumericSim {
         }
     }
 
-    fn rhs(&self, mode: Mode, t: f64, x: &[f64; 4]) -> [f64; 4] {
-        self.rhs_at(mode, self.drive.position(t), x)
+    fn rhs(&self, mode: Mode, t: f64, x: &[f64; 4], memo: &Memo) -> [f64; 4] {
+        self.rhs_at(mode, self.drive.position(t), x, memo)
     }
 
     /// The right-hand side for the drive's position z0.
     #[inline]
-    fn rhs_at(&self, mode: Mode, z0: f64, x: &[f64; 4]) -> [f64; 4] {
+    fn rhs_at(&self, mode: Mode, z0: f64, x: &[f64; 4], memo: &Memo) -> [f64; 4] {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
         match mode {
@@ -147,7 +209,7 @@ impl NumericSim {
             ],
             Mode::Slip { dir } => {
                 let a1 = (k * z0 - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
-                let fric = self.friction(dir, x[3]);
+                let fric = self.friction(dir, x[3], memo);
                 [x[1], a1, x[3], d * (x[1] - x[3]) + x[0] - x[2] - fric]
             }
         }
@@ -155,20 +217,22 @@ impl NumericSim {
 
     /// Friction force on M2 in a slip of direction `dir` at velocity v.
     #[inline]
-    fn friction(&self, dir: f64, v: f64) -> f64 {
-        if self.model.law.is_frictionless() {
-            self.model.law.slope() * v
+    fn friction(&self, dir: f64, v: f64, memo: &Memo) -> f64 {
+        let law = &self.model.law;
+        if law.is_frictionless() {
+            law.slope() * v
         } else {
-            dir * self.model.law.sliding((dir * v).max(0.0))
+            let u = (dir * v).max(0.0);
+            dir * law.sliding_with(u, memo.decay(law, u))
         }
     }
 
-    fn jet(&self, mode: Mode, t: f64, x: [f64; 4]) -> Jet<4> {
+    fn jet(&self, mode: Mode, t: f64, x: [f64; 4], memo: &Memo) -> Jet<4> {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
         // One drive evaluation for the rate and its derivative.
-        let (z0, dz0, _) = self.drive.eval(t);
-        let dx = self.rhs_at(mode, z0, &x);
+        let (z0, dz0, _) = memo.drive(&self.drive, t);
+        let dx = self.rhs_at(mode, z0, &x, memo);
         let ddx = match mode {
             Mode::Stick { .. } => [
                 dx[1],
@@ -181,7 +245,9 @@ impl NumericSim {
                 let dfric = if self.model.law.is_frictionless() {
                     self.model.law.slope() * dx[3]
                 } else {
-                    self.model.law.sliding_slope((dir * x[3]).max(0.0)) * dx[3]
+                    let law = &self.model.law;
+                    let u = (dir * x[3]).max(0.0);
+                    law.sliding_slope_with(u, memo.decay(law, u)) * dx[3]
                 };
                 [dx[1], da1, dx[3], d * (dx[1] - dx[3]) + x[1] - x[3] - dfric]
             }
@@ -189,7 +255,7 @@ impl NumericSim {
         Jet { x, dx, ddx }
     }
 
-    fn switches(&self, mode: Mode) -> ([NumSwitch; 2], usize) {
+    fn switches<'a>(&self, mode: Mode, memo: &'a Memo) -> ([NumSwitch<'a>; 2], usize) {
         let law = &self.model.law;
         let rho_s = law.rho_s();
         let d = self.model.absorber.damping;
@@ -219,6 +285,7 @@ impl NumericSim {
                     dir,
                     thr: self.thr,
                     model: self.model,
+                    memo,
                 };
                 if law.is_frictionless() {
                     ([end, stop], 0)
@@ -265,7 +332,8 @@ impl NumericSim {
         let (mut t, mut n, mut events, mut stick_time) = (0.0f64, 0u64, 0u64, 0.0);
         let mut stats = PeriodStats::new_at(&x);
         let mut h = self.ode.h_max * 0.1;
-        let mut f0 = self.rhs(mode, t, &x);
+        let memo = Memo::new();
+        let mut f0 = self.rhs(mode, t, &x, &memo);
         let mut instant = 0u32;
         let mut carry: Option<Jet<4>> = None;
         // Events are counted per forcing period (per 2π/fastest drive
@@ -297,7 +365,7 @@ impl NumericSim {
                     if ts > t * (1.0 + 8.0 * f64::EPSILON) {
                         break;
                     }
-                    let j = self.jet(mode, t, x);
+                    let j = self.jet(mode, t, x, &memo);
                     obs.sample(ts, &x, &j.dx);
                     pending = obs.next_sample();
                 }
@@ -315,18 +383,15 @@ impl NumericSim {
                 continue;
             }
             // Dormand–Prince's last two stages (and the FSAL derivative)
-            // share the time t + h: the drive there is evaluated once.
-            let memo = std::cell::Cell::new((f64::NAN, 0.0));
-            let f = |tt: f64, y: &[f64; 4]| {
-                let (mt, mz) = memo.get();
-                let z0 = if tt == mt {
-                    mz
+            // share the time t + h with the jet at the step's end: the
+            // drive there is evaluated once (with its rate, for the jet).
+            let f = |stage: usize, tt: f64, y: &[f64; 4]| {
+                let z0 = if stage >= 6 {
+                    memo.drive(&self.drive, tt).0
                 } else {
-                    let z = self.drive.position(tt);
-                    memo.set((tt, z));
-                    z
+                    self.drive.position(tt)
                 };
-                self.rhs_at(mode, z0, y)
+                self.rhs_at(mode, z0, y, &memo)
             };
             let Some((step, h_next)) = self.ode.step(&f, t, &x, &f0, h, boundary) else {
                 return end(
@@ -360,9 +425,9 @@ impl NumericSim {
             // mode, time and state) unless an event intervened.
             let eval = |d: f64| match carry {
                 Some(j) if d == 0.0 => j,
-                _ => self.jet(mode, t0 + d, state(d)),
+                _ => self.jet(mode, t0 + d, state(d), &memo),
             };
-            let (fns, nf) = self.switches(mode);
+            let (fns, nf) = self.switches(mode, &memo);
             let (hit, jb) = events::first_event(
                 &eval,
                 eval,
@@ -381,7 +446,7 @@ impl NumericSim {
                         // State and rate only (no second derivative).
                         let d = (ts - t0).max(a);
                         let y = state(d);
-                        obs.sample(ts, &y, &self.rhs(mode, t0 + d, &y));
+                        obs.sample(ts, &y, &self.rhs(mode, t0 + d, &y, &memo));
                         pending = obs.next_sample();
                     }
                 },
@@ -411,7 +476,7 @@ impl NumericSim {
                     }
                     t = t0 + hit.delta;
                     carry = None;
-                    let (z0, _, _) = self.drive.eval(t);
+                    let (z0, _, _) = memo.drive(&self.drive, t);
                     match apply(
                         switch(&self.model, mode, hit.which, &hit.jet.x, z0, t),
                         t,
@@ -433,7 +498,7 @@ impl NumericSim {
                             x = xn;
                             mode = next;
                             stats.add(x[0], x[2]);
-                            f0 = self.rhs(mode, t, &x);
+                            f0 = self.rhs(mode, t, &x, &memo);
                             h = h.min(h_next).max(self.ode.h_max * 1e-3);
                             if t >= window_end {
                                 window_end = ((t / window).floor() + 1.0) * window;
