@@ -79,6 +79,28 @@ const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
+/// x^(−1/5), the step-size factor's power: for 1e-5 ≤ x ≤ 1e5 (the error
+/// norms of accepted steps it is taken for, from 1.8e-4, and of most
+/// rejected ones) an
+/// estimate from the exponent bits (within 8 %) refined by five Newton
+/// steps y ← y·(6 − x·y⁵)/5 (quadratic: 8 % → 2 % → 1e-3 → 3e-6 → 2e-11 →
+/// rounding), within 2ε of `x.powf(-0.2)` at a third of its cost;
+/// elsewhere the power.
+#[inline]
+fn inv_fifth_root(x: f64) -> f64 {
+    const ONE: i64 = 0x3FF0_0000_0000_0000;
+    if !(1e-5..=1e5).contains(&x) {
+        return x.powf(-0.2);
+    }
+    let b = x.to_bits() as i64;
+    let mut y = f64::from_bits((ONE + (ONE - b) / 5) as u64);
+    for _ in 0..5 {
+        let y2 = y * y;
+        y = y * (6.0 - x * (y2 * y2 * y)) * 0.2;
+    }
+    y
+}
+
 impl Dopri5 {
     /// Takes one accepted step from (t, y) with f(t, y) = `f0`, trying `h`
     /// first, never past `t_end`. Returns the step and the suggested next h.
@@ -196,7 +218,7 @@ impl Dopri5 {
                 let fac = if err < 1.8e-4 {
                     5.0
                 } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+                    (0.9 * inv_fifth_root(err)).clamp(0.2, 5.0)
                 };
                 let mut r = [[0.0; N]; 5];
                 for i in 0..N {
@@ -225,7 +247,7 @@ impl Dopri5 {
                     h * fac,
                 ));
             }
-            h *= (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
+            h *= (0.9 * inv_fifth_root(err)).clamp(0.2, 1.0);
             last = false;
         }
     }
@@ -234,6 +256,23 @@ impl Dopri5 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fifth root agrees with the power to a few ε wherever the step
+    /// control takes it (errors from 1.8e-4 up, and huge ones).
+    #[test]
+    fn inv_fifth_root_matches_powf() {
+        let mut worst: f64 = 0.0;
+        for k in 0..=200_000 {
+            let x = 10f64.powf(-6.0 + 12.0 * k as f64 / 200_000.0);
+            let (a, b) = (inv_fifth_root(x), x.powf(-0.2));
+            worst = worst.max((a / b - 1.0).abs());
+        }
+        for x in [1e-5, 1.8e-4, 1.0, 1.0 + 1e-15, 2.0, 1e5, 1e300, f64::MAX] {
+            let (a, b) = (inv_fifth_root(x), x.powf(-0.2));
+            worst = worst.max((a / b - 1.0).abs());
+        }
+        assert!(worst <= 4.0 * f64::EPSILON, "{worst:e}");
+    }
 
     /// y' = −y + sin t against its closed form, to the tolerance, with the
     /// dense output accurate between steps.
