@@ -173,13 +173,7 @@ impl Memo {
     /// argument alone is rounded by ε·|ητ|). Other drives (or m = None):
     /// the drive's position at `tau` = τ0 + d.
     #[inline(always)]
-    fn position_near(
-        drive: &Drive,
-        anchor: (f64, f64),
-        m: Option<usize>,
-        tau: f64,
-        d: f64,
-    ) -> f64 {
+    fn position_near(drive: &Drive, anchor: (f64, f64), m: Option<usize>, tau: f64, d: f64) -> f64 {
         if let (Drive::Harmonic { eta, amplitude, .. }, Some(m)) = (drive, m) {
             let (c, s) = cis(eta * d, m);
             let (s0, c0) = anchor;
