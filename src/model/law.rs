@@ -366,24 +366,56 @@ impl Law {
     /// a falling characteristic at high speed: the engine interrupts there).
     #[inline]
     pub fn sliding(&self, v: f64) -> f64 {
-        match *self {
-            Law::Linear { rho_d, slope, .. } => rho_d + slope * v,
-            Law::Stribeck {
-                rho_s,
-                rho_d,
-                slope,
-                v_s,
-            } => {
-                let r = v / v_s;
-                rho_d + (rho_s - rho_d) * (-r * r).exp() + slope * v
-            }
-        }
+        self.sliding_with(v, self.decay(v))
     }
 
     /// g, dg/dv and d²g/dv² at speed v ≥ 0 (one exponential for the
     /// Stribeck law).
     #[inline]
     pub fn sliding_jet(&self, v: f64) -> (f64, f64, f64) {
+        self.sliding_jet_with(v, self.decay(v))
+    }
+
+    /// dg/dv at speed v ≥ 0.
+    #[inline]
+    pub fn sliding_slope(&self, v: f64) -> f64 {
+        self.sliding_slope_with(v, self.decay(v))
+    }
+
+    /// The one transcendental of g at speed v: the Stribeck law's decay
+    /// e^{−(v/v_s)²} (1 for a linear law, which does not use it). The
+    /// `_with` forms take it precomputed, so a caller evaluating g and its
+    /// derivatives at one speed (the numerical engine: a step's last stage,
+    /// the jet there and the interruption function) takes one exponential;
+    /// they give the same numbers as the plain forms.
+    #[inline]
+    pub fn decay(&self, v: f64) -> f64 {
+        match *self {
+            Law::Linear { .. } => 1.0,
+            Law::Stribeck { v_s, .. } => {
+                let r = v / v_s;
+                (-r * r).exp()
+            }
+        }
+    }
+
+    /// [`Law::sliding`] with its [`Law::decay`] `ex` at v.
+    #[inline]
+    pub fn sliding_with(&self, v: f64, ex: f64) -> f64 {
+        match *self {
+            Law::Linear { rho_d, slope, .. } => rho_d + slope * v,
+            Law::Stribeck {
+                rho_s,
+                rho_d,
+                slope,
+                ..
+            } => rho_d + (rho_s - rho_d) * ex + slope * v,
+        }
+    }
+
+    /// [`Law::sliding_jet`] with its [`Law::decay`] `ex` at v.
+    #[inline]
+    pub fn sliding_jet_with(&self, v: f64, ex: f64) -> (f64, f64, f64) {
         match *self {
             Law::Linear { rho_d, slope, .. } => (rho_d + slope * v, slope, 0.0),
             Law::Stribeck {
@@ -393,7 +425,7 @@ impl Law {
                 v_s,
             } => {
                 let r = v / v_s;
-                let e = (rho_s - rho_d) * (-r * r).exp();
+                let e = (rho_s - rho_d) * ex;
                 (
                     rho_d + e + slope * v,
                     slope - 2.0 * r / v_s * e,
@@ -403,9 +435,9 @@ impl Law {
         }
     }
 
-    /// dg/dv at speed v ≥ 0.
+    /// [`Law::sliding_slope`] with its [`Law::decay`] `ex` at v.
     #[inline]
-    pub fn sliding_slope(&self, v: f64) -> f64 {
+    pub fn sliding_slope_with(&self, v: f64, ex: f64) -> f64 {
         match *self {
             Law::Linear { slope, .. } => slope,
             Law::Stribeck {
@@ -415,7 +447,7 @@ impl Law {
                 v_s,
             } => {
                 let r = v / v_s;
-                slope - 2.0 * r / v_s * (rho_s - rho_d) * (-r * r).exp()
+                slope - 2.0 * r / v_s * (rho_s - rho_d) * ex
             }
         }
     }

@@ -79,10 +79,37 @@ const D5: f64 = 701980252875.0 / 199316789632.0;
 const D6: f64 = -1453857185.0 / 822651844.0;
 const D7: f64 = 69997945.0 / 29380423.0;
 
+/// x^(−1/5), the step-size factor's power: for 1e-5 ≤ x ≤ 1e5 (the error
+/// norms of accepted steps it is taken for, from 1.8e-4, and of most
+/// rejected ones) an
+/// estimate from the exponent bits (within 8 %) refined by five Newton
+/// steps y ← y·(6 − x·y⁵)/5 (quadratic: 8 % → 2 % → 1e-3 → 3e-6 → 2e-11 →
+/// rounding), within 2ε of `x.powf(-0.2)` at a third of its cost;
+/// elsewhere the power.
+#[inline]
+fn inv_fifth_root(x: f64) -> f64 {
+    const ONE: i64 = 0x3FF0_0000_0000_0000;
+    if !(1e-5..=1e5).contains(&x) {
+        return x.powf(-0.2);
+    }
+    let b = x.to_bits() as i64;
+    let mut y = f64::from_bits((ONE + (ONE - b) / 5) as u64);
+    for _ in 0..5 {
+        let y2 = y * y;
+        y = y * (6.0 - x * (y2 * y2 * y)) * 0.2;
+    }
+    y
+}
+
 impl Dopri5 {
     /// Takes one accepted step from (t, y) with f(t, y) = `f0`, trying `h`
     /// first, never past `t_end`. Returns the step and the suggested next h.
     /// `None` if the step size underflows (a non-integrable right-hand side).
+    ///
+    /// The right-hand side is called as f(stage, t, y) with the stage
+    /// number 2…7 of the tableau (6 and 7 are at t + h, 7 at the step's
+    /// end state; the end derivative of a rounding-level remainder step is
+    /// stage 7 too), so a caller can prepare what the step's end shares.
     ///
     /// Why this stays one function (≈130 lines): it is one Dormand–Prince
     /// step — seven stages, the error estimate, the step-size control and
@@ -101,7 +128,7 @@ impl Dopri5 {
         t_end: f64,
     ) -> Option<(Step<N>, f64)>
     where
-        F: Fn(f64, &[f64; N]) -> [f64; N],
+        F: Fn(usize, f64, &[f64; N]) -> [f64; N],
     {
         let comb = |w: &[(f64, &[f64; N])]| -> [f64; N] {
             std::array::from_fn(|i| y[i] + w.iter().map(|(c, k)| c * k[i]).sum::<f64>())
@@ -128,7 +155,7 @@ impl Dopri5 {
                             t0: t,
                             h: h_eff,
                             y1,
-                            f1: f(t + h, &y1),
+                            f1: f(7, t + h, &y1),
                             r,
                         },
                         self.h_max * 1e-3,
@@ -137,13 +164,15 @@ impl Dopri5 {
                 return None;
             }
             let k1 = *f0;
-            let k2 = f(t + C2 * h, &comb(&[(h * A21, &k1)]));
-            let k3 = f(t + C3 * h, &comb(&[(h * A31, &k1), (h * A32, &k2)]));
+            let k2 = f(2, t + C2 * h, &comb(&[(h * A21, &k1)]));
+            let k3 = f(3, t + C3 * h, &comb(&[(h * A31, &k1), (h * A32, &k2)]));
             let k4 = f(
+                4,
                 t + C4 * h,
                 &comb(&[(h * A41, &k1), (h * A42, &k2), (h * A43, &k3)]),
             );
             let k5 = f(
+                5,
                 t + C5 * h,
                 &comb(&[
                     (h * A51, &k1),
@@ -153,6 +182,7 @@ impl Dopri5 {
                 ]),
             );
             let k6 = f(
+                6,
                 t + h,
                 &comb(&[
                     (h * A61, &k1),
@@ -169,7 +199,7 @@ impl Dopri5 {
                 (h * A75, &k5),
                 (h * A76, &k6),
             ]);
-            let k7 = f(t + h, &y1);
+            let k7 = f(7, t + h, &y1);
             let mut err = 0.0f64;
             for i in 0..N {
                 let e = h
@@ -183,10 +213,12 @@ impl Dopri5 {
                 continue;
             }
             if err <= 1.0 {
-                let fac = if err == 0.0 {
+                // Below 1.8e-4 the factor is at its bound 5 (0.9·err^−0.2
+                // > 5.04 there, far beyond the power's rounding): no power.
+                let fac = if err < 1.8e-4 {
                     5.0
                 } else {
-                    (0.9 * err.powf(-0.2)).clamp(0.2, 5.0)
+                    (0.9 * inv_fifth_root(err)).clamp(0.2, 5.0)
                 };
                 let mut r = [[0.0; N]; 5];
                 for i in 0..N {
@@ -215,7 +247,7 @@ impl Dopri5 {
                     h * fac,
                 ));
             }
-            h *= (0.9 * err.powf(-0.2)).clamp(0.2, 1.0);
+            h *= (0.9 * inv_fifth_root(err)).clamp(0.2, 1.0);
             last = false;
         }
     }
@@ -225,11 +257,28 @@ impl Dopri5 {
 mod tests {
     use super::*;
 
+    /// The fifth root agrees with the power to a few ε wherever the step
+    /// control takes it (errors from 1.8e-4 up, and huge ones).
+    #[test]
+    fn inv_fifth_root_matches_powf() {
+        let mut worst: f64 = 0.0;
+        for k in 0..=200_000 {
+            let x = 10f64.powf(-6.0 + 12.0 * k as f64 / 200_000.0);
+            let (a, b) = (inv_fifth_root(x), x.powf(-0.2));
+            worst = worst.max((a / b - 1.0).abs());
+        }
+        for x in [1e-5, 1.8e-4, 1.0, 1.0 + 1e-15, 2.0, 1e5, 1e300, f64::MAX] {
+            let (a, b) = (inv_fifth_root(x), x.powf(-0.2));
+            worst = worst.max((a / b - 1.0).abs());
+        }
+        assert!(worst <= 4.0 * f64::EPSILON, "{worst:e}");
+    }
+
     /// y' = −y + sin t against its closed form, to the tolerance, with the
     /// dense output accurate between steps.
     #[test]
     fn matches_closed_form() {
-        let f = |t: f64, y: &[f64; 1]| [-y[0] + t.sin()];
+        let f = |_: usize, t: f64, y: &[f64; 1]| [-y[0] + t.sin()];
         let exact = |t: f64| 0.5 * (t.sin() - t.cos()) + 1.5 * (-t).exp();
         let ode = Dopri5 {
             rtol: 1e-10,
@@ -237,7 +286,7 @@ mod tests {
             h_max: 1.0,
         };
         let (mut t, mut y, mut h) = (0.0, [1.0], 0.1);
-        let mut f0 = f(t, &y);
+        let mut f0 = f(1, t, &y);
         let mut worst: f64 = 0.0;
         while t < 10.0 {
             let (s, hn) = ode.step(&f, t, &y, &f0, h, 10.0).unwrap();

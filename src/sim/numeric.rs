@@ -20,28 +20,181 @@ use super::engine::{
 use super::events::{self, EventFn, Jet, Switch};
 use super::{linalg, phase::absorber, SimError};
 use crate::model::{Drive, Model};
+use std::cell::Cell;
 
 /// A switching function of the numerical engine.
 #[derive(Debug, Clone, Copy)]
-enum NumSwitch {
+enum NumSwitch<'a> {
     /// Linear in the state.
     Lin(EventFn<4>),
-    /// Slip interruption for a nonlinear law: h = g(dir·ζ2') − threshold.
-    Friction { dir: f64, thr: f64, model: Model },
+    /// Slip interruption for a nonlinear law: h = g(dir·ζ2') − threshold
+    /// (the law's decay taken from the run's memo).
+    Friction {
+        dir: f64,
+        thr: f64,
+        model: Model,
+        memo: &'a Memo,
+    },
 }
 
-impl Switch<Jet<4>> for NumSwitch {
+impl Switch<Jet<4>> for NumSwitch<'_> {
     #[inline]
     fn eval(&self, j: &Jet<4>) -> (f64, f64, f64) {
         match self {
             NumSwitch::Lin(f) => f.eval(j),
-            NumSwitch::Friction { dir, thr, model } => {
+            NumSwitch::Friction {
+                dir,
+                thr,
+                model,
+                memo,
+            } => {
                 let u = dir * j.x[3];
                 let (du, ddu) = (dir * j.dx[3], dir * j.ddx[3]);
-                let (g, g1, g2) = model.law.sliding_jet(u.max(0.0));
+                let v = u.max(0.0);
+                let (g, g1, g2) = model.law.sliding_jet_with(v, memo.decay(&model.law, v));
                 (g - thr, g1 * du, g2 * du * du + g1 * ddu)
             }
         }
+    }
+}
+
+/// What a run evaluates repeatedly at one argument, kept from the last
+/// evaluation: the drive at a time (a step's last two stages, the jet at
+/// its end and the next step's start share the time t + h; a harmonic
+/// drive's angle as its sine and cosine, the anchor of the next step's
+/// stages) and the law's decay ([`crate::model::Law::decay`]) at a speed
+/// (the last stage, the jet's rate and slope and the interruption function
+/// share the end state's ζ2'). The values are those of a fresh evaluation
+/// (the drive's position from `eval` is the one `position` gives: the same
+/// cosine).
+#[derive(Debug)]
+struct Memo {
+    drive: Cell<(f64, (f64, f64, f64))>,
+    /// τ and (sin, cos) of a harmonic drive's angle ητ + φ there.
+    phasor: Cell<(f64, (f64, f64))>,
+    decay: Cell<(f64, f64)>,
+}
+
+/// `CIS_RADIUS[m]`: the largest |w| for which the Taylor polynomials of
+/// cos w to degree 2m and of sin w to degree 2m + 1 are within 2⁻⁵⁶ of them
+/// (alternating series: the first omitted term, |w|^{2m+2}/(2m+2)!, bounds
+/// the error). Rounded down.
+const CIS_RADIUS: [f64; 10] = [
+    5.26e-9, 1.35e-4, 4.64e-3, 2.94e-2, 9.33e-2, 0.208, 0.377, 0.601, 0.874, 1.19,
+];
+
+/// (−1)^k/(2k)! and (−1)^k/(2k+1)!, k = 0..=9: the Taylor coefficients of
+/// cos and sin (in w², sin's times w).
+const COS_SIN_COEF: [(f64, f64); 10] = {
+    let mut c = [(1.0, 1.0); 10];
+    let mut f = 1.0; // (2k)!
+    let mut k = 1;
+    while k < 10 {
+        f *= (2 * k - 1) as f64 * (2 * k) as f64;
+        let sign = if k % 2 == 1 { -1.0 } else { 1.0 };
+        c[k] = (sign / f, sign / (f * (2 * k + 1) as f64));
+        k += 1;
+    }
+    c
+};
+
+/// The degree index m of [`cis`] for arguments up to |w| (None beyond
+/// `CIS_RADIUS[9]`).
+#[inline]
+fn cis_degree(w: f64) -> Option<usize> {
+    let w = w.abs();
+    CIS_RADIUS.iter().position(|&r| w <= r)
+}
+
+/// cos w and sin w from their Taylor polynomials of degree 2m and 2m + 1
+/// (Horner's rule in w²), for |w| ≤ `CIS_RADIUS[m]`.
+#[inline(always)]
+fn cis(w: f64, m: usize) -> (f64, f64) {
+    let w2 = w * w;
+    let (mut c, mut s) = COS_SIN_COEF[m];
+    for &(cc, sc) in COS_SIN_COEF[..m].iter().rev() {
+        c = c * w2 + cc;
+        s = s * w2 + sc;
+    }
+    (c, s * w)
+}
+
+impl Memo {
+    fn new() -> Self {
+        Self {
+            drive: Cell::new((f64::NAN, (0.0, 0.0, 0.0))),
+            phasor: Cell::new((f64::NAN, (0.0, 0.0))),
+            decay: Cell::new((f64::NAN, 0.0)),
+        }
+    }
+
+    /// sin and cos of a harmonic drive's angle ητ + φ.
+    #[inline]
+    fn phasor(&self, eta: f64, phase: f64, tau: f64) -> (f64, f64) {
+        let (t, v) = self.phasor.get();
+        if t == tau {
+            return v;
+        }
+        let v = (eta * tau + phase).sin_cos();
+        self.phasor.set((tau, v));
+        v
+    }
+
+    /// The drive's ζ0, ζ0', ζ0'' at τ.
+    #[inline]
+    fn drive(&self, drive: &Drive, tau: f64) -> (f64, f64, f64) {
+        if let Drive::Harmonic {
+            eta,
+            phase,
+            amplitude,
+        } = *drive
+        {
+            // (Drive::eval's expressions.)
+            let (s, c) = self.phasor(eta, phase, tau);
+            return (
+                amplitude * c,
+                -amplitude * eta * s,
+                -amplitude * eta * eta * c,
+            );
+        }
+        let (t, v) = self.drive.get();
+        if t == tau {
+            return v;
+        }
+        let v = drive.eval(tau);
+        self.drive.set((tau, v));
+        v
+    }
+
+    /// A harmonic drive's position at τ0 + d from its phasor at τ0
+    /// (`anchor`: sine and cosine there) by angle addition, e^{iηd} from
+    /// its Taylor polynomial of degree index `m` (see [`cis`]; |ηd| must be
+    /// within `CIS_RADIUS[m]`): a few ε from the cosine at τ0 + d (whose
+    /// argument alone is rounded by ε·|ητ|). Other drives (or m = None):
+    /// the drive's position at `tau` = τ0 + d.
+    #[inline(always)]
+    fn position_near(drive: &Drive, anchor: (f64, f64), m: Option<usize>, tau: f64, d: f64) -> f64 {
+        if let (Drive::Harmonic { eta, amplitude, .. }, Some(m)) = (drive, m) {
+            let (c, s) = cis(eta * d, m);
+            let (s0, c0) = anchor;
+            return amplitude * (c0 * c - s0 * s);
+        }
+        drive.position(tau)
+    }
+
+    /// The law's decay at speed v.
+    #[inline]
+    fn decay(&self, law: &crate::model::Law, v: f64) -> f64 {
+        if let crate::model::Law::Linear { .. } = law {
+            return 1.0;
+        }
+        let (w, e) = self.decay.get();
+        if w == v {
+            return e;
+        }
+        let e = law.decay(v);
+        self.decay.set((v, e));
+        e
     }
 }
 
@@ -129,13 +282,13 @@ impl NumericSim {
         }
     }
 
-    fn rhs(&self, mode: Mode, t: f64, x: &[f64; 4]) -> [f64; 4] {
-        self.rhs_at(mode, self.drive.position(t), x)
+    fn rhs(&self, mode: Mode, t: f64, x: &[f64; 4], memo: &Memo) -> [f64; 4] {
+        self.rhs_at(mode, self.drive.position(t), x, memo)
     }
 
     /// The right-hand side for the drive's position z0.
     #[inline]
-    fn rhs_at(&self, mode: Mode, z0: f64, x: &[f64; 4]) -> [f64; 4] {
+    fn rhs_at(&self, mode: Mode, z0: f64, x: &[f64; 4], memo: &Memo) -> [f64; 4] {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
         match mode {
@@ -147,7 +300,7 @@ impl NumericSim {
             ],
             Mode::Slip { dir } => {
                 let a1 = (k * z0 - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
-                let fric = self.friction(dir, x[3]);
+                let fric = self.friction(dir, x[3], memo);
                 [x[1], a1, x[3], d * (x[1] - x[3]) + x[0] - x[2] - fric]
             }
         }
@@ -155,20 +308,22 @@ impl NumericSim {
 
     /// Friction force on M2 in a slip of direction `dir` at velocity v.
     #[inline]
-    fn friction(&self, dir: f64, v: f64) -> f64 {
-        if self.model.law.is_frictionless() {
-            self.model.law.slope() * v
+    fn friction(&self, dir: f64, v: f64, memo: &Memo) -> f64 {
+        let law = &self.model.law;
+        if law.is_frictionless() {
+            law.slope() * v
         } else {
-            dir * self.model.law.sliding((dir * v).max(0.0))
+            let u = (dir * v).max(0.0);
+            dir * law.sliding_with(u, memo.decay(law, u))
         }
     }
 
-    fn jet(&self, mode: Mode, t: f64, x: [f64; 4]) -> Jet<4> {
+    fn jet(&self, mode: Mode, t: f64, x: [f64; 4], memo: &Memo) -> Jet<4> {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
         // One drive evaluation for the rate and its derivative.
-        let (z0, dz0, _) = self.drive.eval(t);
-        let dx = self.rhs_at(mode, z0, &x);
+        let (z0, dz0, _) = memo.drive(&self.drive, t);
+        let dx = self.rhs_at(mode, z0, &x, memo);
         let ddx = match mode {
             Mode::Stick { .. } => [
                 dx[1],
@@ -181,7 +336,9 @@ impl NumericSim {
                 let dfric = if self.model.law.is_frictionless() {
                     self.model.law.slope() * dx[3]
                 } else {
-                    self.model.law.sliding_slope((dir * x[3]).max(0.0)) * dx[3]
+                    let law = &self.model.law;
+                    let u = (dir * x[3]).max(0.0);
+                    law.sliding_slope_with(u, memo.decay(law, u)) * dx[3]
                 };
                 [dx[1], da1, dx[3], d * (dx[1] - dx[3]) + x[1] - x[3] - dfric]
             }
@@ -189,7 +346,7 @@ impl NumericSim {
         Jet { x, dx, ddx }
     }
 
-    fn switches(&self, mode: Mode) -> ([NumSwitch; 2], usize) {
+    fn switches<'a>(&self, mode: Mode, memo: &'a Memo) -> ([NumSwitch<'a>; 2], usize) {
         let law = &self.model.law;
         let rho_s = law.rho_s();
         let d = self.model.absorber.damping;
@@ -219,6 +376,7 @@ impl NumericSim {
                     dir,
                     thr: self.thr,
                     model: self.model,
+                    memo,
                 };
                 if law.is_frictionless() {
                     ([end, stop], 0)
@@ -265,7 +423,8 @@ impl NumericSim {
         let (mut t, mut n, mut events, mut stick_time) = (0.0f64, 0u64, 0u64, 0.0);
         let mut stats = PeriodStats::new_at(&x);
         let mut h = self.ode.h_max * 0.1;
-        let mut f0 = self.rhs(mode, t, &x);
+        let memo = Memo::new();
+        let mut f0 = self.rhs(mode, t, &x, &memo);
         let mut instant = 0u32;
         let mut carry: Option<Jet<4>> = None;
         // Events are counted per forcing period (per 2π/fastest drive
@@ -297,7 +456,7 @@ impl NumericSim {
                     if ts > t * (1.0 + 8.0 * f64::EPSILON) {
                         break;
                     }
-                    let j = self.jet(mode, t, x);
+                    let j = self.jet(mode, t, x, &memo);
                     obs.sample(ts, &x, &j.dx);
                     pending = obs.next_sample();
                 }
@@ -315,18 +474,28 @@ impl NumericSim {
                 continue;
             }
             // Dormand–Prince's last two stages (and the FSAL derivative)
-            // share the time t + h: the drive there is evaluated once.
-            let memo = std::cell::Cell::new((f64::NAN, 0.0));
-            let f = |tt: f64, y: &[f64; 4]| {
-                let (mt, mz) = memo.get();
-                let z0 = if tt == mt {
-                    mz
+            // share the time t + h with the jet at the step's end: the
+            // drive there is evaluated once (with its rate, for the jet).
+            // The stages within the step take a harmonic drive from its
+            // phasor at t (the last step's end: no transcendental), with
+            // the polynomial degree of the attempt's step h set at its
+            // first stage (t + h/5: every stage is within η·h).
+            let (anchor, eta) = match self.drive {
+                Drive::Harmonic { eta, phase, .. } => (memo.phasor(eta, phase, t), eta),
+                _ => ((0.0, 0.0), f64::NAN),
+            };
+            let deg = Cell::new(None);
+            let f = |stage: usize, tt: f64, y: &[f64; 4]| {
+                let z0 = if stage >= 6 {
+                    memo.drive(&self.drive, tt).0
                 } else {
-                    let z = self.drive.position(tt);
-                    memo.set((tt, z));
-                    z
+                    let d = tt - t;
+                    if stage == 2 {
+                        deg.set(cis_degree(eta * d * 5.0));
+                    }
+                    Memo::position_near(&self.drive, anchor, deg.get(), tt, d)
                 };
-                self.rhs_at(mode, z0, y)
+                self.rhs_at(mode, z0, y, &memo)
             };
             let Some((step, h_next)) = self.ode.step(&f, t, &x, &f0, h, boundary) else {
                 return end(
@@ -360,9 +529,11 @@ impl NumericSim {
             // mode, time and state) unless an event intervened.
             let eval = |d: f64| match carry {
                 Some(j) if d == 0.0 => j,
-                _ => self.jet(mode, t0 + d, state(d)),
+                _ => self.jet(mode, t0 + d, state(d), &memo),
             };
-            let (fns, nf) = self.switches(mode);
+            let (fns, nf) = self.switches(mode, &memo);
+            // Samples within the step: the drive from the phasor at t0.
+            let deg = cis_degree(eta * step.h);
             let (hit, jb) = events::first_event(
                 &eval,
                 eval,
@@ -381,7 +552,8 @@ impl NumericSim {
                         // State and rate only (no second derivative).
                         let d = (ts - t0).max(a);
                         let y = state(d);
-                        obs.sample(ts, &y, &self.rhs(mode, t0 + d, &y));
+                        let z0 = Memo::position_near(&self.drive, anchor, deg, t0 + d, d);
+                        obs.sample(ts, &y, &self.rhs_at(mode, z0, &y, &memo));
                         pending = obs.next_sample();
                     }
                 },
@@ -411,7 +583,7 @@ impl NumericSim {
                     }
                     t = t0 + hit.delta;
                     carry = None;
-                    let (z0, _, _) = self.drive.eval(t);
+                    let (z0, _, _) = memo.drive(&self.drive, t);
                     match apply(
                         switch(&self.model, mode, hit.which, &hit.jet.x, z0, t),
                         t,
@@ -433,7 +605,7 @@ impl NumericSim {
                             x = xn;
                             mode = next;
                             stats.add(x[0], x[2]);
-                            f0 = self.rhs(mode, t, &x);
+                            f0 = self.rhs(mode, t, &x, &memo);
                             h = h.min(h_next).max(self.ode.h_max * 1e-3);
                             if t >= window_end {
                                 window_end = ((t / window).floor() + 1.0) * window;
@@ -457,6 +629,46 @@ impl NumericSim {
                         }
                     }
                 }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The Taylor cosine and sine agree with libm's to a few ε over each
+    /// degree's radius, and the harmonic drive taken from a phasor by angle
+    /// addition with its position.
+    #[test]
+    fn cis_matches_libm() {
+        for m in 0..CIS_RADIUS.len() {
+            let r = CIS_RADIUS[m];
+            for k in -100..=100 {
+                let w = r * (k as f64 / 100.0);
+                assert_eq!(cis_degree(w).map(|d| d <= m), Some(true));
+                let (c, s) = cis(w, m);
+                assert!((c - w.cos()).abs() <= 4.0 * f64::EPSILON, "cos {m} {w}");
+                assert!((s - w.sin()).abs() <= 4.0 * f64::EPSILON, "sin {m} {w}");
+            }
+        }
+        assert_eq!(cis_degree(1.2), None);
+        let drive = Drive::Harmonic {
+            eta: 0.83,
+            phase: 0.4,
+            amplitude: 1.3,
+        };
+        let memo = Memo::new();
+        for t0 in [0.0, 3.7, 151.2] {
+            let anchor = memo.phasor(0.83, 0.4, t0);
+            for k in 0..=50 {
+                let d = k as f64 / 50.0 / 0.83;
+                let z = Memo::position_near(&drive, anchor, cis_degree(0.83 * d), t0 + d, d);
+                let exact = drive.position(t0 + d);
+                // (The argument's rounding: ε·|ητ|.)
+                let tol = 8.0 * f64::EPSILON * (1.0 + 0.83 * (t0 + d));
+                assert!((z - exact).abs() <= tol, "{t0} {d}: {z} {exact}");
             }
         }
     }

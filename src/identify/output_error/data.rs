@@ -25,6 +25,10 @@ pub(super) struct Data {
     pub(super) x0: Vec<f64>,
     pub(super) anchors: Vec<Anchor>,
     pub(super) segs: Vec<(usize, usize)>,
+    /// The compared samples of each segment: every stride-th sample after
+    /// its start, up to its end, where x1 and x2 are both measured; their
+    /// index and dimensionless time τ = (t − t_start)·ω from the start.
+    pub(super) compared: Vec<Vec<(usize, f64)>>,
     /// Drive amplitude, frequency (Hz) and phase of `A·cos(2πf·t − φ)`.
     pub(super) a: f64,
     pub(super) freq: f64,

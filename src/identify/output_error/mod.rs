@@ -359,7 +359,6 @@ fn m1_sums(
 pub struct Refinement {
     data: Data,
     rig: Rig,
-    stride: usize,
     max_iters: u64,
     never_sticks: bool,
     evals: std::cell::Cell<usize>,
@@ -400,6 +399,19 @@ impl Refinement {
                 segs.len()
             ));
         }
+        let stride = opts.stride.max(1);
+        let omega = rig.omega_ref();
+        let compared = segs
+            .iter()
+            .map(|&(k0, k1)| {
+                let (i, end) = (anchors[k0].i, anchors[k1].i);
+                (i + stride..=end)
+                    .step_by(stride)
+                    .filter(|&j| c.x1[j].is_finite() && c.x2[j].is_finite())
+                    .map(|j| (j, (c.t[j] - c.t[i]) * omega))
+                    .collect()
+            })
+            .collect();
         let w_d = 2.0 * PI * c.drive.frequency_hz;
         let harmonic = |t: f64| c.drive.amplitude_m * (w_d * t - c.drive.phase_rad).cos();
         let (mut sums, cnt) = m1_sums(c, rig, &a1, &v1s, &v2p, &harmonic);
@@ -453,6 +465,7 @@ impl Refinement {
             x0: x0c,
             anchors,
             segs,
+            compared,
             a: c.drive.amplitude_m,
             freq: c.drive.frequency_hz,
             phase: c.drive.phase_rad,
@@ -476,9 +489,8 @@ impl Refinement {
                 },
                 k1: rig.k1_n_per_m,
                 k2: rig.k2_n_per_m,
-                omega: rig.omega_ref(),
+                omega,
             },
-            stride: opts.stride.max(1),
             max_iters: opts.max_iters,
             never_sticks: seg.never_sticks(),
             evals: std::cell::Cell::new(0),
@@ -496,7 +508,6 @@ impl Refinement {
             rig: self.rig,
             kind,
             never_sticks: self.never_sticks,
-            stride: self.stride,
             evals: &self.evals,
             sticks: std::cell::Cell::new((0, 0)),
             idx: std::cell::RefCell::new(None),

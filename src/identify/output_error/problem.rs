@@ -19,7 +19,6 @@ pub(super) struct Problem<'a> {
     pub(super) rig: Rig,
     pub(super) kind: LawKind,
     pub(super) never_sticks: bool,
-    pub(super) stride: usize,
     pub(super) evals: &'a std::cell::Cell<usize>,
     /// Simulated stick samples and stick runs since the last reset.
     pub(super) sticks: std::cell::Cell<(usize, usize)>,
@@ -146,7 +145,6 @@ impl Problem<'_> {
         Segments {
             d: self.d,
             rig: self.rig,
-            stride: self.stride,
         }
     }
 
@@ -404,7 +402,6 @@ fn free(d: &Data, k: usize) -> &'static [[f64; 4]] {
 pub(super) struct Segments<'a> {
     d: &'a Data,
     rig: Rig,
-    stride: usize,
 }
 
 /// One segment's simulation besides its residuals.
@@ -463,19 +460,19 @@ impl Segments<'_> {
         let (k0, k1) = d.segs[k];
         let i = d.anchors[k0].i;
         let end = d.anchors[k1].i;
+        let list = &d.compared[k];
+        buf.reserve(2 * list.len());
         let mut obs = Collect {
             d,
             omega: w,
-            i0: i,
-            next: i + self.stride,
-            end,
-            stride: self.stride,
+            list,
+            pos: 0,
             g: cx.g,
             off: cx.off,
             buf,
             sticks: (0, 0),
             sticking: false,
-            idx: want_idx.then(Vec::new),
+            idx: want_idx.then(|| Vec::with_capacity(list.len())),
         };
         let dur = (d.t[end] - d.t[i]) * w;
         let phase = 2.0 * PI * d.freq * d.t[i] - d.phase;
@@ -521,10 +518,10 @@ impl Segments<'_> {
 pub(super) struct Collect<'a, 'o> {
     pub(super) d: &'a Data,
     pub(super) omega: f64,
-    pub(super) i0: usize,
-    pub(super) next: usize,
-    pub(super) end: usize,
-    pub(super) stride: usize,
+    /// The segment's compared samples ([`Data::compared`]) and the next
+    /// one's position in it.
+    pub(super) list: &'a [(usize, f64)],
+    pub(super) pos: usize,
     pub(super) g: (f64, f64),
     pub(super) off: (f64, f64),
     pub(super) buf: &'o mut Vec<f64>,
@@ -539,19 +536,11 @@ pub(super) struct Collect<'a, 'o> {
 
 impl Observer for Collect<'_, '_> {
     fn next_sample(&mut self) -> Option<f64> {
-        let d = self.d;
-        while self.next <= self.end {
-            let j = self.next;
-            if d.x1[j].is_finite() && d.x2[j].is_finite() {
-                return Some((d.t[j] - d.t[self.i0]) * self.omega);
-            }
-            self.next += self.stride;
-        }
-        None
+        self.list.get(self.pos).map(|&(_, tau)| tau)
     }
     fn sample(&mut self, _tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
         let d = self.d;
-        let j = self.next;
+        let j = self.list[self.pos].0;
         self.buf
             .push((d.x1[j] / self.g.0 - self.off.0 - d.a * x[0]) / d.sig.0);
         self.buf
@@ -567,7 +556,7 @@ impl Observer for Collect<'_, '_> {
         if let Some(v) = self.idx.as_mut() {
             v.push((j, d.a * self.omega * self.omega * dx[3]));
         }
-        self.next += self.stride;
+        self.pos += 1;
     }
     fn wants_extremes(&self) -> bool {
         false
