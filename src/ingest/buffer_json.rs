@@ -187,68 +187,10 @@ fn is_ws(c: u8) -> bool {
     matches!(c, b' ' | b'\n' | b'\t' | b'\r')
 }
 
-/// Values [`values`] gathers on the stack before appending them to the
-/// output vector (so the hot loop keeps its state in registers instead of
-/// updating the vector's length in memory for every value).
-const STAGE: usize = 64;
-
-/// The DAQ's usual number at `b[i]`, `-?D(.F{1,7})?(e-DD)?` right before
-/// its separator (`,` or `]`), read from one 16-byte window (not near the
-/// payload's end): its value, the index past the separator and whether the
-/// separator closed the array. The mantissa `D F..F` (at most 8 digits,
-/// exact) comes from one word-at-a-time conversion and the value from one
-/// correctly rounded division by 10^(n + e) (n + e <= 22, Clinger's
-/// range), as [`number_short`] computes it. `None` for anything else,
-/// which the caller reads the general way.
-#[inline(always)]
-fn number_window(b: &[u8], i: usize) -> Option<(f64, usize, bool)> {
-    let negative = b.get(i) == Some(&b'-');
-    let j = i + usize::from(negative);
-    let w = b.get(j..)?.first_chunk::<16>()?;
-    let lo = u64::from_le_bytes([w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7]]);
-    let hi = u64::from_le_bytes([w[8], w[9], w[10], w[11], w[12], w[13], w[14], w[15]]);
-    let d0 = digit_values(lo) & 0xff;
-    if d0 > 9 {
-        return None;
-    }
-    // The 8 bytes after the point: fraction digits, then what follows.
-    let f = digit_values((lo >> 16) | (hi << 48));
-    let (n, p) = if (lo >> 8) as u8 == b'.' {
-        let n = digit_run(f);
-        if n.wrapping_sub(1) >= 7 {
-            return None; // no fraction digit (invalid), or 8 or more
-        }
-        (n, 2 + n)
-    } else {
-        (0, 1)
-    };
-    // p <= 9: the exponent and separator lie within the window.
-    let (mut c, mut e, mut len) = (w[p & 15], 0, p);
-    if c == b'e' && w[(p + 1) & 15] == b'-' {
-        let e1 = w[(p + 2) & 15].wrapping_sub(b'0');
-        let e2 = w[(p + 3) & 15].wrapping_sub(b'0');
-        if e1 <= 9 && e2 <= 9 {
-            e = usize::from(e1) * 10 + usize::from(e2);
-            c = w[(p + 4) & 15];
-            len = p + 4;
-        }
-    }
-    if !(c == b',' || c == b']') || n + e > 22 {
-        return None;
-    }
-    // D then the n fraction digits (the bytes after them drop out).
-    let m = digits_value((f << 8) | d0, n + 1);
-    let x = m as i64 as f64 / POW10[n + e];
-    let x = f64::from_bits(x.to_bits() | u64::from(negative) << 63);
-    Some((x, j + len + 1, c == b']'))
-}
-
 /// The `value` array starting at `b[i]`: appends its values times `scale`
 /// (NaN for `null`) to `out` and returns the index just past it. A
 /// function of its own, on locals, for a tight loop; `SCALED`: whether to
-/// multiply by `scale`. Runs of usual numbers ([`number_window`]) are read
-/// by an inner loop without calls into a stack stage; anything else
-/// (nulls, whitespace, other numbers) by the outer loop.
+/// multiply by `scale`.
 #[inline(never)]
 fn values<const SCALED: bool>(
     b: &[u8],
@@ -269,29 +211,52 @@ fn values<const SCALED: bool>(
     if b.get(i) == Some(&b']') {
         return Some(i + 1);
     }
-    let mut stage = [0.0f64; STAGE];
     loop {
-        let (mut k, mut closed) = (0, false);
-        while k < STAGE {
-            let Some((x, next, last)) = number_window(b, i) else {
-                break;
-            };
-            stage[k] = if SCALED { x * scale } else { x };
-            k += 1;
-            i = next;
-            if last {
-                closed = true;
-                break;
+        let c = *b.get(i)?;
+        // The DAQ's usual number, -?D.F{1,7} right before the separator,
+        // from one 16-byte window (not near the payload's end): the same
+        // mantissa and division as `number_short`'s, and the separator
+        // read from the fraction's word.
+        let negative = c == b'-';
+        let j = i + usize::from(negative);
+        if let Some(w) = b.get(j..).and_then(<[u8]>::first_chunk::<16>) {
+            let d0 = w[0].wrapping_sub(b'0');
+            let f = digit_values(u64::from_le_bytes([
+                w[2], w[3], w[4], w[5], w[6], w[7], w[8], w[9],
+            ]));
+            let n = digit_run(f);
+            if d0 <= 9 && w[1] == b'.' && (1..8).contains(&n) {
+                // Then the separator, or a negative two-digit exponent and
+                // the separator (`9.6e-05`); the power of ten 10^(n + e) is
+                // within Clinger's range (n + e <= 22 is checked).
+                let (e, end) = match w[2 + n] {
+                    sep @ (b',' | b']') => (0, (sep, 3 + n)),
+                    b'e' if w[3 + n] == b'-' => {
+                        let (e1, e2) = (w[4 + n].wrapping_sub(b'0'), w[5 + n].wrapping_sub(b'0'));
+                        let e = usize::from(e1) * 10 + usize::from(e2);
+                        if e1 <= 9 && e2 <= 9 && n + e <= 22 {
+                            (e, (w[6 + n], 7 + n))
+                        } else {
+                            (0, (0, 0))
+                        }
+                    }
+                    _ => (0, (0, 0)),
+                };
+                let (sep, len) = end;
+                if sep == b',' || sep == b']' {
+                    // At most 8 digits: exact in an f64.
+                    let m = u64::from(d0) * POW10_INT[n] + digits_value(f, n);
+                    let x = m as i64 as f64 / POW10[n + e];
+                    let x = f64::from_bits(x.to_bits() | u64::from(negative) << 63);
+                    out.push(if SCALED { x * scale } else { x });
+                    i = j + len;
+                    if sep == b']' {
+                        return Some(i);
+                    }
+                    continue;
+                }
             }
         }
-        out.extend_from_slice(&stage[..k]);
-        if closed {
-            return Some(i);
-        }
-        if k == STAGE {
-            continue;
-        }
-        let c = *b.get(i)?;
         let x = if c == b'n' {
             if b.get(i..i + 4)? != b"null" {
                 return None;
@@ -699,50 +664,6 @@ mod tests {
         #[test]
         fn agrees_with_serde_json(values in proptest::collection::vec(number(), 0..12)) {
             agrees(&buffer(&values));
-        }
-
-        /// Arrays longer than the stack stage (several flushes), in the
-        /// DAQ's forms and others, with whitespace now and then.
-        #[test]
-        fn long_arrays_agree_with_serde_json(
-            values in proptest::collection::vec(
-                prop_oneof![
-                    4 => "-?[0-9]\\.[0-9]{1,8}",
-                    1 => "-?[0-9]\\.[0-9]{1,3}e-[0-9]{2}",
-                    1 => number(),
-                ],
-                0..300,
-            ),
-            ws in proptest::collection::vec(0u8..40, 0..300),
-        ) {
-            let with_ws: Vec<String> = values
-                .iter()
-                .zip(ws.iter().chain(std::iter::repeat(&0)))
-                .map(|(v, &w)| match w {
-                    0 => format!(" {v}"),
-                    1 => format!("{v}\n"),
-                    _ => v.clone(),
-                })
-                .collect();
-            agrees(&buffer(&values));
-            agrees(&buffer(&with_ws));
-        }
-
-        /// Scaled values are the unscaled ones times the scale, whatever
-        /// route each value took.
-        #[test]
-        fn scaled_values_are_scaled_exactly(
-            values in proptest::collection::vec(number(), 0..150),
-            scale in prop_oneof![Just(1e-3), Just(1e-6), Just(0.0254), Just(9.80665), any::<f64>()],
-        ) {
-            let text = buffer(&values);
-            let (mut plain, mut scaled) = (Vec::new(), Vec::new());
-            let a = parse_buffer(text.as_bytes(), 1.0, &mut plain);
-            let b = parse_buffer(text.as_bytes(), scale, &mut scaled);
-            prop_assert_eq!(a, b);
-            let want: Vec<u64> = plain.iter().map(|x| (x * scale).to_bits()).collect();
-            let got: Vec<u64> = scaled.iter().map(|x| x.to_bits()).collect();
-            prop_assert_eq!(got, want);
         }
 
         #[test]
