@@ -676,8 +676,14 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
         if i64::try_from(base).is_ok() && i64::try_from(last).is_ok() {
             // The same integers in i64 (an i64 converts to the same f64 as
             // the i128 of equal value, and much faster).
-            let (base, dt) = (base as i64, dt as i64);
-            t.extend((0..n as i64).map(|i| base.wrapping_add(i.wrapping_mul(dt)) as f64 * 1e-9));
+            // Each time from the one before by one addition (the same
+            // integers as base + i * dt, without a multiplication each).
+            let (mut ns, dt) = (base as i64, dt as i64);
+            t.extend((0..n).map(|_| {
+                let s = ns as f64 * 1e-9;
+                ns = ns.wrapping_add(dt);
+                s
+            }));
         } else {
             for i in 0..n {
                 let ns = base + i as i128 * dt as i128;

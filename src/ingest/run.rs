@@ -23,6 +23,7 @@
 
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
 use rayon::prelude::*;
+use std::cmp::Ordering;
 use std::path::{Path, PathBuf};
 
 /// The longest run of missing samples that resampling bridges by linear
@@ -402,12 +403,14 @@ fn strictly_increasing_finite(t: &[f64]) -> bool {
 
 /// How many of `v` are finite, and how many infinite (one pass).
 fn count_finite_infinite(v: &[f64]) -> (usize, usize) {
-    v.iter().fold((0, 0), |(finite, infinite), x| {
+    // Every value is finite, infinite or NaN: two counts give the third.
+    let (nan, infinite) = v.iter().fold((0, 0), |(nan, infinite), x| {
         (
-            finite + usize::from(x.is_finite()),
-            infinite + usize::from(x.is_infinite()),
+            nan + usize::from(x.is_nan()),
+            infinite + usize::from(x.abs() == f64::INFINITY),
         )
-    })
+    });
+    (v.len() - nan - infinite, infinite)
 }
 
 /// Refuses a log without a required channel; warns of each optional one
@@ -522,6 +525,7 @@ fn channel_label(c: &RawChannel) -> String {
 }
 
 /// Number of samples missing between two samples `span` apart.
+#[cfg(test)]
 fn missing_between(span: f64, dt: f64) -> usize {
     let n = (span / dt).round() - 1.0;
     if n <= 0.0 {
@@ -616,10 +620,10 @@ fn find_gaps(q: Quantity, t: &[f64], v: &[f64], dt: f64, log_end: f64, gaps: &mu
 /// One pass over the rows. The bracketing valid samples `a` and `b` and
 /// whether the hole between them is bridged are kept in locals, updated as
 /// `b` is passed; past the last valid sample, `b`'s time is +inf (never
-/// passed) and nothing is bridged. An inner loop without calls (so its
-/// state stays in registers) writes rows and passes samples that are valid
-/// and at most 1.25 intervals after the previous one; anything else (nulls,
-/// holes) is passed by the outer loop.
+/// passed) and nothing is bridged. The loops make no calls (the search for
+/// the next valid sample and the bridging test are inline, and the latter
+/// needs no rounding call), so the whole state, `eps` and `quick` stay in
+/// registers.
 pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f64> {
     let n = t.len().min(v.len());
     let (t, v) = (&t[..n], &v[..n]);
@@ -645,65 +649,53 @@ pub(crate) fn interpolate(t: &[f64], v: &[f64], dt: f64, grid: &[f64]) -> Vec<f6
     let (mut ta, mut va) = (t[first], v[first]);
     let (mut b, mut tb, mut vb) = valid_after(t, v, first);
     let mut bridged = b < n && bridges(tb - ta, quick, dt);
-    let mut row = 0;
-    while row < grid.len() {
-        while let (Some(&g), Some(o)) = (grid.get(row), rows.get_mut(row)) {
-            if tb <= g + eps {
-                // Pass b if the sample after it is valid and close.
-                match v.get(b + 1) {
-                    Some(&x) if x.is_finite() && t[b + 1] - tb <= quick => {
-                        (ta, va) = (tb, vb);
-                        (b, tb, vb) = (b + 1, t[b + 1], x);
-                        bridged = true;
-                        continue;
-                    }
-                    _ => break,
+    for (&g, o) in grid.iter().zip(rows.iter_mut()) {
+        // Pass every valid sample at or before this row's time (+ eps).
+        let ge = g + eps;
+        while tb <= ge {
+            (ta, va) = (tb, vb);
+            match (t.get(b + 1), v.get(b + 1)) {
+                // The usual case: the next sample is valid and close.
+                (Some(&tn), Some(&x)) if x.is_finite() && tn - tb <= quick => {
+                    (b, tb, vb) = (b + 1, tn, x);
+                    bridged = true;
+                }
+                _ => {
+                    (b, tb, vb) = valid_after(t, v, b);
+                    bridged = b < n && bridges(tb - ta, quick, dt);
                 }
             }
-            *o = if (g - ta).abs() <= eps {
-                va
-            } else if bridged {
-                let w = (g - ta) / (tb - ta);
-                va + w * (vb - va)
-            } else {
-                f64::NAN // a hole too long, or past the last valid sample
-            };
-            row += 1;
         }
-        // Pass every valid sample at or before this row's time (+ eps);
-        // the inner loop then writes the row.
-        let Some(&g) = grid.get(row) else {
-            break;
+        *o = if (g - ta).abs() <= eps {
+            va
+        } else if bridged {
+            let w = (g - ta) / (tb - ta);
+            va + w * (vb - va)
+        } else {
+            f64::NAN // a hole too long, or past the last valid sample
         };
-        while tb <= g + eps {
-            (ta, va) = (tb, vb);
-            (b, tb, vb) = valid_after(t, v, b);
-            bridged = b < n && bridges(tb - ta, quick, dt);
-        }
     }
     out
 }
 
-/// Whether the hole between valid samples `span` apart is bridged: spans
-/// up to `quick` (1.25 `dt`) inline, the rest by [`bridges_slow`].
+/// Whether the hole between valid samples `span` apart is bridged: under
+/// 1.5 intervals nothing is missing; otherwise `round(span / dt) - 1`
+/// samples are, at most [`MAX_BRIDGE_SAMPLES`] of them while `span / dt`
+/// is below `MAX_BRIDGE_SAMPLES + 1.5` (round halves away from zero). A NaN
+/// ratio counted as 0 missing (`NaN as usize`): bridged.
+/// Spans up to `quick` (1.25 `dt`) need no division.
 #[inline(always)]
 fn bridges(span: f64, quick: f64, dt: f64) -> bool {
-    span <= quick || bridges_slow(span, dt)
-}
-
-/// Whether a hole between valid samples `span` apart is bridged: under
-/// 1.5 intervals nothing is missing (spares `missing_between` its
-/// rounding).
-#[cold]
-#[inline(never)]
-fn bridges_slow(span: f64, dt: f64) -> bool {
-    span / dt < 1.5 || missing_between(span, dt) <= MAX_BRIDGE_SAMPLES
+    const LIMIT: f64 = MAX_BRIDGE_SAMPLES as f64 + 1.5;
+    span <= quick || {
+        let r = span / dt;
+        r < LIMIT || r.is_nan()
+    }
 }
 
 /// The first valid sample after `k` as (index, time, value), or
 /// (`v.len()`, +inf, NaN) if there is none.
-#[cold]
-#[inline(never)]
+#[inline(always)]
 fn valid_after(t: &[f64], v: &[f64], k: usize) -> (usize, f64, f64) {
     match v.iter().skip(k + 1).position(|x| x.is_finite()) {
         Some(i) => (k + 1 + i, t[k + 1 + i], v[k + 1 + i]),
@@ -712,18 +704,32 @@ fn valid_after(t: &[f64], v: &[f64], k: usize) -> (usize, f64, f64) {
 }
 
 /// The setpoint frequency in force at each grid time (NaN before the first).
+///
+/// Setpoint by setpoint: the rows before setpoint `j` takes effect (the
+/// run of rows where `t_s <= g` fails) hold the frequency of `j - 1`, and
+/// are filled at once; the last setpoint holds for the rows left.
 fn step_function(setpoints: &[Setpoint], grid: &[f64]) -> Vec<f64> {
     let mut out = Vec::with_capacity(grid.len());
-    let mut j = 0;
-    for &g in grid {
-        while j < setpoints.len() && setpoints[j].t_s <= g {
-            j += 1;
-        }
-        out.push(if j == 0 {
-            f64::NAN
-        } else {
-            setpoints[j - 1].frequency_hz
-        });
+    let mut row = 0;
+    for j in 0..=setpoints.len() {
+        let value = match j.checked_sub(1) {
+            Some(k) => setpoints[k].frequency_hz,
+            None => f64::NAN,
+        };
+        let rows = match setpoints.get(j) {
+            Some(s) => grid[row..]
+                .iter()
+                .take_while(|&&g| {
+                    !matches!(
+                        s.t_s.partial_cmp(&g),
+                        Some(Ordering::Less | Ordering::Equal)
+                    )
+                })
+                .count(),
+            None => grid.len() - row,
+        };
+        out.resize(row + rows, value);
+        row += rows;
     }
     out
 }
@@ -841,6 +847,81 @@ mod tests {
                 bits(interpolate(&t, &v, dt, &grid)),
                 bits(interpolate_reference(&t, &v, dt, &grid))
             );
+        }
+    }
+
+    /// The previous bridging test (reference): count the missing samples.
+    fn bridges_reference(span: f64, quick: f64, dt: f64) -> bool {
+        span <= quick || span / dt < 1.5 || missing_between(span, dt) <= MAX_BRIDGE_SAMPLES
+    }
+
+    /// The bridging test without rounding agrees with counting the missing
+    /// samples, around every boundary (±1 ulp) and for odd inputs.
+    #[test]
+    fn bridges_agrees_with_counting_the_missing_samples() {
+        let dts = [
+            1e-3,
+            2e-3,
+            4e-3,
+            0.1,
+            1.0,
+            3.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            1e300,
+            f64::INFINITY,
+            f64::NAN,
+            0.0,
+            -1e-3,
+        ];
+        let near = |x: f64| {
+            let b = x.to_bits();
+            [
+                x,
+                f64::from_bits(b.wrapping_add(1)),
+                f64::from_bits(b.wrapping_sub(1)),
+            ]
+        };
+        for dt in dts {
+            let quick = if dt >= f64::MIN_POSITIVE {
+                1.25 * dt
+            } else {
+                0.0
+            };
+            let mut spans = vec![
+                0.0,
+                -0.0,
+                -1.0,
+                1.0,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NAN,
+                1e300,
+                5e-324,
+            ];
+            for r in [
+                1.0, 1.25, 1.5, 2.0, 5.5, 6.0, 6.25, 6.5, 6.75, 7.0, 7.5, 1e20,
+            ] {
+                spans.extend(near(r * dt));
+                spans.extend(near(r).map(|r| r * dt));
+            }
+            for span in spans {
+                assert_eq!(
+                    bridges(span, quick, dt),
+                    bridges_reference(span, quick, dt),
+                    "span {span:e}, dt {dt:e}"
+                );
+            }
+        }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(3000))]
+        #[test]
+        fn bridges_matches_the_reference(r in 0.0f64..10.0, dt in 1e-6f64..10.0) {
+            let quick = 1.25 * dt;
+            let span = r * dt;
+            proptest::prop_assert_eq!(bridges(span, quick, dt), bridges_reference(span, quick, dt));
         }
     }
 
