@@ -96,6 +96,7 @@
 mod adequacy;
 mod data;
 mod intervals;
+mod lm;
 mod problem;
 
 use adequacy::*;
@@ -103,6 +104,7 @@ pub use adequacy::{
     Adequacy, Evidence, Structure, MAX_NOISE_RATIO, MAX_STRUCTURE_EFFECT, MAX_STRUCTURE_Z,
 };
 use data::*;
+pub use lm::Minimiser;
 use problem::*;
 
 use super::contact::{Contact, Gains};
@@ -133,6 +135,8 @@ pub struct OeOptions {
     /// incidental-parameter bias of the estimate (≈ −0.03 % in ρs at one
     /// interval under typical noise, see the module docs) vanishes at 3.
     pub span: usize,
+    /// EXPERIMENT: the minimiser of each pass (`STICKSLIP_OE_MIN`).
+    pub minimiser: Minimiser,
 }
 
 impl Default for OeOptions {
@@ -141,6 +145,7 @@ impl Default for OeOptions {
             stride: 4,
             max_iters: 600,
             span: 3,
+            minimiser: Minimiser::from_env(),
         }
     }
 }
@@ -360,6 +365,7 @@ pub struct Refinement {
     data: Data,
     rig: Rig,
     max_iters: u64,
+    minimiser: Minimiser,
     never_sticks: bool,
     evals: std::cell::Cell<usize>,
 }
@@ -492,6 +498,7 @@ impl Refinement {
                 omega,
             },
             max_iters: opts.max_iters,
+            minimiser: opts.minimiser,
             never_sticks: seg.never_sticks(),
             evals: std::cell::Cell::new(0),
         })
@@ -565,23 +572,44 @@ impl Refinement {
         let mut cost = f64::INFINITY;
         for pass in 0..2 {
             let scale = if pass == 0 { 1.0 } else { 0.3 };
-            let mut simplex = vec![th.clone()];
-            for (k, s) in step.iter().enumerate() {
-                let mut p = th.clone();
-                p[k] += scale * s;
-                simplex.push(p);
+            let steps: Vec<f64> = step.iter().map(|s| scale * s).collect();
+            let e0 = self.evals.get();
+            let (t, c, it) = match self.minimiser {
+                Minimiser::NelderMead => self.nm(&prob, &proj, &th, &steps, self.max_iters)?,
+                Minimiser::Lm => self.lm(&prob, &proj, &th, &steps, self.max_iters)?,
+                Minimiser::Hybrid => {
+                    let (t1, c1, i1) = self.lm(&prob, &proj, &th, &steps, self.max_iters)?;
+                    let e1 = self.evals.get();
+                    let f = lm::env_f64("STICKSLIP_POLISH_STEP", 0.1);
+                    let small: Vec<f64> = steps.iter().map(|s| f * s).collect();
+                    let iters = lm::env_f64("STICKSLIP_POLISH_ITERS", 100.0) as u64;
+                    let (t2, c2, i2) = self.nm(&prob, &proj, &t1, &small, iters)?;
+                    if lm::trace() {
+                        eprintln!(
+                            "  polish {:?} pass {pass}: lm cost {c1:.6} -> nm {c2:.6} ({} evals, {i2} iters)",
+                            kind,
+                            self.evals.get() - e1
+                        );
+                    }
+                    if c2 < c1 {
+                        (t2, c2, i1 + i2)
+                    } else {
+                        (t1, c1, i1 + i2)
+                    }
+                }
+            };
+            if lm::trace() {
+                eprintln!(
+                    "{:?} pass {pass} {:?}: cost {c:.6} iters {it} evals {} th {:?}",
+                    kind,
+                    self.minimiser,
+                    self.evals.get() - e0,
+                    t
+                );
             }
-            let c0 = prob.eval(&th, Some(&proj), None).unwrap_or(1.0);
-            let solver = NelderMead::new(simplex)
-                .with_sd_tolerance(1e-8 * c0.max(1.0))
-                .map_err(|e| e.to_string())?;
-            let res = Executor::new(Cost(&prob, Some(&proj)), solver)
-                .configure(|s| s.max_iters(self.max_iters))
-                .run()
-                .map_err(|e| e.to_string())?;
-            th = res.state.best_param.clone().ok_or("no optimum")?;
-            cost = res.state.best_cost;
-            iterations += res.state.iter;
+            th = t;
+            cost = c;
+            iterations += it;
             if !(cost.is_finite() && cost < 1e299) {
                 return Err("no simulable law found".into());
             }
