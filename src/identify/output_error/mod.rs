@@ -29,7 +29,7 @@
 //!   linearised variable projection: the residual directions of each free
 //!   component (one extra simulation each) are projected out of the
 //!   segment's residuals, and the starts are moved to their least-squares
-//!   values before each Nelder–Mead pass (two passes). Per-segment
+//!   values before each minimisation pass (two passes). Per-segment
 //!   nuisance parameters carry an incidental-parameter bias that shrinks
 //!   with the data per segment: −0.027 % in ρs with one anchor interval per
 //!   segment, +0.004 % (sd 0.025 %) with three (200 synthetic repeats).
@@ -45,10 +45,14 @@
 //! * **Cost**: the squared residuals of x1 and x2, each in units of its
 //!   noise (from second differences), at every `stride`-th sample (4: the
 //!   estimates move by < 0.05 % against every sample), start directions
-//!   projected out. Minimised by Nelder–Mead (argmin, `Vec<f64>`; its
-//!   Gauss–Newton needs a matrix inverse that argmin-math's `vec` backend
-//!   lacks) from the best of the equation-error law and, for the richer
-//!   families, the Coulomb optimum (nested starts).
+//!   projected out. Minimised by Levenberg–Marquardt on the residual
+//!   vector (forward-difference Jacobians; notes in `lm.rs`) from the best of
+//!   the equation-error law and, for the richer families, the Coulomb
+//!   optimum (nested starts). Nelder–Mead on the cost (argmin), the
+//!   minimiser until session 13, stays selectable
+//!   ([`OeOptions::minimiser`]): the same optimum within 0.003 of an
+//!   interval's half-width on every bundled log, with about four times the
+//!   simulations.
 //! * **Family selection**: each simple family (Coulomb, `decreasing`,
 //!   static-dynamic) is refined, static-dynamic also where the
 //!   segmentation saw no stick (from the best of a screen of thresholds
@@ -78,14 +82,15 @@
 //!   the parameters move by `−H⁻¹ Jᵀ Δr` (one simulation per sensor, x0,
 //!   x1, x2, v2; a rectangular bound, σ = |δ|/√3, as in the equation-error
 //!   budget).
-//! * **Cost of a fit**: 0.25–0.45 s per 20-s log in release (three
-//!   families, 1100–1300 evaluations of the cost, each a simulation of the
-//!   22 segments: 2 µs per drive period of the exact engine plus the
-//!   samples). The sampled drive is about 25× slower (5.5 s for an 8-s
+//! * **Cost of a fit**: 0.1–0.2 s per 20-s log in release (three
+//!   families, 220–480 evaluations of the cost with Levenberg–Marquardt,
+//!   960–1390 with Nelder–Mead, each a simulation of the 22 segments: about
+//!   1 µs per drive period of the exact engine plus the samples). The sampled drive is about 25× slower (5.5 s for an 8-s
 //!   log): the numerical engine's step is bounded by the drive's sampling.
 //!   A Stribeck pad costs 6–15 s: the three simple families, then the
 //!   Stribeck family on the numerical engine (no closed form per phase;
-//!   2500 evaluations of seven parameters for `law_stribeck.mcap`).
+//!   560 evaluations of seven parameters for `law_stribeck.mcap`, 2470
+//!   with Nelder–Mead).
 //!
 //! Against the equation-error fit (`fit`), which differentiates noisy
 //! signals and therefore has to smooth them (Rs, Rd within 2 %, ρ within
@@ -128,14 +133,15 @@ pub struct OeOptions {
     /// Compare every `stride`-th sample (positions are smooth: at 1 kHz,
     /// every 4th sample changes the estimates by < 0.05 %).
     pub stride: usize,
-    /// Largest number of Nelder–Mead iterations per family and pass.
+    /// Largest number of iterations (Levenberg–Marquardt Jacobians or
+    /// Nelder–Mead steps) per family and pass.
     pub max_iters: u64,
     /// Anchor intervals per shooting segment (about half a drive period
     /// each). Longer segments carry fewer free start states per datum: the
     /// incidental-parameter bias of the estimate (≈ −0.03 % in ρs at one
     /// interval under typical noise, see the module docs) vanishes at 3.
     pub span: usize,
-    /// EXPERIMENT: the minimiser of each pass (`STICKSLIP_OE_MIN`).
+    /// The minimiser of each pass (Levenberg–Marquardt by default).
     pub minimiser: Minimiser,
 }
 
@@ -145,7 +151,7 @@ impl Default for OeOptions {
             stride: 4,
             max_iters: 600,
             span: 3,
-            minimiser: Minimiser::from_env(),
+            minimiser: Minimiser::default(),
         }
     }
 }
@@ -184,7 +190,8 @@ pub struct FamilyFit {
     pub bic: f64,
     /// RMS residuals of x1, x2 (m).
     pub rms_m: (f64, f64),
-    /// Nelder–Mead iterations.
+    /// Minimiser iterations (Levenberg–Marquardt Jacobians or Nelder–Mead
+    /// steps).
     pub iterations: u64,
     /// Fraction of the compared samples at which the simulated M2 sticks.
     pub stick_fraction: f64,
@@ -544,7 +551,7 @@ impl Refinement {
     }
 
     /// Refines one family from the best of the start points `starts`
-    /// (Nelder–Mead with initial steps `step`), in two passes: the
+    /// (the minimiser with the parameter scales `step`), in two passes: the
     /// start-velocity projection is computed at the start, then again at
     /// the first optimum. Returns θ̂, its cost, the iterations and the
     /// projection the cost refers to.
@@ -573,40 +580,12 @@ impl Refinement {
         for pass in 0..2 {
             let scale = if pass == 0 { 1.0 } else { 0.3 };
             let steps: Vec<f64> = step.iter().map(|s| scale * s).collect();
-            let e0 = self.evals.get();
             let (t, c, it) = match self.minimiser {
                 Minimiser::NelderMead => self.nm(&prob, &proj, &th, &steps, self.max_iters)?,
-                Minimiser::Lm => self.lm(&prob, &proj, &th, &steps, self.max_iters)?,
-                Minimiser::Hybrid => {
-                    let (t1, c1, i1) = self.lm(&prob, &proj, &th, &steps, self.max_iters)?;
-                    let e1 = self.evals.get();
-                    let f = lm::env_f64("STICKSLIP_POLISH_STEP", 0.1);
-                    let small: Vec<f64> = steps.iter().map(|s| f * s).collect();
-                    let iters = lm::env_f64("STICKSLIP_POLISH_ITERS", 100.0) as u64;
-                    let (t2, c2, i2) = self.nm(&prob, &proj, &t1, &small, iters)?;
-                    if lm::trace() {
-                        eprintln!(
-                            "  polish {:?} pass {pass}: lm cost {c1:.6} -> nm {c2:.6} ({} evals, {i2} iters)",
-                            kind,
-                            self.evals.get() - e1
-                        );
-                    }
-                    if c2 < c1 {
-                        (t2, c2, i1 + i2)
-                    } else {
-                        (t1, c1, i1 + i2)
-                    }
+                Minimiser::LevenbergMarquardt => {
+                    self.lm(&prob, &proj, &th, &steps, self.max_iters)?
                 }
             };
-            if lm::trace() {
-                eprintln!(
-                    "{:?} pass {pass} {:?}: cost {c:.6} iters {it} evals {} th {:?}",
-                    kind,
-                    self.minimiser,
-                    self.evals.get() - e0,
-                    t
-                );
-            }
             th = t;
             cost = c;
             iterations += it;
