@@ -1,5 +1,6 @@
 //! Levenberg–Marquardt on the projected residual vector: the minimiser of
-//! each pass of `Refinement::minimise` (Nelder–Mead stays available).
+//! each pass of `Refinement::minimise` (Nelder–Mead, in `mod.rs`, stays
+//! available).
 //!
 //! Jacobians by forward differences with steps of [`FD_STEP`] times the
 //! family's Nelder–Mead steps (the parameters' natural scales; 0.1, 0.3 and
@@ -169,33 +170,6 @@ impl Refinement {
             }
         }
         Ok((th, c, it))
-    }
-
-    /// Nelder–Mead from `th` with simplex steps `steps`.
-    pub(super) fn nm(
-        &self,
-        prob: &Problem<'_>,
-        proj: &Proj,
-        th: &[f64],
-        steps: &[f64],
-        max_iters: u64,
-    ) -> Result<(Vec<f64>, f64, u64), String> {
-        let mut simplex = vec![th.to_vec()];
-        for (k, s) in steps.iter().enumerate() {
-            let mut p = th.to_vec();
-            p[k] += s;
-            simplex.push(p);
-        }
-        let c0 = prob.eval(th, Some(proj), None).unwrap_or(1.0);
-        let solver = NelderMead::new(simplex)
-            .with_sd_tolerance(1e-8 * c0.max(1.0))
-            .map_err(|e| e.to_string())?;
-        let res = Executor::new(Cost(prob, Some(proj)), solver)
-            .configure(|s| s.max_iters(max_iters))
-            .run()
-            .map_err(|e| e.to_string())?;
-        let th = res.state.best_param.clone().ok_or("no optimum")?;
-        Ok((th, res.state.best_cost, res.state.iter))
     }
 }
 

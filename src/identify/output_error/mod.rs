@@ -600,6 +600,33 @@ impl Refinement {
         Ok((th, cost, iterations, proj))
     }
 
+    /// Nelder–Mead from `th` with simplex steps `steps`.
+    fn nm(
+        &self,
+        prob: &Problem<'_>,
+        proj: &Proj,
+        th: &[f64],
+        steps: &[f64],
+        max_iters: u64,
+    ) -> Result<(Vec<f64>, f64, u64), String> {
+        let mut simplex = vec![th.to_vec()];
+        for (k, s) in steps.iter().enumerate() {
+            let mut p = th.to_vec();
+            p[k] += s;
+            simplex.push(p);
+        }
+        let c0 = prob.eval(th, Some(proj), None).unwrap_or(1.0);
+        let solver = NelderMead::new(simplex)
+            .with_sd_tolerance(1e-8 * c0.max(1.0))
+            .map_err(|e| e.to_string())?;
+        let res = Executor::new(Cost(prob, Some(proj)), solver)
+            .configure(|s| s.max_iters(max_iters))
+            .run()
+            .map_err(|e| e.to_string())?;
+        let th = res.state.best_param.clone().ok_or("no optimum")?;
+        Ok((th, res.state.best_cost, res.state.iter))
+    }
+
     /// Refines the families of `starts` (each with its equation-error law),
     /// chooses among them by the criterion unless `forced`, and computes
     /// the chosen law's intervals with the calibration budget `u`.
