@@ -36,29 +36,6 @@ pub enum Minimiser {
     NelderMead,
 }
 
-/// The residual vector whose squared norm is the cost exactly (the
-/// penalty of Rd > Rs folded in: `Σr²(1 + P) + P·n` with P = 1e3·excess,
-/// recovered from the cost and the raw residuals).
-fn residuals(prob: &Problem<'_>, proj: &Proj, th: &[f64]) -> Option<(f64, Vec<f64>)> {
-    let mut r = Res::new();
-    let c = prob.eval(th, Some(proj), Some(&mut r))?;
-    let s: f64 = r.iter().map(|x| x.1 * x.1 + x.2 * x.2).sum();
-    let n = r.len() as f64;
-    let pen = if c - s > 1e-10 * c.max(1.0) {
-        (c - s) / (s + n)
-    } else {
-        0.0
-    };
-    let sf = (1.0 + pen).sqrt();
-    let mut v = Vec::with_capacity(2 * r.len() + 1);
-    for x in &r {
-        v.push(x.1 * sf);
-        v.push(x.2 * sf);
-    }
-    v.push((pen * n).sqrt());
-    Some((c, v))
-}
-
 impl Refinement {
     /// Levenberg–Marquardt (Marquardt's diagonal scaling, Nielsen's
     /// damping update) from `th0`; finite-difference steps `fd·step`.
@@ -72,10 +49,9 @@ impl Refinement {
         max_iters: u64,
     ) -> Result<(Vec<f64>, f64, u64), String> {
         let fail = "the refined law cannot be simulated";
-        let (fd, rtol) = (FD_STEP, RTOL);
         let p = th0.len();
         let mut th = th0.to_vec();
-        let (mut c, mut r) = residuals(prob, proj, &th).ok_or(fail)?;
+        let (mut c, mut r) = prob.residual_vector(&th, proj).ok_or(fail)?;
         let mut lambda = 1e-3;
         let mut nu = 2.0;
         let mut it = 0u64;
@@ -84,15 +60,15 @@ impl Refinement {
             // Jacobian, column by column.
             let mut jac: Vec<Vec<f64>> = Vec::with_capacity(p);
             for j in 0..p {
-                let h = fd * step[j];
+                let h = FD_STEP * step[j];
                 let mut tp = th.clone();
                 tp[j] += h;
                 // Backwards where the forward point cannot be simulated.
-                let (hh, rp) = match residuals(prob, proj, &tp) {
+                let (hh, rp) = match prob.residual_vector(&tp, proj) {
                     Some((_, rp)) if rp.len() == r.len() => (h, rp),
                     _ => {
                         tp[j] = th[j] - h;
-                        match residuals(prob, proj, &tp) {
+                        match prob.residual_vector(&tp, proj) {
                             Some((_, rp)) if rp.len() == r.len() => (-h, rp),
                             _ => return Err(fail.into()),
                         }
@@ -124,13 +100,17 @@ impl Refinement {
                     m[i][i] += lambda;
                 }
                 let b: Vec<f64> = (0..p).map(|i| -g[i] / d[i]).collect();
-                let Some(z) = solve_small(&m, &b) else {
+                // A rejected step: more damping, up to a limit.
+                let mut damp = || {
                     lambda *= nu;
                     nu *= 2.0;
-                    if lambda > 1e12 {
-                        break 'outer;
+                    lambda <= 1e12
+                };
+                let Some(z) = solve_small(&m, &b) else {
+                    if damp() {
+                        continue;
                     }
-                    continue;
+                    break 'outer;
                 };
                 let delta: Vec<f64> = (0..p).map(|i| z[i] / d[i]).collect();
                 if (0..p).all(|i| delta[i].abs() < 1e-9 * step[i]) {
@@ -144,7 +124,7 @@ impl Refinement {
                     }
                 }
                 let tn: Vec<f64> = th.iter().zip(&delta).map(|(t, s)| t + s).collect();
-                match residuals(prob, proj, &tn) {
+                match prob.residual_vector(&tn, proj) {
                     Some((cn, rn)) if cn < c && rn.len() == r.len() => {
                         let rho = (c - cn) / pred.max(1e-300);
                         let rel = (c - cn) / c;
@@ -154,15 +134,13 @@ impl Refinement {
                         lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                         lambda = lambda.max(1e-12);
                         nu = 2.0;
-                        if rel < rtol {
+                        if rel < RTOL {
                             break 'outer;
                         }
                         break;
                     }
                     _ => {
-                        lambda *= nu;
-                        nu *= 2.0;
-                        if lambda > 1e12 {
+                        if !damp() {
                             break 'outer;
                         }
                     }

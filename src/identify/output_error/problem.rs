@@ -240,14 +240,43 @@ impl Problem<'_> {
 
     /// Simulates every segment; returns the sum of squared weighted
     /// residuals, with the start-velocity directions of `proj` projected
-    /// out, and writes the (projected) residuals to `out` if given. None:
-    /// θ cannot be simulated.
+    /// out (penalised where the law's Rd exceeds its Rs, see
+    /// [`PENALTY`]), and writes the (projected) residuals to `out` if
+    /// given. None: θ cannot be simulated.
     pub(super) fn eval(
         &self,
         th: &[f64],
         proj: Option<&Proj>,
-        mut out: Option<&mut Res>,
+        out: Option<&mut Res>,
     ) -> Option<f64> {
+        let (sum, n, p) = self.residual_sum(th, proj, out)?;
+        Some(sum * (1.0 + p) + p * n as f64)
+    }
+
+    /// The residual vector whose squared norm is [`Problem::eval`]'s cost
+    /// exactly (x1, x2 residuals scaled by √(1 + P), then √(P·n) for the
+    /// penalty P), with that cost: what a least-squares minimiser works on.
+    pub(super) fn residual_vector(&self, th: &[f64], proj: &Proj) -> Option<(f64, Vec<f64>)> {
+        let mut r = Res::new();
+        let (sum, n, p) = self.residual_sum(th, Some(proj), Some(&mut r))?;
+        let sf = (1.0 + p).sqrt();
+        let mut v = Vec::with_capacity(2 * r.len() + 1);
+        for x in &r {
+            v.push(x.1 * sf);
+            v.push(x.2 * sf);
+        }
+        v.push((p * n as f64).sqrt());
+        Some((sum * (1.0 + p) + p * n as f64, v))
+    }
+
+    /// [`Problem::eval`]'s parts: the sum of squared residuals, their
+    /// number of sample pairs and the penalty factor P = [`PENALTY`]·excess.
+    fn residual_sum(
+        &self,
+        th: &[f64],
+        proj: Option<&Proj>,
+        mut out: Option<&mut Res>,
+    ) -> Option<(f64, usize, f64)> {
         let cx = self.ctx(th)?;
         let seg = self.segments();
         let want_idx = self.idx.borrow().is_some();
@@ -297,10 +326,14 @@ impl Problem<'_> {
                 o.extend(buf.chunks(2).map(|c| (k as u32, c[0], c[1])));
             }
         }
-        let e = cx.excess;
-        Some(sum * (1.0 + 1e3 * e) + 1e3 * e * n as f64)
+        Some((sum, n, PENALTY * cx.excess))
     }
 }
+
+/// Weight of the penalty on a law whose Rd exceeds its Rs (by the
+/// excess ρd − ρs of `Ctx`, dimensionless): the cost is Σr²·(1 + P) + P·n
+/// with P = PENALTY·excess.
+pub(super) const PENALTY: f64 = 1e3;
 
 /// Change of a start component (dimensionless) for the projection's
 /// finite differences: small against the motion (ζ, ζ' ~ 1), large
