@@ -42,9 +42,14 @@ figures:
     cargo run --release -- sweep --rho-d-ratio 0.5 --plot reports/fig5.svg --out reports/fig5.parquet --title "Fig. 5: rho_d = rho_s/2"
     cargo run --release -- sweep --rho-s 1 --rho-d-ratio 0.5 --direction both --plot reports/coexisting.svg --title "Coexisting stable states: rho_s 1, rho_d 0.5, continued up and down"
 
-# Identification studies: round trips through the virtual rig (200 random
-# logs), repeatability under new sensor draws, the long coverage run.
+# Identification studies: adequacy right both ways (60 in-family logs of
+# four rigs with realistic sensors, docs/measurements.md), round trips
+# through the virtual rig (200 random logs), repeatability under new sensor
+# draws, the long coverage run.
 studies:
+    cargo build --release
+    python3 scripts/adequacy_study.py target/adequacy-study 60
+    python3 scripts/adequacy_eval.py target/adequacy-study target/release/stickslip
     cargo test --release --test fit_synth -- --ignored --nocapture
     cargo test --release --test identify_roundtrip -- --ignored --nocapture
     cargo test --release --test identify_issue14 -- --ignored --nocapture

@@ -441,15 +441,24 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
     let mut buffers = Vec::with_capacity(plan.buffers.len());
     let mut nulls = 0;
     let mut burst = 0u32;
+    // Correlated noise: n_k = a·n_(k−1) + √(1 − a²)·σ·N(0, 1) (stationary σ).
+    let ar = (s.noise_correlation_s > 0.0)
+        .then(|| (-(plan.dt_ns as f64 * 1e-9) / s.noise_correlation_s).exp());
+    let mut n_prev: Option<f64> = None;
     for &(t0, n) in &plan.buffers {
         let mut values = Vec::with_capacity(n);
         for _ in 0..n {
             let y = real.next().expect("one value per sample");
             let noise = if s.noise > 0.0 {
-                s.noise * rng.normal()
+                let e = s.noise * rng.normal();
+                match (ar, n_prev) {
+                    (Some(a), Some(p)) => a * p + (1.0 - a * a).sqrt() * e,
+                    _ => e,
+                }
             } else {
                 0.0
             };
+            n_prev = Some(noise);
             let v = quantise(s.gain * y + s.offset + noise, s.quant);
             if burst == 0 && s.p_dropout > 0.0 && rng.uniform() < s.p_dropout {
                 burst = rng.int(1, i64::from(s.dropout_burst_max)) as u32;

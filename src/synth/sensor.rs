@@ -31,6 +31,12 @@ pub struct SensorModel {
     pub p_dropout: f64,
     /// Longest dropout burst (samples).
     pub dropout_burst_max: u32,
+    /// Correlation time of the noise (s; 0: white). Noise that passed
+    /// the sensor's own filter: a first-order (AR(1)) process with this
+    /// time constant and stationary σ = `noise`, sample to sample
+    /// correlation e^(−dt/τ).
+    #[serde(default)]
+    pub noise_correlation_s: f64,
 }
 
 impl SensorModel {
@@ -51,6 +57,7 @@ impl SensorModel {
             p_lost_buffer: 0.0,
             p_dropout: 0.0,
             dropout_burst_max: 1,
+            noise_correlation_s: 0.0,
         }
     }
 
@@ -148,6 +155,7 @@ impl Sensors {
             p_lost_buffer: 0.005,
             p_dropout: 2e-4,
             dropout_burst_max: 4,
+            noise_correlation_s: 0.0,
         };
         let x0 = s(1000.0, 1.5e-6, 0.5e-6, 0.004, 1.5e-5);
         let x1 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);

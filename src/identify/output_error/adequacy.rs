@@ -32,9 +32,12 @@ pub(super) const BIC_STRONG: f64 = 10.0;
 /// law is said to stick in a log the segmentation called never-sticking.
 pub(super) const MIN_STICK_FRACTION: f64 = 0.005;
 
-/// Largest residual/noise ratio of an adequate law. The noise comes from
-/// second differences, which see white noise only: on the public logs the
-/// right law leaves x2 at 1.2–1.4 times it (correlated sensor noise).
+/// Largest residual/noise ratio of an adequate law. The noise is measured
+/// past its correlation length (`identify::noise`): the right law leaves
+/// 0.93–1.03 of it on the bundled logs and 0.94–1.21 on 60 synth logs of
+/// four rigs with filtered, interpolated sensors (docs/measurements.md).
+/// (Second differences of neighbours, used before, read interpolated or
+/// filtered noise low: the right law then showed 1.2–1.7.)
 pub const MAX_NOISE_RATIO: f64 = 2.0;
 
 /// Largest standardised structure statistic of an adequate law (the

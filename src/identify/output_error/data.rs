@@ -41,6 +41,8 @@ pub(super) struct Data {
     /// The accelerometer (m/s², NaN where it has no data) and its noise,
     /// if the log has one.
     pub(super) a2: Option<(Vec<f64>, f64)>,
+    /// Profile the x1, x2 lags behind the drive out of the residuals.
+    pub(super) delays: bool,
 }
 
 impl Data {

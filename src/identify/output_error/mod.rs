@@ -143,6 +143,11 @@ pub struct OeOptions {
     pub span: usize,
     /// The minimiser of each pass (Levenberg–Marquardt by default).
     pub minimiser: Minimiser,
+    /// Fit the lags of the x1 and x2 records behind the drive (profiled
+    /// out of every evaluation by least squares; see `profile_delays`).
+    /// Off by default: `IdentifyOptions::lag_fallback` turns them on where
+    /// the law without them is not adequate.
+    pub position_delays: bool,
 }
 
 impl Default for OeOptions {
@@ -152,6 +157,7 @@ impl Default for OeOptions {
             max_iters: 600,
             span: 3,
             minimiser: Minimiser::default(),
+            position_delays: false,
         }
     }
 }
@@ -197,6 +203,11 @@ pub struct FamilyFit {
     pub stick_fraction: f64,
     /// Number of simulated stick phases among the compared samples.
     pub stick_runs: usize,
+    /// Lags (s) of the x1 and x2 records behind the drive's time base,
+    /// profiled out of the residuals (0, 0 when not fitted).
+    pub delays_s: (f64, f64),
+    /// Their 95 % intervals (s).
+    pub delays_interval_s: ((f64, f64), (f64, f64)),
 }
 
 /// What the refinement found.
@@ -394,6 +405,20 @@ impl Refinement {
         let per_n = (1.0 / (c.drive.frequency_hz * c.dt)).round().max(8.0) as usize;
         // Initial states of M1: a cubic fit over ±1/20 of a period.
         let h = (per_n / 20).max(3);
+        // Sensor noise of a position record past its correlation length
+        // (interpolation onto the grid, sensor filters): super::noise.
+        // Friction jumps (stick, breakaway, reversal) are kept out of it.
+        let events: Vec<usize> = seg
+            .sticks
+            .iter()
+            .flat_map(|&(a, b)| [a, b])
+            .chain(seg.reversals.iter().map(|r| r.at.round().max(0.0) as usize))
+            .collect();
+        let pos_noise = |x: &[f64]| {
+            let spp = 1.0 / (c.drive.frequency_hz * c.dt);
+            super::noise::position_noise_between_events(x, spp, &events, c.half_window)
+                .map_or_else(|| noise(x), |e| e.sigma)
+        };
         let x1s = savgol(&c.x1, c.dt, h, 3, 0);
         let v1s = savgol(&c.x1, c.dt, h, 3, 1);
         let a1 = savgol(&c.x1, c.dt, h, 3, 2);
@@ -432,7 +457,7 @@ impl Refinement {
         // The drive: the sinusoid if its residual is at the channel's noise
         // level, else the sampled signal (its offset removed; gaps filled
         // by the sinusoid).
-        let x0_noise = noise(x0);
+        let x0_noise = pos_noise(x0);
         let sampled = c.drive.residual_rms_m > 3.0 * x0_noise.max(1e-3 * c.drive.amplitude_m);
         let offset = {
             let r: Vec<f64> = (0..n)
@@ -485,7 +510,8 @@ impl Refinement {
             drive,
             dt: c.dt,
             means: sums.map(|s| s / cn),
-            sig: (noise(&c.x1).max(1e-8), noise(&c.x2).max(1e-8)),
+            delays: opts.position_delays,
+            sig: (pos_noise(&c.x1).max(1e-8), pos_noise(&c.x2).max(1e-8)),
             a2: c
                 .a2_sensor
                 .as_ref()
@@ -525,6 +551,7 @@ impl Refinement {
             evals: &self.evals,
             sticks: std::cell::Cell::new((0, 0)),
             idx: std::cell::RefCell::new(None),
+            delays: std::cell::Cell::new(DelayFit::default()),
         }
     }
 
@@ -817,6 +844,21 @@ impl Refinement {
             prob.sticks.set((0, 0));
             let m = prob.eval(th, Some(proj), None).map_or(0, |_| n);
             let (ss, runs) = prob.sticks.get();
+            let df = prob.delays.get();
+            // 95 % intervals: the variances times the residuals'
+            // correlation time (n / n_eff samples per independent one).
+            let half = |v: f64| 1.96 * (v * n as f64 / n_eff).sqrt();
+            let delays_s = df.lag_s;
+            let delays_interval_s = (
+                (
+                    df.lag_s.0 - half(df.var_s2.0),
+                    df.lag_s.0 + half(df.var_s2.0),
+                ),
+                (
+                    df.lag_s.1 - half(df.var_s2.1),
+                    df.lag_s.1 + half(df.var_s2.1),
+                ),
+            );
             families.push(FamilyFit {
                 law,
                 bias_n: b,
@@ -827,6 +869,8 @@ impl Refinement {
                 iterations: *it,
                 stick_fraction: if m > 0 { ss as f64 / m as f64 } else { 0.0 },
                 stick_runs: runs,
+                delays_s,
+                delays_interval_s,
             });
         }
         families
@@ -1042,10 +1086,45 @@ mod tests {
     }
 
     /// The same, fitted (12 s logged).
+    /// Ideal sensors have no lags: the lags are never fitted here (always
+    /// fitted: `lags_of_an_ideal_log_are_tiny`).
     fn ideal_fit(friction: FrictionSpec) -> (SynthConfig, super::super::LogFit) {
         let (cfg, run) = ideal_run(friction, 12.0);
-        let fit = fit_log(&run, &IdentifyOptions::default()).expect("fit");
+        let mut opts = IdentifyOptions::default();
+        opts.lag_fallback = false;
+        let fit = fit_log(&run, &opts).expect("fit");
         (cfg, fit)
+    }
+
+    /// Fitted on an ideal log (no lag), the lags of x1 and x2 absorb part
+    /// of what the refinement leaves at the 1e-7 m level: measured 13 µs
+    /// and 7 µs on this 12-s log, and ρd then 4.2e-4 below the truth (2e-5
+    /// without lags, `refinement_recovers_a_law_exactly...`). Not yet
+    /// understood (open in docs/measurements.md); bounded here at 50 µs
+    /// and 6e-4 so that a growth of this bias fails.
+    #[test]
+    fn lags_of_an_ideal_log_are_tiny() {
+        let (rs, rd) = (1.68, 1.36);
+        let (cfg, run) = ideal_run(
+            FrictionSpec {
+                rs_n: rs,
+                rd_n: rd,
+                slope_n_s_per_m: 0.0,
+                stribeck_velocity_m_per_s: None,
+            },
+            12.0,
+        );
+        let mut opts = IdentifyOptions::default();
+        opts.oe.position_delays = true;
+        let fit = fit_log(&run, &opts).expect("fit");
+        let o = fit.output_error.as_ref().expect("refined");
+        let (d1, d2) = o.chosen.delays_s;
+        assert!(d1.abs() < 5e-5 && d2.abs() < 5e-5, "{d1:e} {d2:e}");
+        let fs = cfg.rig.drive_amplitude_true_m * cfg.rig.k2_n_per_m;
+        let rho_s = fit.rho_s().expect("rho_s");
+        let rho_d = fit.rho_d().expect("rho_d");
+        assert!((rho_s / (rs / fs) - 1.0).abs() < 6e-4, "{rho_s}");
+        assert!((rho_d / (rd / fs) - 1.0).abs() < 6e-4, "{rho_d}");
     }
 
     /// The numerical engine's path (Stribeck laws) simulates the log as the
@@ -1144,7 +1223,11 @@ mod tests {
             assert!(o.chosen.bias_n.abs() < 1e-3, "bias {}", o.chosen.bias_n);
             // Every interval holds the truth and is narrow.
             let (lo, hi) = fit.rho_s_interval.expect("interval");
-            assert!(lo <= rs / fs && rs / fs <= hi && hi - lo < 1e-3);
+            assert!(
+                lo <= rs / fs && rs / fs <= hi && hi - lo < 1e-3,
+                "{lo} {hi} {}",
+                rs / fs
+            );
         }
     }
 }

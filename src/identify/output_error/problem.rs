@@ -25,6 +25,9 @@ pub(super) struct Problem<'a> {
     /// When set, the sample index of every compared sample is recorded.
     /// Compared samples and the simulated ẍ2 (m/s²) there, when recorded.
     pub(super) idx: std::cell::RefCell<Option<Vec<(usize, f64)>>>,
+    /// The x1, x2 lags profiled out at the last evaluation
+    /// ([`Data::delays`]).
+    pub(super) delays: std::cell::Cell<DelayFit>,
 }
 
 /// Residuals of one evaluation: (segment, r1, r2) per compared sample.
@@ -292,7 +295,24 @@ impl Problem<'_> {
             .into_par_iter()
             .map(|k| {
                 let mut buf = Vec::new();
-                let o = seg.run(&cx, k, inits[k], &mut buf, want_idx);
+                let mut o = seg.run(&cx, k, inits[k], &mut buf, want_idx);
+                // The delay columns (x1's and x2's, over the interleaved
+                // residuals) are projected like the residuals, so that the
+                // delays profiled afterwards are the joint least-squares
+                // ones (Frisch–Waugh).
+                let mut vcols: Vec<Vec<f64>> = if o.vel.len() == buf.len() && !buf.is_empty() {
+                    (0..2)
+                        .map(|c| {
+                            o.vel
+                                .iter()
+                                .enumerate()
+                                .map(|(j, v)| if j % 2 == c { *v } else { 0.0 })
+                                .collect()
+                        })
+                        .collect()
+                } else {
+                    Vec::new()
+                };
                 let mut fits = true;
                 if let (true, Some(p)) = (o.ok, proj) {
                     let SegProj { cols, inv, .. } = &p.segs[k];
@@ -300,19 +320,26 @@ impl Problem<'_> {
                         if cols[0].len() != buf.len() {
                             fits = false;
                         } else {
-                            let b: Vec<f64> = cols.iter().map(|c| dot(c, &buf)).collect();
-                            for (a, ca) in cols.iter().enumerate() {
-                                let coef: f64 = (0..b.len()).map(|j| inv[a][j] * b[j]).sum();
-                                for (r, c) in buf.iter_mut().zip(ca) {
-                                    *r -= coef * c;
+                            for x in std::iter::once(&mut buf).chain(vcols.iter_mut()) {
+                                let b: Vec<f64> = cols.iter().map(|c| dot(c, x)).collect();
+                                for (a, ca) in cols.iter().enumerate() {
+                                    let coef: f64 = (0..b.len()).map(|j| inv[a][j] * b[j]).sum();
+                                    for (r, c) in x.iter_mut().zip(ca) {
+                                        *r -= coef * c;
+                                    }
                                 }
                             }
                         }
                     }
                 }
+                o.vel = vcols.concat();
                 (buf, o, fits)
             })
             .collect();
+        let mut runs = runs;
+        if self.d.delays {
+            self.delays.set(profile_delays(&mut runs));
+        }
         let mut sum = 0.0;
         let mut n = 0usize;
         for (k, (buf, o, fits)) in runs.iter().enumerate() {
@@ -328,6 +355,86 @@ impl Problem<'_> {
         }
         Some((sum, n, PENALTY * cx.excess))
     }
+}
+
+/// The lags (s) of the x1 and x2 records behind the drive's time base
+/// that fit the residuals best, by least squares on their linearisation
+/// r(δ) = r(0) − δ·ẋ/σ (x1's column and x2's, each projected like the
+/// residuals) (good while δ·ω stays small: at 2 ms and 2 Hz the
+/// second-order term is below a micrometre), removed from the residuals.
+/// Sensor filters and DAQ channels delay position records by fractions
+/// of a millisecond to milliseconds; at the absorber's sliding speeds a
+/// lag of 0.4 ms alone leaves residuals several times the noise.
+/// Segments that did not run or fit are left out (the cost fails on
+/// them anyway); sums in segment order, so the result does not depend on
+/// the thread count.
+fn profile_delays(runs: &mut [(Vec<f64>, SegOut, bool)]) -> DelayFit {
+    // Normal equations of r ≈ Σc dc·Vc over the usable segments (Vc the
+    // projected delay columns, stored one after the other in `vel`).
+    let usable =
+        |buf: &Vec<f64>, o: &SegOut, fits: bool| o.ok && fits && o.vel.len() == 2 * buf.len();
+    let mut g = [[0.0f64; 2]; 2];
+    let mut b = [0.0f64; 2];
+    for (buf, o, fits) in runs.iter() {
+        if !usable(buf, o, *fits) {
+            continue;
+        }
+        let (v1, v2) = o.vel.split_at(buf.len());
+        for ((r, a), c) in buf.iter().zip(v1).zip(v2) {
+            g[0][0] += a * a;
+            g[0][1] += a * c;
+            g[1][1] += c * c;
+            b[0] += r * a;
+            b[1] += r * c;
+        }
+    }
+    let det = g[0][0] * g[1][1] - g[0][1] * g[0][1];
+    if !(det > 1e-12 * g[0][0] * g[1][1]) {
+        return DelayFit::default();
+    }
+    let d = [
+        (b[0] * g[1][1] - b[1] * g[0][1]) / det,
+        (b[1] * g[0][0] - b[0] * g[0][1]) / det,
+    ];
+    // Residual mean squares per channel after the lags (noise units).
+    let mut rss = [0.0f64; 2];
+    let mut cnt = [0usize; 2];
+    for (buf, o, fits) in runs.iter_mut() {
+        if o.vel.len() != 2 * buf.len() {
+            continue;
+        }
+        let ok = o.ok && *fits;
+        let (v1, v2) = o.vel.split_at(buf.len());
+        for (k, ((r, a), c)) in buf.iter_mut().zip(v1).zip(v2).enumerate() {
+            *r -= d[0] * a + d[1] * c;
+            if ok && (*a != 0.0 || *c != 0.0) {
+                rss[k % 2] += *r * *r;
+                cnt[k % 2] += 1;
+            }
+        }
+    }
+    let ms = |c: usize| {
+        if cnt[c] > 0 {
+            rss[c] / cnt[c] as f64
+        } else {
+            f64::NAN
+        }
+    };
+    // r ≈ −lag·ẋ/σ: the lags are the coefficients' negatives.
+    DelayFit {
+        lag_s: (-d[0], -d[1]),
+        var_s2: (g[1][1] / det * ms(0), g[0][0] / det * ms(1)),
+    }
+}
+
+/// The lags of x1 and x2 behind the drive fitted at one evaluation.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct DelayFit {
+    /// The lags (s).
+    pub(super) lag_s: (f64, f64),
+    /// Their least-squares variances (s²) for independent residuals; the
+    /// residuals' correlation time multiplies them.
+    pub(super) var_s2: (f64, f64),
 }
 
 /// Weight of the penalty on a law whose Rd exceeds its Rs (by the
@@ -445,6 +552,10 @@ pub(super) struct SegOut {
     sticks: (usize, usize),
     /// Compared sample indices and the simulated ẍ2 there, if recorded.
     idx: Option<Vec<(usize, f64)>>,
+    /// The simulated velocities over the noise, (ẋ1/σ1, ẋ2/σ2) interleaved
+    /// per compared sample (1/s), when [`Data::delays`] is set: a residual
+    /// changes by −δ·ẋ/σ when its channel lags by δ.
+    vel: Vec<f64>,
 }
 
 impl Segments<'_> {
@@ -506,6 +617,11 @@ impl Segments<'_> {
             sticks: (0, 0),
             sticking: false,
             idx: want_idx.then(|| Vec::with_capacity(list.len())),
+            vel: if d.delays {
+                Vec::with_capacity(2 * list.len())
+            } else {
+                Vec::new()
+            },
         };
         let dur = (d.t[end] - d.t[i]) * w;
         let phase = 2.0 * PI * d.freq * d.t[i] - d.phase;
@@ -537,11 +653,13 @@ impl Segments<'_> {
                 ok: false,
                 sticks: (0, 0),
                 idx: None,
+                vel: Vec::new(),
             },
             Some(status) => SegOut {
                 ok: status == Status::Completed,
                 sticks: obs.sticks,
                 idx: obs.idx,
+                vel: obs.vel,
             },
         }
     }
@@ -565,6 +683,8 @@ pub(super) struct Collect<'a, 'o> {
     /// Indices of the compared samples and the simulated ẍ2 (m/s²) there,
     /// when recorded.
     pub(super) idx: Option<Vec<(usize, f64)>>,
+    /// [`SegOut::vel`].
+    pub(super) vel: Vec<f64>,
 }
 
 impl Observer for Collect<'_, '_> {
@@ -588,6 +708,11 @@ impl Observer for Collect<'_, '_> {
         self.sticking = stuck;
         if let Some(v) = self.idx.as_mut() {
             v.push((j, d.a * self.omega * self.omega * dx[3]));
+        }
+        if d.delays {
+            let s = d.a * self.omega;
+            self.vel.push(s * dx[0] / d.sig.0);
+            self.vel.push(s * dx[2] / d.sig.1);
         }
         self.pos += 1;
     }
