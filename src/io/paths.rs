@@ -109,6 +109,60 @@ pub fn check_inputs<'a>(inputs: impl IntoIterator<Item = &'a Path>) -> Result<()
     Ok(())
 }
 
+/// Reads a small text input (a plan, a channel map, a sensor set) with the
+/// checks logs get, before any read: a regular file (a FIFO would hang, a
+/// device never end, a directory is not a file) of at most `max_bytes`
+/// (refused with the numbers: no such file is that large). `what` names it
+/// in messages.
+pub fn read_small_text(path: &Path, what: &str, max_bytes: u64) -> Result<String> {
+    use std::io::Read;
+    let m = std::fs::metadata(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if m.is_dir() {
+        return Err(input_err(
+            path,
+            format!("is a directory, not a {what}: give the file itself"),
+        ));
+    }
+    if let Some(kind) = special_kind(&m.file_type()) {
+        return Err(input_err(
+            path,
+            format!("is {kind}, not a regular file: give the {what} file itself"),
+        ));
+    }
+    if m.len() > max_bytes {
+        return Err(input_err(
+            path,
+            format!(
+                "is {} bytes, more than a {what} can be ({max_bytes} bytes at most): is it the right file?",
+                m.len()
+            ),
+        ));
+    }
+    let file = std::fs::File::open(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut bytes = Vec::new();
+    // The file may grow after the check: read no more than the limit.
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(input_err(
+            path,
+            format!("grew beyond {max_bytes} bytes while being read"),
+        ));
+    }
+    String::from_utf8(bytes)
+        .map_err(|_| input_err(path, format!("is not a text {what} (not UTF-8)")))
+}
+
 /// The identity of a path for comparisons: the canonical file if it
 /// exists, else the canonical directory joined with the name.
 fn identity(path: &Path) -> PathBuf {
@@ -169,6 +223,16 @@ fn check_file(o: &Output) -> Result<()> {
             ),
         ));
     }
+    let name_len = path.file_name().map_or(0, |n| n.len());
+    if name_len > super::NAME_MAX {
+        return Err(input_err(
+            path,
+            format!(
+                "{flag}: the file name is {name_len} bytes, over the file system's limit of {} bytes: give a shorter name",
+                super::NAME_MAX
+            ),
+        ));
+    }
     let ext = extension(path);
     if !o.exts.contains(&ext.as_str()) {
         return Err(input_err(
@@ -224,11 +288,26 @@ fn check_file(o: &Output) -> Result<()> {
     }
 }
 
+/// Checks a file the tool names itself inside a report directory: an
+/// existing symlink is refused (never written through: it may point at a
+/// user's file), as is anything but a regular file.
+pub fn check_tool_named(path: &Path) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => Err(input_err(
+            path,
+            "is a symlink inside the report directory: stickslip names the report's files itself and never writes them through a symlink; remove it or choose another --report directory",
+        )),
+        Ok(_) => refuse_special(path, path),
+        Err(_) => Ok(()),
+    }
+}
+
 /// Checks a report directory: an existing directory (or a symlink to one)
-/// or a new name.
+/// or a new name; in an existing one, its `index.html` must not be a
+/// symlink or a special file (the figures are checked as they are named).
 fn check_dir(o: &Output) -> Result<()> {
     match std::fs::metadata(o.path) {
-        Ok(m) if m.is_dir() => Ok(()),
+        Ok(m) if m.is_dir() => check_tool_named(&o.path.join("index.html")),
         Ok(_) => Err(input_err(
             o.path,
             format!(
