@@ -189,7 +189,7 @@ def cases():
                   says="", root=True))
     c.append(case("half-written", "batch --out + --report, report on a full disk: --out not written",
                   ["batch", "--bootstrap", "0", "--eta-points", "41", "--rho-points", "8", CHAR, CHAR2, "--out", "b.json", "--report", "fs/rep"],
-                  full + [("copy", CHAR), ("copy", CHAR2)], says="", root=True))
+                  full + [("fill", "fs"), ("copy", CHAR), ("copy", CHAR2)], says="", root=True))
     for cmd in [SIM + ["--periods", "10"], FAST_SWEEP, ["fit", "--bootstrap", "0", CHAR], ["ingest", CHAR]]:
         c.append(case("half-written", f"{cmd[0]} --json to a full disk fails", cmd + ["--json"],
                       full + [("fill", "fs"), ("copy", CHAR)], says="stdout", stdout="fs/out.json", root=True))
@@ -233,7 +233,7 @@ def cases():
                       [(kind, "plan.toml") + extra], says={"fifo": "FIFO", "chardev": "device", "dir": "directory",
                                                            "sparse": "bytes", "binary": "plan"}[kind]))
         c.append(case("hang", f"ingest of a CSV whose channel map is a {kind}", ["ingest", CSV],
-                      [("copy", CSV), (kind, MAP) + extra], says={"fifo": "FIFO", "chardev": "device",
+                      [("copyas", CSV, CSV), (kind, MAP) + extra], says={"fifo": "FIFO", "chardev": "device",
                                                                     "dir": "directory", "sparse": "bytes",
                                                                     "binary": "map"}[kind]))
         c.append(case("hang", f"ingest --map that is a {kind}", ["ingest", CSV, "--map", "m.toml"],
@@ -286,7 +286,8 @@ def cases():
     c.append(case("nonsense", "drive amplitude 6 % off its metadata: one amplitude warning", FIT + ["f.csv"],
                   [("text", "f.csv", pre("drive_amplitude_m", "0.00265")), ("copyas", MAP, "f.map.toml")],
                   ok=True, says="differs from the nominal",
-                  check=lambda d, o, e: None if e.count("warning:") == 1 else f"{e.count('warning:')} warnings"))
+                  check=lambda d, o, e: None if e.count("differs from the nominal") == 1 and "contradicts" not in e
+                  else "not exactly one amplitude warning (or a frequency warning too)"))
     for n in ["-2.2", "-0.001"]:
         c.append(case("nonsense", f"batch with a normal force of {n} N refused",
                       ["batch", "--bootstrap", "0", "--eta-points", "41", "--rho-points", "8", "n.csv", CHAR],
@@ -301,7 +302,7 @@ def cases():
     for tol in ["NaN", "nan", "inf", "-inf", "0", "-1e-10", "1", "1e300", "-0"]:
         c.append(case("nonsense", f"simulate --tol {tol}", SIM + ["--periods", "5", "--method", "dopri", "--tol", tol],
                       code=2, says="tolerance"))
-    for scale in ["1e9", "1e6", "1e-3"]:
+    for scale in ["1e9", "1e6", "1e-4"]:
         c.append(case("nonsense", f"CSV time column scaled by {scale}", ["ingest", "t.csv"],
                       [("copyas", CSV, "t.csv"), ("edit", "t.map.toml", MAP, 'time         = { name = "t [s]" }',
                                                  f'time         = {{ name = "t [s]", scale = {scale} }}')],
@@ -326,8 +327,10 @@ def cases():
                       SIM + ["--periods", "5", "--events", "a" * (n - 4) + ".csv"], says="bytes"))
         c.append(case("names", f"fit --out with a {n}-byte name refused before the fit",
                       ["fit", CHAR, "--out", "a" * (n - 5) + ".json"], [("copy", CHAR)], says="bytes"))
-    c.append(case("names", "synth CSV whose 250-byte name gives a 255+-byte map name",
-                  ["synth", "--out", "a" * 246 + ".csv", "--duration-s", "5", "--warmup-s", "1"], says="bytes"))
+    c.append(case("names", "synth CSV whose 252-byte name gives a 257-byte map name",
+                  ["synth", "--out", "a" * 248 + ".csv", "--duration-s", "5", "--warmup-s", "1"], says="bytes"))
+    c.append(case("names", "synth CSV whose 250-byte name gives a 255-byte map name works",
+                  ["synth", "--out", "a" * 246 + ".csv", "--duration-s", "5", "--warmup-s", "1"], ok=True))
     c.append(case("names", "synth MCAP with a 250-byte name works",
                   ["synth", "--out", "a" * 245 + ".mcap", "--duration-s", "5", "--warmup-s", "1"], ok=True))
     # --- 7. Messages ------------------------------------------------------
@@ -348,8 +351,8 @@ def cases():
         c.append(case("messages", " ".join(args[:1] + args[-2:]), args, code=2, says=says))
     c.append(case("messages", "a 20-million-sample DAQ buffer named as such", ["ingest", "big.mcap"],
                   [("bigbuffer", "big.mcap", 20_000_000)], says="oversize DAQ buffer"))
-    c.append(case("messages", "a 5-million-sample DAQ buffer named as such", ["ingest", "big.mcap"],
-                  [("bigbuffer", "big.mcap", 5_000_000)], says="oversize DAQ buffer"))
+    c.append(case("messages", "a 12-million-sample DAQ buffer named as such", ["ingest", "big.mcap"],
+                  [("bigbuffer", "big.mcap", 12_000_000)], says="oversize DAQ buffer"))
     return c
 
 
@@ -421,13 +424,13 @@ def setup(d, c):
             os.mkdir(p)
             subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={step[2]}", "tmpfs", p], check=True)
         elif op == "fill":
-            with open(os.path.join(p, "filler"), "wb") as f:
-                try:
-                    while True:
-                        f.write(b"\0" * 4096)
-                        f.flush()
-                except OSError:
+            fd = os.open(os.path.join(p, "filler"), os.O_WRONLY | os.O_CREAT, 0o644)
+            try:
+                while os.write(fd, b"\0" * 4096) > 0:
                     pass
+            except OSError:
+                pass
+            os.close(fd)
         elif op == "bigbuffer":
             big_buffer_mcap(p, step[2])
         else:
@@ -442,6 +445,10 @@ def snapshot(d):
             rel = os.path.relpath(p, d)
             if os.path.islink(p) or not os.path.isfile(p):
                 out[rel] = os.path.islink(p) and os.readlink(p) or None
+            elif os.path.getsize(p) > 64 << 20:
+                # Large (sparse) files: size and modification time.
+                st = os.stat(p)
+                out[rel] = (st.st_size, st.st_mtime_ns)
             else:
                 h = hashlib.sha256()
                 with open(p, "rb") as f:
@@ -525,7 +532,12 @@ def main():
         d = tempfile.mkdtemp(prefix="sweep-", dir=os.environ.get("SWEEP_TMP"))
         mounts = [os.path.join(d, s[1]) for s in c["setup"] if s[0] == "tmpfs"]
         try:
-            setup(d, c)
+            try:
+                setup(d, c)
+            except Exception as e:  # a broken case, not a result of the binary
+                results.append((c, "FAIL", f"set-up failed: {e!r}", None, 0.0))
+                print(f"FAIL {c['kind']:12} set-up failed: {c['name']}: {e!r}", flush=True)
+                continue
             before = snapshot(d)
             rss_file = os.path.join(meta, f"{i}.time")
             if c["args"][0] == "__parallel_synth__":
@@ -546,7 +558,9 @@ def main():
                 why.append(f"last line not error: {last[:200]!r}")
             if c["code"] == 2 and "error:" not in err:
                 why.append("clap printed no error")
-            if c["says"] and c["says"] not in (last if not c["ok"] else err):
+            # clap's usage errors end with a "--help" hint: search all of stderr.
+            where = err if c["ok"] or c["code"] == 2 else last
+            if c["says"] and c["says"] not in where:
                 why.append(f"does not say {c['says']!r}: {last[:300]!r}")
             if len(last) > 5000:
                 why.append(f"error line of {len(last)} bytes")

@@ -245,14 +245,18 @@ fn batch_json(
 }
 
 /// The error of a batch that failed: which logs could not be fitted.
-fn failure(fits: &Fits) -> crate::Error {
+fn failure(fits: &Fits, why: Option<&crate::Error>) -> crate::Error {
     let failed_logs: Vec<String> = fits
         .iter()
         .filter(|(_, r)| r.is_err())
         .map(|(p, _)| p.display().to_string())
         .collect();
     let what = if failed_logs.is_empty() {
-        "the batch comparison failed".to_string()
+        // The last line says why (it is also reported above).
+        match why {
+            Some(e) => format!("the batch comparison failed ({e})"),
+            None => "the batch comparison failed".to_string(),
+        }
     } else {
         format!(
             "{} of {} logs could not be fitted ({})",
@@ -366,7 +370,7 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
             out.insert("seconds".into(), json!(t0.elapsed().as_secs_f64()));
             super::print_json(&Value::Object(out))?;
         }
-        return Err(failure(&fits));
+        return Err(failure(&fits, result.as_ref().err()));
     }
     if let Some(dir) = &args.report {
         let index = write_report(dir, &args, &fits, result.as_ref().ok(), &errors)?;

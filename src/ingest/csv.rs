@@ -386,23 +386,17 @@ fn check_drive_amplitude(
 /// Largest channel map (bytes): a map names a few columns.
 const MAX_MAP_BYTES: u64 = 1_000_000;
 
-/// The message of a crate error about `path`, without the leading path
-/// (the ingest error names it again).
-fn strip_path(e: &crate::Error, path: &Path) -> String {
-    let text = e.to_string();
-    let prefix = format!("{}: ", path.display());
-    text.strip_prefix(&prefix)
-        .map(str::to_string)
-        .unwrap_or(text)
-}
-
 /// The channel map of `path`: `map`, or `NAME.map.toml` beside it.
 fn read_map(path: &Path, map: Option<&Path>) -> Result<(PathBuf, ChannelMap), IngestError> {
     let map_path = map.map_or_else(|| default_map_path(path), Path::to_path_buf);
     let map_text = match std::fs::metadata(&map_path) {
         // The checks logs get (FIFO, device, directory, size) before any read.
-        Ok(_) => crate::io::paths::read_small_text(&map_path, "channel map", MAX_MAP_BYTES)
-            .map_err(|e| IngestError::invalid(&map_path, strip_path(&e, &map_path)))?,
+        Ok(_) => crate::limits::read_small_text(&map_path, "channel map", MAX_MAP_BYTES).map_err(
+            |e| match e {
+                crate::limits::SmallReadError::Io(e) => IngestError::io(&map_path, e),
+                crate::limits::SmallReadError::Refused(m) => IngestError::invalid(&map_path, m),
+            },
+        )?,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound && map.is_none() => {
             return Err(IngestError::invalid(
                 path,

@@ -281,14 +281,14 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     }
     if format == LogFormat::Csv && meta.len() > MAX_CSV_BYTES {
         // Refused before any read: the CSV reader holds the whole table.
-        let budget = crate::io::budget::MEMORY_BUDGET_BYTES;
+        let budget = crate::limits::MEMORY_BUDGET_BYTES;
         return Err(IngestError::invalid(
             path,
             format!(
                 "is {} bytes; reading a CSV log takes about {CSV_MEMORY_FACTOR} times its size in memory ({}), over {}: CSV logs up to {} bytes are read; split it into shorter logs",
                 meta.len(),
-                crate::io::budget::human(meta.len() as f64 * CSV_MEMORY_FACTOR as f64),
-                crate::io::budget::budget_text(),
+                crate::limits::human(meta.len() as f64 * CSV_MEMORY_FACTOR as f64),
+                crate::limits::budget_text(),
                 budget / CSV_MEMORY_FACTOR
             ),
         ));
@@ -304,6 +304,13 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     }
     let run = run::build(path, raw)?;
     check_signal(path, &run)?;
+    // Rig constants the engines cannot integrate (fit, validate and batch
+    // simulate the rig): refused with the numbers.
+    let drive_hz = run.rig.drive_frequency_hz.unwrap_or(0.0);
+    run.rig
+        .constants()
+        .check_integrable(drive_hz)
+        .map_err(|e| IngestError::invalid(path, format!("rig metadata: {e}")))?;
     Ok(run)
 }
 
@@ -350,7 +357,7 @@ pub const CSV_MEMORY_FACTOR: u64 = 6;
 
 /// Largest CSV log read: what fits the memory budget at
 /// [`CSV_MEMORY_FACTOR`] (333 MB).
-pub const MAX_CSV_BYTES: u64 = crate::io::budget::MEMORY_BUDGET_BYTES / CSV_MEMORY_FACTOR;
+pub const MAX_CSV_BYTES: u64 = crate::limits::MEMORY_BUDGET_BYTES / CSV_MEMORY_FACTOR;
 
 /// Parses and checks a CSV channel map (the TOML text of `NAME.map.toml`)
 /// without reading a log, as [`read`] does before the table; `path` names

@@ -5,13 +5,13 @@
 //! at the end, all or nothing ([`txn`]); and the registry of live temporary
 //! files that a signal handler removes ([`remove_live_temps`]).
 
-pub mod budget;
 pub mod json;
 mod parquet;
 pub mod paths;
 pub mod txn;
 
-pub use budget::thread_budget;
+pub use crate::limits as budget;
+pub use crate::limits::thread_budget;
 pub use parquet::{write_parquet, write_table};
 pub use paths::{check_inputs, check_outputs, Output};
 

@@ -7,7 +7,6 @@
 //! outputs are atomic); one that fails them has done no work.
 
 use crate::error::{Error, Result};
-use std::fs::FileType;
 use std::path::{Path, PathBuf};
 
 /// One output file of a command: the flag that names it, its path and the
@@ -50,20 +49,7 @@ fn input_err(path: &Path, msg: impl Into<String>) -> Error {
     }
 }
 
-/// What kind of special file this is, if it is not a regular file or a
-/// directory.
-fn special_kind(t: &FileType) -> Option<&'static str> {
-    use std::os::unix::fs::FileTypeExt;
-    if t.is_fifo() {
-        Some("a FIFO (named pipe)")
-    } else if t.is_char_device() || t.is_block_device() {
-        Some("a device")
-    } else if t.is_socket() {
-        Some("a socket")
-    } else {
-        None
-    }
-}
+use crate::limits::special_kind;
 
 /// Refuses an existing output path (`dest`, the resolved `target`) that is
 /// not a regular file: the atomic rename would replace it.
@@ -109,58 +95,16 @@ pub fn check_inputs<'a>(inputs: impl IntoIterator<Item = &'a Path>) -> Result<()
     Ok(())
 }
 
-/// Reads a small text input (a plan, a channel map, a sensor set) with the
-/// checks logs get, before any read: a regular file (a FIFO would hang, a
-/// device never end, a directory is not a file) of at most `max_bytes`
-/// (refused with the numbers: no such file is that large). `what` names it
-/// in messages.
+/// Reads a small text input (a plan, a sensor set) with the checks logs
+/// get, before any read (see [`crate::limits::read_small_text`]).
 pub fn read_small_text(path: &Path, what: &str, max_bytes: u64) -> Result<String> {
-    use std::io::Read;
-    let m = std::fs::metadata(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    if m.is_dir() {
-        return Err(input_err(
-            path,
-            format!("is a directory, not a {what}: give the file itself"),
-        ));
-    }
-    if let Some(kind) = special_kind(&m.file_type()) {
-        return Err(input_err(
-            path,
-            format!("is {kind}, not a regular file: give the {what} file itself"),
-        ));
-    }
-    if m.len() > max_bytes {
-        return Err(input_err(
-            path,
-            format!(
-                "is {} bytes, more than a {what} can be ({max_bytes} bytes at most): is it the right file?",
-                m.len()
-            ),
-        ));
-    }
-    let file = std::fs::File::open(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let mut bytes = Vec::new();
-    // The file may grow after the check: read no more than the limit.
-    file.take(max_bytes + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|source| Error::Io {
+    crate::limits::read_small_text(path, what, max_bytes).map_err(|e| match e {
+        crate::limits::SmallReadError::Io(source) => Error::Io {
             path: path.to_path_buf(),
             source,
-        })?;
-    if bytes.len() as u64 > max_bytes {
-        return Err(input_err(
-            path,
-            format!("grew beyond {max_bytes} bytes while being read"),
-        ));
-    }
-    String::from_utf8(bytes)
-        .map_err(|_| input_err(path, format!("is not a text {what} (not UTF-8)")))
+        },
+        crate::limits::SmallReadError::Refused(msg) => input_err(path, msg),
+    })
 }
 
 /// The identity of a path for comparisons: the canonical file if it
