@@ -514,19 +514,9 @@ impl SynthConfig {
         // Memory: the log is built in memory before it is written, about
         // SYNTH_BYTES_PER_SAMPLE per logged sample of every channel
         // (measured: 1.13 MB per logged second at the typical 6 kHz of
-        // samples; 7200 s peaked at 8 GB).
+        // samples; 7200 s peaked at 8 GB). Checked after the per-channel
+        // limits, whose messages name the flag to change.
         let total: f64 = rates.iter().map(|(_, r)| logged_s * r).sum();
-        let bytes = total * SYNTH_BYTES_PER_SAMPLE;
-        let budget = crate::io::budget::MEMORY_BUDGET_BYTES as f64;
-        if bytes.is_nan() || bytes > budget {
-            return Err(bad(format!(
-                "{logged_s} s logged at {:.0} samples/s over all channels = {total:.3e} samples would need about {} in memory ({SYNTH_BYTES_PER_SAMPLE} bytes per sample), over {}: at most {:.0} s at these rates; shorten the test or lower the channel rates (--sensors)",
-                total / logged_s,
-                crate::io::budget::human(bytes),
-                crate::io::budget::budget_text(),
-                budget / SYNTH_BYTES_PER_SAMPLE / (total / logged_s)
-            )));
-        }
         for (name, rate) in rates {
             let samples = logged_s * rate;
             if samples.is_nan() || samples > MAX_SYNTH_SAMPLES {
@@ -534,6 +524,17 @@ impl SynthConfig {
                     "{name}: {logged_s} s logged at {rate} Hz = {samples:.3e} samples; the limit is {MAX_SYNTH_SAMPLES:.0e} per channel: shorten the test or lower the rate"
                 )));
             }
+        }
+        let bytes = total * SYNTH_BYTES_PER_SAMPLE;
+        let budget = crate::io::budget::MEMORY_BUDGET_BYTES as f64;
+        if bytes.is_nan() || bytes > budget {
+            return Err(bad(format!(
+                "{logged_s} s logged at {:.0} samples/s over all channels = {total:.3e} samples would need about {} in memory ({SYNTH_BYTES_PER_SAMPLE} bytes per sample), over {}: at most {:.3} s at these rates; shorten the test or lower the channel rates (--sensors)",
+                total / logged_s,
+                crate::io::budget::human(bytes),
+                crate::io::budget::budget_text(),
+                budget / SYNTH_BYTES_PER_SAMPLE / (total / logged_s)
+            )));
         }
         Ok(())
     }
