@@ -61,6 +61,7 @@ pub mod guard;
 pub mod identify;
 pub mod ingest;
 pub mod io;
+pub mod limits;
 pub mod model;
 pub mod pipeline;
 pub mod report;

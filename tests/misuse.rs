@@ -40,6 +40,11 @@ const SWEEP: &str = "sweep_stepped_N4.mcap";
 const CSV: &str = "char_N2.2.csv";
 const MAP: &str = "char_N2.2.map.toml";
 
+/// 60 curves (for a family over the memory budget).
+const RHO60: &str = "0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3,0.3";
+/// A 256-byte output name (one byte over NAME_MAX).
+const NAME256: &str = "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa.csv";
+
 const SIM: &[&str] = &["simulate", "--eta", "1", "--rho-s", "0.3", "--rho-d", "0.3"];
 
 fn cases() -> Vec<Case> {
@@ -449,6 +454,176 @@ fn cases() -> Vec<Case> {
             code: 1,
             says: "missing.mcap",
         },
+        // Issue 29: a user's data lost or overwritten.
+        Case {
+            name: "run --report whose index.html links to a user's file",
+            inputs: &[CHAR],
+            setup: &[
+                ("file:fit = [\"char_N4.mcap\"]\n", "plan.toml"),
+                ("file:mine", "user.txt"),
+                ("dir", "rep"),
+                ("symlink:user.txt", "rep/index.html"),
+            ],
+            args: &["run", "plan.toml", "--report", "rep"],
+            code: 1,
+            says: "symlink inside the report directory",
+        },
+        Case {
+            name: "validate --report whose index.html links to an input",
+            inputs: &[CHAR, SWEEP],
+            setup: &[("dir", "rep"), ("symlink:char_N4.mcap", "rep/index.html")],
+            args: &["validate", "--characteristic", CHAR, "--sweep", SWEEP, "--samples", "0", "--report", "rep"],
+            code: 1,
+            says: "symlink inside the report directory",
+        },
+        Case {
+            name: "sweep --out onto an existing rig log (no --force)",
+            inputs: &[CSV],
+            setup: &[],
+            args: &["sweep", "--points", "5", "--rho-s", "0.3", "--out", CSV],
+            code: 1,
+            says: "not a sweep table",
+        },
+        // Issue 29: crashes on sizes claimed by headers and flags.
+        Case {
+            name: "merge of a part claiming shard 1 of 10^12",
+            inputs: &[],
+            setup: &[("file:# stickslip sweep table: shard=1/1000000000000 curves=1 points=1\ncurve,point\n0,0\n", "p.csv")],
+            args: &["merge", "p.csv", "--out", "m.csv"],
+            code: 1,
+            says: "shards",
+        },
+        Case {
+            name: "merge of a part claiming 4294967297 curves",
+            inputs: &[],
+            setup: &[("file:# stickslip sweep table: shard=1/1 curves=4294967297 points=1\ncurve,point\n0,0\n", "p.csv")],
+            args: &["merge", "p.csv", "--out", "m.csv"],
+            code: 1,
+            says: "steady states",
+        },
+        Case {
+            name: "sweep --shard 1/18446744073709551615",
+            inputs: &[],
+            setup: &[],
+            args: &["sweep", "--points", "5", "--rho-s", "0.3", "--shard", "1/18446744073709551615"],
+            code: 1,
+            says: "shards",
+        },
+        Case {
+            name: "sweep --shard -1/4 reaches the shard check",
+            inputs: &[],
+            setup: &[],
+            args: &["sweep", "--points", "5", "--rho-s", "0.3", "--shard", "-1/4"],
+            code: 1,
+            says: "K/N",
+        },
+        Case {
+            name: "sweep of 60 curves x 100000 points (over the memory budget)",
+            inputs: &[],
+            setup: &[],
+            args: &["sweep", "--points", "100000", "--rho-s", RHO60],
+            code: 1,
+            says: "steady states",
+        },
+        Case {
+            name: "a plan of 10000 entries",
+            inputs: &[],
+            setup: &[("plan10000", "plan.toml")],
+            args: &["run", "plan.toml"],
+            code: 1,
+            says: "entries",
+        },
+        // Issue 29: hangs and runaway memory.
+        Case {
+            name: "run with a plan that is a FIFO",
+            inputs: &[],
+            setup: &[("fifo", "plan.toml")],
+            args: &["run", "plan.toml"],
+            code: 1,
+            says: "FIFO",
+        },
+        Case {
+            name: "run with a plan that is a device",
+            inputs: &[],
+            setup: &[("chardev", "plan.toml")],
+            args: &["run", "plan.toml"],
+            code: 1,
+            says: "device",
+        },
+        Case {
+            name: "ingest of a CSV whose channel map is a FIFO",
+            inputs: &[CSV],
+            setup: &[("fifo", "m.toml")],
+            args: &["ingest", CSV, "--map", "m.toml"],
+            code: 1,
+            says: "FIFO",
+        },
+        Case {
+            name: "ingest of a CSV whose channel map is a device",
+            inputs: &[CSV],
+            setup: &[("chardev", "m.toml")],
+            args: &["ingest", CSV, "--map", "m.toml"],
+            code: 1,
+            says: "device",
+        },
+        Case {
+            name: "ingest of a 2 GB (sparse) CSV: refused before any read",
+            inputs: &[MAP],
+            setup: &[("sparse:char_N2.2.csv|2000000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
+            args: &["ingest", "big.csv"],
+            code: 1,
+            says: "split it",
+        },
+        Case {
+            name: "synth with K2 = 1e12 N/m",
+            inputs: &[],
+            setup: &[],
+            args: &["synth", "--out", "a.mcap", "--k2-n-per-m", "1e12"],
+            code: 1,
+            says: "K1/K2",
+        },
+        // Issue 29: nonsense accepted.
+        Case {
+            name: "fit of an all-zero log",
+            inputs: &[MAP],
+            setup: &[("zerocsv:char_N2.2.csv", "z.csv"), ("symlink:char_N2.2.map.toml", "z.map.toml")],
+            args: &["fit", "z.csv"],
+            code: 1,
+            says: "no signal",
+        },
+        Case {
+            name: "batch with a negative normal force",
+            inputs: &[CHAR, MAP],
+            setup: &[("colset:char_N2.2.csv|Fn [N]|-2.2", "n.csv"), ("symlink:char_N2.2.map.toml", "n.map.toml")],
+            args: &["batch", "--bootstrap", "0", "n.csv", CHAR],
+            code: 1,
+            says: "negative",
+        },
+        Case {
+            name: "simulate --tol NaN",
+            inputs: &[],
+            setup: &[],
+            args: sim(&["--periods", "5", "--method", "dopri", "--tol", "NaN"]),
+            code: 2,
+            says: "--help",
+        },
+        // Issue 29: names and messages.
+        Case {
+            name: "simulate --events with a 256-byte name: refused before the run",
+            inputs: &[],
+            setup: &[],
+            args: sim(&["--periods", "5", "--events", NAME256]),
+            code: 1,
+            says: "256 bytes",
+        },
+        Case {
+            name: "fit --gain-uncertainty -0.1 reaches the flag's check",
+            inputs: &[CHAR],
+            setup: &[],
+            args: &["fit", CHAR, "--gain-uncertainty", "-0.1"],
+            code: 2,
+            says: "--help",
+        },
         Case {
             name: "merge --plot x.pdf: checked before ok.parquet is written",
             inputs: &[],
@@ -458,6 +633,17 @@ fn cases() -> Vec<Case> {
             says: "--plot writes SVG",
         },
     ]
+}
+
+/// A file's contents, or for a large (sparse) file its length and
+/// modification time: enough to see a change, without reading gigabytes.
+fn contents(p: &Path) -> Vec<u8> {
+    let m = std::fs::metadata(p).unwrap();
+    if m.len() > 64 << 20 {
+        format!("{} bytes, modified {:?}", m.len(), m.modified().ok()).into_bytes()
+    } else {
+        std::fs::read(p).unwrap()
+    }
 }
 
 /// The files of a directory (recursively, relative names) with contents.
@@ -473,12 +659,34 @@ fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Option<Vec<u8>>> {
                 out.insert(rel, None);
                 stack.push(p);
             } else if t.is_file() {
-                out.insert(rel, Some(std::fs::read(&p).unwrap()));
+                out.insert(rel, Some(contents(&p)));
             } else {
                 // FIFOs and symlinks: present, never read.
                 out.insert(rel, None);
             }
         }
+    }
+    out
+}
+
+/// A dataset CSV log with `f(columns, fields)` applied to each data row.
+fn map_rows(src: &str, f: impl Fn(&[String], &mut Vec<String>)) -> String {
+    let text = std::fs::read_to_string(data(src)).unwrap();
+    let mut cols: Option<Vec<String>> = None;
+    let mut out = String::new();
+    for line in text.lines() {
+        if line.starts_with('#') {
+        } else if let Some(cols) = &cols {
+            let mut fields: Vec<String> = line.split(',').map(str::to_string).collect();
+            f(cols, &mut fields);
+            out += &fields.join(",");
+            out.push('\n');
+            continue;
+        } else {
+            cols = Some(line.split(',').map(|c| c.trim().to_string()).collect());
+        }
+        out += line;
+        out.push('\n');
     }
     out
 }
@@ -519,6 +727,38 @@ fn setup(dir: &Path, c: &Case) {
             let n: usize = n.parse().unwrap();
             let head: Vec<&str> = text.lines().take(n).collect();
             std::fs::write(&p, head.join("\n") + "\n").unwrap();
+        } else if *kind == "plan10000" {
+            let entries = vec!["\"char_N4.mcap\""; 10_000].join(", ");
+            std::fs::write(&p, format!("fit = [{entries}]\n")).unwrap();
+        } else if let Some(spec) = kind.strip_prefix("sparse:") {
+            // SRC|N: a dataset file padded (sparsely) to N bytes.
+            let (src, n) = spec.split_once('|').unwrap();
+            std::fs::copy(data(src), &p).unwrap();
+            let f = std::fs::OpenOptions::new().write(true).open(&p).unwrap();
+            f.set_len(n.parse().unwrap()).unwrap();
+        } else if let Some(src) = kind.strip_prefix("zerocsv:") {
+            // A CSV log with every data column but time set to 0.
+            std::fs::write(
+                &p,
+                map_rows(src, |_, f| {
+                    for v in f.iter_mut().skip(1) {
+                        *v = "0".into();
+                    }
+                }),
+            )
+            .unwrap();
+        } else if let Some(spec) = kind.strip_prefix("colset:") {
+            // SRC|COLUMN|VALUE: a CSV log with one column set to VALUE.
+            let parts: Vec<&str> = spec.split('|').collect();
+            let (col, val) = (parts[1].to_string(), parts[2].to_string());
+            std::fs::write(
+                &p,
+                map_rows(parts[0], move |cols, f| {
+                    let i = cols.iter().position(|c| *c == col).expect("column");
+                    f[i] = val.clone();
+                }),
+            )
+            .unwrap();
         } else if let Some(target) = kind.strip_prefix("symlink:") {
             std::os::unix::fs::symlink(dir.join(target), &p).unwrap();
         } else {
@@ -669,4 +909,169 @@ fn interrupted_write_leaves_nothing(signal: &str) {
         .map(|e| e.path())
         .collect();
     assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+/// A small tmpfs mounted inside a temp directory (root only), always
+/// unmounted when dropped.
+struct SmallDisk {
+    dir: PathBuf,
+}
+
+impl SmallDisk {
+    /// Mounts `size` (e.g. "64k") at `dir`; `None` when not root or mount
+    /// fails (the rows are then skipped).
+    fn mount(dir: PathBuf, size: &str) -> Option<Self> {
+        let root = std::process::Command::new("id")
+            .arg("-u")
+            .output()
+            .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+        if !root {
+            return None;
+        }
+        std::fs::create_dir(&dir).unwrap();
+        let ok = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(&dir)
+            .status()
+            .is_ok_and(|s| s.success());
+        ok.then_some(Self { dir })
+    }
+
+    /// Fills the disk with one file, `filler`.
+    fn fill(&self) {
+        use std::io::Write;
+        let mut f = std::fs::File::create(self.dir.join("filler")).unwrap();
+        while f.write_all(&[0u8; 4096]).is_ok() {}
+        let _ = f.flush();
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount")
+            .arg("-l")
+            .arg(&self.dir)
+            .status();
+    }
+}
+
+/// Runs the binary in `dir` with stdout to `stdout` (a file) and returns
+/// the exit code and the last stderr line.
+fn run_in(dir: &Path, args: &[&str], stdout: Option<&Path>) -> (Option<i32>, String) {
+    let out = match stdout {
+        Some(p) => Stdio::from(std::fs::File::create(p).unwrap()),
+        None => Stdio::null(),
+    };
+    let o = bin()
+        .args(args)
+        .current_dir(dir)
+        .stdin(Stdio::null())
+        .stdout(out)
+        .stderr(Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("panicked"), "{err}");
+    let last = err
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap_or("");
+    (o.status.code(), last.to_string())
+}
+
+/// Full-disk rows (issue 29), on a 64 kB tmpfs inside the temp directory
+/// (skipped unless root): every multi-output command fails with one
+/// `error:` line and leaves nothing, neither on the full disk nor beside it.
+#[test]
+fn full_disk_leaves_nothing_behind() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let Some(disk) = SmallDisk::mount(dir.join("fs"), "64k") else {
+        eprintln!("not root (or no tmpfs): full-disk rows skipped");
+        return;
+    };
+    let sweep = ["sweep", "--points", "5", "--rho-s", "0.3"];
+    let rows: Vec<(&str, Vec<&str>, Option<&str>, bool)> = vec![
+        // (name, args, stdout file, fill the disk first)
+        (
+            "sweep table + figure onto a full disk",
+            [&sweep[..], &["--out", "fs/t.parquet", "--plot", "fs/t.svg"]].concat(),
+            None,
+            true,
+        ),
+        (
+            "simulate events + trajectory: the disk fills at the second",
+            [
+                SIM,
+                &[
+                    "--periods",
+                    "2000",
+                    "--events",
+                    "fs/e.csv",
+                    "--trajectory",
+                    "fs/t.csv",
+                ],
+            ]
+            .concat(),
+            None,
+            false,
+        ),
+        (
+            "synth log + truth.json onto a small disk",
+            vec!["synth", "--out", "fs/a.mcap", "--duration-s", "20"],
+            None,
+            false,
+        ),
+        (
+            "sweep --out beside, --json onto the full disk: the table is not written",
+            [&sweep[..], &["--out", "t.csv", "--json"]].concat(),
+            Some("fs/out.json"),
+            true,
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, args, stdout, fill) in rows {
+        let _ = std::fs::remove_file(disk.dir.join("filler"));
+        if fill {
+            disk.fill();
+        }
+        let list = || {
+            let mut v: Vec<_> = std::fs::read_dir(dir)
+                .unwrap()
+                .flatten()
+                .map(|e| e.path())
+                .collect();
+            v.sort();
+            v
+        };
+        let before = list();
+        let stdout = stdout.map(|s| dir.join(s));
+        let (code, last) = run_in(dir, &args, stdout.as_deref());
+        let mut why = Vec::new();
+        if code != Some(1) {
+            why.push(format!("exit {code:?}"));
+        }
+        if !last.starts_with("error: ") {
+            why.push(format!("last line {last:?}"));
+        }
+        let after = list();
+        if after != before {
+            why.push(format!("new files beside the disk: {after:?}"));
+        }
+        let on_disk: Vec<_> = std::fs::read_dir(&disk.dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .filter(|n| n != "filler" && n != "out.json")
+            .collect();
+        if !on_disk.is_empty() {
+            why.push(format!("left on the disk: {on_disk:?}"));
+        }
+        if !why.is_empty() {
+            failures.push(format!("{name}: {}", why.join("; ")));
+        }
+        let _ = std::fs::remove_file(disk.dir.join("out.json"));
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

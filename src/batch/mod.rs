@@ -689,6 +689,25 @@ pub fn batch_with_progress(
         return Err(BatchError::Empty.into());
     }
     let mut warnings = Vec::new();
+    // A negative normal force is a sign or unit mistake: μ from it would
+    // be meaningless (a zero one gives μ null and a warning, below).
+    if let Some((p, f)) = fits
+        .iter()
+        .find(|(_, f)| f.normal_force_n < 0.0 || f.normal_force_n.is_nan())
+    {
+        return Err(BatchError::Options(format!(
+            "{}: the normal force is {} N (negative): a sign or unit mistake in the log? batch compares settings by μ = R/N and cannot use it",
+            p.display(),
+            f.normal_force_n
+        ))
+        .into());
+    }
+    for (p, _) in fits.iter().filter(|(_, f)| f.normal_force_n == 0.0) {
+        warnings.push(format!(
+            "{}: the normal force is zero (the friction member may be off): its μ is null",
+            p.display()
+        ));
+    }
     let mut logs: Vec<BatchLog> = fits
         .iter()
         .map(|(p, f)| log_obs(p, f, &mut warnings))

@@ -20,6 +20,19 @@ fn number(s: &str) -> Result<f64, String> {
         .map_err(|_| format!("`{s}` is not a number"))
 }
 
+/// Parser of an engine tolerance: a finite number in (0, 0.1] (a NaN or
+/// infinite tolerance would make the error control accept any step).
+pub fn tolerance(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    if v.is_finite() && v > 0.0 && v <= 0.1 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} is not a tolerance: give a finite number in (0, 0.1], e.g. 1e-10"
+        ))
+    }
+}
+
 /// Parser of a period budget: 1 to 1e8 periods.
 pub fn periods() -> clap::builder::RangedU64ValueParser<u64> {
     clap::value_parser!(u64).range(1..=100_000_000)

@@ -34,47 +34,47 @@ pub struct BatchArgs {
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Relative gain uncertainty of each motion sensor in the calibration budget.
-    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction, allow_hyphen_values = true)]
     pub gain_uncertainty: f64,
     /// Relative gain uncertainty of the normal-force sensor (common to the batch).
-    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction, allow_hyphen_values = true)]
     pub normal_force_gain_uncertainty: f64,
     /// Bootstrap replicates over drive periods (per log; 0 to 100000).
-    #[arg(long, default_value_t = 400, value_parser = super::args::bootstrap_replicates)]
+    #[arg(long, default_value_t = 400, value_parser = super::args::bootstrap_replicates, allow_hyphen_values = true)]
     pub bootstrap: usize,
     /// Tolerance of a normal-force setting (±, relative).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, allow_hyphen_values = true)]
     pub setting_tolerance: f64,
     /// The recommended window: settings whose robust worst case is within this fraction of the best.
-    #[arg(long, default_value_t = 0.10)]
+    #[arg(long, default_value_t = 0.10, allow_hyphen_values = true)]
     pub window: f64,
     /// Drive range: smallest η (with --eta-max; default 0.5·η1 of the rig).
-    #[arg(long, requires = "eta_max")]
+    #[arg(long, requires = "eta_max", allow_hyphen_values = true)]
     pub eta_min: Option<f64>,
     /// Drive range: largest η (with --eta-min; default 1.4·η2 of the rig).
-    #[arg(long, requires = "eta_min")]
+    #[arg(long, requires = "eta_min", allow_hyphen_values = true)]
     pub eta_max: Option<f64>,
     /// Uniform η points over the drive range (plus fine windows around η1, η0, η2).
-    #[arg(long, default_value_t = 141)]
+    #[arg(long, default_value_t = 141, allow_hyphen_values = true)]
     pub eta_points: usize,
     /// Step of the fine η windows around η1, η0, η2 (0: none).
-    #[arg(long, default_value_t = vb::DEFAULT_ETA_FINE_STEP)]
+    #[arg(long, default_value_t = vb::DEFAULT_ETA_FINE_STEP, allow_hyphen_values = true)]
     pub eta_fine_step: f64,
     /// Half-width of each fine η window.
-    #[arg(long, default_value_t = 0.025)]
+    #[arg(long, default_value_t = 0.025, allow_hyphen_values = true)]
     pub eta_fine_halfwidth: f64,
     /// Evaluate every this-many uniform η at each ρs (with the fine
     /// windows), the others only next to a branch's local maximum (1: every η).
-    #[arg(long, default_value_t = vb::DEFAULT_ETA_COARSE_STRIDE)]
+    #[arg(long, default_value_t = vb::DEFAULT_ETA_COARSE_STRIDE, allow_hyphen_values = true)]
     pub eta_coarse_stride: usize,
     /// Smallest ρs of the worst-case grid.
-    #[arg(long, default_value_t = 0.2)]
+    #[arg(long, default_value_t = 0.2, allow_hyphen_values = true)]
     pub rho_min: f64,
     /// Largest ρs of the grid (default: covers every measured setting, at least 3).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub rho_max: Option<f64>,
     /// Nodes of the coarse geometric ρs grid.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = 40, allow_hyphen_values = true)]
     pub rho_points: usize,
     /// Do not refine the ρs grid around the best candidates.
     #[arg(long)]
@@ -83,10 +83,10 @@ pub struct BatchArgs {
     #[arg(long)]
     pub no_ratio_variants: bool,
     /// Drive amplitude (mm) for ρ = R/(A·K2) (default: the rig's nominal amplitude).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub drive_amplitude_mm: Option<f64>,
     /// Period budget of the time-marching fallback per steady state.
-    #[arg(long, default_value_t = vb::DEFAULT_MAX_PERIODS, value_parser = super::args::periods())]
+    #[arg(long, default_value_t = vb::DEFAULT_MAX_PERIODS, value_parser = super::args::periods(), allow_hyphen_values = true)]
     pub max_periods: u64,
     /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
@@ -245,14 +245,18 @@ fn batch_json(
 }
 
 /// The error of a batch that failed: which logs could not be fitted.
-fn failure(fits: &Fits) -> crate::Error {
+fn failure(fits: &Fits, why: Option<&crate::Error>) -> crate::Error {
     let failed_logs: Vec<String> = fits
         .iter()
         .filter(|(_, r)| r.is_err())
         .map(|(p, _)| p.display().to_string())
         .collect();
     let what = if failed_logs.is_empty() {
-        "the batch comparison failed".to_string()
+        // The last line says why (it is also reported above).
+        match why {
+            Some(e) => format!("the batch comparison failed ({e})"),
+            None => "the batch comparison failed".to_string(),
+        }
     } else {
         format!(
             "{} of {} logs could not be fitted ({})",
@@ -364,9 +368,9 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
         // A failed command writes no file: print what there is, then fail.
         if args.json {
             out.insert("seconds".into(), json!(t0.elapsed().as_secs_f64()));
-            super::print_json(&Value::Object(out));
+            super::print_json(&Value::Object(out))?;
         }
-        return Err(failure(&fits));
+        return Err(failure(&fits, result.as_ref().err()));
     }
     if let Some(dir) = &args.report {
         let index = write_report(dir, &args, &fits, result.as_ref().ok(), &errors)?;
@@ -381,7 +385,7 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
         super::write_json(path, &out)?;
     }
     if args.json {
-        super::print_json(&out);
+        super::print_json(&out)?;
     } else if let Ok(b) = &result {
         for line in batch_view::batch_summary(b) {
             eprintln!("{}: {}", line.key, line.value);

@@ -41,10 +41,7 @@ pub fn run(args: BenchArgs) -> crate::Result<()> {
     if let Some(plot) = &plot {
         if let Some(dir) = plot.parent() {
             if !dir.as_os_str().is_empty() && !dir.exists() {
-                std::fs::create_dir_all(dir).map_err(|source| crate::Error::Io {
-                    path: dir.to_path_buf(),
-                    source,
-                })?;
+                crate::io::txn::create_dir(dir)?;
             }
         }
         crate::report::plot::work_precision(&rows, plot)?;
@@ -54,7 +51,7 @@ pub fn run(args: BenchArgs) -> crate::Result<()> {
             .iter()
             .map(|r| json!({"method": r.method, "setting": r.setting, "seconds": r.seconds, "error": r.error}))
             .collect();
-        super::print_json(&json!({ "rows": r }));
+        super::print_json(&json!({ "rows": r }))?;
     } else {
         eprintln!(
             "{:<12} {:<28} {:>10} {:>12}",

@@ -166,7 +166,7 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
             out: args.out.as_ref().map(|p| p.display().to_string()),
             bias_n: bias,
             warnings: &warnings,
-        }));
+        }))?;
     } else {
         eprintln!(
             "{}: {} samples, {} sticks, {} reversals, acceleration from {}",

@@ -38,16 +38,16 @@ pub struct FitArgs {
     #[arg(required = true)]
     pub logs: Vec<PathBuf>,
     /// Law family.
-    #[arg(long, default_value = "auto", value_parser = law_pick())]
+    #[arg(long, default_value = "auto", value_parser = law_pick(), allow_hyphen_values = true)]
     pub law: LawPick,
     /// Write the JSON result to this file (atomically).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Relative gain uncertainty of each sensor in the calibration budget.
-    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction, allow_hyphen_values = true)]
     pub gain_uncertainty: f64,
     /// Bootstrap replicates over drive periods (0 to 100000).
-    #[arg(long, default_value_t = 400, value_parser = super::args::bootstrap_replicates)]
+    #[arg(long, default_value_t = 400, value_parser = super::args::bootstrap_replicates, allow_hyphen_values = true)]
     pub bootstrap: usize,
     /// Which estimate is reported as the law (and used downstream).
     #[arg(long, value_enum, default_value_t = EstimateChoice::OutputError)]
@@ -109,7 +109,7 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
         super::write_json(path, &out)?;
     }
     if args.json {
-        super::print_json(&out);
+        super::print_json(&out)?;
     }
     // The last line names every log that failed (the contract's one
     // exception to "a failed command writes nothing": the others' fits

@@ -41,7 +41,7 @@ pub fn run(args: IngestArgs) -> crate::Result<()> {
         crate::io::write_parquet(&run, out)?;
     }
     if args.json {
-        super::print_json(&run.to_json(args.out.as_deref()));
+        super::print_json(&run.to_json(args.out.as_deref()))?;
     } else {
         eprintln!(
             "{}: {} test ({}), {} rows at {} Hz = {:.3} s, {} channels{}, {} gaps, {} setpoints",

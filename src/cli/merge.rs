@@ -22,6 +22,10 @@ pub struct MergeArgs {
     /// Also draw the family (.svg or .png).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Replace an existing --out file that is not a sweep table (e.g. a
+    /// rig log); without it such a file is refused.
+    #[arg(long)]
+    pub force: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -34,6 +38,7 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
         outputs.push(Output::file("--plot", p, super::ext::FIGURE));
     }
     super::check_paths(args.parts.iter().map(PathBuf::as_path), &outputs)?;
+    super::sweep::refuse_replacing_other(&args.out, args.force)?;
     let mut rows = Vec::new();
     let mut part_of = Vec::new();
     let mut metas = Vec::new();
@@ -68,7 +73,7 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
     if args.json {
         super::print_json(
             &json!({ "rows": rows.len(), "parts": args.parts.len(), "out": args.out }),
-        );
+        )?;
     } else {
         eprintln!(
             "merged {} rows from {} parts into {}",

@@ -76,6 +76,11 @@ pub fn main() -> ExitCode {
         }
     };
     install_signal_cleanup();
+    crate::io::thread_budget();
+    // Every output of the command is renamed into place at the end, all
+    // or nothing (see `crate::io::txn`).
+    crate::io::txn::begin();
+    let mut code = ExitCode::SUCCESS;
     let result = match cli.command {
         Command::Simulate(a) => simulate::run(a),
         Command::Ingest(a) => ingest::run(a),
@@ -85,7 +90,11 @@ pub fn main() -> ExitCode {
         Command::Characteristic(a) => characteristic::run(a),
         Command::Fit(a) => match fit::run(a) {
             Ok(true) => Ok(()),
-            Ok(false) => return ExitCode::from(1),
+            Ok(false) => {
+                // The others' fits are written; the exit status is 1.
+                code = ExitCode::from(1);
+                Ok(())
+            }
             Err(e) => Err(e),
         },
         Command::Synth(a) => synth::run(a),
@@ -93,8 +102,15 @@ pub fn main() -> ExitCode {
         Command::Batch(a) => batch::run(a),
         Command::Run(a) => run::run(a),
     };
+    let result = match result {
+        Ok(()) => crate::io::txn::commit(),
+        Err(e) => {
+            crate::io::txn::abort();
+            Err(e)
+        }
+    };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => code,
         Err(e) => {
             // One line, whatever the source's message holds (polars puts
             // hints on lines of their own).
@@ -104,17 +120,40 @@ pub fn main() -> ExitCode {
                 .map(str::trim)
                 .filter(|l| !l.is_empty())
                 .collect();
-            eprintln!("error: {}", one.join(" "));
+            eprintln!("error: {}", clip_line(&one.join(" ")));
             ExitCode::from(1)
         }
     }
 }
 
+/// The longest `error:` line printed (bytes): a message that echoes a
+/// huge input (a 4 GB CSV line) is cut, with the number of bytes left out.
+const MAX_ERROR_LINE: usize = 2000;
+
+/// `line`, cut to [`MAX_ERROR_LINE`] bytes at a character boundary.
+fn clip_line(line: &str) -> std::borrow::Cow<'_, str> {
+    if line.len() <= MAX_ERROR_LINE {
+        return line.into();
+    }
+    let mut cut = MAX_ERROR_LINE;
+    while !line.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!(
+        "{} … ({} more bytes of this message left out)",
+        &line[..cut],
+        line.len() - cut
+    )
+    .into()
+}
+
 /// On SIGINT or SIGTERM: remove the temporary files being written (an
-/// interrupted job leaves no partial output), say so, exit 130.
+/// interrupted job leaves no partial output) and the report directory it
+/// created, say so, exit 130.
 fn install_signal_cleanup() {
     let _ = ctrlc::set_handler(|| {
         crate::io::remove_live_temps();
+        crate::io::txn::remove_created_dirs();
         eprintln!("error: interrupted; the outputs being written were removed");
         std::process::exit(130);
     });
@@ -171,10 +210,29 @@ pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> c
 }
 
 /// Prints one JSON object on stdout (non-finite numbers become `null`).
-pub(crate) fn print_json(value: &serde_json::Value) {
+/// A closed stdout (e.g. `| head`) is not an error of the job; any other
+/// write error (a full disk) is, and fails the command before its outputs
+/// are renamed into place.
+pub(crate) fn print_json(value: &serde_json::Value) -> crate::Result<()> {
     use std::io::Write;
-    // A closed stdout (e.g. `| head`) is not an error of the job.
     let mut out = std::io::stdout().lock();
-    let _ = writeln!(out, "{value}");
-    let _ = out.flush();
+    let r = writeln!(out, "{value}").and_then(|_| out.flush());
+    match r {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(crate::Error::Io {
+            path: "stdout (--json)".into(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn long_error_lines_are_cut() {
+        let long = "x".repeat(10_000);
+        let c = super::clip_line(&long);
+        assert!(c.len() < 2100 && c.ends_with("(8000 more bytes of this message left out)"));
+        assert_eq!(super::clip_line("short"), "short");
+    }
 }

@@ -26,11 +26,11 @@ pub struct RunArgs {
     /// Most laws drawn from each fit's uncertainty for the prediction bands
     /// (0 to 2000): drawn in rounds (40, then doubling) until the replay
     /// coverages are known to --band-coverage-se.
-    #[arg(long, default_value_t = crate::validate::predict::DEFAULT_BAND_SAMPLES, value_parser = super::args::band_samples)]
+    #[arg(long, default_value_t = crate::validate::predict::DEFAULT_BAND_SAMPLES, value_parser = super::args::band_samples, allow_hyphen_values = true)]
     pub samples: usize,
     /// Bootstrap standard error to which the draws must fix every replay
     /// coverage (a fraction, 0 to 0.5; 0: draw all --samples).
-    #[arg(long, default_value_t = 0.025, value_parser = super::args::coverage_se)]
+    #[arg(long, default_value_t = 0.025, value_parser = super::args::coverage_se, allow_hyphen_values = true)]
     pub band_coverage_se: f64,
     /// Use logs whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
@@ -93,7 +93,7 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
         // A failed command writes no file: print what there is, then fail.
         out["seconds"] = json!(t0.elapsed().as_secs_f64());
         if args.json {
-            super::print_json(&out);
+            super::print_json(&out)?;
         }
         return Err(crate::Error::Failed {
             what: format!(
@@ -118,7 +118,7 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
         super::write_json(path, &out)?;
     }
     if args.json {
-        super::print_json(&out);
+        super::print_json(&out)?;
     } else {
         let t = &stages;
         eprintln!(

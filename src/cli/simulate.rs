@@ -32,13 +32,13 @@ pub struct SimulateArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub eta: f64,
     /// Integrate exactly N forcing periods.
-    #[arg(long, conflicts_with = "steady", required_unless_present = "steady", value_parser = clap::value_parser!(u64).range(1..=MAX_PERIODS))]
+    #[arg(long, conflicts_with = "steady", required_unless_present = "steady", value_parser = clap::value_parser!(u64).range(1..=MAX_PERIODS), allow_hyphen_values = true)]
     pub periods: Option<u64>,
     /// Integrate until the response is periodic (or declared not periodic).
     #[arg(long)]
     pub steady: bool,
     /// Longest run with --steady, in forcing periods (1 to 1e8).
-    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000), allow_hyphen_values = true)]
     pub max_periods: u64,
     /// Start at rest with M2 sticking (the default initial state).
     #[arg(long)]
@@ -50,11 +50,11 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub trajectory: Option<PathBuf>,
     /// Trajectory samples per forcing period (1 to 1e6).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000), allow_hyphen_values = true)]
     pub samples_per_period: u32,
     /// Largest event or trajectory file to write (MB; the estimate is
     /// checked before the run).
-    #[arg(long, default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = 2048, value_parser = clap::value_parser!(u64).range(1..), allow_hyphen_values = true)]
     pub max_output_mb: u64,
     /// Integration method.
     #[arg(long, value_enum, default_value_t = Method::Exact)]
@@ -64,7 +64,7 @@ pub struct SimulateArgs {
     pub step: f64,
     /// Relative tolerance of --method dopri (the default method of laws
     /// without a closed form, e.g. stribeck).
-    #[arg(long, default_value_t = 1e-10)]
+    #[arg(long, default_value_t = 1e-10, allow_hyphen_values = true, value_parser = super::args::tolerance)]
     pub tol: f64,
     /// Print one JSON object on stdout.
     #[arg(long)]
@@ -303,7 +303,7 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
                 Method::Dopri => "dopri",
             },
             law: model.law.name(),
-        }));
+        }))?;
     } else {
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6}"));
         eprintln!(

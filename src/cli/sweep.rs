@@ -52,7 +52,7 @@ pub struct SweepArgs {
     #[arg(long = "eta-max", default_value_t = 1.6, allow_hyphen_values = true)]
     pub eta_max: f64,
     /// Number of η points (1 to 100000).
-    #[arg(long, default_value_t = 141, value_parser = super::args::sweep_points)]
+    #[arg(long, default_value_t = 141, value_parser = super::args::sweep_points, allow_hyphen_values = true)]
     pub points: usize,
     /// Continuation direction.
     #[arg(long, value_enum, default_value_t = DirectionArg::Up, conflicts_with = "from_rest")]
@@ -61,7 +61,7 @@ pub struct SweepArgs {
     #[arg(long)]
     pub from_rest: bool,
     /// Period budget of the time-marching fallback per point (1 to 1e8).
-    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000))]
+    #[arg(long, default_value_t = 20_000, value_parser = clap::value_parser!(u64).range(1..=100_000_000), allow_hyphen_values = true)]
     pub max_periods: u64,
     /// March quasi-periodic points to the whole --max-periods budget (by
     /// default they stop after 4000–5000 periods as `not-settling`, once
@@ -70,7 +70,7 @@ pub struct SweepArgs {
     #[arg(long)]
     pub no_early_stop: bool,
     /// Compute slice K of N of the family (1-based K), for job arrays.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub shard: Option<String>,
     /// Write the table (.parquet or .csv).
     #[arg(long)]
@@ -79,8 +79,13 @@ pub struct SweepArgs {
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// Title of the figure.
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub title: Option<String>,
+    /// Replace an existing --out file that is not a sweep table (e.g. a
+    /// rig log); without it such a file is refused (a sweep table is
+    /// replaced).
+    #[arg(long)]
+    pub force: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -88,6 +93,19 @@ pub struct SweepArgs {
 
 fn bad(msg: String) -> crate::Error {
     SimError::Unsupported(msg).into()
+}
+
+/// Refuses to replace an existing `--out` file that is not a sweep table
+/// (a rig log, say) unless `force`, as `synth` refuses to replace a log.
+pub(crate) fn refuse_replacing_other(out: &std::path::Path, force: bool) -> crate::Result<()> {
+    let exists = std::fs::metadata(out).is_ok_and(|m| m.is_file());
+    if exists && !force && !table::is_sweep_table(out) {
+        return Err(crate::Error::Input {
+            path: out.to_path_buf(),
+            msg: "exists and is not a sweep table (a rig log?): --out does not replace it without --force".into(),
+        });
+    }
+    Ok(())
 }
 
 /// Parses `K/N` (1 ≤ K ≤ N).
@@ -98,6 +116,10 @@ pub fn parse_shard(s: &str) -> crate::Result<Shard> {
         _ => None,
     };
     match nums {
+        Some((_, n)) if n as u64 > crate::io::budget::MAX_FAMILY_POINTS => Err(bad(format!(
+            "--shard {s}: {n} shards is more than there can be steady states in a family ({}); give N at most the number of work units",
+            crate::io::budget::MAX_FAMILY_POINTS
+        ))),
         Some((k, n)) if n >= 1 && (1..=n).contains(&k) => Ok(Shard {
             index: k - 1,
             count: n,
@@ -175,11 +197,16 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
         outputs.push(Output::file("--plot", p, super::ext::FIGURE));
     }
     super::check_paths([], &outputs)?;
+    if let Some(p) = &args.out {
+        refuse_replacing_other(p, args.force)?;
+    }
     let shard = match &args.shard {
         Some(s) => parse_shard(s)?,
         None => Shard::ALL,
     };
     let specs = curve_specs(&args, &rhos)?;
+    crate::io::budget::check_family(specs.len() as u64, args.points as u64, shard.count as u64)
+        .map_err(bad)?;
     let etas = sweep::eta_grid(args.eta_min, args.eta_max, args.points);
     let cfg = SteadyConfig {
         max_periods: args.max_periods,
@@ -265,7 +292,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
             points: table.len(),
             coexisting_points: table.iter().filter(|r| r.coexisting).count(),
             shard: args.shard.as_deref(),
-        }));
+        }))?;
     } else {
         let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
         let interrupted = table.iter().filter(|r| r.interrupted).count();

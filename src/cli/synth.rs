@@ -73,55 +73,83 @@ pub struct SynthArgs {
     #[arg(long = "slope-n-s-per-m", allow_hyphen_values = true)]
     pub slope: Option<f64>,
     /// Stribeck velocity vs (m/s; stribeck only).
-    #[arg(long = "stribeck-velocity-m-per-s", default_value_t = 0.005)]
+    #[arg(
+        long = "stribeck-velocity-m-per-s",
+        default_value_t = 0.005,
+        allow_hyphen_values = true
+    )]
     pub v_s: f64,
     /// M1 (kg).
-    #[arg(long = "m1-kg", default_value_t = 8.35)]
+    #[arg(long = "m1-kg", default_value_t = 8.35, allow_hyphen_values = true)]
     pub m1: f64,
     /// M2 (kg).
-    #[arg(long = "m2-kg", default_value_t = 2.0875)]
+    #[arg(long = "m2-kg", default_value_t = 2.0875, allow_hyphen_values = true)]
     pub m2: f64,
     /// K1 (N/m).
-    #[arg(long = "k1-n-per-m", default_value_t = 670.0)]
+    #[arg(
+        long = "k1-n-per-m",
+        default_value_t = 670.0,
+        allow_hyphen_values = true
+    )]
     pub k1: f64,
     /// K2 (N/m).
-    #[arg(long = "k2-n-per-m", default_value_t = 670.0)]
+    #[arg(
+        long = "k2-n-per-m",
+        default_value_t = 670.0,
+        allow_hyphen_values = true
+    )]
     pub k2: f64,
     /// Damping d (N s/m; default: D = 0.003).
-    #[arg(long = "d-n-s-per-m")]
+    #[arg(long = "d-n-s-per-m", allow_hyphen_values = true)]
     pub d: Option<f64>,
     /// Nominal drive amplitude A (m).
-    #[arg(long = "amplitude-m", default_value_t = 0.0025)]
+    #[arg(
+        long = "amplitude-m",
+        default_value_t = 0.0025,
+        allow_hyphen_values = true
+    )]
     pub amplitude: f64,
     /// True drive amplitude (m; default: the nominal one).
-    #[arg(long = "true-amplitude-m")]
+    #[arg(long = "true-amplitude-m", allow_hyphen_values = true)]
     pub true_amplitude: Option<f64>,
     /// Drive frequency of a characteristic test (Hz).
-    #[arg(long = "frequency-hz", default_value_t = 1.72)]
+    #[arg(
+        long = "frequency-hz",
+        default_value_t = 1.72,
+        allow_hyphen_values = true
+    )]
     pub frequency: f64,
     /// Unlogged warm-up of a characteristic test (s).
-    #[arg(long = "warmup-s", default_value_t = 40.0)]
+    #[arg(long = "warmup-s", default_value_t = 40.0, allow_hyphen_values = true)]
     pub warmup: f64,
     /// Logged duration of a characteristic test (s).
-    #[arg(long = "duration-s", default_value_t = 20.0)]
+    #[arg(
+        long = "duration-s",
+        default_value_t = 20.0,
+        allow_hyphen_values = true
+    )]
     pub duration: f64,
     /// Setpoints of a stepped sweep (Hz, comma separated; default 11 from 0.9 to 3.4).
-    #[arg(long = "setpoints-hz", value_delimiter = ',')]
+    #[arg(
+        long = "setpoints-hz",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
     pub setpoints: Vec<f64>,
     /// Dwell per setpoint (s; one value or one per setpoint).
-    #[arg(long = "dwell-s", value_delimiter = ',', default_values_t = vec![15.0])]
+    #[arg(long = "dwell-s", value_delimiter = ',', default_values_t = vec![15.0], allow_hyphen_values = true)]
     pub dwell: Vec<f64>,
     /// Continuous sweep: start frequency (Hz).
-    #[arg(long = "from-hz", default_value_t = 0.9)]
+    #[arg(long = "from-hz", default_value_t = 0.9, allow_hyphen_values = true)]
     pub from_hz: f64,
     /// Continuous sweep: end frequency (Hz).
-    #[arg(long = "to-hz", default_value_t = 3.4)]
+    #[arg(long = "to-hz", default_value_t = 3.4, allow_hyphen_values = true)]
     pub to_hz: f64,
     /// Continuous sweep: chirp duration (s).
-    #[arg(long = "sweep-s", default_value_t = 240.0)]
+    #[arg(long = "sweep-s", default_value_t = 240.0, allow_hyphen_values = true)]
     pub sweep_s: f64,
     /// Seed of every random choice.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, allow_hyphen_values = true)]
     pub seed: u64,
     /// No accelerometer channel.
     #[arg(long)]
@@ -134,7 +162,11 @@ pub struct SynthArgs {
     #[arg(long)]
     pub sensors: Option<PathBuf>,
     /// Row rate of CSV/Parquet tables (Hz).
-    #[arg(long = "table-rate-hz", default_value_t = 1000.0)]
+    #[arg(
+        long = "table-rate-hz",
+        default_value_t = 1000.0,
+        allow_hyphen_values = true
+    )]
     pub table_rate: f64,
     /// CSV: time shift of the drive column (s), written to the map.
     #[arg(long = "csv-drive-shift-s", allow_hyphen_values = true)]
@@ -266,10 +298,7 @@ impl SynthArgs {
     fn sensors(&self) -> crate::Result<Sensors> {
         let mut sensors = match &self.sensors {
             Some(p) => {
-                let text = std::fs::read_to_string(p).map_err(|source| crate::Error::Io {
-                    path: p.clone(),
-                    source,
-                })?;
+                let text = crate::io::paths::read_small_text(p, "sensor set", 4_000_000)?;
                 serde_json::from_str::<Sensors>(&text)
                     .map_err(|e| input_err(p, format!("not a sensor set: {e}")))?
             }
@@ -383,7 +412,7 @@ pub fn run(args: SynthArgs) -> crate::Result<()> {
             "n_stick_slip_events": t["n_stick_slip_events"],
             "lost_buffers": log.channels.iter().map(|c| c.lost_buffers).sum::<usize>(),
             "null_samples": log.channels.iter().map(|c| c.null_samples).sum::<usize>(),
-        }));
+        }))?;
     } else {
         eprintln!(
             "wrote {} ({}, {} test, {} s, {} bytes); truth in {}",

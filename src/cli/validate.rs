@@ -30,18 +30,18 @@ pub struct ValidateArgs {
     /// none; at most 2000: each is a whole predicted sweep): drawn in rounds
     /// (40, then doubling) until the replay coverages are known to
     /// --band-coverage-se.
-    #[arg(long, default_value_t = validate::predict::DEFAULT_BAND_SAMPLES, value_parser = super::args::band_samples)]
+    #[arg(long, default_value_t = validate::predict::DEFAULT_BAND_SAMPLES, value_parser = super::args::band_samples, allow_hyphen_values = true)]
     pub samples: usize,
     /// Bootstrap standard error to which the draws must fix every replay
     /// coverage (a fraction, 0 to 0.5; 0: draw all --samples).
-    #[arg(long, default_value_t = 0.025, value_parser = super::args::coverage_se)]
+    #[arg(long, default_value_t = 0.025, value_parser = super::args::coverage_se, allow_hyphen_values = true)]
     pub band_coverage_se: f64,
     /// Relative gain uncertainty of each sensor in the calibration budget.
-    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction)]
+    #[arg(long, default_value_t = 0.01, value_parser = super::args::gain_fraction, allow_hyphen_values = true)]
     pub gain_uncertainty: f64,
     /// Period budget of the fitted law's steady state at each point (points
     /// with no periodic response by then are reported without one).
-    #[arg(long, default_value_t = validate::predict::DEFAULT_STEADY_PERIODS, value_parser = super::args::periods())]
+    #[arg(long, default_value_t = validate::predict::DEFAULT_STEADY_PERIODS, value_parser = super::args::periods(), allow_hyphen_values = true)]
     pub max_periods: u64,
     /// Use a characteristic log and a sweep whose rig constants (M1, M2, K1, K2, d) differ by more than 1 %.
     #[arg(long)]
@@ -142,7 +142,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         super::write_json(path, &out)?;
     }
     if args.json {
-        super::print_json(&out);
+        super::print_json(&out)?;
     } else {
         let s = &v.prediction.score;
         let pc = |x: Option<f64>| x.map_or("-".into(), |v| format!("{:.1} %", v * 100.0));

@@ -71,7 +71,15 @@ pub struct DriveFit {
     pub phase_rad: f64,
     /// RMS of the fit residual (m).
     pub residual_rms_m: f64,
+    /// The metadata's drive frequency (Hz) where the drive channel
+    /// contradicts it by more than [`DRIVE_FREQUENCY_TOLERANCE`] (the
+    /// measured frequency is used), else `None`.
+    pub metadata_frequency_hz: Option<f64>,
 }
+
+/// Relative difference between the metadata's and the measured drive
+/// frequency beyond which the metadata are set aside (with a warning).
+pub const DRIVE_FREQUENCY_TOLERANCE: f64 = 0.02;
 
 /// Contact force and the corrected signals it was computed from, on the
 /// run's common time base (NaN where data are missing).
@@ -241,20 +249,41 @@ impl Rotation {
 
 /// Fits the drive sinusoid; `f0` is the commanded frequency if known.
 pub fn fit_drive(t: &[f64], x0: &[f64], f0: Option<f64>) -> Option<DriveFit> {
-    let f0 = match f0 {
-        Some(f) if f.is_finite() && f > 0.0 => f,
-        _ => estimate_frequency(t, x0)?,
+    let fit_near = |f0: f64| -> Option<(DriveFit, f64)> {
+        let rss =
+            |f: f64| sine_fit(t, x0, 2.0 * std::f64::consts::PI * f).map_or(f64::INFINITY, |r| r.3);
+        let f = golden_section(0.98 * f0, 1.02 * f0, 40, rss);
+        let (_, a, b, rss, n) = sine_fit(t, x0, 2.0 * std::f64::consts::PI * f)?;
+        Some((
+            DriveFit {
+                amplitude_m: a.hypot(b),
+                frequency_hz: f,
+                phase_rad: b.atan2(a),
+                residual_rms_m: (rss / n.max(1) as f64).sqrt(),
+                metadata_frequency_hz: None,
+            },
+            rss,
+        ))
     };
-    let rss =
-        |f: f64| sine_fit(t, x0, 2.0 * std::f64::consts::PI * f).map_or(f64::INFINITY, |r| r.3);
-    let f = golden_section(0.98 * f0, 1.02 * f0, 40, rss);
-    let (_, a, b, rss, n) = sine_fit(t, x0, 2.0 * std::f64::consts::PI * f)?;
-    Some(DriveFit {
-        amplitude_m: a.hypot(b),
-        frequency_hz: f,
-        phase_rad: b.atan2(a),
-        residual_rms_m: (rss / n.max(1) as f64).sqrt(),
-    })
+    let Some(meta) = f0.filter(|f| f.is_finite() && *f > 0.0) else {
+        return fit_near(estimate_frequency(t, x0)?).map(|r| r.0);
+    };
+    let at_meta = fit_near(meta);
+    // Metadata that the drive channel contradicts (by more than 2 %, and
+    // the measured frequency fits the channel at least twice as well) are
+    // set aside: the measured frequency is used, and the fit says so.
+    if let Some(measured) = estimate_frequency(t, x0) {
+        if (measured / meta - 1.0).abs() > DRIVE_FREQUENCY_TOLERANCE {
+            if let Some((mut fit, rss)) = fit_near(measured) {
+                let better = at_meta.as_ref().is_none_or(|(_, r)| rss < 0.5 * r);
+                if better {
+                    fit.metadata_frequency_hz = Some(meta);
+                    return Some(fit);
+                }
+            }
+        }
+    }
+    at_meta.map(|r| r.0)
 }
 
 /// Frequency from the mean spacing of upward mean crossings.

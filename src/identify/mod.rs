@@ -955,6 +955,15 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         .map(|v| crate::stats::median(v))
         .filter(|v| v.is_finite())
         .unwrap_or(rig.normal_force_n);
+    if normal_force_n < 0.0 {
+        warnings.push(format!(
+            "the normal force is negative ({normal_force_n} N): a sign or unit mistake in the log? Friction coefficients from it would be meaningless (batch refuses it)"
+        ));
+    } else if normal_force_n == 0.0 {
+        warnings.push(
+            "the normal force is zero: the friction member may be off; no friction coefficient (μ) can be formed".to_string(),
+        );
+    }
     let eta = 2.0 * std::f64::consts::PI * base.contact.drive.frequency_hz / rig.omega_ref();
     let rel = base.contact.drive.amplitude_m / rig.drive_amplitude_m - 1.0;
     if rel.abs() > 0.005 {
@@ -963,6 +972,14 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             base.contact.drive.amplitude_m * 1e3,
             rig.drive_amplitude_m * 1e3,
             rel * 100.0
+        ));
+    }
+    if let Some(meta) = base.contact.drive.metadata_frequency_hz {
+        let measured = base.contact.drive.frequency_hz;
+        warnings.push(format!(
+            "the metadata's drive frequency {meta} Hz contradicts the measured {measured:.4} Hz (by {:+.1} %, more than {} %); η and the fit use the measured one",
+            (meta / measured - 1.0) * 100.0,
+            contact::DRIVE_FREQUENCY_TOLERANCE * 100.0
         ));
     }
     let notes = characteristic_notes(&base, &ef);

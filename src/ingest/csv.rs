@@ -383,11 +383,20 @@ fn check_drive_amplitude(
     Ok(())
 }
 
+/// Largest channel map (bytes): a map names a few columns.
+const MAX_MAP_BYTES: u64 = 1_000_000;
+
 /// The channel map of `path`: `map`, or `NAME.map.toml` beside it.
 fn read_map(path: &Path, map: Option<&Path>) -> Result<(PathBuf, ChannelMap), IngestError> {
     let map_path = map.map_or_else(|| default_map_path(path), Path::to_path_buf);
-    let map_text = match std::fs::read_to_string(&map_path) {
-        Ok(t) => t,
+    let map_text = match std::fs::metadata(&map_path) {
+        // The checks logs get (FIFO, device, directory, size) before any read.
+        Ok(_) => crate::limits::read_small_text(&map_path, "channel map", MAX_MAP_BYTES).map_err(
+            |e| match e {
+                crate::limits::SmallReadError::Io(e) => IngestError::io(&map_path, e),
+                crate::limits::SmallReadError::Refused(m) => IngestError::invalid(&map_path, m),
+            },
+        )?,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound && map.is_none() => {
             return Err(IngestError::invalid(
                 path,

@@ -84,12 +84,41 @@ fn mcap_error(path: &Path, e: mcap::McapError) -> IngestError {
         E::BadChunkCrc { .. } | E::BadDataCrc { .. } | E::BadSummaryCrc { .. } => {
             format!("corrupt MCAP: {e}")
         }
-        E::RecordTooLarge { .. } | E::ChunkTooLarge(_) | E::ChunkBufferTooLarge(_) => {
+        E::RecordTooLarge { opcode, len } if opcode == 0x05 || opcode == 0x06 => oversize(
+            path,
+            len,
+            if opcode == 0x05 { "message" } else { "chunk" },
+            &e,
+        ),
+        E::ChunkTooLarge(len) => oversize(path, len, "chunk", &e),
+        E::RecordTooLarge { .. } | E::ChunkBufferTooLarge(_) => {
             format!("corrupt MCAP (implausible record length): {e}")
         }
         other => format!("corrupt MCAP: {other}"),
     };
     IngestError::invalid(path, msg)
+}
+
+/// The message for a record or chunk of `len` bytes over [`RECORD_LIMIT`]:
+/// where the file can hold it (a chunk compressed at most 64-fold), it is
+/// an oversize DAQ buffer, named as such with the numbers; else the length
+/// field is corrupt.
+fn oversize(path: &Path, len: u64, what: &str, e: &mcap::McapError) -> String {
+    let file_len = std::fs::metadata(path).map_or(0, |m| m.len());
+    let plausible = if what == "chunk" {
+        file_len.saturating_mul(64)
+    } else {
+        file_len
+    };
+    if len <= plausible {
+        format!(
+            "a {what} of {len} bytes, over the {} MiB a record may have: an oversize DAQ buffer (about {:.1e} samples as JSON; a DAQ writes buffers of a few MiB): split the channel into buffers of at most about 3 million samples",
+            RECORD_LIMIT >> 20,
+            len as f64 / 20.0
+        )
+    } else {
+        format!("corrupt MCAP (implausible record length): {e}")
+    }
 }
 
 /// Bytes of records the reader thread gathers before handing them over.

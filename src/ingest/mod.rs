@@ -279,6 +279,20 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     if meta.len() == 0 {
         return Err(IngestError::invalid(path, "file is empty"));
     }
+    if format == LogFormat::Csv && meta.len() > MAX_CSV_BYTES {
+        // Refused before any read: the CSV reader holds the whole table.
+        let budget = crate::limits::MEMORY_BUDGET_BYTES;
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "is {} bytes; reading a CSV log takes about {CSV_MEMORY_FACTOR} times its size in memory ({}), over {}: CSV logs up to {} bytes are read; split it into shorter logs",
+                meta.len(),
+                crate::limits::human(meta.len() as f64 * CSV_MEMORY_FACTOR as f64),
+                crate::limits::budget_text(),
+                budget / CSV_MEMORY_FACTOR
+            ),
+        ));
+    }
     let mut raw = match format {
         LogFormat::Mcap => mcap::read(path)?,
         LogFormat::Csv => csv::read(path, opts.map.as_deref())?,
@@ -288,8 +302,62 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         raw.warnings
             .push("--map applies to CSV logs only; ignored".to_string());
     }
-    run::build(path, raw)
+    let run = run::build(path, raw)?;
+    check_signal(path, &run)?;
+    // Rig constants the engines cannot integrate (fit, validate and batch
+    // simulate the rig): refused with the numbers.
+    let drive_hz = run.rig.drive_frequency_hz.unwrap_or(0.0);
+    run.rig
+        .constants()
+        .check_integrable(drive_hz)
+        .map_err(|e| IngestError::invalid(path, format!("rig metadata: {e}")))?;
+    Ok(run)
 }
+
+/// Refuses a log whose motion channels carry no signal (every finite
+/// sample of x0, x1 or x2 the same, e.g. an all-zero log): nothing moved,
+/// or the sensors were not connected, and any fit of it would be made up.
+fn check_signal(path: &Path, run: &Run) -> Result<(), IngestError> {
+    let r = &run.resampled;
+    let flat: Vec<&str> = [("x0", &r.x0), ("x1", &r.x1), ("x2", &r.x2)]
+        .into_iter()
+        .filter(|(_, v)| {
+            let mut finite = v.iter().copied().filter(|x| x.is_finite());
+            match finite.next() {
+                Some(first) => {
+                    let mut n = 1usize;
+                    let same = finite.all(|x| {
+                        n += 1;
+                        x == first
+                    });
+                    same && n >= 2
+                }
+                None => false,
+            }
+        })
+        .map(|(name, _)| name)
+        .collect();
+    if flat.is_empty() {
+        return Ok(());
+    }
+    Err(IngestError::invalid(
+        path,
+        format!(
+            "the channel{} {} carr{} no signal (every sample the same value): nothing moved or the sensor was not connected; there is nothing to fit",
+            if flat.len() > 1 { "s" } else { "" },
+            flat.join(", "),
+            if flat.len() > 1 { "y" } else { "ies" }
+        ),
+    ))
+}
+
+/// Memory a CSV log takes while read, in multiples of its size (a 2 GB
+/// CSV peaked at 12 GB).
+pub const CSV_MEMORY_FACTOR: u64 = 6;
+
+/// Largest CSV log read: what fits the memory budget at
+/// [`CSV_MEMORY_FACTOR`] (333 MB).
+pub const MAX_CSV_BYTES: u64 = crate::limits::MEMORY_BUDGET_BYTES / CSV_MEMORY_FACTOR;
 
 /// Parses and checks a CSV channel map (the TOML text of `NAME.map.toml`)
 /// without reading a log, as [`read`] does before the table; `path` names

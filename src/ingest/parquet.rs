@@ -98,6 +98,18 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
     let time = time_column(path, &df)?;
     let dt_s = median_interval(&time)
         .ok_or_else(|| IngestError::invalid(path, "too little data: the table has a single row"))?;
+    // Time in other units than seconds (integer nanoseconds read as
+    // seconds) makes the log absurd: refused with the rate it implies.
+    let rate = 1.0 / dt_s;
+    let (lo, hi) = super::csv::RATE_RANGE_HZ;
+    if !(rate >= lo && rate <= hi) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "column `t`: the rows come every {dt_s:e} s ({rate:.4e} Hz), outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log: `t` must be in seconds (integer nanoseconds or milliseconds read as seconds give this)"
+            ),
+        ));
+    }
     let mut channels = Vec::new();
     for q in Quantity::ALL {
         if let Some(v) = column(path, &df, q.name())? {
@@ -207,4 +219,27 @@ fn time_column(path: &Path, df: &DataFrame) -> Result<Vec<f64>, IngestError> {
         ));
     }
     Ok(time)
+}
+
+#[cfg(test)]
+mod tests {
+    /// A `t` column in integer nanoseconds (read as seconds) is refused
+    /// with the rate it implies, not ingested as a log of 1e-6 Hz.
+    #[test]
+    fn time_in_nanoseconds_is_refused() {
+        let src =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N2.2.parquet");
+        let run = crate::ingest::read(&src, &Default::default()).expect("bundled log");
+        let r = &run.resampled;
+        let t_ns: Vec<f64> = r.t.iter().map(|t| (t * 1e9).round()).collect();
+        let col = |v: &[f64]| v.iter().map(|x| Some(*x)).collect::<Vec<_>>();
+        let cols = [("x0", col(&r.x0)), ("x1", col(&r.x1)), ("x2", col(&r.x2))];
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("ns.parquet");
+        crate::io::write_table(&p, &t_ns, &cols, &run.rig.to_map()).unwrap();
+        let e = crate::ingest::read(&p, &Default::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("must be in seconds"), "{e}");
+    }
 }

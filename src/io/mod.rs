@@ -1,13 +1,17 @@
 //! Output helpers shared by the stages: atomic file writes, so a failed or
 //! interrupted job never leaves a partial file or clobbers the user's data;
 //! the checks every command makes on its inputs and outputs before any work
-//! ([`paths`]); and the registry of live temporary files that a signal
-//! handler removes ([`remove_live_temps`]).
+//! ([`paths`]); the command's write transaction that renames every output
+//! at the end, all or nothing ([`txn`]); and the registry of live temporary
+//! files that a signal handler removes ([`remove_live_temps`]).
 
 pub mod json;
 mod parquet;
 pub mod paths;
+pub mod txn;
 
+pub use crate::limits as budget;
+pub use crate::limits::thread_budget;
 pub use parquet::{write_parquet, write_table};
 pub use paths::{check_inputs, check_outputs, Output};
 
@@ -84,9 +88,17 @@ pub fn remove_live_temps() {
     }
 }
 
-/// The temporary file beside `target` (hidden, named after the target and
-/// this process, with `ext` appended where a writer needs an extension).
+/// The longest file name the file systems we write to accept (NAME_MAX
+/// of Linux file systems, in bytes).
+pub const NAME_MAX: usize = 255;
+
+/// The temporary file beside `target`: hidden, named after the target
+/// (shortened at a character boundary so the whole name stays within
+/// [`NAME_MAX`]), this process and a per-process counter, with `ext`
+/// appended where a writer needs an extension. One scheme for every
+/// temporary, backup included.
 pub fn temp_beside(target: &Path, ext: Option<&str>) -> Result<TempPath> {
+    static COUNTER: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let name = target
         .file_name()
         .ok_or_else(|| Error::Input {
@@ -99,11 +111,23 @@ pub fn temp_beside(target: &Path, ext: Option<&str>) -> Result<TempPath> {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let tmp = match ext {
-        Some(e) => format!(".{name}.{}.tmp.{e}", std::process::id()),
-        None => format!(".{name}.{}.tmp", std::process::id()),
+    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let suffix = match ext {
+        Some(e) => format!(".{}.{n}.tmp.{e}", std::process::id()),
+        None => format!(".{}.{n}.tmp", std::process::id()),
     };
-    Ok(TempPath::new(dir.join(tmp)))
+    Ok(TempPath::new(dir.join(temp_name(&name, &suffix))))
+}
+
+/// `.{name}{suffix}`, with `name` cut (at a character boundary) so the
+/// result has at most [`NAME_MAX`] bytes.
+fn temp_name(name: &str, suffix: &str) -> String {
+    let room = NAME_MAX.saturating_sub(1 + suffix.len());
+    let mut cut = name.len().min(room);
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    format!(".{}{suffix}", &name[..cut])
 }
 
 /// Where an output to `path` really goes: an existing symlink is written
@@ -161,16 +185,15 @@ impl AtomicFile {
         }
     }
 
-    /// Flushes, syncs and renames the temporary file into place.
+    /// Flushes and syncs the temporary file, and renames it into place
+    /// (inside a write transaction: when the transaction commits).
     pub fn commit(mut self) -> Result<()> {
         let w = self.writer.take().expect("writer present until commit");
         let file = w.into_inner().map_err(|e| self.io_err(e.into_error()))?;
         file.sync_all().map_err(|e| self.io_err(e))?;
         drop(file);
         let tmp = self.tmp.take().expect("temp present until commit");
-        std::fs::rename(tmp.path(), &self.dest).map_err(|e| self.io_err(e))?;
-        tmp.keep();
-        Ok(())
+        txn::finish(tmp, &self.dest, &self.target)
     }
 }
 
@@ -219,4 +242,29 @@ pub fn ensure_not_inputs<'a>(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn temporary_names_stay_within_name_max() {
+        let names = [
+            "a.json".to_string(),
+            "é".repeat(100) + ".json",
+            "a".repeat(245) + ".json",
+            "é".repeat(125) + ".svg",
+        ];
+        for name in &names {
+            assert!(name.len() <= NAME_MAX);
+            let len = name.len();
+            let t = temp_beside(Path::new(name), Some("png")).unwrap();
+            let tn = t.path().file_name().unwrap().len();
+            assert!(tn <= NAME_MAX, "{len}: {tn} bytes");
+            let t2 = temp_beside(Path::new(name), Some("png")).unwrap();
+            assert_ne!(t.path(), t2.path(), "each temporary is unique");
+        }
+        assert_eq!(temp_name("a.svg", ".1.0.tmp"), ".a.svg.1.0.tmp");
+    }
 }

@@ -7,7 +7,6 @@
 //! outputs are atomic); one that fails them has done no work.
 
 use crate::error::{Error, Result};
-use std::fs::FileType;
 use std::path::{Path, PathBuf};
 
 /// One output file of a command: the flag that names it, its path and the
@@ -50,20 +49,7 @@ fn input_err(path: &Path, msg: impl Into<String>) -> Error {
     }
 }
 
-/// What kind of special file this is, if it is not a regular file or a
-/// directory.
-fn special_kind(t: &FileType) -> Option<&'static str> {
-    use std::os::unix::fs::FileTypeExt;
-    if t.is_fifo() {
-        Some("a FIFO (named pipe)")
-    } else if t.is_char_device() || t.is_block_device() {
-        Some("a device")
-    } else if t.is_socket() {
-        Some("a socket")
-    } else {
-        None
-    }
-}
+use crate::limits::special_kind;
 
 /// Refuses an existing output path (`dest`, the resolved `target`) that is
 /// not a regular file: the atomic rename would replace it.
@@ -107,6 +93,18 @@ pub fn check_inputs<'a>(inputs: impl IntoIterator<Item = &'a Path>) -> Result<()
         })?;
     }
     Ok(())
+}
+
+/// Reads a small text input (a plan, a sensor set) with the checks logs
+/// get, before any read (see [`crate::limits::read_small_text`]).
+pub fn read_small_text(path: &Path, what: &str, max_bytes: u64) -> Result<String> {
+    crate::limits::read_small_text(path, what, max_bytes).map_err(|e| match e {
+        crate::limits::SmallReadError::Io(source) => Error::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        crate::limits::SmallReadError::Refused(msg) => input_err(path, msg),
+    })
 }
 
 /// The identity of a path for comparisons: the canonical file if it
@@ -169,6 +167,16 @@ fn check_file(o: &Output) -> Result<()> {
             ),
         ));
     }
+    let name_len = path.file_name().map_or(0, |n| n.len());
+    if name_len > super::NAME_MAX {
+        return Err(input_err(
+            path,
+            format!(
+                "{flag}: the file name is {name_len} bytes, over the file system's limit of {} bytes: give a shorter name",
+                super::NAME_MAX
+            ),
+        ));
+    }
     let ext = extension(path);
     if !o.exts.contains(&ext.as_str()) {
         return Err(input_err(
@@ -224,11 +232,26 @@ fn check_file(o: &Output) -> Result<()> {
     }
 }
 
+/// Checks a file the tool names itself inside a report directory: an
+/// existing symlink is refused (never written through: it may point at a
+/// user's file), as is anything but a regular file.
+pub fn check_tool_named(path: &Path) -> Result<()> {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.file_type().is_symlink() => Err(input_err(
+            path,
+            "is a symlink inside the report directory: stickslip names the report's files itself and never writes them through a symlink; remove it or choose another --report directory",
+        )),
+        Ok(_) => refuse_special(path, path),
+        Err(_) => Ok(()),
+    }
+}
+
 /// Checks a report directory: an existing directory (or a symlink to one)
-/// or a new name.
+/// or a new name; in an existing one, its `index.html` must not be a
+/// symlink or a special file (the figures are checked as they are named).
 fn check_dir(o: &Output) -> Result<()> {
     match std::fs::metadata(o.path) {
-        Ok(m) if m.is_dir() => Ok(()),
+        Ok(m) if m.is_dir() => check_tool_named(&o.path.join("index.html")),
         Ok(_) => Err(input_err(
             o.path,
             format!(

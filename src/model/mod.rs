@@ -16,6 +16,8 @@
 //!
 //! ζ0(τ) is the base motion divided by A: `cos(ητ)` for the paper's drive.
 
+mod stiffness;
+pub use stiffness::{MAX_MODE_TO_DRIVE_RATIO, STIFFNESS_RATIO_RANGE};
 mod drive;
 mod law;
 

@@ -59,6 +59,14 @@ pub struct Plan {
     pub validate: Vec<Pair>,
 }
 
+/// Largest plan file (bytes): a plan names logs, it is never this large.
+pub const MAX_PLAN_BYTES: u64 = 4_000_000;
+
+/// Most entries of a plan (fit, batch and [[validate]] together): each
+/// holds a log's run, fit and predictions (a plan of 10 000 entries grew to
+/// 7.8 GB), so this many fit the memory budget.
+pub const MAX_PLAN_ENTRIES: usize = 1000;
+
 fn plan_err(path: &Path, msg: impl Into<String>) -> crate::Error {
     crate::Error::Input {
         path: path.to_path_buf(),
@@ -77,10 +85,7 @@ impl Plan {
     /// # Ok::<(), stickslip::Error>(())
     /// ```
     pub fn read(path: &Path) -> crate::Result<Plan> {
-        let text = std::fs::read_to_string(path).map_err(|source| crate::Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
+        let text = crate::io::paths::read_small_text(path, "plan", MAX_PLAN_BYTES)?;
         let mut plan: Plan = toml::from_str(&text)
             .map_err(|e| plan_err(path, format!("not a valid plan: {}", e.message())))?;
         let base = path.parent().unwrap_or(Path::new(""));
@@ -94,6 +99,17 @@ impl Plan {
         for v in &mut plan.validate {
             fix(&mut v.characteristic);
             fix(&mut v.sweep);
+        }
+        let entries = plan.fit.len() + plan.batch.len() + plan.validate.len();
+        if entries > MAX_PLAN_ENTRIES {
+            return Err(plan_err(
+                path,
+                format!(
+                    "the plan has {entries} entries (fit, batch, [[validate]]); at most {MAX_PLAN_ENTRIES} fit {} (each holds a log's run, fit and prediction, up to about {} MB): split it into several plans",
+                    crate::io::budget::budget_text(),
+                    crate::io::budget::MEMORY_BUDGET_BYTES / MAX_PLAN_ENTRIES as u64 / 1_000_000
+                ),
+            ));
         }
         if plan.fit.is_empty() && plan.batch.is_empty() && plan.validate.is_empty() {
             return Err(plan_err(

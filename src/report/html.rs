@@ -47,14 +47,28 @@ pub struct InputFile {
 
 /// Hashes an input file.
 pub fn input_file(path: &Path) -> Result<InputFile> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+    use std::io::Read;
+    let io = |source| Error::Io {
         path: path.to_path_buf(),
         source,
-    })?;
-    let digest = Sha256::digest(&bytes);
+    };
+    // Streamed: a long log is hashed in constant memory.
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 16];
+    let mut len = 0u64;
+    loop {
+        let n = file.read(&mut buf).map_err(io)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+        len += n as u64;
+    }
+    let digest = hasher.finalize();
     Ok(InputFile {
         path: path.display().to_string(),
-        bytes: bytes.len() as u64,
+        bytes: len,
         sha256: digest.iter().map(|b| format!("{b:02x}")).collect(),
     })
 }
@@ -189,7 +203,7 @@ fn template_err(e: &minijinja::Error) -> Error {
 }
 
 /// A report directory: creates it, and refuses to write a file that is one
-/// of the inputs.
+/// of the inputs, a symlink or a special file.
 #[derive(Debug, Clone)]
 pub struct ReportDir {
     dir: PathBuf,
@@ -199,10 +213,8 @@ pub struct ReportDir {
 impl ReportDir {
     /// Creates (if needed) the directory `dir` for a report on `inputs`.
     pub fn create(dir: &Path, inputs: &[PathBuf]) -> Result<Self> {
-        std::fs::create_dir_all(dir).map_err(|source| Error::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
+        // A directory this command creates is removed again if it fails.
+        crate::io::txn::create_dir(dir)?;
         let inputs = inputs
             .iter()
             .filter_map(|p| std::fs::canonicalize(p).ok())
@@ -213,9 +225,13 @@ impl ReportDir {
         })
     }
 
-    /// The path of `name` in the directory, checked not to be an input.
+    /// The path of `name` in the directory, checked not to be an input
+    /// and not a symlink: the files of a report are named by the tool, so
+    /// they are never written through a symlink (it could point at a
+    /// user's file), and not onto anything but a regular file.
     pub fn file(&self, name: &str) -> Result<PathBuf> {
         let p = self.dir.join(name);
+        crate::io::paths::check_tool_named(&p)?;
         if let Ok(c) = std::fs::canonicalize(&p) {
             if self.inputs.contains(&c) {
                 return Err(Error::Input {

@@ -91,12 +91,7 @@ pub fn frc(fig: &FrcFigure, path: &Path) -> Result<()> {
                     return Err(plot_err(path, e));
                 }
             }
-            std::fs::rename(tmp.path(), &dest).map_err(|source| Error::Io {
-                path: path.to_path_buf(),
-                source,
-            })?;
-            tmp.keep();
-            Ok(())
+            crate::io::txn::finish(tmp, &dest, path)
         }
         _ => Err(Error::Input {
             path: path.to_path_buf(),

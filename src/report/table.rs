@@ -223,6 +223,10 @@ impl TableMeta {
         if meta.shard == 0 || meta.shard > meta.shards {
             return Err(bad("shard", shard));
         }
+        // Sizes a header claims are bounded before anything is allocated
+        // from them (a part claiming shard 1 of 10^12 is refused).
+        crate::io::budget::check_family(meta.curves as u64, meta.points as u64, meta.shards as u64)
+            .map_err(|e| fail(path, "sweep table metadata", e))?;
         Ok(Some(meta))
     }
 }
@@ -382,6 +386,51 @@ fn read_frame(path: &Path) -> Result<(DataFrame, Option<TableMeta>)> {
         _ => return Err(fail(path, "table", "must be .parquet or .csv")),
     };
     Ok(read)
+}
+
+/// Whether the existing file at `path` looks like a sweep table (its
+/// first line or its Parquet schema names the `curve`, `point` and `eta`
+/// columns), read without loading it: `sweep --out` replaces such a table
+/// but refuses to replace anything else (a rig log) without `--force`.
+pub fn is_sweep_table(path: &Path) -> bool {
+    use std::io::{BufRead, Read};
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let has = |names: &[&str]| ["curve", "point", "eta"].iter().all(|c| names.contains(c));
+    match path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .as_deref()
+    {
+        Some("csv") => {
+            let mut r = std::io::BufReader::new(file).take(8192);
+            let mut line = String::new();
+            loop {
+                line.clear();
+                match r.read_line(&mut line) {
+                    Ok(0) | Err(_) => return false,
+                    Ok(_) if line.starts_with('#') => continue,
+                    Ok(_) => {
+                        let names: Vec<&str> = line.trim_end().split(',').map(str::trim).collect();
+                        return has(&names);
+                    }
+                }
+            }
+        }
+        Some("parquet") => {
+            let mut reader = ParquetReader::new(file);
+            match reader.schema() {
+                Ok(schema) => {
+                    let names: Vec<&str> = schema.iter_names().map(|n| n.as_str()).collect();
+                    has(&names)
+                }
+                Err(_) => false,
+            }
+        }
+        _ => false,
+    }
 }
 
 /// The [`TableMeta`] of a CSV table's leading comment line, if it has one.

@@ -1047,7 +1047,7 @@ impl<const N: usize> LinearPhase<N> {
 
 /// Whether the even rows of (A, b) are x_{2i}' = x_{2i+1} (N even).
 fn kinematic<const N: usize>(a: &[[f64; N]; N], b: &[f64; N]) -> bool {
-    N % 2 == 0
+    N.is_multiple_of(2)
         && (0..N)
             .step_by(2)
             .all(|r| b[r] == 0.0 && (0..N).all(|j| a[r][j] == if j == r + 1 { 1.0 } else { 0.0 }))

@@ -209,7 +209,7 @@ impl<O: Observer> Tracker<'_, O> {
     /// convergence can make a period-1 orbit pass the test at p = 2 first).
     fn minimal_period(&self, p: usize, n: u64, lim: f64) -> u32 {
         for q in 1..p {
-            if p % q != 0 {
+            if !p.is_multiple_of(q) {
                 continue;
             }
             let ok = (0..p as u64).all(|j| {

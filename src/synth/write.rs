@@ -49,24 +49,7 @@ pub fn write(log: &SynthLog, path: &Path) -> Result<Written> {
     };
     let truth_path = dir.join("truth.json");
     // Read the existing truth first: a bad one stops us before any output.
-    let mut truth = match std::fs::read(&truth_path) {
-        Ok(bytes) => serde_json::from_slice::<Value>(&bytes)
-            .ok()
-            .filter(|v| v.get("files").is_some_and(Value::is_object))
-            .ok_or_else(|| Error::Input {
-                path: truth_path.clone(),
-                msg: "exists but is not a truth file ({\"files\": {...}}); move it away".into(),
-            })?,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
-            json!({"set": "synthetic", "generator": "stickslip synth", "files": {}})
-        }
-        Err(source) => {
-            return Err(Error::Io {
-                path: truth_path,
-                source,
-            })
-        }
-    };
+    read_truth(&truth_path)?;
     let mut entry = log.truth.clone();
     let mut map = None;
     match log.config.format {
@@ -89,19 +72,44 @@ pub fn write(log: &SynthLog, path: &Path) -> Result<Written> {
         }
         LogFormat::Parquet => write_parquet(log, path)?,
     }
+    // Several runs may write into one folder at once: read, merge and
+    // write truth.json under the folder's lock, held until the renames
+    // (inside the CLI's transaction) or to the end of this function.
+    let _lock = crate::io::txn::lock_beside(&truth_path)?;
+    let mut truth = read_truth(&truth_path)?;
     truth["files"]
         .as_object_mut()
-        .expect("checked above")
+        .expect("checked by read_truth")
         .insert(name, entry);
     let text = serde_json::to_string_pretty(&truth).expect("JSON values serialise");
     crate::io::write_atomic(&truth_path, text.as_bytes())?;
-    let bytes = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let bytes = crate::io::txn::written_len(path).unwrap_or(0);
     Ok(Written {
         log: path.to_path_buf(),
         map,
         truth: truth_path,
         bytes,
     })
+}
+
+/// The truth file of a folder (`{"set", "files": {...}}`), or a new one.
+fn read_truth(truth_path: &Path) -> Result<Value> {
+    match std::fs::read(truth_path) {
+        Ok(bytes) => serde_json::from_slice::<Value>(&bytes)
+            .ok()
+            .filter(|v| v.get("files").is_some_and(Value::is_object))
+            .ok_or_else(|| Error::Input {
+                path: truth_path.to_path_buf(),
+                msg: "exists but is not a truth file ({\"files\": {...}}); move it away".into(),
+            }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            Ok(json!({"set": "synthetic", "generator": "stickslip synth", "files": {}}))
+        }
+        Err(source) => Err(Error::Io {
+            path: truth_path.to_path_buf(),
+            source,
+        }),
+    }
 }
 
 fn mcap_err(path: &Path, e: mcap::McapError) -> Error {

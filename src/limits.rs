@@ -1,0 +1,202 @@
+//! The memory budget every size is checked against before anything is
+//! allocated (issue 29), the thread-count clamp, and the bounded read of
+//! small text inputs (plans, channel maps, sensor sets) with the checks logs
+//! get. A size that fits the budget runs; one that cannot is refused up
+//! front with the numbers and what to change. This module depends on no
+//! other module of the crate (ingest and io both use it).
+
+/// The memory one command may plan to hold (bytes): 2 GB. Sizes that can
+/// be given or read (shard counts, curves × points, plan entries, DAQ
+/// buffer lengths, log duration × rate) are checked against it before any
+/// allocation.
+pub const MEMORY_BUDGET_BYTES: u64 = 2_000_000_000;
+
+/// Most worker threads: more than this many times the machine's cores only
+/// adds start-up and switching cost (`RAYON_NUM_THREADS=100000` turned a
+/// 0.05 s sweep into minutes).
+pub const THREADS_PER_CORE: usize = 4;
+
+/// Memory per steady state of a sweep family, all copies counted (the
+/// computed row, the table row, the JSON and table being written):
+/// measured 1.13 kB (1 curve × 100 000 points with `--out x.parquet
+/// --json` peaked at 133 MB), rounded up.
+pub const FAMILY_POINT_BYTES: u64 = 1200;
+
+/// Most steady states (curves × points) of one sweep family or merged
+/// table: what fits [`MEMORY_BUDGET_BYTES`] at [`FAMILY_POINT_BYTES`] each
+/// (about 1.67 million).
+pub const MAX_FAMILY_POINTS: u64 = MEMORY_BUDGET_BYTES / FAMILY_POINT_BYTES;
+
+/// Checks a family of `curves` × `points` steady states (and `shards`
+/// slices of it) against the budget: `Err` says what is too large, with
+/// the numbers and what to change.
+pub fn check_family(curves: u64, points: u64, shards: u64) -> Result<(), String> {
+    let total = curves.checked_mul(points);
+    match total {
+        Some(t) if t <= MAX_FAMILY_POINTS => {}
+        _ => {
+            let t = curves as f64 * points as f64;
+            return Err(format!(
+                "{curves} curves x {points} etas = {t:.3e} steady states would need {} (about {FAMILY_POINT_BYTES} bytes each), over {}: at most {MAX_FAMILY_POINTS} steady states per family; use fewer --rho-s values or --points, or run several families",
+                human(t * FAMILY_POINT_BYTES as f64),
+                budget_text()
+            ));
+        }
+    }
+    if curves > u64::from(u32::MAX) || points > u64::from(u32::MAX) {
+        return Err(format!(
+            "{curves} curves x {points} etas: indices beyond 2^32 cannot be stored"
+        ));
+    }
+    let units = total.unwrap_or(0).max(1);
+    if shards > units {
+        return Err(format!(
+            "{shards} shards for a family of {curves} curves x {points} etas: at most one shard per steady state ({units})"
+        ));
+    }
+    Ok(())
+}
+
+/// The bytes `count` items of `item_bytes` each would take, or `None` if
+/// that overflows.
+pub fn bytes(count: u64, item_bytes: u64) -> Option<u64> {
+    count.checked_mul(item_bytes)
+}
+
+/// Whether `count` items of `item_bytes` fit the budget.
+pub fn fits(count: u64, item_bytes: u64) -> bool {
+    bytes(count, item_bytes).is_some_and(|b| b <= MEMORY_BUDGET_BYTES)
+}
+
+/// A byte count as people read it (`9.0 GB`, `512 MB`).
+pub fn human(bytes: f64) -> String {
+    if bytes >= 1e9 {
+        format!("{:.1} GB", bytes / 1e9)
+    } else if bytes >= 1e6 {
+        format!("{:.0} MB", bytes / 1e6)
+    } else {
+        format!("{:.0} kB", bytes / 1e3)
+    }
+}
+
+/// The budget as messages name it.
+pub fn budget_text() -> String {
+    format!("the {} memory budget", human(MEMORY_BUDGET_BYTES as f64))
+}
+
+/// The most worker threads on this machine.
+pub fn max_threads() -> usize {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    (cores * THREADS_PER_CORE).max(1)
+}
+
+/// Clamps `RAYON_NUM_THREADS` to [`max_threads`] with one warning on
+/// stderr (before the thread pool starts). A value that is not a number is
+/// left to rayon (which ignores it).
+pub fn thread_budget() {
+    let Ok(v) = std::env::var("RAYON_NUM_THREADS") else {
+        return;
+    };
+    let Ok(n) = v.trim().parse::<u64>() else {
+        return;
+    };
+    let max = max_threads();
+    if n > max as u64 {
+        eprintln!(
+            "warning: RAYON_NUM_THREADS={n} is more than {THREADS_PER_CORE} threads per core; using {max} threads"
+        );
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(max)
+            .build_global();
+    }
+}
+
+/// What kind of special file this is, if it is not a regular file or a
+/// directory.
+pub fn special_kind(t: &std::fs::FileType) -> Option<&'static str> {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_fifo() {
+        Some("a FIFO (named pipe)")
+    } else if t.is_char_device() || t.is_block_device() {
+        Some("a device")
+    } else if t.is_socket() {
+        Some("a socket")
+    } else {
+        None
+    }
+}
+
+/// Why a small text input was not read.
+#[derive(Debug)]
+pub enum SmallReadError {
+    /// The operating system's error.
+    Io(std::io::Error),
+    /// Refused: what is wrong (without the path).
+    Refused(String),
+}
+
+/// Reads a small text input (a plan, a channel map, a sensor set) with the
+/// checks logs get, before any read: a regular file (a FIFO would hang, a
+/// device never end, a directory is not a file) of at most `max_bytes`
+/// (refused with the numbers: no such file is that large), UTF-8. `what`
+/// names it in messages.
+pub fn read_small_text(
+    path: &std::path::Path,
+    what: &str,
+    max_bytes: u64,
+) -> Result<String, SmallReadError> {
+    use std::io::Read;
+    let refused = |m: String| SmallReadError::Refused(m);
+    let m = std::fs::metadata(path).map_err(SmallReadError::Io)?;
+    if m.is_dir() {
+        return Err(refused(format!(
+            "is a directory, not a {what}: give the file itself"
+        )));
+    }
+    if let Some(kind) = special_kind(&m.file_type()) {
+        return Err(refused(format!(
+            "is {kind}, not a regular file: give the {what} file itself"
+        )));
+    }
+    if m.len() > max_bytes {
+        return Err(refused(format!(
+            "is {} bytes, more than a {what} can be ({max_bytes} bytes at most): is it the right file?",
+            m.len()
+        )));
+    }
+    let file = std::fs::File::open(path).map_err(SmallReadError::Io)?;
+    let mut bytes = Vec::new();
+    // The file may grow after the check: read no more than the limit.
+    file.take(max_bytes + 1)
+        .read_to_end(&mut bytes)
+        .map_err(SmallReadError::Io)?;
+    if bytes.len() as u64 > max_bytes {
+        return Err(refused(format!(
+            "grew beyond {max_bytes} bytes while being read"
+        )));
+    }
+    String::from_utf8(bytes).map_err(|_| refused(format!("is not a text {what} (not UTF-8)")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn budget_arithmetic() {
+        assert!(fits(1000, 8));
+        assert!(!fits(u64::MAX, 2));
+        assert!(!fits(1_000_000_000_000, 16));
+        assert_eq!(human(9.0e9), "9.0 GB");
+        assert!(max_threads() >= THREADS_PER_CORE);
+        assert!(check_family(13, 141, 4).is_ok());
+        let e = check_family(10_000, 100_000, 1).unwrap_err();
+        assert!(
+            e.contains("1.000e9 steady states") && e.contains("1200.0 GB"),
+            "{e}"
+        );
+        assert!(check_family(1, 4_294_967_297, 1).is_err());
+        assert!(check_family(u64::MAX, 2, 1).is_err());
+        assert!(check_family(2, 3, 7).unwrap_err().contains("7 shards"));
+    }
+}
