@@ -12,9 +12,11 @@
 //!
 //! Submodules: `mcap` (streaming MCAP reader), `csv` (DAQ export + TOML
 //! channel map), `parquet` (tables, also the writer of canonical runs),
-//! [`rig`] (metadata), `run` (gaps and the common time base).
+//! [`rig`] (metadata), `run` (gaps and the common time base), [`clip`]
+//! (saturated channels: their flat samples are left out, with a warning).
 
 mod buffer_json;
+pub mod clip;
 mod csv;
 mod json;
 mod mcap;
@@ -288,7 +290,9 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         raw.warnings
             .push("--map applies to CSV logs only; ignored".to_string());
     }
-    run::build(path, raw)
+    let mut run = run::build(path, raw)?;
+    clip::apply(&mut run);
+    Ok(run)
 }
 
 /// Parses and checks a CSV channel map (the TOML text of `NAME.map.toml`)

@@ -107,7 +107,10 @@ mod tests {
                 let tail = &y[20_000..];
                 let amp = tail.iter().fold(0.0f64, |m, v| m.max(v.abs()));
                 let ex = 1.0 / (1.0 + (f / fc).powi(2 * n as i32)).sqrt();
-                assert!((amp - ex).abs() < 2e-3 * ex + 1e-4, "n {n} f {f}: {amp} vs {ex}");
+                assert!(
+                    (amp - ex).abs() < 2e-3 * ex + 1e-4,
+                    "n {n} f {f}: {amp} vs {ex}"
+                );
             }
         }
     }

@@ -146,7 +146,12 @@ impl Rig {
 
 fn rk4(rig: &Rig, mode: M, drives: &Drives, t: f64, x: &[f64; 4], h: f64) -> [f64; 4] {
     let add = |a: &[f64; 4], b: &[f64; 4], s: f64| {
-        [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2], a[3] + s * b[3]]
+        [
+            a[0] + s * b[0],
+            a[1] + s * b[1],
+            a[2] + s * b[2],
+            a[3] + s * b[3],
+        ]
     };
     let k1 = rig.rhs(mode, drives.zeta0(t), x);
     let k2 = rig.rhs(mode, drives.zeta0(t + 0.5 * h), &add(x, &k1, 0.5 * h));

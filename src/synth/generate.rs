@@ -497,7 +497,10 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
         .iter()
         .flat_map(|b| &b.values)
         .flatten()
-        .filter(|v| (clip_lo.is_finite() && **v <= quantise(clip_lo, s.quant)) || (clip_hi.is_finite() && **v >= quantise(clip_hi, s.quant)))
+        .filter(|v| {
+            (clip_lo.is_finite() && **v <= quantise(clip_lo, s.quant))
+                || (clip_hi.is_finite() && **v >= quantise(clip_hi, s.quant))
+        })
         .count();
     SynthChannel {
         quantity: plan.quantity,

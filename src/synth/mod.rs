@@ -69,9 +69,9 @@ mod truth;
 mod write;
 
 use config::*;
-use defects::*;
-pub use defects::PhysicsDefects;
 pub use config::{FrictionSpec, LawFamily, LogFormat, RigSpec, SynthConfig, TestSpec};
+pub use defects::PhysicsDefects;
+use defects::*;
 use drive::*;
 pub use generate::generate;
 use generate::*;
