@@ -53,6 +53,7 @@ studies:
     cargo test --release --test fit_synth -- --ignored --nocapture
     cargo test --release --test identify_roundtrip -- --ignored --nocapture
     cargo test --release --test identify_issue14 -- --ignored --nocapture
+    cargo test --release --test defects -- --ignored --nocapture
 
 # Mutation-fuzz the ingest parsers and the channel-map parser, 300 s each
 # (seeded from datasets/; cargo-fuzz would need a nightly toolchain).

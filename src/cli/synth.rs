@@ -4,7 +4,9 @@
 
 use crate::io::Output;
 use crate::model::LawKind;
-use crate::synth::{self, FrictionSpec, LogFormat, RigSpec, Sensors, SynthConfig, TestSpec};
+use crate::synth::{
+    self, FrictionSpec, LogFormat, PhysicsDefects, RigSpec, Sensors, SynthConfig, TestSpec,
+};
 use clap::{Args, ValueEnum};
 use serde_json::json;
 use std::path::{Path, PathBuf};
@@ -171,6 +173,32 @@ pub struct SynthArgs {
     /// CSV: time shift of the drive column (s), written to the map.
     #[arg(long = "csv-drive-shift-s", allow_hyphen_values = true)]
     pub csv_drive_shift: Option<f64>,
+    /// Saturate a channel's high side at a fraction of its swing:
+    /// `x1=0.85` flat-tops x1 at mid + 0.85·(max − mid) of its noise-free
+    /// signal (repeatable; channels x0, x1, x2, v2, a2, normal_force).
+    #[arg(long = "clip", value_name = "CHANNEL=FRACTION")]
+    pub clip: Vec<String>,
+    /// The same for the low side (mid − f·(mid − min)).
+    #[arg(long = "clip-low", value_name = "CHANNEL=FRACTION")]
+    pub clip_low: Vec<String>,
+    /// Test defect: both friction levels change by G·x2 relative along the
+    /// stroke (1/m; levels × max(0.05, 1 + G·x2)).
+    #[arg(
+        long = "stroke-friction-gradient-per-m",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    pub stroke_gradient: f64,
+    /// Test defect: hardening coupling spring, force K2·δ·(1 + β·δ²) with
+    /// δ = x1 − x2 (β in 1/m²).
+    #[arg(long = "hardening-per-m2", default_value_t = 0.0)]
+    pub hardening: f64,
+    /// Test defect: static threshold for sliding in the negative direction (N).
+    #[arg(long = "rs-minus-n")]
+    pub rs_minus_n: Option<f64>,
+    /// Test defect: dynamic level for sliding in the negative direction (N).
+    #[arg(long = "rd-minus-n")]
+    pub rd_minus_n: Option<f64>,
     /// Replace an existing log at --out (and its channel map); without it
     /// an existing file is refused.
     #[arg(long)]
@@ -318,6 +346,37 @@ impl SynthArgs {
         if self.no_accelerometer {
             sensors.a2 = None;
         }
+        for (specs, high) in [(&self.clip, true), (&self.clip_low, false)] {
+            for spec in specs {
+                let flag = if high { "--clip" } else { "--clip-low" };
+                let bad = |why: &str| {
+                    input_err(
+                        &self.out,
+                        format!("{flag} {spec:?}: {why} (expected CHANNEL=FRACTION, e.g. x1=0.85)"),
+                    )
+                };
+                let (name, frac) = spec.split_once('=').ok_or_else(|| bad("no '='"))?;
+                let f: f64 = frac
+                    .trim()
+                    .parse()
+                    .map_err(|_| bad("the fraction is not a number"))?;
+                let model = match name.trim() {
+                    "x0" => Some(&mut sensors.x0),
+                    "x1" => Some(&mut sensors.x1),
+                    "x2" => Some(&mut sensors.x2),
+                    "v2" => Some(&mut sensors.v2),
+                    "a2" => sensors.a2.as_mut(),
+                    "normal_force" => sensors.normal_force.as_mut(),
+                    _ => return Err(bad("unknown channel")),
+                }
+                .ok_or_else(|| bad("that channel is not written"))?;
+                if high {
+                    model.clip_high_fraction = Some(f);
+                } else {
+                    model.clip_low_fraction = Some(f);
+                }
+            }
+        }
         Ok(sensors)
     }
 
@@ -360,6 +419,12 @@ impl SynthArgs {
             table_rate_hz: self.table_rate,
             csv_shift_s,
             rtol: 1e-10,
+            defects: PhysicsDefects {
+                stroke_friction_gradient_per_m: self.stroke_gradient,
+                hardening_per_m2: self.hardening,
+                rs_minus_n: self.rs_minus_n,
+                rd_minus_n: self.rd_minus_n,
+            },
         };
         cfg.validate().map_err(|e| input_err(out, e.to_string()))?;
         Ok(cfg)

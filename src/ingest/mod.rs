@@ -12,9 +12,11 @@
 //!
 //! Submodules: `mcap` (streaming MCAP reader), `csv` (DAQ export + TOML
 //! channel map), `parquet` (tables, also the writer of canonical runs),
-//! [`rig`] (metadata), `run` (gaps and the common time base).
+//! [`rig`] (metadata), `run` (gaps and the common time base), [`clip`]
+//! (saturated channels: their flat samples are left out, with a warning).
 
 mod buffer_json;
+pub mod clip;
 mod csv;
 mod json;
 mod mcap;
@@ -302,7 +304,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         raw.warnings
             .push("--map applies to CSV logs only; ignored".to_string());
     }
-    let run = run::build(path, raw)?;
+    let mut run = run::build(path, raw)?;
     check_signal(path, &run)?;
     // Rig constants the engines cannot integrate (fit, validate and batch
     // simulate the rig): refused with the numbers.
@@ -311,6 +313,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         .constants()
         .check_integrable(drive_hz)
         .map_err(|e| IngestError::invalid(path, format!("rig metadata: {e}")))?;
+    clip::apply(&mut run);
     Ok(run)
 }
 

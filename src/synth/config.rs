@@ -415,6 +415,9 @@ pub struct SynthConfig {
     pub csv_shift_s: BTreeMap<String, f64>,
     /// Relative tolerance of the numerical engine (ramps, chirps, Stribeck).
     pub rtol: f64,
+    /// Physics defects for tests (none by default; see `defects`).
+    #[serde(default)]
+    pub defects: PhysicsDefects,
 }
 
 impl SynthConfig {
@@ -438,6 +441,7 @@ impl SynthConfig {
             table_rate_hz: 1000.0,
             csv_shift_s: BTreeMap::new(),
             rtol: 1e-10,
+            defects: PhysicsDefects::default(),
         }
     }
 
@@ -446,6 +450,7 @@ impl SynthConfig {
         self.rig.validate()?;
         non_negative("normal force", self.normal_force_n)?;
         self.friction.validate()?;
+        self.defects.validate(&self.friction)?;
         self.test.validate()?;
         for (q, s) in self.sensors.channels() {
             s.validate(q)?;

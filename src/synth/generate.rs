@@ -166,7 +166,8 @@ pub(super) fn plan_channel(
             if let Some(tc) = lp_tc {
                 let start = match prev {
                     Some(p) => p,
-                    None => (t - 10.0 * tc).max(-warm),
+                    // (10 time constants per order: higher orders settle later)
+                    None => (t - 10.0 * tc * f64::from(sensor.lowpass_order.max(1))).max(-warm),
                 };
                 let h = dt / LOWPASS_SUBSTEPS as f64;
                 let k = ((t - start) / h).ceil() as usize;
@@ -302,14 +303,19 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         rtol: cfg.rtol,
         atol: cfg.rtol * 1e-2,
     };
-    let end = run_rig(&model, &drives, schedule.as_ref(), run_tau, opts, &mut col)?;
-    match &end.status {
-        Status::Completed => {}
-        Status::Stopped => {}
-        Status::Interrupted(why) | Status::Chatter(why) => {
-            return Err(SynthError::Sim(format!(
-                "the motion cannot be simulated to the end of the log: {why}"
-            )))
+    let mut defect_run = None;
+    if cfg.defects.any() {
+        defect_run = Some(run_defects(cfg, &drives, run_tau, &mut col)?);
+    } else {
+        let end = run_rig(&model, &drives, schedule.as_ref(), run_tau, opts, &mut col)?;
+        match &end.status {
+            Status::Completed => {}
+            Status::Stopped => {}
+            Status::Interrupted(why) | Status::Chatter(why) => {
+                return Err(SynthError::Sim(format!(
+                    "the motion cannot be simulated to the end of the log: {why}"
+                )))
+            }
         }
     }
     if col.next != requests.len() {
@@ -338,7 +344,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     } else {
         0
     };
-    let truth = truth(
+    let mut truth = truth(
         cfg,
         &model,
         &plans,
@@ -348,6 +354,9 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         &col,
         &setpoints,
     );
+    if let (Some(r), Some(o)) = (defect_run, truth.as_object_mut()) {
+        o.insert("defects".into(), defects::truth_of(cfg, &r));
+    }
     Ok(SynthLog {
         config: cfg.clone(),
         rig_record,
@@ -430,14 +439,31 @@ fn run_rig(
 fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
     let s = &plan.sensor;
     let filtered = match s.lowpass_hz {
+        Some(fc) if s.lowpass_order >= 2 => {
+            super::butterworth::butterworth(&plan.req_t, u, fc, s.lowpass_order)
+        }
         Some(fc) => lowpass(&plan.req_t, u, 1.0 / (2.0 * PI * fc)),
         None => u.to_vec(),
     };
-    let mut real = filtered
+    // The noise-free sensed value of each logged sample: gain (with its
+    // drift over time from the log start) times the filtered signal, plus
+    // the offset.
+    let sensed: Vec<f64> = filtered
         .iter()
+        .zip(&plan.req_t)
         .zip(&plan.real)
         .filter(|(_, r)| **r)
-        .map(|(v, _)| *v);
+        .map(|((v, t), _)| {
+            let g = if s.gain_drift_per_s != 0.0 {
+                s.gain * (1.0 + s.gain_drift_per_s * t)
+            } else {
+                s.gain
+            };
+            g * v + s.offset
+        })
+        .collect();
+    let (clip_lo, clip_hi) = clip_levels(s, &sensed);
+    let mut real = sensed.iter().copied();
     let mut buffers = Vec::with_capacity(plan.buffers.len());
     let mut nulls = 0;
     let mut burst = 0u32;
@@ -459,7 +485,7 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
                 0.0
             };
             n_prev = Some(noise);
-            let v = quantise(s.gain * y + s.offset + noise, s.quant);
+            let v = quantise((y + noise).clamp(clip_lo, clip_hi), s.quant);
             if burst == 0 && s.p_dropout > 0.0 && rng.uniform() < s.p_dropout {
                 burst = rng.int(1, i64::from(s.dropout_burst_max)) as u32;
             }
@@ -476,9 +502,19 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
             values,
         });
     }
+    let clipped = buffers
+        .iter()
+        .flat_map(|b| &b.values)
+        .flatten()
+        .filter(|v| {
+            (clip_lo.is_finite() && **v <= quantise(clip_lo, s.quant))
+                || (clip_hi.is_finite() && **v >= quantise(clip_hi, s.quant))
+        })
+        .count();
     SynthChannel {
         quantity: plan.quantity,
         sensor: *s,
+        clip: (clip_lo, clip_hi, clipped),
         dt_ns: plan.dt_ns,
         shift_s: plan.shift_s,
         buffers,
@@ -486,4 +522,31 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
         null_samples: nulls,
         first_sample_offset_ns: plan.first_offset_ns,
     }
+}
+
+/// The saturation levels of a channel (−∞/+∞: none) from its absolute
+/// levels and its fractions of the swing of the noise-free `sensed`
+/// values, the tighter of the two on each side.
+pub(super) fn clip_levels(s: &SensorModel, sensed: &[f64]) -> (f64, f64) {
+    let (mut lo, mut hi) = (
+        s.clip_low.unwrap_or(f64::NEG_INFINITY),
+        s.clip_high.unwrap_or(f64::INFINITY),
+    );
+    if s.clip_low_fraction.is_some() || s.clip_high_fraction.is_some() {
+        let (mn, mx) = sensed
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        if mx >= mn {
+            let mid = 0.5 * (mx + mn);
+            if let Some(f) = s.clip_high_fraction {
+                hi = hi.min(mid + f * (mx - mid));
+            }
+            if let Some(f) = s.clip_low_fraction {
+                lo = lo.max(mid - f * (mid - mn));
+            }
+        }
+    }
+    (lo, hi)
 }

@@ -29,8 +29,12 @@
 //! within the first sample interval, buffer starts jittered uniformly by up
 //! to ±`jitter_ns`, lost buffers (probability per buffer), dropouts (a burst
 //! of 1..=`dropout_burst_max` nulls starting with probability `p_dropout`
-//! per sample). A value is `quantise(gain·lowpass(u) + offset + noise)` with
-//! Gaussian noise of σ = `noise` and rounding to multiples of `quant`.
+//! per sample). A value is
+//! `quantise(clip(gain·(1 + drift·t)·lowpass(u) + offset + noise))` with
+//! Gaussian noise of σ = `noise`, saturation at `clip_low`/`clip_high`
+//! (or at fractions of the channel's swing) and rounding to multiples of
+//! `quant`; t is the time from the log start. A low-pass of order ≥ 2 is a
+//! Butterworth filter (see `butterworth`).
 //! The first-order low-pass y' = (u − y)/T (T = 1/(2π f_c)) is integrated
 //! exactly for an input that is linear between points of a grid
 //! [`LOWPASS_SUBSTEPS`] times finer than the channel's sampling (first-order
@@ -45,10 +49,19 @@
 //! buffers, jitter and lost buffers do not apply there (dropouts are empty
 //! cells / nulls).
 //!
+//! ## Physics defects (tests only)
+//! [`PhysicsDefects`]: friction levels that change along the stroke, a
+//! hardening coupling spring and direction-dependent friction levels. With
+//! any of them the trajectory comes from a dedicated Runge–Kutta
+//! integrator with event location (`defects`); the engines are untouched.
+//! The truth entry gets a `defects` object.
+//!
 //! Everything random comes from one seed (xoshiro256**, [`crate::stats::Rng`]), one stream
 //! per channel: the same configuration and seed give the same bytes.
 
+mod butterworth;
 mod config;
+mod defects;
 mod drive;
 mod generate;
 mod sensor;
@@ -57,6 +70,8 @@ mod write;
 
 use config::*;
 pub use config::{FrictionSpec, LawFamily, LogFormat, RigSpec, SynthConfig, TestSpec};
+pub use defects::PhysicsDefects;
+use defects::*;
 use drive::*;
 pub use generate::generate;
 use generate::*;
@@ -143,6 +158,9 @@ pub struct SynthChannel {
     pub null_samples: usize,
     /// Offset of the first sample after the log start (ns).
     pub first_sample_offset_ns: u64,
+    /// Saturation levels applied (SI; −∞/+∞: none) and the number of
+    /// written samples at one of them.
+    pub clip: (f64, f64, usize),
 }
 
 impl SynthChannel {

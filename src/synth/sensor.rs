@@ -1,7 +1,11 @@
-//! Sensor models: gain, offset, noise, lag, low-pass, quantisation,
-//! rate, jitter, dropouts and lost buffers, per channel.
+//! Sensor models: gain (and its linear drift), offset, noise, lag,
+//! low-pass (Butterworth of any order), clipping, quantisation, rate,
+//! jitter, dropouts and lost buffers, per channel.
 
 use super::*;
+
+/// Highest Butterworth order a sensor's low-pass may have.
+pub const MAX_LOWPASS_ORDER: u32 = 8;
 
 /// The sensor model of one channel.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -37,6 +41,34 @@ pub struct SensorModel {
     /// correlation e^(−dt/τ).
     #[serde(default)]
     pub noise_correlation_s: f64,
+    /// Order of the Butterworth low-pass at `lowpass_hz` (1: the
+    /// first-order filter, bit for bit as before this field existed).
+    #[serde(default = "one")]
+    pub lowpass_order: u32,
+    /// Linear gain drift (1/s): the gain at t seconds after the log start
+    /// is `gain·(1 + gain_drift_per_s·t)`.
+    #[serde(default)]
+    pub gain_drift_per_s: f64,
+    /// Saturation: the lowest value the sensor can report (SI); values
+    /// below read exactly this (before quantisation).
+    #[serde(default)]
+    pub clip_low: Option<f64>,
+    /// Saturation: the highest value the sensor can report (SI).
+    #[serde(default)]
+    pub clip_high: Option<f64>,
+    /// Saturation relative to the channel's swing: the high side is clipped
+    /// at mid + f·(max − mid) of the noise-free sensed signal over the log
+    /// (mid = (max + min)/2), e.g. 0.85 flat-tops x1 at 85 % of its peak.
+    /// Tighter of this and `clip_high` applies.
+    #[serde(default)]
+    pub clip_high_fraction: Option<f64>,
+    /// The same for the low side: clipped at mid − f·(mid − min).
+    #[serde(default)]
+    pub clip_low_fraction: Option<f64>,
+}
+
+fn one() -> u32 {
+    1
 }
 
 impl SensorModel {
@@ -58,6 +90,12 @@ impl SensorModel {
             p_dropout: 0.0,
             dropout_burst_max: 1,
             noise_correlation_s: 0.0,
+            lowpass_order: 1,
+            gain_drift_per_s: 0.0,
+            clip_low: None,
+            clip_high: None,
+            clip_high_fraction: None,
+            clip_low_fraction: None,
         }
     }
 
@@ -96,6 +134,39 @@ impl SensorModel {
         }
         if self.dropout_burst_max == 0 {
             return Err(bad(p("dropout_burst_max must be >= 1")));
+        }
+        if !(1..=MAX_LOWPASS_ORDER).contains(&self.lowpass_order) {
+            return Err(bad(p(&format!(
+                "lowpass_order must be 1..={MAX_LOWPASS_ORDER} (got {})",
+                self.lowpass_order
+            ))));
+        }
+        if !self.gain_drift_per_s.is_finite() {
+            return Err(bad(p("gain_drift_per_s must be finite")));
+        }
+        for (what, v) in [("clip_low", self.clip_low), ("clip_high", self.clip_high)] {
+            if let Some(v) = v {
+                if !v.is_finite() {
+                    return Err(bad(p(&format!("{what} must be finite"))));
+                }
+            }
+        }
+        if let (Some(lo), Some(hi)) = (self.clip_low, self.clip_high) {
+            if lo >= hi {
+                return Err(bad(p(&format!(
+                    "clip_low ({lo}) must be below clip_high ({hi})"
+                ))));
+            }
+        }
+        for (what, v) in [
+            ("clip_high_fraction", self.clip_high_fraction),
+            ("clip_low_fraction", self.clip_low_fraction),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0 && v <= 1.0) {
+                    return Err(bad(p(&format!("{what} must be in (0, 1] (got {v})"))));
+                }
+            }
         }
         Ok(())
     }
@@ -156,6 +227,12 @@ impl Sensors {
             p_dropout: 2e-4,
             dropout_burst_max: 4,
             noise_correlation_s: 0.0,
+            lowpass_order: 1,
+            gain_drift_per_s: 0.0,
+            clip_low: None,
+            clip_high: None,
+            clip_high_fraction: None,
+            clip_low_fraction: None,
         };
         let x0 = s(1000.0, 1.5e-6, 0.5e-6, 0.004, 1.5e-5);
         let x1 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);

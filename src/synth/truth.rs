@@ -230,10 +230,42 @@ fn sensors_json(cfg: &SynthConfig, channels: &[SynthChannel]) -> serde_json::Map
                     "null_samples": c.null_samples,
                     "first_sample_offset_ns": c.first_sample_offset_ns,
                     "shift_s": c.shift_s,
-                }),
+                })
+                .as_object()
+                .cloned()
+                .map(|mut o| {
+                    defect_keys(&mut o, c, n_samples);
+                    Value::Object(o)
+                })
+                .unwrap_or(Value::Null),
             )
         })
         .collect()
+}
+
+/// The keys of the realistic sensor defects, only where a channel has
+/// them (the truth of a log without them stays as it was): the low-pass
+/// order, the gain drift, the saturation levels applied (SI) and the
+/// count and fraction of written samples at them.
+fn defect_keys(o: &mut serde_json::Map<String, Value>, c: &SynthChannel, n_samples: usize) {
+    let s = &c.sensor;
+    if s.lowpass_order != 1 {
+        o.insert("lowpass_order".into(), json!(s.lowpass_order));
+    }
+    if s.gain_drift_per_s != 0.0 {
+        o.insert("gain_drift_per_s".into(), json!(s.gain_drift_per_s));
+    }
+    let (lo, hi, n) = c.clip;
+    if lo.is_finite() || hi.is_finite() {
+        let level = |v: f64| if v.is_finite() { num(v) } else { Value::Null };
+        o.insert("clip_low".into(), level(lo));
+        o.insert("clip_high".into(), level(hi));
+        o.insert("clipped_samples".into(), json!(n));
+        o.insert(
+            "clipped_fraction".into(),
+            json!(n as f64 / n_samples.max(1) as f64),
+        );
+    }
 }
 
 /// Inserts the response of the test into the truth entry: the last 5 s of
