@@ -1,5 +1,6 @@
-//! Sensor models: gain, offset, noise, lag, low-pass, quantisation,
-//! rate, jitter, dropouts and lost buffers, per channel.
+//! Sensor models: gain, offset (and its linear drift), noise, time delay,
+//! low-pass, quantisation, rate, jitter, dropouts and lost buffers, per
+//! channel.
 
 use super::*;
 
@@ -31,6 +32,16 @@ pub struct SensorModel {
     pub p_dropout: f64,
     /// Longest dropout burst (samples).
     pub dropout_burst_max: u32,
+    /// Time delay of the channel (s): the value stamped t was measured at
+    /// t − `delay_s` (the channel lags; negative: it leads). The shift a
+    /// reader must apply to re-align it is −`delay_s` (a channel map's
+    /// `shift_s` convention). Default 0.
+    #[serde(default)]
+    pub delay_s: f64,
+    /// Linear drift of the offset (SI per second): the offset at time t
+    /// from the log start is `offset + offset_drift_per_s·t`. Default 0.
+    #[serde(default)]
+    pub offset_drift_per_s: f64,
 }
 
 impl SensorModel {
@@ -51,6 +62,8 @@ impl SensorModel {
             p_lost_buffer: 0.0,
             p_dropout: 0.0,
             dropout_burst_max: 1,
+            delay_s: 0.0,
+            offset_drift_per_s: 0.0,
         }
     }
 
@@ -74,6 +87,15 @@ impl SensorModel {
         }
         if let Some(fc) = self.lowpass_hz {
             positive(&p("lowpass_hz"), fc)?;
+        }
+        if !(self.delay_s.is_finite() && self.delay_s.abs() <= 1.0) {
+            return Err(bad(p(&format!(
+                "delay_s must be within ±1 s (got {})",
+                self.delay_s
+            ))));
+        }
+        if !self.offset_drift_per_s.is_finite() {
+            return Err(bad(p("offset_drift_per_s must be finite")));
         }
         positive(&p("buffer_s"), self.buffer_s)?;
         if self.jitter_ns.saturating_mul(2) >= self.dt_ns() {
@@ -148,6 +170,8 @@ impl Sensors {
             p_lost_buffer: 0.005,
             p_dropout: 2e-4,
             dropout_burst_max: 4,
+            delay_s: 0.0,
+            offset_drift_per_s: 0.0,
         };
         let x0 = s(1000.0, 1.5e-6, 0.5e-6, 0.004, 1.5e-5);
         let x1 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);
