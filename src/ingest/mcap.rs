@@ -503,6 +503,7 @@ impl Collector<'_> {
             origin: None,
             setpoints,
             warnings,
+            declared_shifts: Vec::new(),
         })
     }
 }

@@ -131,6 +131,7 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         origin: Some(time[0]),
         setpoints,
         warnings: Vec::new(),
+        declared_shifts: Vec::new(),
     })
 }
 

@@ -201,6 +201,22 @@ pub(super) fn truth(
         .map(|c| (c.quantity.name(), own(c) - x1_shift))
         .collect();
     obj.insert("channel_delays_s".into(), json!(delays));
+    // The same with each first-order low-pass's low-frequency group delay
+    // 1/(2π f_c) (a filtered channel lags by that much as well).
+    let filter_lag = |c: &SynthChannel| c.sensor.lowpass_hz.map_or(0.0, |fc| 1.0 / (2.0 * PI * fc));
+    let x1_lag = channels
+        .iter()
+        .find(|c| c.quantity == crate::ingest::Quantity::X1)
+        .map_or(0.0, filter_lag);
+    let lags: BTreeMap<&str, f64> = channels
+        .iter()
+        .filter(|c| delays.contains_key(c.quantity.name()))
+        .map(|c| {
+            let d = delays[c.quantity.name()];
+            (c.quantity.name(), d - (filter_lag(c) - x1_lag))
+        })
+        .collect();
+    obj.insert("channel_lags_s".into(), json!(lags));
     if cfg.format.is_table() {
         obj.insert("common_rate_hz".into(), json!(cfg.table_rate_hz));
         let shifts: BTreeMap<&str, f64> = channels
