@@ -332,7 +332,10 @@ fn study_case(rig: TestRig, defect: &str, seed: u64, dir: &Path) -> Case {
         _ => unreachable!(),
     }
     let log = synth::generate(&cfg).expect("generate");
-    let path = dir.join(format!("{defect}_{seed}.mcap"));
+    // One directory per case: each writes its own truth.json.
+    let dir = dir.join(format!("{defect}_{}_{seed}", rig.m1));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("log.mcap");
     synth::write(&log, &path).expect("write");
     let run = ingest::read(&path, &IngestOptions::default()).expect("ingest");
     let mut case = Case::default();
