@@ -568,7 +568,9 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
                 var: base.var + rel.var,
                 tq: rel.tq.max(base.tq),
             });
-            if applies(&rel) {
+            // Sub-sample lags of v2 against x2 (a sensor low-pass) are left
+            // to the identification's own alignment of v2 with d/dt x2.
+            if applies(&rel) && rel.s.abs() >= dt {
                 v_applied = a2x + rel.s;
             }
             let noise_v = noise_of(&r.v2);
@@ -632,7 +634,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
                     var: b.var + rel.var,
                     tq: rel.tq.max(b.tq),
                 });
-                if applies(&rel) {
+                if applies(&rel) && rel.s.abs() >= dt {
                     a_applied = base_applied + rel.s;
                 }
             }
