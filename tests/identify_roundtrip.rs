@@ -168,6 +168,7 @@ fn synth_drive(law: &Law, accel: bool, seed: u64, noise_scale: f64, h2: f64) -> 
         },
         gaps: Vec::new(),
         warnings: Vec::new(),
+        delays: Default::default(),
     }
 }
 

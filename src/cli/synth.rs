@@ -163,6 +163,24 @@ pub struct SynthArgs {
     /// Sensor models from a JSON file (the `Sensors` structure).
     #[arg(long)]
     pub sensors: Option<PathBuf>,
+    /// Channel delays (s), e.g. `x2=0.003,v2=0.003`: the value stamped t was
+    /// measured at t − delay (the channel lags). Overrides the sensor
+    /// models' `delay_s`.
+    #[arg(
+        long = "channel-delay-s",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub channel_delay: Vec<String>,
+    /// Linear offset drifts (SI per second), e.g. `v2=0.0004`: the channel's
+    /// offset grows by this much per second of the log. Overrides the sensor
+    /// models' `offset_drift_per_s`.
+    #[arg(
+        long = "offset-drift-per-s",
+        value_delimiter = ',',
+        allow_hyphen_values = true
+    )]
+    pub offset_drift: Vec<String>,
     /// Row rate of CSV/Parquet tables (Hz).
     #[arg(
         long = "table-rate-hz",
@@ -377,6 +395,43 @@ impl SynthArgs {
                 }
             }
         }
+        for (list, flag, delay) in [
+            (&self.channel_delay, "--channel-delay-s", true),
+            (&self.offset_drift, "--offset-drift-per-s", false),
+        ] {
+            for item in list {
+                let (name, value) = parse_channel_value(item).ok_or_else(|| {
+                    input_err(
+                        &self.out,
+                        format!("{flag}: expected CHANNEL=NUMBER, got `{item}`"),
+                    )
+                })?;
+                let model = match name {
+                    "x0" => Some(&mut sensors.x0),
+                    "x1" => Some(&mut sensors.x1),
+                    "x2" => Some(&mut sensors.x2),
+                    "v2" => Some(&mut sensors.v2),
+                    "a2" => sensors.a2.as_mut(),
+                    "normal_force" => sensors.normal_force.as_mut(),
+                    _ => {
+                        return Err(input_err(
+                            &self.out,
+                            format!(
+                            "{flag}: unknown channel `{name}` (x0, x1, x2, v2, a2, normal_force)"
+                        ),
+                        ))
+                    }
+                }
+                .ok_or_else(|| {
+                    input_err(&self.out, format!("{flag}: the log has no channel {name}"))
+                })?;
+                if delay {
+                    model.delay_s = value;
+                } else {
+                    model.offset_drift_per_s = value;
+                }
+            }
+        }
         Ok(sensors)
     }
 
@@ -429,6 +484,13 @@ impl SynthArgs {
         cfg.validate().map_err(|e| input_err(out, e.to_string()))?;
         Ok(cfg)
     }
+}
+
+/// `NAME=NUMBER` (a finite number) as its two parts.
+fn parse_channel_value(item: &str) -> Option<(&str, f64)> {
+    let (name, value) = item.split_once('=')?;
+    let v: f64 = value.trim().parse().ok()?;
+    v.is_finite().then_some((name.trim(), v))
 }
 
 /// Runs `synth`.

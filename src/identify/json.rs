@@ -210,6 +210,9 @@ struct FitOut<'a> {
     effective_samples: f64,
     breakaways: usize,
     notes: &'a [String],
+    channel_delays_s: Value,
+    channel_delays_interval_s: Value,
+    velocity_consistency: Value,
 }
 
 impl LogFit {
@@ -349,6 +352,9 @@ impl LogFit {
             effective_samples: e.n_eff,
             breakaways: e.n_breakaways,
             notes: &self.notes,
+            channel_delays_s: self.channel_delays.shifts_json(),
+            channel_delays_interval_s: self.channel_delays.intervals_json(),
+            velocity_consistency: self.channel_delays.velocity_json(),
         };
         crate::io::json::to_value(out)
     }

@@ -136,6 +136,7 @@ pub mod fit;
 pub mod json;
 pub mod noise;
 pub mod output_error;
+pub mod positions;
 pub mod segment;
 pub mod smooth;
 
@@ -241,6 +242,28 @@ fn characteristic_reusing(
             SMOOTH_DEGREE,
         )
     });
+    // The positions overrule a velocity channel whose verdict (stuck, or
+    // never sticking) they contradict: identify from x2 instead.
+    if run.has_velocity() {
+        if let Some(why) = positions::check(&contact, &seg, SMOOTH_DEGREE) {
+            let mut no_velocity = run.clone();
+            no_velocity
+                .resampled
+                .v2
+                .iter_mut()
+                .for_each(|v| *v = f64::NAN);
+            let mut ch = characteristic_reusing(&no_velocity, gains, None)?;
+            ch.contact.warnings.insert(
+                0,
+                format!(
+                    "{}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2",
+                    why.what
+                ),
+            );
+            ch.contact.velocity_warnings += 1;
+            return Ok(ch);
+        }
+    }
     for (i, st) in seg.stick.iter().enumerate() {
         if *st {
             // The physics gives ẋ2 = ẍ2 = 0 while sticking.
@@ -383,6 +406,9 @@ pub struct LogFit {
     /// A sliding log whose law was not tested against the positions (the
     /// equation-error estimate: the Stribeck type, or a failed refinement).
     untested: bool,
+    /// The log's channel delays (declared, estimated, applied at ingest)
+    /// and its velocity channel's consistency with x2.
+    pub channel_delays: crate::ingest::ChannelDelays,
 }
 
 /// What a log measured of its friction law.
@@ -1003,6 +1029,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         drive: base.contact.drive,
         notes,
         warnings,
+        channel_delays: run.delays.clone(),
         adequacy,
         contradictions,
         untested,

@@ -321,6 +321,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         origin: Some(0.0),
         setpoints,
         warnings: Vec::new(),
+        declared_shifts: cmap.channels.iter().map(|(q, s)| (*q, s.shift_s)).collect(),
     })
 }
 

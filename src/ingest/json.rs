@@ -88,6 +88,9 @@ struct RunOut<'a> {
     gaps: Vec<GapOut<'a>>,
     setpoints: Vec<SetpointOut>,
     warnings: &'a [String],
+    channel_delays_s: Value,
+    channel_delays_interval_s: Value,
+    velocity_consistency: Value,
     out: Option<String>,
 }
 
@@ -108,11 +111,77 @@ impl Run {
             gaps: self.gaps.iter().map(GapOut::from).collect(),
             setpoints: self.setpoints.iter().map(SetpointOut::from).collect(),
             warnings: &self.warnings,
+            channel_delays_s: self.delays.shifts_json(),
+            channel_delays_interval_s: self.delays.intervals_json(),
+            velocity_consistency: self.delays.velocity_json(),
             out: out.map(|p| p.display().to_string()),
         };
         // Not `io::json::to_value`: `io` depends on `ingest` (it writes
         // runs as Parquet), so `ingest` must not depend on `io`.
         serde_json::to_value(report)
             .unwrap_or_else(|e| serde_json::json!({ "error": e.to_string() }))
+    }
+}
+
+impl super::ChannelDelays {
+    /// `channel_delays_s`: channel → the shift applied (s), `null` where it
+    /// could not be estimated (the declared shift was still applied).
+    pub fn shifts_json(&self) -> Value {
+        let m: serde_json::Map<String, Value> = self
+            .channels
+            .iter()
+            .map(|c| {
+                let v = match c.estimated_s {
+                    Some(_) => fin(c.shift_s),
+                    None => Value::Null,
+                };
+                (c.quantity.name().to_string(), v)
+            })
+            .collect();
+        Value::Object(m)
+    }
+
+    /// `channel_delays_interval_s`: channel → [low, high] (95 %) or `null`.
+    pub fn intervals_json(&self) -> Value {
+        let m: serde_json::Map<String, Value> = self
+            .channels
+            .iter()
+            .map(|c| {
+                let v = match c.interval_s {
+                    Some([a, b]) if a.is_finite() && b.is_finite() => {
+                        serde_json::json!([a.min(b), a.max(b)])
+                    }
+                    _ => Value::Null,
+                };
+                (c.quantity.name().to_string(), v)
+            })
+            .collect();
+        Value::Object(m)
+    }
+
+    /// `velocity_consistency`: v2 against d/dt x2 (gain, offset, drift,
+    /// residual over noise), `null` where it was not measured.
+    pub fn velocity_json(&self) -> Value {
+        match &self.velocity {
+            None => Value::Null,
+            Some(v) => serde_json::json!({
+                "gain": fin(v.gain),
+                "gain_se": fin(v.gain_se),
+                "offset_m_per_s": fin(v.offset_m_per_s),
+                "drift_m_per_s2": fin(v.drift_m_per_s2),
+                "drift_se_m_per_s2": fin(v.drift_se),
+                "residual_ratio": fin(v.residual_ratio),
+                "drift_corrected": v.drift_corrected,
+            }),
+        }
+    }
+}
+
+/// A finite number, or `null`.
+fn fin(x: f64) -> Value {
+    if x.is_finite() {
+        serde_json::json!(x)
+    } else {
+        Value::Null
     }
 }

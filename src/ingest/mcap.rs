@@ -532,6 +532,7 @@ impl Collector<'_> {
             origin: None,
             setpoints,
             warnings,
+            declared_shifts: Vec::new(),
         })
     }
 }

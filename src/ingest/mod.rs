@@ -13,11 +13,14 @@
 //! Submodules: `mcap` (streaming MCAP reader), `csv` (DAQ export + TOML
 //! channel map), `parquet` (tables, also the writer of canonical runs),
 //! [`rig`] (metadata), `run` (gaps and the common time base), [`clip`]
-//! (saturated channels: their flat samples are left out, with a warning).
+//! (saturated channels: their flat samples are left out, with a warning),
+//! `delays` (channel delays against x1 and the velocity's consistency with
+//! x2, estimated and corrected on every log).
 
 mod buffer_json;
 pub mod clip;
 mod csv;
+mod delays;
 mod json;
 mod mcap;
 mod parquet;
@@ -26,6 +29,7 @@ mod run;
 
 use std::path::{Path, PathBuf};
 
+pub use delays::{ChannelDelay, ChannelDelays, VelocityConsistency};
 pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
 pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
 
@@ -235,6 +239,9 @@ pub(crate) struct RawLog {
     /// Setpoints, times on the same clock as the channels.
     pub setpoints: Vec<Setpoint>,
     pub warnings: Vec<String>,
+    /// Time shifts declared per channel (a CSV map's `shift_s`), already
+    /// applied to the times.
+    pub declared_shifts: Vec<(Quantity, f64)>,
 }
 
 /// Reads a rig log (`.mcap`, `.csv` with its channel map, or `.parquet`)

@@ -143,6 +143,7 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
         origin: Some(time[0]),
         setpoints,
         warnings: Vec::new(),
+        declared_shifts: Vec::new(),
     })
 }
 

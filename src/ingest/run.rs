@@ -21,6 +21,7 @@
 //! * The grid runs from 0 at the rate of the fastest position channel up to
 //!   the last position sample.
 
+use super::delays::{self, ChannelDelays};
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
 use rayon::prelude::*;
 use std::cmp::Ordering;
@@ -184,6 +185,9 @@ pub struct Run {
     pub gaps: Vec<Gap>,
     /// Things the user should know that did not stop the ingest.
     pub warnings: Vec<String>,
+    /// Channel delays against x1 (declared, estimated, applied) and the
+    /// velocity channel's consistency with x2 (see `delays`).
+    pub delays: ChannelDelays,
 }
 
 impl Run {
@@ -221,6 +225,7 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         origin,
         mut setpoints,
         mut warnings,
+        declared_shifts,
     } = raw;
     let checked = check_channels(path, channels, &mut warnings)?;
     let (channels, dropouts): (Vec<RawChannel>, Vec<usize>) = checked.into_iter().unzip();
@@ -274,7 +279,15 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         s.t_s -= origin;
     }
     setpoints.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
-    let resampled = resample(path, &out_channels, &setpoints)?;
+    let mut resampled = resample(path, &out_channels, &setpoints)?;
+    let delays = align_channels(
+        path,
+        &rig,
+        (&mut out_channels, &mut gaps, &setpoints),
+        &mut resampled,
+        &declared_shifts,
+        &mut warnings,
+    )?;
     let has_acceleration = resampled.a2.is_some();
     for c in &out_channels {
         let bad = c.dropouts;
@@ -296,7 +309,58 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         resampled,
         gaps,
         warnings,
+        delays,
     })
+}
+
+/// Estimates the channel delays and the velocity's drift on the common
+/// grid, applies what matters (re-stamps the channels and their gaps,
+/// removes the drift from v2's samples) and rebuilds the grid if anything
+/// changed. Returns the report (see `delays`).
+fn align_channels(
+    path: &Path,
+    rig: &RigMeta,
+    (channels, gaps, setpoints): (&mut [Channel], &mut [Gap], &[Setpoint]),
+    resampled: &mut Resampled,
+    declared: &[(Quantity, f64)],
+    warnings: &mut Vec<String>,
+) -> Result<ChannelDelays, IngestError> {
+    if resampled.len() < 100 {
+        return Ok(ChannelDelays::default());
+    }
+    let est = delays::estimate(resampled, rig);
+    let tm = resampled.t[resampled.len() / 2];
+    let mut changed = false;
+    if let Some(v) = est.velocity.filter(|v| v.drift_corrected) {
+        if let Some(c) = channels.iter_mut().find(|c| c.quantity == Quantity::V2) {
+            for (x, t) in c.v.iter_mut().zip(&c.t) {
+                *x -= v.drift_m_per_s2 * (t - tm);
+            }
+            changed = true;
+        }
+    }
+    for &(q, s) in &est.applied {
+        if s == 0.0 {
+            continue;
+        }
+        if let Some(c) = channels.iter_mut().find(|c| c.quantity == q) {
+            for t in c.t.iter_mut() {
+                *t += s;
+            }
+            changed = true;
+        }
+        for g in gaps.iter_mut().filter(|g| g.channel == q.name()) {
+            g.start_s += s;
+            g.end_s += s;
+        }
+    }
+    if changed {
+        *resampled = resample(path, channels, setpoints)?;
+    }
+    let report = est.report(declared);
+    warnings.extend(est.warnings.iter().cloned());
+    warnings.extend(delays::shift_warnings(&report, 1.0 / resampled.rate_hz));
+    Ok(report)
 }
 
 /// The channels sorted by quantity, each checked: one channel per

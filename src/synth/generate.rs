@@ -162,7 +162,8 @@ pub(super) fn plan_channel(
     let mut prev: Option<f64> = None;
     for &(t0, n) in &buffers {
         for i in 0..n {
-            let t = (t0 + i as u64 * dt_ns) as f64 * 1e-9 + shift_s;
+            // A delayed channel's value stamped t was measured at t − delay.
+            let t = (t0 + i as u64 * dt_ns) as f64 * 1e-9 + shift_s - sensor.delay_s;
             if let Some(tc) = lp_tc {
                 let start = match prev {
                     Some(p) => p,
@@ -435,7 +436,8 @@ fn run_rig(
 }
 
 /// The sensor model of one channel over its exact signal `u`: low-pass,
-/// gain, offset, noise, quantisation and dropouts, into its buffers.
+/// gain, offset (drifting linearly with the stamped time), noise,
+/// quantisation and dropouts, into its buffers.
 fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
     let s = &plan.sensor;
     let filtered = match s.lowpass_hz {
@@ -473,8 +475,10 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
     let mut n_prev: Option<f64> = None;
     for &(t0, n) in &plan.buffers {
         let mut values = Vec::with_capacity(n);
-        for _ in 0..n {
+        for i in 0..n {
             let y = real.next().expect("one value per sample");
+            let t_stamp = (t0 + i as u64 * plan.dt_ns) as f64 * 1e-9 + plan.shift_s;
+            let offset = s.offset + s.offset_drift_per_s * t_stamp;
             let noise = if s.noise > 0.0 {
                 let e = s.noise * rng.normal();
                 match (ar, n_prev) {
@@ -485,7 +489,9 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
                 0.0
             };
             n_prev = Some(noise);
-            let v = quantise((y + noise).clamp(clip_lo, clip_hi), s.quant);
+            // The offset's drift (0 without one: bit for bit as before).
+            let drift = offset - s.offset;
+            let v = quantise((y + drift + noise).clamp(clip_lo, clip_hi), s.quant);
             if burst == 0 && s.p_dropout > 0.0 && rng.uniform() < s.p_dropout {
                 burst = rng.int(1, i64::from(s.dropout_burst_max)) as u32;
             }

@@ -241,6 +241,41 @@ mod tests {
         }
     }
 
+    /// A delayed channel repeats the undelayed one `delay` later; a
+    /// drifting offset adds `drift·t`; the truth names the shift that
+    /// re-aligns each channel with x1.
+    #[test]
+    fn delay_and_offset_drift() {
+        let base = SynthConfig {
+            test: TestSpec::Characteristic {
+                frequency_hz: 1.72,
+                warmup_s: 2.0,
+                duration_s: 1.0,
+            },
+            sensors: Sensors::ideal(),
+            ..SynthConfig::paper(5)
+        };
+        let mut cfg = base.clone();
+        cfg.sensors.x2.delay_s = 0.003;
+        cfg.sensors.v2.offset_drift_per_s = 0.002;
+        let (a, b) = (generate(&base).unwrap(), generate(&cfg).unwrap());
+        let (_, x2a) = a.channel(Quantity::X2).unwrap().samples();
+        let (_, x2b) = b.channel(Quantity::X2).unwrap().samples();
+        for i in 3..x2a.len() {
+            assert!((x2b[i] - x2a[i - 3]).abs() < 1e-12, "{i}");
+        }
+        let (t, va) = a.channel(Quantity::V2).unwrap().samples();
+        let (_, vb) = b.channel(Quantity::V2).unwrap().samples();
+        for i in 0..va.len() {
+            assert!((vb[i] - va[i] - 0.002 * t[i]).abs() < 1e-12, "{i}");
+        }
+        assert_eq!(b.truth["channel_delays_s"]["x2"], -0.003);
+        assert_eq!(b.truth["channel_delays_s"]["v2"], 0.0);
+        let mut c = base.clone();
+        c.sensors.v2.delay_s = f64::NAN;
+        assert!(generate(&c).unwrap_err().to_string().contains("delay_s"));
+    }
+
     #[test]
     fn bad_configs_are_refused() {
         let mut c = SynthConfig::paper(1);

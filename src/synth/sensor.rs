@@ -1,6 +1,7 @@
-//! Sensor models: gain (and its linear drift), offset, noise, lag,
-//! low-pass (Butterworth of any order), clipping, quantisation, rate,
-//! jitter, dropouts and lost buffers, per channel.
+//! Sensor models: gain (and its linear drift), offset (and its linear
+//! drift), noise (white or correlated), time delay, low-pass (Butterworth
+//! of any order), clipping, quantisation, rate, jitter, dropouts and lost
+//! buffers, per channel.
 
 use super::*;
 
@@ -65,6 +66,16 @@ pub struct SensorModel {
     /// The same for the low side: clipped at mid − f·(mid − min).
     #[serde(default)]
     pub clip_low_fraction: Option<f64>,
+    /// Time delay of the channel (s): the value stamped t was measured at
+    /// t − `delay_s` (the channel lags; negative: it leads). The shift a
+    /// reader must apply to re-align it is −`delay_s` (a channel map's
+    /// `shift_s` convention). Default 0.
+    #[serde(default)]
+    pub delay_s: f64,
+    /// Linear drift of the offset (SI per second): the offset at time t
+    /// from the log start is `offset + offset_drift_per_s·t`. Default 0.
+    #[serde(default)]
+    pub offset_drift_per_s: f64,
 }
 
 fn one() -> u32 {
@@ -96,6 +107,8 @@ impl SensorModel {
             clip_high: None,
             clip_high_fraction: None,
             clip_low_fraction: None,
+            delay_s: 0.0,
+            offset_drift_per_s: 0.0,
         }
     }
 
@@ -119,6 +132,15 @@ impl SensorModel {
         }
         if let Some(fc) = self.lowpass_hz {
             positive(&p("lowpass_hz"), fc)?;
+        }
+        if !(self.delay_s.is_finite() && self.delay_s.abs() <= 1.0) {
+            return Err(bad(p(&format!(
+                "delay_s must be within ±1 s (got {})",
+                self.delay_s
+            ))));
+        }
+        if !self.offset_drift_per_s.is_finite() {
+            return Err(bad(p("offset_drift_per_s must be finite")));
         }
         positive(&p("buffer_s"), self.buffer_s)?;
         if self.jitter_ns.saturating_mul(2) >= self.dt_ns() {
@@ -233,6 +255,8 @@ impl Sensors {
             clip_high: None,
             clip_high_fraction: None,
             clip_low_fraction: None,
+            delay_s: 0.0,
+            offset_drift_per_s: 0.0,
         };
         let x0 = s(1000.0, 1.5e-6, 0.5e-6, 0.004, 1.5e-5);
         let x1 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);

@@ -182,6 +182,41 @@ pub(super) fn truth(
         "sample_times": "the exact trajectory is sampled at each written sample's time; amplitudes a1/a2 are (max-min)/2 of those exact samples over the window, divided by the true A",
     });
     let obj = e.as_object_mut().expect("object");
+    // The shift that re-aligns each channel with x1 (a channel map's
+    // `shift_s` convention: the value stamped t was taken at t + shift),
+    // declared column shifts included: what `channel_delays_s` should say.
+    let own = |c: &SynthChannel| c.shift_s - c.sensor.delay_s;
+    let x1_shift = channels
+        .iter()
+        .find(|c| c.quantity == crate::ingest::Quantity::X1)
+        .map_or(0.0, own);
+    let delays: BTreeMap<&str, f64> = channels
+        .iter()
+        .filter(|c| {
+            !matches!(
+                c.quantity,
+                crate::ingest::Quantity::X1 | crate::ingest::Quantity::NormalForce
+            )
+        })
+        .map(|c| (c.quantity.name(), own(c) - x1_shift))
+        .collect();
+    obj.insert("channel_delays_s".into(), json!(delays));
+    // The same with each first-order low-pass's low-frequency group delay
+    // 1/(2π f_c) (a filtered channel lags by that much as well).
+    let filter_lag = |c: &SynthChannel| c.sensor.lowpass_hz.map_or(0.0, |fc| 1.0 / (2.0 * PI * fc));
+    let x1_lag = channels
+        .iter()
+        .find(|c| c.quantity == crate::ingest::Quantity::X1)
+        .map_or(0.0, filter_lag);
+    let lags: BTreeMap<&str, f64> = channels
+        .iter()
+        .filter(|c| delays.contains_key(c.quantity.name()))
+        .map(|c| {
+            let d = delays[c.quantity.name()];
+            (c.quantity.name(), d - (filter_lag(c) - x1_lag))
+        })
+        .collect();
+    obj.insert("channel_lags_s".into(), json!(lags));
     if cfg.format.is_table() {
         obj.insert("common_rate_hz".into(), json!(cfg.table_rate_hz));
         let shifts: BTreeMap<&str, f64> = channels
@@ -230,6 +265,8 @@ fn sensors_json(cfg: &SynthConfig, channels: &[SynthChannel]) -> serde_json::Map
                     "null_samples": c.null_samples,
                     "first_sample_offset_ns": c.first_sample_offset_ns,
                     "shift_s": c.shift_s,
+                    "delay_s": s.delay_s,
+                    "offset_drift_per_s": s.offset_drift_per_s,
                 })
                 .as_object()
                 .cloned()

@@ -1,0 +1,788 @@
+//! Channel delays and velocity-sensor consistency, estimated from the log
+//! itself (issue 30).
+//!
+//! Every shift here has the meaning and sign of a channel map's `shift_s`:
+//! the value stamped t was taken at t + shift, so a channel that lags by
+//! 3 ms needs the shift −3 ms. All shifts are relative to x1 (the
+//! reference: the tool cannot tell a delay common to every channel from a
+//! later log start, and it does not matter for the fit).
+//!
+//! * **x0 and x2 against x1, through the physics.** M1's equation of motion
+//!   `M1 ẍ1 + d(ẋ1 − ẋ2) + K1(x1 − x0) + K2(x1 − x2) = 0` holds without the
+//!   friction force, and it is linear: every term filtered by the same
+//!   zero-phase low-pass still satisfies it. With the rig's constants, the
+//!   known part `y = M1 ẍ1 + d ẋ1 + (K1 + K2) x1 − d ẋ2` is regressed on
+//!   `K1 x0, K1 ẋ0, K2 x2, K2 ẋ2, 1, t`: a shifted channel x(t + s) ≈ x + s·ẋ,
+//!   so the coefficient ratio of ẋ to x is the shift (the gains of x0 and x2
+//!   relative to x1 are the other coefficients, the sensor offsets the
+//!   constant, a slow drift the line). The stick-slip harmonics of x2 pin
+//!   x2's gain and shift; what is left of the fundamental pins the drive's.
+//!   Gauss–Newton: the shifted channels are re-aligned and the remaining
+//!   shift re-estimated until it is below a microsecond (at most 5 rounds).
+//! * **v2 against d/dt x2, a2 against d/dt v2** (or d²/dt² x2 without a
+//!   velocity channel): the same linearised regression on the derivative,
+//!   with gain, offset and linear offset drift as nuisance parameters (the
+//!   velocity's are reported as its consistency with x2). Their shifts are
+//!   relative to the reference channel, so x2's (v2's) shift is added.
+//! * **Uncertainty**: a cluster-robust sandwich over contiguous blocks of
+//!   half a drive period (residuals of filtered signals are correlated
+//!   within a block), Student's t with blocks − parameters degrees of
+//!   freedom, the delta method for the ratio; a relative shift's variance
+//!   adds the reference channel's.
+//! * **A channel that does not move** (its filtered range within 20 times
+//!   its noise) has no shift (`None`, `null` in JSON); a still x2 leaves its
+//!   terms out of M1's regression.
+//! * **Applied**: a shift whose 95 % interval excludes zero and that
+//!   exceeds a tenth of the grid's sample interval; the channel's samples
+//!   are re-stamped and the common grid rebuilt. Shifts below one sample are
+//!   typical of a sensor's own low-pass filter and are applied silently
+//!   (reported in `channel_delays_s`); larger ones are warned of with the
+//!   numbers. A velocity offset drift is removed where it is significant
+//!   and its size over the log exceeds half the velocity's noise.
+
+// Index loops mirror the formulas (several arrays indexed together).
+#![allow(clippy::needless_range_loop)]
+
+use super::{Quantity, Resampled, RigMeta};
+use crate::stats::{mad_sigma, quantile, student_t_quantile};
+
+/// Width of the Gaussian low-pass applied to every signal before the
+/// regressions (its σ, in drive periods; zero phase, so it moves no channel
+/// in time). 1/40 of a period keeps the harmonics up to about the 6th (the
+/// stick-slip content that separates x2's shift from its gain) and damps
+/// the noise of ẍ1 (∝ σ^−2.5): on synthetic logs of two rigs the shift's
+/// error fell from 0.13 ms RMS at σ = 3 ms to 0.05 ms at 12 ms.
+const SMOOTH_SIGMA_PERIODS: f64 = 1.0 / 40.0;
+/// A channel moves when its filtered range exceeds this many noise σ.
+const MOVES_FACTOR: f64 = 20.0;
+/// Shifts below this fraction of the grid's sample interval are not applied.
+const MIN_SHIFT_SAMPLES: f64 = 0.1;
+
+/// The delay of one channel.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChannelDelay {
+    /// Which channel.
+    pub quantity: Quantity,
+    /// The shift applied (s): the declared one plus the estimated one
+    /// where that was applied.
+    pub shift_s: f64,
+    /// The shift declared by a channel map (s).
+    pub declared_s: f64,
+    /// The estimated shift beyond the declared one (s), `None` where it
+    /// cannot be estimated (the channel does not move).
+    pub estimated_s: Option<f64>,
+    /// 95 % interval of the total shift (declared + estimated), if estimated.
+    pub interval_s: Option<[f64; 2]>,
+    /// Whether the estimated part was applied.
+    pub applied: bool,
+}
+
+/// The velocity channel against the derivative of x2:
+/// `v2 = gain·ẋ2(t + shift) + offset + drift·(t − t_mid)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct VelocityConsistency {
+    /// Gain of v2 relative to x2.
+    pub gain: f64,
+    /// Its standard error.
+    pub gain_se: f64,
+    /// Offset at the middle of the log (m/s).
+    pub offset_m_per_s: f64,
+    /// Linear drift of the offset (m/s per s).
+    pub drift_m_per_s2: f64,
+    /// Its standard error.
+    pub drift_se: f64,
+    /// RMS of the regression's residual over the filtered velocity's noise.
+    pub residual_ratio: f64,
+    /// Whether the drift was removed from v2.
+    pub drift_corrected: bool,
+}
+
+/// What the estimator found and did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ChannelDelays {
+    /// Per present channel among x0, x1, x2, v2, a2 (x1: the reference,
+    /// its declared shift only).
+    pub channels: Vec<ChannelDelay>,
+    /// The velocity channel's consistency with x2, where both move.
+    pub velocity: Option<VelocityConsistency>,
+}
+
+impl ChannelDelays {
+    /// The entry of a channel.
+    pub fn get(&self, q: Quantity) -> Option<&ChannelDelay> {
+        self.channels.iter().find(|c| c.quantity == q)
+    }
+}
+
+/// One estimated shift (relative to its reference) with its variance.
+#[derive(Debug, Clone, Copy)]
+struct Shift {
+    s: f64,
+    var: f64,
+    /// t quantile for the 95 % interval (its degrees of freedom).
+    tq: f64,
+}
+
+impl Shift {
+    fn half(&self) -> f64 {
+        self.tq * self.var.sqrt()
+    }
+    fn significant(&self) -> bool {
+        self.var.is_finite() && self.s.abs() > self.half()
+    }
+}
+
+/// Zero-phase Gaussian low-pass (σ in samples); NaN wherever the window
+/// holds a NaN or runs past an end.
+pub(crate) fn gauss_smooth(y: &[f64], sigma: f64) -> Vec<f64> {
+    let h = (3.0 * sigma).ceil().max(1.0) as usize;
+    let w: Vec<f64> = (0..=2 * h)
+        .map(|k| {
+            let u = (k as f64 - h as f64) / sigma;
+            (-0.5 * u * u).exp()
+        })
+        .collect();
+    let sw: f64 = w.iter().sum();
+    let n = y.len();
+    let mut out = vec![f64::NAN; n];
+    if n < 2 * h + 1 {
+        return out;
+    }
+    for (i, o) in out.iter_mut().enumerate().take(n - h).skip(h) {
+        let mut s = 0.0;
+        for (k, wk) in w.iter().enumerate() {
+            s += wk * y[i + k - h];
+        }
+        *o = s / sw;
+    }
+    out
+}
+
+/// Central-difference derivative (NaN at the ends and next to NaN).
+pub(crate) fn deriv(y: &[f64], dt: f64) -> Vec<f64> {
+    let n = y.len();
+    let mut d = vec![f64::NAN; n];
+    for i in 1..n.saturating_sub(1) {
+        d[i] = (y[i + 1] - y[i - 1]) / (2.0 * dt);
+    }
+    d
+}
+
+/// `out(t) = y(t + s)` by linear interpolation on the grid (NaN outside).
+pub(crate) fn shift_grid(y: &[f64], dt: f64, s: f64) -> Vec<f64> {
+    let q = s / dt;
+    let k = q.floor();
+    let f = q - k;
+    let k = k as i64;
+    let n = y.len() as i64;
+    (0..n)
+        .map(|i| {
+            let j = i + k;
+            if j < 0 || j + 1 >= n {
+                f64::NAN
+            } else {
+                let (a, b) = (y[j as usize], y[j as usize + 1]);
+                a + f * (b - a)
+            }
+        })
+        .collect()
+}
+
+/// Noise σ of a raw record from its second differences (white noise).
+fn noise_of(y: &[f64]) -> f64 {
+    let d2: Vec<f64> = y
+        .windows(3)
+        .map(|w| w[2] - 2.0 * w[1] + w[0])
+        .filter(|v| v.is_finite())
+        .collect();
+    if d2.len() < 10 {
+        return f64::NAN;
+    }
+    mad_sigma(&d2) / 6f64.sqrt()
+}
+
+/// Whether a filtered record moves far beyond the raw record's noise.
+fn moves(raw: &[f64], smooth: &[f64]) -> bool {
+    let fin: Vec<f64> = smooth.iter().copied().filter(|v| v.is_finite()).collect();
+    if fin.len() < 100 {
+        return false;
+    }
+    let range = quantile(&fin, 0.99) - quantile(&fin, 0.01);
+    let noise = noise_of(raw);
+    range.is_finite() && noise.is_finite() && range > MOVES_FACTOR * noise.max(f64::MIN_POSITIVE)
+}
+
+/// Least squares with a cluster-robust covariance over contiguous blocks.
+struct Ols {
+    beta: Vec<f64>,
+    cov: Vec<Vec<f64>>,
+    /// Residuals (NaN where a row was left out).
+    resid: Vec<f64>,
+    /// t quantile (97.5 %) for blocks − parameters degrees of freedom.
+    tq: f64,
+}
+
+/// Solves the symmetric positive definite system `a x = b` (Cholesky);
+/// `None` when `a` is singular.
+fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
+    let p = b.len();
+    let mut l = vec![vec![0.0; p]; p];
+    for i in 0..p {
+        for j in 0..=i {
+            let mut s = a[i][j];
+            for k in 0..j {
+                s -= l[i][k] * l[j][k];
+            }
+            if i == j {
+                if s <= a[i][i].abs() * 1e-13 || s <= 0.0 {
+                    return None;
+                }
+                l[i][i] = s.sqrt();
+            } else {
+                l[i][j] = s / l[j][j];
+            }
+        }
+    }
+    let mut z = vec![0.0; p];
+    for i in 0..p {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[i][k] * z[k];
+        }
+        z[i] = s / l[i][i];
+    }
+    let mut x = vec![0.0; p];
+    for i in (0..p).rev() {
+        let mut s = z[i];
+        for k in i + 1..p {
+            s -= l[k][i] * x[k];
+        }
+        x[i] = s / l[i][i];
+    }
+    Some(x)
+}
+
+/// `y ≈ Σ β_j x_j` over the rows where everything is finite; clusters of
+/// `block` consecutive rows. Columns are scaled internally.
+fn ols(cols: &[&[f64]], y: &[f64], block: usize) -> Option<Ols> {
+    let p = cols.len();
+    let n = y.len();
+    let rows: Vec<usize> = (0..n)
+        .filter(|&i| y[i].is_finite() && cols.iter().all(|c| c[i].is_finite()))
+        .collect();
+    if rows.len() < 20 * p {
+        return None;
+    }
+    let scale: Vec<f64> = cols
+        .iter()
+        .map(|c| {
+            let s = (rows.iter().map(|&i| c[i] * c[i]).sum::<f64>() / rows.len() as f64).sqrt();
+            if s > 0.0 && s.is_finite() {
+                s
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut xtx = vec![vec![0.0; p]; p];
+    let mut xty = vec![0.0; p];
+    let mut row = vec![0.0; p];
+    for &i in &rows {
+        for j in 0..p {
+            row[j] = cols[j][i] / scale[j];
+        }
+        for j in 0..p {
+            xty[j] += row[j] * y[i];
+            for k in 0..=j {
+                xtx[j][k] += row[j] * row[k];
+            }
+        }
+    }
+    for j in 0..p {
+        for k in j + 1..p {
+            xtx[j][k] = xtx[k][j];
+        }
+    }
+    let b = solve_spd(&xtx, &xty)?;
+    let mut resid = vec![f64::NAN; n];
+    // Meat: Σ over blocks of g gᵀ, g = Σ_rows x_i r_i.
+    let mut meat = vec![vec![0.0; p]; p];
+    let mut g = vec![0.0; p];
+    let mut clusters = 0usize;
+    let mut current = usize::MAX;
+    let flush = |g: &mut [f64], meat: &mut [Vec<f64>]| {
+        for j in 0..p {
+            for k in 0..p {
+                meat[j][k] += g[j] * g[k];
+            }
+        }
+        g.iter_mut().for_each(|v| *v = 0.0);
+    };
+    for &i in &rows {
+        let blk = i / block.max(1);
+        if blk != current {
+            if current != usize::MAX {
+                flush(&mut g, &mut meat);
+            }
+            current = blk;
+            clusters += 1;
+        }
+        let mut fit = 0.0;
+        for j in 0..p {
+            row[j] = cols[j][i] / scale[j];
+            fit += row[j] * b[j];
+        }
+        let r = y[i] - fit;
+        resid[i] = r;
+        for j in 0..p {
+            g[j] += row[j] * r;
+        }
+    }
+    flush(&mut g, &mut meat);
+    if clusters <= p + 1 {
+        return None;
+    }
+    // Cov = H⁻¹ M H⁻¹ · K/(K − p).
+    let mut hinv = vec![vec![0.0; p]; p];
+    for j in 0..p {
+        let mut e = vec![0.0; p];
+        e[j] = 1.0;
+        let col = solve_spd(&xtx, &e)?;
+        for k in 0..p {
+            hinv[k][j] = col[k];
+        }
+    }
+    let corr = clusters as f64 / (clusters - p) as f64;
+    let mut cov = vec![vec![0.0; p]; p];
+    for a in 0..p {
+        for bb in 0..p {
+            let mut s = 0.0;
+            for j in 0..p {
+                for k in 0..p {
+                    s += hinv[a][j] * meat[j][k] * hinv[k][bb];
+                }
+            }
+            cov[a][bb] = s * corr / (scale[a] * scale[bb]);
+        }
+    }
+    let beta = b.iter().zip(&scale).map(|(b, s)| b / s).collect();
+    Some(Ols {
+        beta,
+        cov,
+        resid,
+        tq: student_t_quantile(0.975, (clusters - p) as f64),
+    })
+}
+
+/// The ratio β_num/β_den with its delta-method variance.
+fn ratio(o: &Ols, num: usize, den: usize) -> Option<(f64, f64)> {
+    let (a, b) = (o.beta[num], o.beta[den]);
+    if b == 0.0 || !a.is_finite() || !b.is_finite() {
+        return None;
+    }
+    let s = a / b;
+    let (ga, gb) = (1.0 / b, -a / (b * b));
+    let var =
+        ga * ga * o.cov[num][num] + 2.0 * ga * gb * o.cov[num][den] + gb * gb * o.cov[den][den];
+    Some((s, var.max(0.0)))
+}
+
+/// The smoothed signals and their derivatives the regressions use.
+struct Prepared {
+    dt: f64,
+    block: usize,
+    tau: Vec<f64>,
+}
+
+/// x0's and x2's shifts against x1 from M1's equation (`None` for a
+/// channel that does not move or where the regression fails).
+fn physics_shifts(
+    r: &Resampled,
+    rig: &RigMeta,
+    pre: &Prepared,
+    sigma: f64,
+    x2_moves: bool,
+) -> (Option<Shift>, Option<Shift>) {
+    let dt = pre.dt;
+    let sm = |y: &[f64]| gauss_smooth(y, sigma);
+    let x1s = sm(&r.x1);
+    let x1d = deriv(&x1s, dt);
+    let x1dd = deriv(&x1d, dt);
+    let x0s0 = sm(&r.x0);
+    let x2s0 = sm(&r.x2);
+    let (m1, k1, k2, d) = (rig.m1_kg, rig.k1_n_per_m, rig.k2_n_per_m, rig.d_n_s_per_m);
+    let ones = vec![1.0; r.len()];
+    let (mut s0, mut s2) = (0.0, 0.0);
+    let mut last: Option<(Shift, Option<Shift>)> = None;
+    for _ in 0..5 {
+        let x0s = shift_grid(&x0s0, dt, s0);
+        let x2s = shift_grid(&x2s0, dt, s2);
+        let x0d = deriv(&x0s, dt);
+        let x2d = deriv(&x2s, dt);
+        let y: Vec<f64> = (0..r.len())
+            .map(|i| m1 * x1dd[i] + d * x1d[i] + (k1 + k2) * x1s[i] - d * x2d[i])
+            .collect();
+        let kx0: Vec<f64> = x0s.iter().map(|v| k1 * v).collect();
+        let kx0d: Vec<f64> = x0d.iter().map(|v| k1 * v).collect();
+        let kx2: Vec<f64> = x2s.iter().map(|v| k2 * v).collect();
+        let kx2d: Vec<f64> = x2d.iter().map(|v| k2 * v).collect();
+        let mut cols: Vec<&[f64]> = vec![&kx0, &kx0d, &kx2];
+        if x2_moves {
+            cols.push(&kx2d);
+        }
+        cols.push(&ones);
+        cols.push(&pre.tau);
+        let Some(o) = ols(&cols, &y, pre.block) else {
+            return (None, None);
+        };
+        let Some((d0, v0)) = ratio(&o, 1, 0) else {
+            return (None, None);
+        };
+        let d2 = if x2_moves { ratio(&o, 3, 2) } else { None };
+        s0 += d0;
+        let mut done = d0.abs() < 1e-6;
+        if let Some((d2, _)) = d2 {
+            s2 += d2;
+            done &= d2.abs() < 1e-6;
+        }
+        let sh0 = Shift {
+            s: s0,
+            var: v0,
+            tq: o.tq,
+        };
+        let sh2 = d2.map(|(_, v)| Shift {
+            s: s2,
+            var: v,
+            tq: o.tq,
+        });
+        last = Some((sh0, sh2));
+        if done || s0.abs() > 0.1 || s2.abs() > 0.1 {
+            break;
+        }
+    }
+    // The regression reads a channel ahead by s (x(t + s) is the value at
+    // t): the channel's stamps are late by s, its shift is −s. Beyond
+    // ±100 ms the linearisation is meaningless: no estimate.
+    let flip = |sh: Shift| Shift { s: -sh.s, ..sh };
+    match last {
+        Some((a, b)) => (
+            (a.s.abs() <= 0.1).then_some(flip(a)),
+            b.filter(|b| b.s.abs() <= 0.1).map(flip),
+        ),
+        None => (None, None),
+    }
+}
+
+/// The shift of `y` (filtered) against the reference rate `reference`
+/// (filtered, already a derivative): `y = g·ref(t + s) + c0 + c1·τ`.
+/// Returns the shift and the regression (for its gain, offset, drift).
+fn rate_shift(y_s: &[f64], reference: &[f64], pre: &Prepared) -> Option<(Shift, Ols)> {
+    let dt = pre.dt;
+    let ones = vec![1.0; y_s.len()];
+    let mut s = 0.0;
+    let mut out = None;
+    for _ in 0..5 {
+        let rf = shift_grid(reference, dt, s);
+        let rd = deriv(&rf, dt);
+        let o = ols(&[&rf, &rd, &ones, &pre.tau], y_s, pre.block)?;
+        let (ds, var) = ratio(&o, 1, 0)?;
+        s += ds;
+        let tq = o.tq;
+        out = Some((Shift { s, var, tq }, o));
+        if ds.abs() < 1e-6 || s.abs() > 0.1 {
+            break;
+        }
+    }
+    out.filter(|(sh, _)| sh.s.abs() <= 0.1)
+}
+
+/// Everything [`estimate`] found, before it is applied.
+#[derive(Debug, Clone)]
+pub(crate) struct Estimate {
+    /// Estimated shifts (relative to x1) with variance, per quantity.
+    shifts: Vec<(Quantity, Option<Shift>)>,
+    /// The applied estimated shift per quantity.
+    pub(crate) applied: Vec<(Quantity, f64)>,
+    /// The velocity's consistency and its drift to remove (m/s per s).
+    pub(crate) velocity: Option<VelocityConsistency>,
+    /// Warnings with the numbers.
+    pub(crate) warnings: Vec<String>,
+}
+
+/// Estimates the shifts of x0, x2, v2 and a2 against x1 (and the velocity's
+/// consistency with x2) on the common grid `r` of a log with rig `rig`.
+pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
+    let n = r.len();
+    let dt = 1.0 / r.rate_hz;
+    let period = rig
+        .drive_frequency_hz
+        .filter(|f| f.is_finite() && *f > 0.0)
+        .map_or(0.5, |f| 1.0 / f);
+    let sigma = (SMOOTH_SIGMA_PERIODS * period / dt).max(1.5);
+    let block = ((0.5 * period / dt).round() as usize).max(20);
+    let tm = r.t.get(n / 2).copied().unwrap_or(0.0);
+    let pre = Prepared {
+        dt,
+        block,
+        tau: r.t.iter().map(|t| t - tm).collect(),
+    };
+    let mut warnings = Vec::new();
+    let x2s = gauss_smooth(&r.x2, sigma);
+    let x2d = deriv(&x2s, dt);
+    let x2_moves = moves(&r.x2, &x2s);
+    let x0_moves = moves(&r.x0, &gauss_smooth(&r.x0, sigma));
+    let (sh0, sh2) = if x0_moves {
+        physics_shifts(r, rig, &pre, sigma, x2_moves)
+    } else {
+        (None, None)
+    };
+    let min_shift = MIN_SHIFT_SAMPLES * dt;
+    let applies = |s: &Shift| s.significant() && s.s.abs() > min_shift;
+    let mut applied = Vec::new();
+    let mut shifts = Vec::new();
+    let mut record =
+        |q: Quantity, est: Option<Shift>, applied_s: f64, applied: &mut Vec<(Quantity, f64)>| {
+            shifts.push((q, est));
+            applied.push((q, applied_s));
+        };
+    let a0 = sh0.filter(applies).map_or(0.0, |s| s.s);
+    record(Quantity::X0, sh0, a0, &mut applied);
+    let a2x = sh2.filter(applies).map_or(0.0, |s| s.s);
+    record(Quantity::X2, sh2, a2x, &mut applied);
+
+    // v2 against d/dt x2.
+    let has_v = r.v2.iter().any(|v| v.is_finite());
+    let mut v_total: Option<Shift> = None;
+    let mut v_applied = a2x;
+    let mut velocity = None;
+    let v2s = gauss_smooth(&r.v2, sigma);
+    if has_v && x2_moves {
+        if let Some((rel, o)) = rate_shift(&v2s, &x2d, &pre) {
+            let base = sh2.unwrap_or(Shift {
+                s: 0.0,
+                var: 0.0,
+                tq: rel.tq,
+            });
+            v_total = Some(Shift {
+                s: base.s + rel.s,
+                var: base.var + rel.var,
+                tq: rel.tq.max(base.tq),
+            });
+            // Sub-sample lags of v2 against x2 (a sensor low-pass) are left
+            // to the identification's own alignment of v2 with d/dt x2.
+            if applies(&rel) && rel.s.abs() >= dt {
+                v_applied = a2x + rel.s;
+            }
+            let noise_v = noise_of(&r.v2);
+            // The filtered velocity's noise: σ·sqrt(Σw²)/Σw for the Gaussian.
+            let noise_vs = noise_v / (2.0 * sigma * std::f64::consts::PI.sqrt()).sqrt();
+            let fin: Vec<f64> = o.resid.iter().copied().filter(|v| v.is_finite()).collect();
+            let rms = (fin.iter().map(|v| v * v).sum::<f64>() / fin.len().max(1) as f64).sqrt();
+            let (gain, drift) = (o.beta[0], o.beta[3]);
+            let drift_se = o.cov[3][3].sqrt();
+            let span = r.duration_s();
+            let drift_corrected =
+                drift.abs() > o.tq * drift_se && drift.abs() * span > 0.5 * noise_v;
+            velocity = Some(VelocityConsistency {
+                gain,
+                gain_se: o.cov[0][0].sqrt(),
+                offset_m_per_s: o.beta[2],
+                drift_m_per_s2: drift,
+                drift_se,
+                residual_ratio: rms / noise_vs,
+                drift_corrected,
+            });
+            if drift_corrected {
+                warnings.push(format!(
+                    "velocity channel v2: its offset drifts by {:.3} mm/s over the log ({:.4} ± {:.4} mm/s per s against d/dt x2); removed",
+                    drift * span * 1e3,
+                    drift * 1e3,
+                    o.tq * drift_se * 1e3
+                ));
+            }
+            if (gain - 1.0).abs() > 0.05 && (gain - 1.0).abs() > o.tq * o.cov[0][0].sqrt() {
+                warnings.push(format!(
+                    "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
+                ));
+            }
+        }
+    }
+    let v_present = has_v;
+    if v_present {
+        record(Quantity::V2, v_total, v_applied, &mut applied);
+    }
+
+    // a2 against d/dt v2 (or d²/dt² x2).
+    if let Some(a2) = &r.a2 {
+        let a2s = gauss_smooth(a2, sigma);
+        let (reference, base, base_applied) = if has_v && v_total.is_some() {
+            (deriv(&v2s, dt), v_total, v_applied)
+        } else {
+            (deriv(&x2d, dt), sh2, a2x)
+        };
+        let mut total = None;
+        let mut a_applied = base_applied;
+        if x2_moves {
+            if let Some((rel, _)) = rate_shift(&a2s, &reference, &pre) {
+                let b = base.unwrap_or(Shift {
+                    s: 0.0,
+                    var: 0.0,
+                    tq: rel.tq,
+                });
+                total = Some(Shift {
+                    s: b.s + rel.s,
+                    var: b.var + rel.var,
+                    tq: rel.tq.max(b.tq),
+                });
+                if applies(&rel) && rel.s.abs() >= dt {
+                    a_applied = base_applied + rel.s;
+                }
+            }
+        }
+        record(Quantity::A2, total, a_applied, &mut applied);
+    }
+    Estimate {
+        shifts,
+        applied,
+        velocity,
+        warnings,
+    }
+}
+
+impl Estimate {
+    /// The report: declared shifts (per quantity) plus what was estimated
+    /// and applied.
+    pub(crate) fn report(&self, declared: &[(Quantity, f64)]) -> ChannelDelays {
+        let dec = |q: Quantity| {
+            declared
+                .iter()
+                .find(|(d, _)| *d == q)
+                .map_or(0.0, |(_, s)| *s)
+        };
+        let mut channels = vec![ChannelDelay {
+            quantity: Quantity::X1,
+            shift_s: dec(Quantity::X1),
+            declared_s: dec(Quantity::X1),
+            estimated_s: Some(0.0),
+            interval_s: Some([dec(Quantity::X1); 2]),
+            applied: false,
+        }];
+        for ((q, est), (_, ap)) in self.shifts.iter().zip(&self.applied) {
+            let d = dec(*q);
+            channels.push(ChannelDelay {
+                quantity: *q,
+                shift_s: d + ap,
+                declared_s: d,
+                estimated_s: est.map(|e| e.s),
+                interval_s: est.map(|e| [d + e.s - e.half(), d + e.s + e.half()]),
+                applied: *ap != 0.0,
+            });
+        }
+        channels.sort_by_key(|c| c.quantity);
+        ChannelDelays {
+            channels,
+            velocity: self.velocity,
+        }
+    }
+}
+
+/// Warnings for the shifts applied that exceed one grid sample.
+pub(crate) fn shift_warnings(d: &ChannelDelays, dt: f64) -> Vec<String> {
+    let mut w = Vec::new();
+    for c in &d.channels {
+        let est = c.shift_s - c.declared_s;
+        if c.applied && est.abs() >= dt {
+            let (lo, hi) = c.interval_s.map_or((f64::NAN, f64::NAN), |i| (i[0], i[1]));
+            w.push(format!(
+                "channel {} {} x1 by {:.2} ms (95 % interval of its shift {:.2} to {:.2} ms){}; corrected",
+                c.quantity.name(),
+                if est < 0.0 { "lags" } else { "leads" },
+                est.abs() * 1e3,
+                lo * 1e3,
+                hi * 1e3,
+                if c.declared_s != 0.0 {
+                    format!(" beyond the declared shift_s {:.2} ms", c.declared_s * 1e3)
+                } else {
+                    String::new()
+                }
+            ));
+        }
+    }
+    w
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shift_grid_moves_forward() {
+        let y: Vec<f64> = (0..10).map(|i| i as f64).collect();
+        let s = shift_grid(&y, 0.5, 0.25);
+        assert!((s[2] - 2.5).abs() < 1e-12);
+        assert!(s[9].is_nan());
+    }
+
+    #[test]
+    fn gauss_smooth_keeps_lines() {
+        let y: Vec<f64> = (0..100).map(|i| 3.0 * i as f64 + 1.0).collect();
+        let s = gauss_smooth(&y, 2.0);
+        for i in 10..90 {
+            assert!((s[i] - y[i]).abs() < 1e-9);
+        }
+        assert!(s[0].is_nan() && s[99].is_nan());
+    }
+
+    /// A rate signal that is the derivative of a reference taken 2.5 ms
+    /// later (it leads: shift +2.5 ms), with gain, offset, drift and
+    /// noise: the shift, gain and drift come back within their intervals;
+    /// the sign follows `shift_s`.
+    #[test]
+    fn rate_shift_recovers_known_shift_and_sign() {
+        let dt = 1e-3;
+        let n = 20_000;
+        let t: Vec<f64> = (0..n).map(|i| i as f64 * dt).collect();
+        let x = |t: f64| (2.0 * t).sin() * 1e-3 + 2e-4 * (7.0 * t).sin() + 1e-4 * (13.0 * t).cos();
+        let xd = |t: f64| {
+            2e-3 * (2.0 * t).cos() + 7.0 * 2e-4 * (7.0 * t).cos() - 13.0 * 1e-4 * (13.0 * t).sin()
+        };
+        let mut rng = crate::stats::Rng::new(1);
+        for shift in [0.0025, -0.004, 0.0] {
+            let v: Vec<f64> = t
+                .iter()
+                .map(|&t| 1.02 * xd(t + shift) + 1e-4 + 2e-5 * (t - 10.0) + 1e-5 * rng.normal())
+                .collect();
+            let xr: Vec<f64> = t.iter().map(|&t| x(t)).collect();
+            let pre = Prepared {
+                dt,
+                block: 250,
+                tau: t.iter().map(|t| t - 10.0).collect(),
+            };
+            let xs = gauss_smooth(&xr, 3.0);
+            let xd_s = deriv(&xs, dt);
+            let vs = gauss_smooth(&v, 3.0);
+            let (sh, o) = rate_shift(&vs, &xd_s, &pre).unwrap();
+            assert!((sh.s - shift).abs() < 2e-5, "{shift}: {}", sh.s);
+            assert!(
+                (sh.s - shift).abs() < sh.half() + 2e-6,
+                "{shift}: {} ± {}",
+                sh.s,
+                sh.half()
+            );
+            assert!((o.beta[0] - 1.02).abs() < 1e-3);
+            assert!((o.beta[3] - 2e-5).abs() < 2e-6);
+        }
+    }
+
+    /// A still channel does not move; a moving one does.
+    #[test]
+    fn still_channels_do_not_move() {
+        let mut rng = crate::stats::Rng::new(1);
+        let still: Vec<f64> = (0..5000).map(|_| 1e-6 * rng.normal()).collect();
+        assert!(!moves(&still, &gauss_smooth(&still, 3.0)));
+        let moving: Vec<f64> = (0..5000)
+            .map(|i| 1e-3 * (i as f64 * 0.01).sin() + 1e-6 * rng.normal())
+            .collect();
+        assert!(moves(&moving, &gauss_smooth(&moving, 3.0)));
+    }
+}
