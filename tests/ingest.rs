@@ -474,16 +474,23 @@ fn csv_map_shift_is_honoured() {
         r.channel(Quantity::X1).expect("x1").t[0] - r.channel(Quantity::X0).expect("x0").t[0]
     };
     assert!((gap(&shifted) - 0.004).abs() < 1e-9);
-    assert!(gap(&plain).abs() < 1e-9);
-    // Against the MCAP: with the shift the drive agrees within its noise;
-    // without it, off by the drive's motion in 4 ms (v·4 ms ≈ 0.1 mm ≫ σ).
+    // Undeclared, the 4 ms is estimated from the data (M1's equation of
+    // motion) and applied: within the 0.2 ms the real-lab issue asks for.
+    assert!(
+        (gap(&plain) - 0.004).abs() < 2e-4,
+        "estimated drive shift {}",
+        gap(&plain)
+    );
+    // Against the MCAP: with the declared shift the drive agrees within its
+    // noise; with the estimated one it is far closer than without any
+    // (off by the drive's motion in 4 ms, v·4 ms ≈ 0.1 mm ≫ σ).
     let with = compare_with_mcap(file, &shifted);
     let (_, r, sigma) = with[0];
     assert!(r < RMS_SLACK * sigma, "shifted x0: {r:e} vs {sigma:e}");
-    let without = compare_with_mcap_loose(file, &plain);
+    let estimated = compare_with_mcap_loose(file, &plain);
     assert!(
-        without > 10.0 * sigma,
-        "unshifted x0 should disagree: {without:e}"
+        estimated < 10.0 * sigma,
+        "estimated shift leaves x0 off by {estimated:e}"
     );
     // The CLI takes the map too.
     let j = ingest_json(&data(file), &["--map", unshifted.to_str().expect("utf-8")]);

@@ -248,15 +248,8 @@ impl Sensors {
             p_lost_buffer: 0.005,
             p_dropout: 2e-4,
             dropout_burst_max: 4,
-            noise_correlation_s: 0.0,
-            lowpass_order: 1,
-            gain_drift_per_s: 0.0,
-            clip_low: None,
-            clip_high: None,
-            clip_high_fraction: None,
-            clip_low_fraction: None,
-            delay_s: 0.0,
-            offset_drift_per_s: 0.0,
+            // White noise, first-order filter, no drifts, clipping or delay.
+            ..SensorModel::ideal(rate)
         };
         let x0 = s(1000.0, 1.5e-6, 0.5e-6, 0.004, 1.5e-5);
         let x1 = s(1000.0, 3e-6, 1e-6, 0.008, 1e-4);
