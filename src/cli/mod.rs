@@ -51,7 +51,7 @@ pub enum Command {
     /// Fit the friction law of characteristic logs, with 95 % intervals.
     Fit(fit::FitArgs),
     /// Virtual rig: write a rig log (MCAP, CSV + map, Parquet) from the simulator, with truth.json.
-    Synth(synth::SynthArgs),
+    Synth(Box<synth::SynthArgs>),
     /// The whole pipeline on an experiment plan (ingest, fit, validate, batch) with one HTML report.
     Run(run::RunArgs),
     /// Predict a sweep's frequency response with the law fitted on a characteristic log, and score it.
@@ -97,7 +97,7 @@ pub fn main() -> ExitCode {
             }
             Err(e) => Err(e),
         },
-        Command::Synth(a) => synth::run(a),
+        Command::Synth(a) => synth::run(*a),
         Command::Validate(a) => validate::run(a),
         Command::Batch(a) => batch::run(a),
         Command::Run(a) => run::run(a),

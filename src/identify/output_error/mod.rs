@@ -1090,8 +1090,10 @@ mod tests {
     /// fitted: `lags_of_an_ideal_log_are_tiny`).
     fn ideal_fit(friction: FrictionSpec) -> (SynthConfig, super::super::LogFit) {
         let (cfg, run) = ideal_run(friction, 12.0);
-        let mut opts = IdentifyOptions::default();
-        opts.lag_fallback = false;
+        let opts = IdentifyOptions {
+            lag_fallback: false,
+            ..IdentifyOptions::default()
+        };
         let fit = fit_log(&run, &opts).expect("fit");
         (cfg, fit)
     }
@@ -1114,8 +1116,13 @@ mod tests {
             },
             12.0,
         );
-        let mut opts = IdentifyOptions::default();
-        opts.oe.position_delays = true;
+        let opts = IdentifyOptions {
+            oe: OeOptions {
+                position_delays: true,
+                ..OeOptions::default()
+            },
+            ..IdentifyOptions::default()
+        };
         let fit = fit_log(&run, &opts).expect("fit");
         let o = fit.output_error.as_ref().expect("refined");
         let (d1, d2) = o.chosen.delays_s;

@@ -389,7 +389,8 @@ fn profile_delays(runs: &mut [(Vec<f64>, SegOut, bool)]) -> DelayFit {
         }
     }
     let det = g[0][0] * g[1][1] - g[0][1] * g[0][1];
-    if !(det > 1e-12 * g[0][0] * g[1][1]) {
+    // Singular or undefined (NaN) normal equations: no lags.
+    if det.is_nan() || det <= 1e-12 * g[0][0] * g[1][1] {
         return DelayFit::default();
     }
     let d = [
