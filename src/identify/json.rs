@@ -90,10 +90,11 @@ struct OutputErrorOut {
     start_rms_x2_m: f64,
     bias_n: f64,
     gains: (f64, f64),
-    /// Lags (s) of x1 and x2 behind the drive, fitted with the law.
-    position_delays_s: (f64, f64),
+    /// Lags (s) of x1 and x2 behind the drive, fitted with the law
+    /// (`null` where they were not fitted).
+    position_delays_s: Option<(f64, f64)>,
     /// Their 95 % intervals (s).
-    position_delays_interval_s: ((f64, f64), (f64, f64)),
+    position_delays_interval_s: Option<((f64, f64), (f64, f64))>,
     iterations: u64,
     evaluations: usize,
     segments: usize,
@@ -320,8 +321,8 @@ impl LogFit {
                     start_rms_x2_m: o.start_rms_m.1,
                     bias_n: c.bias_n,
                     gains: c.gains,
-                    position_delays_s: c.delays_s,
-                    position_delays_interval_s: c.delays_interval_s,
+                    position_delays_s: o.position_delays.then_some(c.delays_s),
+                    position_delays_interval_s: o.position_delays.then_some(c.delays_interval_s),
                     iterations: c.iterations,
                     evaluations: o.evaluations,
                     segments: o.segments,

@@ -242,6 +242,8 @@ pub struct OutputErrorFit {
     /// ρs is measured, not only bounded.
     pub sticks_found: bool,
     /// The adequacy verdict of the chosen law.
+    /// Whether the lags of x1 and x2 were fitted (`FamilyFit::delays_s`).
+    pub position_delays: bool,
     pub adequacy: Adequacy,
     /// How strongly the data prefer the chosen family (None: one family).
     pub evidence: Option<Evidence>,
@@ -997,6 +999,7 @@ impl Refinement {
             evaluations: self.evals.get(),
             drive: self.data.drive,
             seconds: t0.elapsed().as_secs_f64(),
+            position_delays: self.data.delays,
             adequacy,
             evidence,
             notes,
