@@ -378,16 +378,10 @@ impl SynthArgs {
                     .trim()
                     .parse()
                     .map_err(|_| bad("the fraction is not a number"))?;
-                let model = match name.trim() {
-                    "x0" => Some(&mut sensors.x0),
-                    "x1" => Some(&mut sensors.x1),
-                    "x2" => Some(&mut sensors.x2),
-                    "v2" => Some(&mut sensors.v2),
-                    "a2" => sensors.a2.as_mut(),
-                    "normal_force" => sensors.normal_force.as_mut(),
-                    _ => return Err(bad("unknown channel")),
-                }
-                .ok_or_else(|| bad("that channel is not written"))?;
+                let model = sensors
+                    .channel_mut(name.trim())
+                    .ok_or_else(|| bad("unknown channel"))?
+                    .ok_or_else(|| bad("that channel is not written"))?;
                 if high {
                     model.clip_high_fraction = Some(f);
                 } else {
@@ -406,25 +400,19 @@ impl SynthArgs {
                         format!("{flag}: expected CHANNEL=NUMBER, got `{item}`"),
                     )
                 })?;
-                let model = match name {
-                    "x0" => Some(&mut sensors.x0),
-                    "x1" => Some(&mut sensors.x1),
-                    "x2" => Some(&mut sensors.x2),
-                    "v2" => Some(&mut sensors.v2),
-                    "a2" => sensors.a2.as_mut(),
-                    "normal_force" => sensors.normal_force.as_mut(),
-                    _ => {
-                        return Err(input_err(
+                let model = sensors
+                    .channel_mut(name)
+                    .ok_or_else(|| {
+                        input_err(
                             &self.out,
                             format!(
-                            "{flag}: unknown channel `{name}` (x0, x1, x2, v2, a2, normal_force)"
-                        ),
-                        ))
-                    }
-                }
-                .ok_or_else(|| {
-                    input_err(&self.out, format!("{flag}: the log has no channel {name}"))
-                })?;
+                                "{flag}: unknown channel `{name}` (x0, x1, x2, v2, a2, normal_force)"
+                            ),
+                        )
+                    })?
+                    .ok_or_else(|| {
+                        input_err(&self.out, format!("{flag}: the log has no channel {name}"))
+                    })?;
                 if delay {
                     model.delay_s = value;
                 } else {

@@ -277,6 +277,21 @@ impl Sensors {
         }
     }
 
+    /// The model of a channel by its canonical name (`x0`, `x1`, `x2`,
+    /// `v2`, `a2`, `normal_force`): `None` for an unknown name,
+    /// `Some(None)` for a channel this rig does not write.
+    pub fn channel_mut(&mut self, name: &str) -> Option<Option<&mut SensorModel>> {
+        Some(match name {
+            "x0" => Some(&mut self.x0),
+            "x1" => Some(&mut self.x1),
+            "x2" => Some(&mut self.x2),
+            "v2" => Some(&mut self.v2),
+            "a2" => self.a2.as_mut(),
+            "normal_force" => self.normal_force.as_mut(),
+            _ => return None,
+        })
+    }
+
     /// The present channels with their models, in canonical order.
     pub fn channels(&self) -> Vec<(Quantity, SensorModel)> {
         let mut v = vec![
