@@ -78,14 +78,27 @@ impl Segmentation {
     }
 }
 
-/// Candidate sticks by hysteresis: runs that start below `lo` and end above `hi`.
-fn hysteresis(v: &[f64], lo: f64, hi: f64) -> Vec<(usize, usize)> {
+/// Candidate sticks by hysteresis: runs that start below `lo` and end above
+/// `hi`. A hole in the record (a run of non-finite samples) longer than
+/// `max_hole` samples ends an open run at the hole: M2 may have slid and
+/// stuck again inside it, so a stick is never carried across it (a run
+/// carried over a lost 100 ms buffer put a shooting anchor, M2 at rest,
+/// where M2 was sliding; that one segment's residual made a log's law
+/// inadequate at 8× its noise).
+fn hysteresis(v: &[f64], lo: f64, hi: f64, max_hole: usize) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     let mut start: Option<usize> = None;
+    let mut hole: Option<usize> = None;
     for (i, x) in v.iter().enumerate() {
         if !x.is_finite() {
+            let h = *hole.get_or_insert(i);
+            if let Some(s) = start.filter(|_| i - h >= max_hole) {
+                out.push((s, h));
+                start = None;
+            }
             continue;
         }
+        hole = None;
         match start {
             None if x.abs() < lo => start = Some(i),
             Some(s) if x.abs() > hi => {
@@ -96,7 +109,7 @@ fn hysteresis(v: &[f64], lo: f64, hi: f64) -> Vec<(usize, usize)> {
         }
     }
     if let Some(s) = start {
-        out.push((s, v.len()));
+        out.push((s, hole.unwrap_or(v.len())));
     }
     out
 }
@@ -123,7 +136,7 @@ fn ramp(v: &[f64], s: usize, e: usize) -> f64 {
 
 /// Classifies candidates with thresholds; returns the stick runs.
 fn sticks_for(v_s: &[f64], lo: f64, hi: f64, min_len: usize) -> Vec<(usize, usize)> {
-    let mut sticks: Vec<(usize, usize)> = hysteresis(v_s, lo, hi)
+    let mut sticks: Vec<(usize, usize)> = hysteresis(v_s, lo, hi, min_len)
         .into_iter()
         .filter(|&(s, e)| e - s >= min_len && ramp(v_s, s, e) < lo)
         .collect();
@@ -450,6 +463,42 @@ mod tests {
             assert!(errs.iter().all(|e| *e < 20.0), "{errs:?}");
             assert!(!seg.stuck() && !seg.never_sticks());
         }
+    }
+
+    #[test]
+    fn a_stick_is_never_carried_across_a_lost_buffer() {
+        // A lost buffer (NaN) hides the end of one stick, a whole slip and
+        // the start of the next stick: the record reads "at rest" on both
+        // sides, but the mass slid inside the hole.
+        for seed in 0..5 {
+            let (mut v, _, _) = synthetic(5e-4, seed);
+            let hole = 100..500; // stick 0..150, slip 150..450, stick 450..600
+            for x in &mut v[hole.clone()] {
+                *x = f64::NAN;
+            }
+            let vs = savgol(&v, 1.0, 10, 3, 0);
+            let seg = segment(&v, &vs, None, 10, 3);
+            for &(a, b) in &seg.sticks {
+                assert!(
+                    b <= hole.start + 10 || a >= hole.end - 10,
+                    "seed {seed}: stick {a}..{b} spans the hole {hole:?}"
+                );
+            }
+            // The sticks on both sides are still found, and no breakaway is
+            // invented at the hole.
+            assert!(seg.sticks.iter().any(|&(a, b)| a < 100 && b > 50));
+            assert!(seg.sticks.iter().any(|&(a, b)| a < 600 && b > 550));
+            assert!(seg.breakaways.iter().all(|bk| bk.at > 500.0));
+        }
+        // A short hole (a few dropped samples) inside a stick does not
+        // split it.
+        let (mut v, truth, _) = synthetic(5e-4, 7);
+        for x in &mut v[60..64] {
+            *x = f64::NAN;
+        }
+        let vs = savgol(&v, 1.0, 10, 3, 0);
+        let seg = segment(&v, &vs, None, 10, 3);
+        assert_eq!(seg.sticks.len(), truth.len(), "{:?}", seg.sticks);
     }
 
     #[test]

@@ -35,10 +35,11 @@
 //! * **Applied**: a shift whose 95 % interval excludes zero, that is at
 //!   least twice its 95 % half-width, and that is at least one sample of
 //!   the grid; the channel's samples
-//!   are re-stamped and the common grid rebuilt. Shifts below one sample are
-//!   typical of a sensor's own low-pass filter and are applied silently
-//!   (reported in `channel_delays_s`); larger ones are warned of with the
-//!   numbers. A velocity offset drift is removed where it is significant
+//!   are re-stamped and the common grid rebuilt, with a warning that gives
+//!   the numbers. Shifts below one sample are typical of a sensor's own
+//!   low-pass filter: they are reported (`channel_delays_interval_s`) but
+//!   not applied, and the output-error fit takes up the lags of x1 and x2
+//!   where the law needs them. A velocity offset drift is removed where it is significant
 //!   and its size over the log exceeds half the velocity's noise.
 
 // Index loops mirror the formulas (several arrays indexed together).
@@ -58,10 +59,11 @@ const SMOOTH_SIGMA_PERIODS: f64 = 1.0 / 40.0;
 const MOVES_FACTOR: f64 = 20.0;
 /// Shifts below this fraction of the grid's sample interval are not
 /// applied: sub-sample lags (a sensor filter's) are left to the fit, which
-/// fits the lags of x1 and x2 where they matter. Re-stamping a channel by
-/// a correct sub-sample shift made two synth logs inadequate (x1 residual
-/// 8× and 29× the noise; the fit without the shift is adequate), not yet
-/// understood (docs/measurements.md).
+/// fits the lags of x1 and x2 where they matter. (A correct sub-sample
+/// shift once made a synth log inadequate, 8× its noise: not the shift
+/// but the stick segmentation, which carried a stick across a lost buffer
+/// and anchored a shooting segment at rest where M2 slid; fixed in
+/// `identify::segment`, docs/measurements.md.)
 const MIN_SHIFT_SAMPLES: f64 = 1.0;
 /// A shift is applied only when it is at least this many times its 95 %
 /// half-width.
