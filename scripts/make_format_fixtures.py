@@ -182,7 +182,7 @@ def main():
     wf_tdms(mc, os.path.join(OUT, "synth_wf.tdms"), np.float64,
             {"x0": ("Drive", "position"), "x1": ("Masses", "x1"), "x2": ("Masses", "x2"),
              "v2": ("Masses", "v2 velocity"), "a2": ("Masses", "a2"), "normal_force": ("Friction", "normal force")},
-            mm_positions=True, segments=2)
+            mm_positions=False, segments=2)
 
     # 2. A Parquet table as TDMS value channels and MAT variables.
     pqp = os.path.join(OUT, "synth_table.parquet")

@@ -485,9 +485,11 @@ fn variables(buf: &[u8], keep: &dyn Fn(&str) -> bool) -> Result<Vec<Var>, String
                 pos = start + n;
             }
             0 if buf[pos..].iter().all(|&x| x == 0) => break,
-            other => return Err(format!(
+            other => {
+                return Err(format!(
                 "corrupt MAT-file: element type {other} at byte {at} (a variable is type 14 or 15)"
-            )),
+            ))
+            }
         }
     }
     Ok(vars)
