@@ -47,7 +47,9 @@ fn differences(a: &Value, b: &Value, rel: f64, skip: &[&str], at: &str, out: &mu
                 y.as_f64().unwrap_or(f64::NAN),
             );
             let scale = x.abs().max(y.abs());
-            if !((x - y).abs() <= rel * scale) {
+            // NaN (a number that is not one) fails too.
+            let within = (x - y).abs() <= rel * scale;
+            if !within {
                 out.push(format!(
                     "{at}: {x} vs {y} ({:.2e} relative)",
                     (x - y).abs() / scale

@@ -105,7 +105,7 @@ impl Var {
 }
 
 /// Byte order of the file.
-#[derive(Clone, Copy)]
+#[derive(Debug, Clone, Copy)]
 struct Endian(bool /* little */);
 
 impl Endian {
@@ -179,7 +179,7 @@ fn numbers(t: u32, d: &[u8], e: Endian, what: &str) -> Result<Vec<f64>, String> 
             ))
         }
     };
-    if d.len() % size != 0 {
+    if !d.len().is_multiple_of(size) {
         return Err(format!(
             "{what}: {} data bytes are not a whole number of {size}-byte values",
             d.len()
@@ -206,7 +206,7 @@ fn text(t: u32, d: &[u8], e: Endian, dims: &[usize], what: &str) -> Result<Strin
     let chars: Vec<char> = match t {
         MI_UTF8 => return Ok(String::from_utf8_lossy(d).into_owned()),
         MI_UINT16 | MI_UTF16 => {
-            if d.len() % 2 != 0 {
+            if !d.len().is_multiple_of(2) {
                 return Err(format!("{what}: odd number of UTF-16 bytes"));
             }
             let units: Vec<u16> = d.chunks_exact(2).map(|c| e.u16(c)).collect();
@@ -222,7 +222,7 @@ fn text(t: u32, d: &[u8], e: Endian, dims: &[usize], what: &str) -> Result<Strin
         other => return Err(format!("{what}: char data of element type {other}")),
     };
     let rows = dims.first().copied().unwrap_or(1).max(1);
-    if rows == 1 || chars.len() % rows != 0 {
+    if rows == 1 || !chars.len().is_multiple_of(rows) {
         return Ok(chars.into_iter().collect());
     }
     let cols = chars.len() / rows;

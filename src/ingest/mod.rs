@@ -2,8 +2,8 @@
 //!
 //! This stage owns everything between a file on disk and the typed, checked
 //! run that the later stages work on: reading the five log formats of
-//! `docs/rig-log-format.md` (MCAP, DAQ CSV + channel map, Parquet, NI TDMS
-//! + channel map, MATLAB MAT level 5 + channel map),
+//! `docs/rig-log-format.md` (MCAP, DAQ CSV, Parquet, NI TDMS and MATLAB
+//! MAT level 5; CSV, TDMS and MAT with a channel map),
 //! parsing and checking the `rig` metadata ([`RigMeta`]), converting every
 //! channel to SI and to seconds from the log start, detecting gaps and
 //! dropouts, and laying all channels on one common time base.

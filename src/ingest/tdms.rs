@@ -515,7 +515,7 @@ fn place_data(
     }
     let len64 = len as u64;
     let chunks = len64 / chunk;
-    if chunks == 0 || len64 % chunk != 0 {
+    if chunks == 0 || !len64.is_multiple_of(chunk) {
         if !unfinished {
             return Err(format!(
                 "corrupt TDMS file: segment {segment} at byte {seg} has {len} bytes of raw data, not a whole number of {chunk}-byte chunks"
@@ -770,7 +770,10 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
                 time.len()
             )));
         }
-        if let Some(i) = time.windows(2).position(|w| !(w[1] > w[0])) {
+        if let Some(i) = time
+            .windows(2)
+            .position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        {
             return Err(bad(format!(
                 "non-monotonic time: time channel {:?}, value {}: {} s does not follow {} s",
                 tobj.name,
