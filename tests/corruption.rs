@@ -18,7 +18,8 @@ struct Log {
 /// Small valid logs, made once and kept in memory (each case writes its
 /// own copy into its own temporary directory, so nothing outlives the
 /// test run): MCAP (zstd, summary), MCAP (plain, no summary), CSV + map,
-/// Parquet.
+/// Parquet, and the TDMS (waveforms, two segments) and MAT (-v7,
+/// compressed) fixtures of `datasets/formats/` with their maps.
 fn logs() -> &'static [Log] {
     static LOGS: OnceLock<Vec<Log>> = OnceLock::new();
     LOGS.get_or_init(|| {
@@ -46,6 +47,17 @@ fn logs() -> &'static [Log] {
                 .then(|| std::fs::read(p.with_extension("map.toml")).expect("map"));
             out.push(Log { name, bytes, map });
         }
+        let formats = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/formats");
+        for (file, map, name) in [
+            ("synth_wf.tdms", "synth_wf.map.toml", "w.tdms"),
+            ("synth_table_v7.mat", "synth_table_v7.map.toml", "m.mat"),
+        ] {
+            out.push(Log {
+                name,
+                bytes: std::fs::read(formats.join(file)).expect("fixture"),
+                map: Some(std::fs::read(formats.join(map)).expect("map")),
+            });
+        }
         out
     })
 }
@@ -57,7 +69,7 @@ fn materialise(log: &Log, bytes: &[u8]) -> (tempfile::TempDir, PathBuf) {
     let p = dir.path().join(log.name);
     std::fs::write(&p, bytes).expect("write");
     if let Some(map) = &log.map {
-        // The CSV keeps its (intact) map beside it.
+        // A CSV, TDMS or MAT log keeps its (intact) map beside it.
         std::fs::write(p.with_extension("map.toml"), map).expect("map");
     }
     (dir, p)
@@ -123,7 +135,7 @@ proptest! {
     /// Truncated anywhere, with up to 6 flipped bytes anywhere.
     #[test]
     fn corrupted_logs_never_panic(
-        which in 0usize..4,
+        which in 0usize..6,
         cut_frac in 0.0f64..=1.0,
         flips in prop::collection::vec((any::<usize>(), any::<u8>()), 0..6),
     ) {
@@ -136,7 +148,7 @@ proptest! {
     /// intact, content wrong).
     #[test]
     fn flipped_bytes_never_panic(
-        which in 0usize..4,
+        which in 0usize..6,
         flips in prop::collection::vec((any::<usize>(), any::<u8>()), 1..4),
     ) {
         let log = &logs()[which];

@@ -1,10 +1,11 @@
 //! In-process mutation fuzzers for the ingest parsers, on stable (a
 //! cargo-fuzz/libFuzzer target needs a nightly toolchain):
 //! * `ingest_survives_mutated_logs`: whole logs (MCAP, CSV + channel map,
-//!   Parquet), seeded from `datasets/` (public and broken logs); each
+//!   Parquet, TDMS and MAT + channel map), seeded from `datasets/` (public,
+//!   `formats/` and broken logs); each
 //!   execution mutates one seed file (bit flips, byte overwrites, truncation,
-//!   duplicated or deleted spans, random insertions; for CSV also the TOML
-//!   map), ingests it, and fails on a panic or an execution slower than 10 s;
+//!   duplicated or deleted spans, random insertions; for CSV, TDMS and MAT
+//!   also the TOML map), ingests it, and fails on a panic or an execution slower than 10 s;
 //! * `channel_map_parser_survives_mutations`: the CSV channel-map (TOML)
 //!   parser alone, seeded from `datasets/*.map.toml` and
 //!   `datasets/broken/*.map.toml`, with the byte mutations and TOML-aware
@@ -86,13 +87,13 @@ fn mutate(rng: &mut Rng, data: &mut Vec<u8>) {
 
 fn seeds(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
-    for d in [dir.to_path_buf(), dir.join("broken")] {
+    for d in [dir.to_path_buf(), dir.join("broken"), dir.join("formats")] {
         if let Ok(rd) = std::fs::read_dir(&d) {
             for e in rd.flatten() {
                 let p = e.path();
                 let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
                 let small = e.metadata().map(|m| m.len() < 1_200_000).unwrap_or(false);
-                if small && matches!(ext, "mcap" | "csv" | "parquet") {
+                if small && matches!(ext, "mcap" | "csv" | "parquet" | "tdms" | "mat") {
                     out.push(p);
                 }
             }
@@ -133,7 +134,7 @@ fn ingest_survives_mutated_logs() {
         let target = tmp.path().join(format!("case.{ext}"));
         std::fs::write(&target, &data).unwrap();
         let mut opts = IngestOptions::default();
-        if ext == "csv" {
+        if matches!(ext, "csv" | "tdms" | "mat") {
             let map = src.with_extension("map.toml");
             let mut m = std::fs::read(&map).unwrap_or_default();
             if rng.below(4) == 0 {
@@ -366,7 +367,7 @@ fn mutate_toml(rng: &mut Rng, data: &mut Vec<u8>) {
 
 fn map_seeds(dir: &Path) -> Vec<PathBuf> {
     let mut out = Vec::new();
-    for d in [dir.to_path_buf(), dir.join("broken")] {
+    for d in [dir.to_path_buf(), dir.join("broken"), dir.join("formats")] {
         if let Ok(rd) = std::fs::read_dir(&d) {
             for e in rd.flatten() {
                 let p = e.path();

@@ -9,9 +9,11 @@ use std::path::PathBuf;
 /// Arguments of `stickslip ingest`.
 #[derive(Debug, Args)]
 pub struct IngestArgs {
-    /// The rig log: `.mcap`, `.csv` (with a channel map) or `.parquet`.
+    /// The rig log: `.mcap`, `.csv`, `.parquet`, `.tdms` or `.mat` (CSV,
+    /// TDMS and MAT with a channel map).
     pub log: PathBuf,
-    /// Channel map of a CSV log (default: NAME.map.toml beside NAME.csv).
+    /// Channel map of a CSV, TDMS or MAT log (default: NAME.map.toml beside
+    /// the log).
     #[arg(long)]
     pub map: Option<PathBuf>,
     /// Write the canonical run (common time base, SI) to this Parquet file.

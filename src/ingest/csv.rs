@@ -17,22 +17,56 @@ use std::path::{Path, PathBuf};
 /// Longest preamble line accepted (guards against a binary file read as text).
 const MAX_PREAMBLE_LINE: usize = 1 << 20;
 
-/// One column entry of a channel map.
+/// One column entry of a channel map (CSV, TDMS and MAT logs share the
+/// keys; `rate_hz` and `t0_s` are for MAT variables only).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct ColumnSpec {
-    /// Column name in the CSV header.
+    /// Column name in the CSV header (TDMS: `Group/Channel`; MAT: the
+    /// variable).
     pub name: String,
-    /// Factor to SI (default 1).
-    #[serde(default = "one")]
-    pub scale: f64,
+    /// Factor to SI as written in the map (`None`: not given).
+    #[serde(default, rename = "scale")]
+    pub scale_given: Option<f64>,
     /// The row's value was taken at row time + shift_s (default 0).
     #[serde(default)]
     pub shift_s: f64,
+    /// MAT: the variable's own uniform sample rate (Hz).
+    #[serde(default)]
+    pub rate_hz: Option<f64>,
+    /// MAT: the time of the variable's first sample (s; with `rate_hz`).
+    #[serde(default)]
+    pub t0_s: Option<f64>,
 }
 
-fn one() -> f64 {
-    1.0
+impl ColumnSpec {
+    /// Factor to SI (default 1).
+    pub fn scale(&self) -> f64 {
+        self.scale_given.unwrap_or(1.0)
+    }
+}
+
+/// The log kind a channel map is read for (what its entries name and
+/// which keys apply).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum MapKind {
+    /// CSV columns: `time` required.
+    Csv,
+    /// TDMS `Group/Channel`s: `time` only where a mapped channel is not a
+    /// waveform (checked by the reader).
+    Tdms,
+    /// MAT variables: `time` unless every entry has its own `rate_hz`.
+    Mat,
+}
+
+impl MapKind {
+    fn what(self) -> &'static str {
+        match self {
+            MapKind::Csv => "CSV",
+            MapKind::Tdms => "TDMS",
+            MapKind::Mat => "MAT",
+        }
+    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -44,13 +78,23 @@ struct MapFile {
 /// A parsed and checked channel map.
 #[derive(Debug, Clone)]
 pub(crate) struct ChannelMap {
-    pub time: ColumnSpec,
+    /// The `time` entry (always present in a CSV map).
+    pub time: Option<ColumnSpec>,
     pub channels: Vec<(Quantity, ColumnSpec)>,
     pub setpoint_hz: Option<ColumnSpec>,
 }
 
-/// Parses a channel map (TOML text); `map_path` names it in errors.
+/// Parses a CSV channel map (TOML text); `map_path` names it in errors.
 pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, IngestError> {
+    parse_map_for(map_path, text, MapKind::Csv)
+}
+
+/// Parses a channel map for a log of `kind`; `map_path` names it in errors.
+pub(crate) fn parse_map_for(
+    map_path: &Path,
+    text: &str,
+    kind: MapKind,
+) -> Result<ChannelMap, IngestError> {
     let bad = |msg: String| IngestError::invalid(map_path, msg);
     let file: MapFile = toml::from_str(text).map_err(|e| {
         let at = e.span().map_or(String::new(), |span| {
@@ -68,15 +112,16 @@ pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, Inges
     let mut setpoint_hz = None;
     let mut channels = Vec::new();
     for (key, spec) in file.columns {
-        if !(spec.scale.is_finite() && spec.scale != 0.0) {
+        if !(spec.scale().is_finite() && spec.scale() != 0.0) {
             return Err(bad(format!(
                 "column entry `{key}`: scale {} must be finite and non-zero",
-                spec.scale
+                spec.scale()
             )));
         }
         if !spec.shift_s.is_finite() {
             return Err(bad(format!("column entry `{key}`: shift_s must be finite")));
         }
+        check_own_rate(&key, &spec, kind).map_err(bad)?;
         match key.as_str() {
             "time" => time = Some(spec),
             "setpoint_hz" => setpoint_hz = Some(spec),
@@ -90,9 +135,26 @@ pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, Inges
             },
         }
     }
-    let time = time.ok_or_else(|| bad("[columns] lacks the required entry `time`".into()))?;
-    if time.scale <= 0.0 {
-        return Err(bad("column entry `time`: scale must be positive".into()));
+    let all_own_rate = channels.iter().all(|(_, s)| s.rate_hz.is_some())
+        && setpoint_hz.as_ref().is_none_or(|s| s.rate_hz.is_some());
+    let time_needed = match kind {
+        MapKind::Csv => true,
+        MapKind::Tdms => false,
+        MapKind::Mat => !all_own_rate,
+    };
+    if time.is_none() && time_needed {
+        return Err(bad(match kind {
+            MapKind::Mat => {
+                "[columns] lacks the entry `time` (needed unless every entry has its own `rate_hz`)"
+                    .into()
+            }
+            _ => "[columns] lacks the required entry `time`".into(),
+        }));
+    }
+    if let Some(time) = &time {
+        if time.scale() <= 0.0 {
+            return Err(bad("column entry `time`: scale must be positive".into()));
+        }
     }
     for q in Quantity::ALL.into_iter().filter(|q| q.required()) {
         if !channels.iter().any(|(p, _)| *p == q) {
@@ -103,7 +165,7 @@ pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, Inges
         }
     }
     // One column carries one quantity.
-    let mut entries: Vec<(&str, &str)> = vec![("time", time.name.as_str())];
+    let mut entries: Vec<(&str, &str)> = time.iter().map(|t| ("time", t.name.as_str())).collect();
     entries.extend(channels.iter().map(|(q, s)| (q.name(), s.name.as_str())));
     entries.extend(setpoint_hz.iter().map(|s| ("setpoint_hz", s.name.as_str())));
     for (i, (a, col)) in entries.iter().enumerate() {
@@ -120,8 +182,39 @@ pub(crate) fn parse_map(map_path: &Path, text: &str) -> Result<ChannelMap, Inges
     })
 }
 
+/// Checks the MAT-only keys `rate_hz` and `t0_s` of entry `key`.
+fn check_own_rate(key: &str, spec: &ColumnSpec, kind: MapKind) -> Result<(), String> {
+    if spec.rate_hz.is_none() && spec.t0_s.is_none() {
+        return Ok(());
+    }
+    if kind != MapKind::Mat {
+        return Err(format!(
+            "column entry `{key}`: rate_hz and t0_s apply to MAT variables only (a {} log carries its own times)",
+            kind.what()
+        ));
+    }
+    if key == "time" {
+        return Err(
+            "column entry `time`: rate_hz and t0_s belong to the variables, not to `time`".into(),
+        );
+    }
+    let Some(rate) = spec.rate_hz else {
+        return Err(format!("column entry `{key}`: t0_s needs rate_hz"));
+    };
+    let (lo, hi) = RATE_RANGE_HZ;
+    if !(rate >= lo && rate <= hi) {
+        return Err(format!(
+            "column entry `{key}`: rate_hz {rate} is outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log"
+        ));
+    }
+    if spec.t0_s.is_some_and(|t| !t.is_finite()) {
+        return Err(format!("column entry `{key}`: t0_s must be finite"));
+    }
+    Ok(())
+}
+
 /// The default map of `NAME.csv`: `NAME.map.toml` beside it.
-fn default_map_path(path: &Path) -> PathBuf {
+pub(crate) fn default_map_path(path: &Path) -> PathBuf {
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -254,7 +347,13 @@ fn first_non_utf8_line(path: &Path) -> Option<usize> {
 
 /// Reads a DAQ CSV export with its channel map (`map`, or the default).
 pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
-    let (map_path, cmap) = read_map(path, map)?;
+    let (map_path, cmap) = read_map(path, map, MapKind::Csv)?;
+    let Some(time_spec) = cmap.time.clone() else {
+        return Err(IngestError::invalid(
+            &map_path,
+            "[columns] lacks the required entry `time`",
+        ));
+    };
     let Head {
         meta,
         lines: preamble,
@@ -287,16 +386,16 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         // line per row.
         first_data_line: preamble + 2,
     };
-    let time = table.time(&cmap.time)?;
+    let time = table.time(&time_spec)?;
     let dt_s = median_interval(&time).unwrap_or(f64::NAN);
-    check_rate(&map_path, &cmap.time, dt_s)?;
-    let t0 = time[0] + cmap.time.shift_s;
+    check_rate(&map_path, &time_spec, dt_s)?;
+    let t0 = time[0] + time_spec.shift_s;
     let mut channels = Vec::new();
     for (q, spec) in &cmap.channels {
         let v = table.column(spec, q.name())?;
         let t = time
             .iter()
-            .map(|t| t + cmap.time.shift_s + spec.shift_s - t0)
+            .map(|t| t + time_spec.shift_s + spec.shift_s - t0)
             .collect();
         channels.push(RawChannel {
             quantity: *q,
@@ -310,7 +409,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     let setpoints = match &cmap.setpoint_hz {
         Some(spec) => {
             let v = table.column(spec, "setpoint_hz")?;
-            setpoints(path, spec, &time, &v, (cmap.time.shift_s, t0))?
+            setpoints(path, spec, &time, &v, (time_spec.shift_s, t0))?
         }
         None => Vec::new(),
     };
@@ -333,7 +432,7 @@ pub(crate) const RATE_RANGE_HZ: (f64, f64) = (1.0, 1e6);
 pub(crate) const DRIVE_RANGE_M: (f64, f64) = (1e-6, 0.5);
 
 /// Refuses a time scale that gives an implausible sample rate.
-fn check_rate(map_path: &Path, time: &ColumnSpec, dt_s: f64) -> Result<(), IngestError> {
+pub(crate) fn check_rate(map_path: &Path, time: &ColumnSpec, dt_s: f64) -> Result<(), IngestError> {
     let rate = 1.0 / dt_s;
     let (lo, hi) = RATE_RANGE_HZ;
     if !(rate >= lo && rate <= hi) {
@@ -341,7 +440,7 @@ fn check_rate(map_path: &Path, time: &ColumnSpec, dt_s: f64) -> Result<(), Inges
             map_path,
             format!(
                 "column entry `time` (scale {:e}): the rows come at {rate:.4e} Hz, outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log: is the time scale right (1 for s, 0.001 for ms)?",
-                time.scale
+                time.scale()
             ),
         ));
     }
@@ -350,7 +449,7 @@ fn check_rate(map_path: &Path, time: &ColumnSpec, dt_s: f64) -> Result<(), Inges
 
 /// Refuses a drive scale that gives an implausible drive amplitude (half
 /// the range of x0, the robust 1st-99th percentiles).
-fn check_drive_amplitude(
+pub(crate) fn check_drive_amplitude(
     map_path: &Path,
     cmap: &ChannelMap,
     channels: &[RawChannel],
@@ -373,7 +472,7 @@ fn check_drive_amplitude(
             .channels
             .iter()
             .find(|(q, _)| *q == Quantity::X0)
-            .map_or(1.0, |(_, s)| s.scale);
+            .map_or(1.0, |(_, s)| s.scale());
         return Err(IngestError::invalid(
             map_path,
             format!(
@@ -387,8 +486,13 @@ fn check_drive_amplitude(
 /// Largest channel map (bytes): a map names a few columns.
 const MAX_MAP_BYTES: u64 = 1_000_000;
 
-/// The channel map of `path`: `map`, or `NAME.map.toml` beside it.
-fn read_map(path: &Path, map: Option<&Path>) -> Result<(PathBuf, ChannelMap), IngestError> {
+/// The channel map of `path` (a log of `kind`): `map`, or `NAME.map.toml`
+/// beside it.
+pub(crate) fn read_map(
+    path: &Path,
+    map: Option<&Path>,
+    kind: MapKind,
+) -> Result<(PathBuf, ChannelMap), IngestError> {
     let map_path = map.map_or_else(|| default_map_path(path), Path::to_path_buf);
     let map_text = match std::fs::metadata(&map_path) {
         // The checks logs get (FIFO, device, directory, size) before any read.
@@ -409,7 +513,7 @@ fn read_map(path: &Path, map: Option<&Path>) -> Result<(PathBuf, ChannelMap), In
         }
         Err(e) => return Err(IngestError::io(&map_path, e)),
     };
-    let cmap = parse_map(&map_path, &map_text)?;
+    let cmap = parse_map_for(&map_path, &map_text, kind)?;
     Ok((map_path, cmap))
 }
 
@@ -419,7 +523,9 @@ fn check_unique_columns(
     cmap: &ChannelMap,
     names: &[String],
 ) -> Result<(), IngestError> {
-    let specs = std::iter::once(&cmap.time)
+    let specs = cmap
+        .time
+        .iter()
         .chain(cmap.channels.iter().map(|(_, s)| s))
         .chain(cmap.setpoint_hz.iter());
     for spec in specs {
@@ -537,7 +643,7 @@ impl Table<'_> {
                     ),
                 ));
             }
-            out.push(v * spec.scale);
+            out.push(v * spec.scale());
         }
         Ok(out)
     }
@@ -582,7 +688,7 @@ impl Table<'_> {
 /// value, at the row's time shifted as the channels are (`time_shift_s`,
 /// the column's own shift, relative to the origin `t0`). Refuses negative
 /// frequencies.
-fn setpoints(
+pub(crate) fn setpoints(
     path: &Path,
     spec: &ColumnSpec,
     time: &[f64],
@@ -626,13 +732,13 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
     #[test]
     fn parses_a_map() {
         let m = parse_map(Path::new("m.toml"), MAP).expect("valid map");
-        assert_eq!(m.time.name, "t [s]");
+        assert_eq!(m.time.as_ref().map(|t| t.name.as_str()), Some("t [s]"));
         let x0 = m
             .channels
             .iter()
             .find(|(q, _)| *q == Quantity::X0)
             .expect("x0");
-        assert_eq!(x0.1.scale, 0.001);
+        assert_eq!(x0.1.scale(), 0.001);
         assert_eq!(x0.1.shift_s, -0.004);
         assert!(m.setpoint_hz.is_none());
     }

@@ -1,8 +1,9 @@
 //! # Ingest: rig log → one clean [`Run`]
 //!
 //! This stage owns everything between a file on disk and the typed, checked
-//! run that the later stages work on: reading the three log formats of
-//! `docs/rig-log-format.md` (MCAP, DAQ CSV + channel map, Parquet),
+//! run that the later stages work on: reading the five log formats of
+//! `docs/rig-log-format.md` (MCAP, DAQ CSV, Parquet, NI TDMS and MATLAB
+//! MAT level 5; CSV, TDMS and MAT with a channel map),
 //! parsing and checking the `rig` metadata ([`RigMeta`]), converting every
 //! channel to SI and to seconds from the log start, detecting gaps and
 //! dropouts, and laying all channels on one common time base.
@@ -12,6 +13,8 @@
 //!
 //! Submodules: `mcap` (streaming MCAP reader), `csv` (DAQ export + TOML
 //! channel map), `parquet` (tables, also the writer of canonical runs),
+//! `tdms` and `mat` (hand-written readers of NI TDMS and MAT level 5, with
+//! the CSV channel map),
 //! [`rig`] (metadata), `run` (gaps and the common time base), [`clip`]
 //! (saturated channels: their flat samples are left out, with a warning),
 //! `delays` (channel delays against x1 and the velocity's consistency with
@@ -22,10 +25,12 @@ pub mod clip;
 mod csv;
 mod delays;
 mod json;
+mod mat;
 mod mcap;
 mod parquet;
 pub mod rig;
 mod run;
+mod tdms;
 
 use std::path::{Path, PathBuf};
 
@@ -36,7 +41,8 @@ pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLE
 /// Options of [`read`].
 #[derive(Debug, Clone, Default)]
 pub struct IngestOptions {
-    /// Channel map of a CSV log (default: `NAME.map.toml` beside `NAME.csv`).
+    /// Channel map of a CSV, TDMS or MAT log (default: `NAME.map.toml`
+    /// beside the log).
     pub map: Option<PathBuf>,
 }
 
@@ -49,6 +55,10 @@ pub enum LogFormat {
     Csv,
     /// `.parquet`: a table on a common time base.
     Parquet,
+    /// `.tdms`: an NI TDMS file with a channel map.
+    Tdms,
+    /// `.mat`: a MATLAB MAT-file (level 5) with a channel map.
+    Mat,
 }
 
 impl LogFormat {
@@ -58,7 +68,14 @@ impl LogFormat {
             LogFormat::Mcap => "mcap",
             LogFormat::Csv => "csv",
             LogFormat::Parquet => "parquet",
+            LogFormat::Tdms => "tdms",
+            LogFormat::Mat => "mat",
         }
+    }
+
+    /// Whether logs of this format need a channel map.
+    pub fn needs_map(self) -> bool {
+        matches!(self, LogFormat::Csv | LogFormat::Tdms | LogFormat::Mat)
     }
 }
 
@@ -244,11 +261,11 @@ pub(crate) struct RawLog {
     pub declared_shifts: Vec<(Quantity, f64)>,
 }
 
-/// Reads a rig log (`.mcap`, `.csv` with its channel map, or `.parquet`)
-/// into one clean [`Run`].
+/// Reads a rig log (`.mcap`, `.csv`, `.parquet`, `.tdms` or `.mat`; CSV,
+/// TDMS and MAT with a channel map) into one clean [`Run`].
 ///
-/// The format is chosen by the file extension. A CSV's channel map is
-/// `opts.map`, or `NAME.map.toml` beside `NAME.csv`.
+/// The format is chosen by the file extension. A channel map is
+/// `opts.map`, or `NAME.map.toml` beside the log.
 ///
 /// ```
 /// use stickslip::ingest::{read, IngestOptions, TestKind};
@@ -267,11 +284,13 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         "mcap" => LogFormat::Mcap,
         "csv" => LogFormat::Csv,
         "parquet" | "pq" => LogFormat::Parquet,
+        "tdms" => LogFormat::Tdms,
+        "mat" => LogFormat::Mat,
         _ => {
             return Err(IngestError::invalid(
                 path,
                 format!(
-                    "unknown log type {:?}: expected a .mcap, .csv or .parquet file",
+                    "unknown log type {:?}: expected a .mcap, .csv, .parquet, .tdms or .mat file",
                     if ext.is_empty() {
                         "(no extension)"
                     } else {
@@ -302,14 +321,34 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
             ),
         ));
     }
+    let held = match format {
+        LogFormat::Tdms => Some(("TDMS", tdms::MAX_TDMS_BYTES)),
+        LogFormat::Mat => Some(("MAT", mat::MAX_MAT_BYTES)),
+        _ => None,
+    };
+    if let Some((kind, max)) = held {
+        if meta.len() > max {
+            // Refused before any read: the reader holds the whole file.
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "is {} bytes; a {kind} log is read whole and its channels take up to 8 times its size, over {}: {kind} logs up to {max} bytes are read; split it into shorter logs",
+                    meta.len(),
+                    crate::limits::budget_text()
+                ),
+            ));
+        }
+    }
     let mut raw = match format {
         LogFormat::Mcap => mcap::read(path)?,
         LogFormat::Csv => csv::read(path, opts.map.as_deref())?,
         LogFormat::Parquet => parquet::read(path)?,
+        LogFormat::Tdms => tdms::read(path, opts.map.as_deref())?,
+        LogFormat::Mat => mat::read(path, opts.map.as_deref())?,
     };
-    if opts.map.is_some() && format != LogFormat::Csv {
+    if opts.map.is_some() && !format.needs_map() {
         raw.warnings
-            .push("--map applies to CSV logs only; ignored".to_string());
+            .push("--map applies to CSV, TDMS and MAT logs only; ignored".to_string());
     }
     let mut run = run::build(path, raw)?;
     check_signal(path, &run)?;
@@ -450,7 +489,13 @@ mod tests {
             e.contains("log.txt") && e.contains("unknown log type"),
             "{e}"
         );
-        for name in ["empty.mcap", "empty.csv", "empty.parquet"] {
+        for name in [
+            "empty.mcap",
+            "empty.csv",
+            "empty.parquet",
+            "empty.tdms",
+            "empty.mat",
+        ] {
             let p = dir.path().join(name);
             std::fs::write(&p, b"").expect("write");
             let e = read(&p, &IngestOptions::default()).unwrap_err().to_string();

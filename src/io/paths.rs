@@ -264,8 +264,8 @@ fn check_dir(o: &Output) -> Result<()> {
 }
 
 /// Checks every output of a command against each other and against its
-/// inputs (see the module docs). A CSV input's channel map
-/// (`NAME.map.toml`) counts as an input.
+/// inputs (see the module docs). The channel map (`NAME.map.toml`) of a
+/// CSV, TDMS or MAT input counts as an input.
 pub fn check_outputs<'a>(
     inputs: impl IntoIterator<Item = &'a Path>,
     outputs: &[Output],
@@ -273,7 +273,7 @@ pub fn check_outputs<'a>(
     let mut ins: Vec<(PathBuf, &Path)> = Vec::new();
     for p in inputs {
         ins.push((identity(p), p));
-        if extension(p) == "csv" {
+        if matches!(extension(p).as_str(), "csv" | "tdms" | "mat") {
             ins.push((identity(&p.with_extension("map.toml")), p));
         }
     }

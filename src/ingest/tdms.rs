@@ -1,0 +1,954 @@
+//! NI TDMS logs (`.tdms`, little-endian, version 4712/4713): the `rig`
+//! metadata as file-level properties, channels named `Group/Channel` in a
+//! channel map (the CSV map's keys), each channel either a waveform
+//! (`wf_start_time`, `wf_increment`, optional `wf_start_offset` and
+//! `unit_string`) or a value channel on the `time` channel of its group.
+//!
+//! This module owns the TDMS reader itself: a small hand-written parser of
+//! the segment structure (lead-in, metadata, raw data index, contiguous and
+//! interleaved raw data, incremental object lists), not a crate. The two
+//! TDMS crates were evaluated (docs/measurements.md, issue 33): `tdms-rs`
+//! 2.0 allocates `vec![0; len]` for every u32 length it reads (4 GB from one
+//! corrupt string length; 1.7 GB from a DAQmx raw data index), reads
+//! interleaved segments as contiguous and big-endian segments as
+//! little-endian without a word; `tdms` 0.3 (unmaintained since 2023)
+//! allocates the same way, adds offsets without overflow checks (a panic
+//! in debug builds) and reads raw data as bytes only. Neither refuses DAQmx
+//! raw data by name.
+//!
+//! Safety on bad bytes: the file is read whole (its size checked against
+//! the memory budget first) and every length, count and offset in it is
+//! checked against the bytes that remain before it is used, with checked
+//! arithmetic; only the mapped channels' values are decoded, at most one
+//! value per byte of raw data. Big-endian segments and DAQmx raw data are
+//! refused by name.
+
+use super::csv::{self, ChannelMap, ColumnSpec, MapKind};
+use super::rig::RigMeta;
+use super::run::median_interval;
+use super::{unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Largest TDMS log read: it is held whole, and the decoded channels take
+/// up to 8 times its raw bytes (one f64 per byte of `u8` data).
+pub(crate) const MAX_TDMS_BYTES: u64 = crate::limits::MEMORY_BUDGET_BYTES / 10;
+
+const TOC_META_DATA: u32 = 1 << 1;
+const TOC_NEW_OBJ_LIST: u32 = 1 << 2;
+const TOC_RAW_DATA: u32 = 1 << 3;
+const TOC_INTERLEAVED: u32 = 1 << 5;
+const TOC_BIG_ENDIAN: u32 = 1 << 6;
+const TOC_DAQMX: u32 = 1 << 7;
+
+const LEAD_IN: usize = 28;
+
+/// TDMS data type codes used here.
+const T_STRING: u32 = 0x20;
+const T_TIMESTAMP: u32 = 0x44;
+const T_DAQMX: u32 = 0xFFFF_FFFF;
+
+/// Bytes per value of a fixed-size TDMS data type (`None`: variable size or
+/// not a data type this reader knows).
+fn type_size(t: u32) -> Option<usize> {
+    Some(match t {
+        1 | 5 | 0x21 => 1,
+        2 | 6 => 2,
+        3 | 7 | 9 | 0x19 => 4,
+        4 | 8 | 10 | 0x1A | 0x08_000C => 8,
+        T_TIMESTAMP | 0x10_000D => 16,
+        _ => return None,
+    })
+}
+
+/// A TDMS data type's name, for messages.
+fn type_name(t: u32) -> String {
+    match t {
+        0 => "void".into(),
+        1 => "I8".into(),
+        2 => "I16".into(),
+        3 => "I32".into(),
+        4 => "I64".into(),
+        5 => "U8".into(),
+        6 => "U16".into(),
+        7 => "U32".into(),
+        8 => "U64".into(),
+        9 | 0x19 => "single float".into(),
+        10 | 0x1A => "double float".into(),
+        11 | 0x1B => "extended float".into(),
+        T_STRING => "string".into(),
+        0x21 => "boolean".into(),
+        T_TIMESTAMP => "timestamp".into(),
+        0x4F => "fixed point".into(),
+        0x08_000C => "complex single float".into(),
+        0x10_000D => "complex double float".into(),
+        T_DAQMX => "DAQmx raw data".into(),
+        other => format!("unknown type 0x{other:x}"),
+    }
+}
+
+/// A property value (what this reader needs of it).
+#[derive(Debug, Clone)]
+enum Prop {
+    Str(String),
+    Num(f64),
+    /// A TDMS timestamp: 2^-64 s since 1904-01-01 UTC.
+    Time(i128),
+    /// A value of another type (complex numbers).
+    Other,
+}
+
+/// The raw data index of an object in a segment.
+#[derive(Debug, Clone, Copy)]
+struct Index {
+    dtype: u32,
+    count: u64,
+    /// Bytes of the object's data in one chunk.
+    bytes: u64,
+}
+
+/// Where one segment holds values of a wanted channel: `count` values,
+/// `stride` bytes apart, from `start`, repeated in `chunks` chunks
+/// `chunk_step` bytes apart.
+#[derive(Debug, Clone, Copy)]
+struct Piece {
+    dtype: u32,
+    start: usize,
+    count: usize,
+    stride: usize,
+    chunks: usize,
+    chunk_step: usize,
+}
+
+/// One object of the file (root, group or channel).
+#[derive(Debug, Default)]
+struct Object {
+    /// `Group/Channel`, `Group` or `` for the root.
+    name: String,
+    is_channel: bool,
+    /// Whether the map names it (its properties and data are kept).
+    wanted: bool,
+    props: BTreeMap<String, Prop>,
+    last_index: Option<Index>,
+    pieces: Vec<Piece>,
+    values: u64,
+}
+
+/// The parsed file: objects by first appearance.
+struct File {
+    objects: Vec<Object>,
+    warnings: Vec<String>,
+}
+
+/// A bounds-checked little-endian reader over a byte range of the file.
+struct Cur<'a> {
+    buf: &'a [u8],
+    pos: usize,
+    end: usize,
+    /// File offset of the segment (for messages).
+    seg: usize,
+}
+
+impl<'a> Cur<'a> {
+    fn err(&self, what: &str) -> String {
+        format!(
+            "corrupt TDMS metadata in the segment at byte {}: {what} at byte {}",
+            self.seg, self.pos
+        )
+    }
+    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+        if n > self.end - self.pos {
+            return Err(self.err(&format!(
+                "{what} needs {n} bytes, only {} remain",
+                self.end - self.pos
+            )));
+        }
+        let s = &self.buf[self.pos..self.pos + n];
+        self.pos += n;
+        Ok(s)
+    }
+    fn u32(&mut self, what: &str) -> Result<u32, String> {
+        let b = self.take(4, what)?;
+        Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+    }
+    fn u64(&mut self, what: &str) -> Result<u64, String> {
+        let b = self.take(8, what)?;
+        let mut a = [0u8; 8];
+        a.copy_from_slice(b);
+        Ok(u64::from_le_bytes(a))
+    }
+    fn string(&mut self, what: &str) -> Result<String, String> {
+        let n = self.u32(what)? as usize;
+        let b = self.take(n, what)?;
+        Ok(String::from_utf8_lossy(b).into_owned())
+    }
+}
+
+fn le_u32(b: &[u8], at: usize) -> u32 {
+    u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
+}
+
+fn le_u64(b: &[u8], at: usize) -> u64 {
+    let mut a = [0u8; 8];
+    a.copy_from_slice(&b[at..at + 8]);
+    u64::from_le_bytes(a)
+}
+
+/// `/'Group'/'Channel'` → ["Group", "Channel"] (`''` is a quote).
+fn split_path(path: &str) -> Option<Vec<String>> {
+    if path == "/" {
+        return Some(Vec::new());
+    }
+    let mut parts = Vec::new();
+    let mut chars = path.chars().peekable();
+    while let Some(c) = chars.next() {
+        if c != '/' || chars.next() != Some('\'') {
+            return None;
+        }
+        let mut part = String::new();
+        loop {
+            match chars.next()? {
+                '\'' if chars.peek() == Some(&'\'') => {
+                    chars.next();
+                    part.push('\'');
+                }
+                '\'' => break,
+                other => part.push(other),
+            }
+        }
+        parts.push(part);
+    }
+    Some(parts)
+}
+
+/// Reads a property value of type `t`.
+fn read_prop(c: &mut Cur, t: u32) -> Result<Prop, String> {
+    let num = |b: &[u8]| -> f64 {
+        match t {
+            1 => b[0] as i8 as f64,
+            5 | 0x21 => b[0] as f64,
+            2 => i16::from_le_bytes([b[0], b[1]]) as f64,
+            6 => u16::from_le_bytes([b[0], b[1]]) as f64,
+            3 => le_u32(b, 0) as i32 as f64,
+            7 => le_u32(b, 0) as f64,
+            4 => le_u64(b, 0) as i64 as f64,
+            8 => le_u64(b, 0) as f64,
+            9 | 0x19 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            10 | 0x1A => f64::from_bits(le_u64(b, 0)),
+            _ => f64::NAN,
+        }
+    };
+    match t {
+        T_STRING => Ok(Prop::Str(c.string("a string property")?)),
+        T_TIMESTAMP => {
+            let b = c.take(16, "a timestamp property")?;
+            let frac = le_u64(b, 0) as i128;
+            let secs = le_u64(b, 8) as i64 as i128;
+            Ok(Prop::Time((secs << 64) + frac))
+        }
+        0x08_000C | 0x10_000D => {
+            let n = type_size(t).unwrap_or(16);
+            c.take(n, "a complex property")?;
+            Ok(Prop::Other)
+        }
+        _ => match type_size(t) {
+            Some(n) => {
+                let b = c.take(n, "a property value")?;
+                Ok(Prop::Num(num(b)))
+            }
+            None => Err(c.err(&format!("property of unsupported type {}", type_name(t)))),
+        },
+    }
+}
+
+/// Parses the segments of a whole TDMS file, keeping properties of the root
+/// and of wanted channels, and where the wanted channels' values are.
+fn parse(path: &Path, buf: &[u8], wanted: &[&str]) -> Result<File, IngestError> {
+    let bad = |m: String| IngestError::invalid(path, m);
+    if buf.len() < 4 || &buf[..4] != b"TDSm" {
+        return Err(bad(if buf.starts_with(b"TDSh") {
+            "is a TDMS index file (.tdms_index), not the data: give the .tdms file".into()
+        } else {
+            "not a TDMS file (no `TDSm` segment tag at its start)".into()
+        }));
+    }
+    let mut objects: Vec<Object> = vec![Object {
+        name: String::new(),
+        wanted: true,
+        ..Object::default()
+    }];
+    let mut by_path: BTreeMap<String, usize> = BTreeMap::new();
+    by_path.insert("/".into(), 0);
+    // The active object list: object and its index in the current segment
+    // (`None`: no data in it).
+    let mut active: Vec<(usize, Option<Index>)> = Vec::new();
+    let mut warnings = Vec::new();
+    let mut pos = 0usize;
+    let mut segment = 0usize;
+    while pos < buf.len() {
+        segment += 1;
+        let seg = pos;
+        if buf.len() - pos < LEAD_IN {
+            return Err(bad(format!(
+                "truncated TDMS file: {} stray bytes at byte {seg} where segment {segment} should start (a segment lead-in is {LEAD_IN} bytes)",
+                buf.len() - pos
+            )));
+        }
+        if &buf[pos..pos + 4] != b"TDSm" {
+            return Err(bad(format!(
+                "corrupt TDMS file: segment {segment} at byte {seg} does not start with `TDSm`"
+            )));
+        }
+        let toc = le_u32(buf, pos + 4);
+        if toc & TOC_BIG_ENDIAN != 0 {
+            return Err(bad(format!(
+                "segment {segment} at byte {seg} is big-endian: only little-endian TDMS files are read (docs/rig-log-format.md); save the file as little-endian"
+            )));
+        }
+        if toc & TOC_DAQMX != 0 {
+            return Err(bad(format!(
+                "segment {segment} at byte {seg} holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
+            )));
+        }
+        let version = le_u32(buf, pos + 8);
+        if version != 4712 && version != 4713 {
+            return Err(bad(format!(
+                "segment {segment} at byte {seg}: TDMS version {version} is not 4712 or 4713"
+            )));
+        }
+        let next = le_u64(buf, pos + 12);
+        let raw_off = le_u64(buf, pos + 20);
+        let body = pos + LEAD_IN;
+        let room = (buf.len() - body) as u64;
+        // 0xFFFF_FFFF_FFFF_FFFF: the writer stopped before it could fill in
+        // the length (a crashed recording): the segment runs to the end.
+        let unfinished = next == u64::MAX;
+        let seg_len = if unfinished { room } else { next };
+        if seg_len > room {
+            return Err(bad(format!(
+                "truncated or corrupt TDMS file: segment {segment} at byte {seg} claims {seg_len} bytes after its lead-in, only {room} remain"
+            )));
+        }
+        if raw_off > seg_len {
+            return Err(bad(format!(
+                "corrupt TDMS file: segment {segment} at byte {seg} puts its raw data {raw_off} bytes in, beyond its {seg_len} bytes"
+            )));
+        }
+        let (seg_len, raw_off) = (seg_len as usize, raw_off as usize);
+        if toc & TOC_META_DATA != 0 {
+            let mut c = Cur {
+                buf,
+                pos: body,
+                end: body + raw_off,
+                seg,
+            };
+            if toc & TOC_NEW_OBJ_LIST != 0 {
+                active.clear();
+            }
+            let n = c.u32("the object count").map_err(bad)?;
+            for _ in 0..n {
+                let p = c.string("an object path").map_err(bad)?;
+                let id = match by_path.get(&p) {
+                    Some(&id) => id,
+                    None => {
+                        let parts = split_path(&p).ok_or_else(|| {
+                            bad(format!(
+                                "corrupt TDMS metadata in segment {segment} at byte {seg}: object path {p:?} is not /'group'/'channel'"
+                            ))
+                        })?;
+                        let name = parts.join("/");
+                        let is_channel = parts.len() == 2;
+                        let id = objects.len();
+                        objects.push(Object {
+                            wanted: is_channel && wanted.contains(&name.as_str()),
+                            name,
+                            is_channel,
+                            ..Object::default()
+                        });
+                        by_path.insert(p.clone(), id);
+                        id
+                    }
+                };
+                let raw_index = c.u32("a raw data index").map_err(bad)?;
+                let index = match raw_index {
+                    0xFFFF_FFFF => None,
+                    0 => match objects[id].last_index {
+                        Some(ix) => Some(ix),
+                        None => {
+                            return Err(bad(format!(
+                                "corrupt TDMS metadata in segment {segment} at byte {seg}: object {p:?} reuses a raw data index it never had"
+                            )))
+                        }
+                    },
+                    0x6912_0000 | 0x6913_0000 | 0x0000_1269 | 0x0000_126A => {
+                        return Err(bad(format!(
+                            "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
+                        )))
+                    }
+                    len => {
+                        let start = c.pos;
+                        let dtype = c.u32("a data type").map_err(bad)?;
+                        if dtype == T_DAQMX {
+                            return Err(bad(format!(
+                                "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
+                            )));
+                        }
+                        let dim = c.u32("an array dimension").map_err(bad)?;
+                        if dim != 1 {
+                            return Err(bad(c.err(&format!(
+                                "object {p:?} has array dimension {dim} (TDMS allows only 1)"
+                            ))));
+                        }
+                        let count = c.u64("a value count").map_err(bad)?;
+                        let bytes = if dtype == T_STRING {
+                            c.u64("a string data size").map_err(bad)?
+                        } else {
+                            match type_size(dtype) {
+                                Some(s) => count.checked_mul(s as u64).ok_or_else(|| {
+                                    bad(c.err(&format!("object {p:?}: {count} values overflow")))
+                                })?,
+                                None if count == 0 => 0,
+                                None => {
+                                    return Err(bad(c.err(&format!(
+                                        "object {p:?} holds {} data, which is not read",
+                                        type_name(dtype)
+                                    ))))
+                                }
+                            }
+                        };
+                        // The index length counts its own 4 bytes.
+                        if (c.pos - start + 4) as u64 != u64::from(len) {
+                            return Err(bad(c.err(&format!(
+                                "object {p:?}: raw data index length {len} does not match its content"
+                            ))));
+                        }
+                        let ix = Index {
+                            dtype,
+                            count,
+                            bytes,
+                        };
+                        objects[id].last_index = Some(ix);
+                        Some(ix)
+                    }
+                };
+                let nprops = c.u32("a property count").map_err(bad)?;
+                for _ in 0..nprops {
+                    let key = c.string("a property name").map_err(bad)?;
+                    let t = c.u32("a property type").map_err(bad)?;
+                    let v = read_prop(&mut c, t).map_err(bad)?;
+                    if objects[id].wanted {
+                        objects[id].props.insert(key, v);
+                    }
+                }
+                match active.iter_mut().find(|(o, _)| *o == id) {
+                    Some(slot) => slot.1 = index,
+                    None => active.push((id, index)),
+                }
+            }
+        }
+        if toc & TOC_RAW_DATA != 0 {
+            let data_start = body + raw_off;
+            let data_len = seg_len - raw_off;
+            place_data(
+                &mut objects,
+                &active,
+                (segment, seg),
+                (data_start, data_len),
+                toc & TOC_INTERLEAVED != 0,
+                unfinished,
+                &mut warnings,
+            )
+            .map_err(bad)?;
+        }
+        pos = body + seg_len;
+    }
+    Ok(File { objects, warnings })
+}
+
+/// Records where a segment's raw data holds each wanted channel's values.
+fn place_data(
+    objects: &mut [Object],
+    active: &[(usize, Option<Index>)],
+    (segment, seg): (usize, usize),
+    (start, len): (usize, usize),
+    interleaved: bool,
+    unfinished: bool,
+    warnings: &mut Vec<String>,
+) -> Result<(), String> {
+    let with_data: Vec<(usize, Index)> = active
+        .iter()
+        .filter_map(|&(id, ix)| ix.filter(|i| i.count > 0).map(|i| (id, i)))
+        .collect();
+    if with_data.is_empty() {
+        return Ok(());
+    }
+    let overflow =
+        || format!("corrupt TDMS file: segment {segment} at byte {seg}: raw data sizes overflow");
+    let chunk: u64 = if interleaved {
+        let n = with_data[0].1.count;
+        let mut stride = 0u64;
+        for (id, ix) in &with_data {
+            if ix.dtype == T_STRING {
+                return Err(format!(
+                    "segment {segment} at byte {seg}: string channel {:?} in interleaved data",
+                    objects[*id].name
+                ));
+            }
+            if ix.count != n {
+                return Err(format!(
+                    "corrupt TDMS file: segment {segment} at byte {seg} interleaves channels of different lengths"
+                ));
+            }
+            stride = stride
+                .checked_add(type_size(ix.dtype).unwrap_or(0) as u64)
+                .ok_or_else(overflow)?;
+        }
+        n.checked_mul(stride).ok_or_else(overflow)?
+    } else {
+        with_data
+            .iter()
+            .try_fold(0u64, |a, (_, ix)| a.checked_add(ix.bytes))
+            .ok_or_else(overflow)?
+    };
+    if chunk == 0 {
+        return Ok(());
+    }
+    let len64 = len as u64;
+    let chunks = len64 / chunk;
+    if chunks == 0 || !len64.is_multiple_of(chunk) {
+        if !unfinished {
+            return Err(format!(
+                "corrupt TDMS file: segment {segment} at byte {seg} has {len} bytes of raw data, not a whole number of {chunk}-byte chunks"
+            ));
+        }
+        warnings.push(format!(
+            "the last TDMS segment (at byte {seg}) was not finished by its writer: {} bytes of an incomplete chunk ignored",
+            len64 % chunk
+        ));
+    }
+    // All below fit in usize: they are at most `len`.
+    let chunks = chunks as usize;
+    let chunk = chunk as usize;
+    let mut offset = 0usize;
+    for (id, ix) in &with_data {
+        let size = type_size(ix.dtype).unwrap_or(0);
+        let obj = &mut objects[*id];
+        if obj.wanted && chunks > 0 {
+            if ix.dtype == T_STRING || size == 0 {
+                return Err(format!(
+                    "channel {:?} holds {} data, not numbers",
+                    obj.name,
+                    type_name(ix.dtype)
+                ));
+            }
+            let (piece_start, stride) = if interleaved {
+                (start + offset, chunk / ix.count as usize)
+            } else {
+                (start + offset, size)
+            };
+            obj.pieces.push(Piece {
+                dtype: ix.dtype,
+                start: piece_start,
+                count: ix.count as usize,
+                stride,
+                chunks,
+                chunk_step: chunk,
+            });
+            obj.values = obj
+                .values
+                .saturating_add(ix.count.saturating_mul(chunks as u64));
+        }
+        offset += if interleaved { size } else { ix.bytes as usize };
+    }
+    Ok(())
+}
+
+/// The values of a channel: numbers as f64; timestamps as seconds after
+/// `time_origin` (2^-64 s since 1904), or after the channel's first one.
+fn decode(buf: &[u8], obj: &Object, time_origin: Option<i128>) -> Result<Vec<f64>, String> {
+    let n = usize::try_from(obj.values).map_err(|_| "too many values".to_string())?;
+    let mut out = Vec::with_capacity(n);
+    let mut origin = time_origin;
+    for p in &obj.pieces {
+        for k in 0..p.chunks {
+            let base = p.start + k * p.chunk_step;
+            for i in 0..p.count {
+                let at = base + i * p.stride;
+                let b = &buf[at..at + type_size(p.dtype).unwrap_or(0)];
+                let v = match p.dtype {
+                    1 => b[0] as i8 as f64,
+                    5 => b[0] as f64,
+                    2 => i16::from_le_bytes([b[0], b[1]]) as f64,
+                    6 => u16::from_le_bytes([b[0], b[1]]) as f64,
+                    3 => le_u32(b, 0) as i32 as f64,
+                    7 => le_u32(b, 0) as f64,
+                    4 => le_u64(b, 0) as i64 as f64,
+                    8 => le_u64(b, 0) as f64,
+                    9 | 0x19 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+                    10 | 0x1A => f64::from_bits(le_u64(b, 0)),
+                    T_TIMESTAMP => {
+                        let ts = ((le_u64(b, 8) as i64 as i128) << 64) + le_u64(b, 0) as i128;
+                        let o = *origin.get_or_insert(ts);
+                        ticks_to_s(ts - o)
+                    }
+                    other => {
+                        return Err(format!(
+                            "channel {:?} holds {} data, not numbers",
+                            obj.name,
+                            type_name(other)
+                        ))
+                    }
+                };
+                out.push(v);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// 2^-64 s ticks → seconds, exact to f64 rounding for any span.
+fn ticks_to_s(ticks: i128) -> f64 {
+    let whole = ticks >> 64;
+    let frac = (ticks - (whole << 64)) as u64;
+    whole as f64 + frac as f64 / 18_446_744_073_709_551_616.0
+}
+
+/// A mapped channel's timing.
+enum Timing {
+    /// Waveform: start (2^-64 s since 1904, offset included in `offset_s`),
+    /// sample interval (s).
+    Waveform {
+        start: i128,
+        offset_s: f64,
+        dt_s: f64,
+    },
+    /// On the group's `time` channel.
+    Table,
+}
+
+/// Reads a TDMS log with its channel map (`map`, or the default).
+pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
+    let (map_path, cmap) = csv::read_map(path, map, MapKind::Tdms)?;
+    let buf = std::fs::read(path).map_err(|e| IngestError::io(path, e))?;
+    let mut wanted: Vec<&str> = cmap.channels.iter().map(|(_, s)| s.name.as_str()).collect();
+    wanted.extend(cmap.time.iter().map(|s| s.name.as_str()));
+    wanted.extend(cmap.setpoint_hz.iter().map(|s| s.name.as_str()));
+    let file = parse(path, &buf, &wanted)?;
+    let bad = |m: String| IngestError::invalid(path, m);
+    let rig_map: BTreeMap<String, String> = file.objects[0]
+        .props
+        .iter()
+        .filter_map(|(k, v)| match v {
+            Prop::Str(s) => Some((k.clone(), s.clone())),
+            Prop::Num(x) => Some((k.clone(), format!("{x}"))),
+            _ => None,
+        })
+        .collect();
+    if rig_map.is_empty() {
+        return Err(bad(
+            "no rig metadata: the TDMS file has no file-level properties".into(),
+        ));
+    }
+    let rig = RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))?;
+    let find = |spec: &ColumnSpec, what: &str| -> Result<&Object, IngestError> {
+        file.objects
+            .iter()
+            .find(|o| o.is_channel && o.name == spec.name)
+            .ok_or_else(|| {
+                let names: Vec<String> = file
+                    .objects
+                    .iter()
+                    .filter(|o| o.is_channel)
+                    .take(20)
+                    .map(|o| format!("{:?}", o.name))
+                    .collect();
+                bad(format!(
+                    "channel {:?} (mapped to {what} by {}) is not in the TDMS file (channels: {})",
+                    spec.name,
+                    map_path.display(),
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ))
+            })
+    };
+    let timing = |obj: &Object| -> Result<Timing, IngestError> {
+        let Some(inc) = obj.props.get("wf_increment") else {
+            return Ok(Timing::Table);
+        };
+        let Prop::Num(dt_s) = *inc else {
+            return Err(bad(format!(
+                "channel {:?}: wf_increment is not a number",
+                obj.name
+            )));
+        };
+        let (lo, hi) = csv::RATE_RANGE_HZ;
+        let rate = 1.0 / dt_s;
+        if !(rate >= lo && rate <= hi) {
+            return Err(bad(format!(
+                "channel {:?}: wf_increment {dt_s:e} s gives {rate:.4e} Hz, outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log",
+                obj.name
+            )));
+        }
+        let start = match obj.props.get("wf_start_time") {
+            Some(Prop::Time(t)) => *t,
+            Some(_) => {
+                return Err(bad(format!(
+                    "channel {:?}: wf_start_time is not a TDMS timestamp",
+                    obj.name
+                )))
+            }
+            None => {
+                return Err(bad(format!(
+                    "channel {:?} has wf_increment but no wf_start_time: a waveform needs both",
+                    obj.name
+                )))
+            }
+        };
+        let offset_s = match obj.props.get("wf_start_offset") {
+            None => 0.0,
+            Some(Prop::Num(x)) if x.is_finite() => *x,
+            Some(_) => {
+                return Err(bad(format!(
+                    "channel {:?}: wf_start_offset is not a finite number",
+                    obj.name
+                )))
+            }
+        };
+        Ok(Timing::Waveform {
+            start,
+            offset_s,
+            dt_s,
+        })
+    };
+    // The mapped channels and the set point, with their objects and timing.
+    let mut entries: Vec<(Option<Quantity>, &ColumnSpec, &Object, Timing)> = Vec::new();
+    for (q, spec) in &cmap.channels {
+        let obj = find(spec, q.name())?;
+        entries.push((Some(*q), spec, obj, timing(obj)?));
+    }
+    if let Some(spec) = &cmap.setpoint_hz {
+        let obj = find(spec, "setpoint_hz")?;
+        entries.push((None, spec, obj, timing(obj)?));
+    }
+    let any_table = entries.iter().any(|e| matches!(e.3, Timing::Table));
+    // The `time` channel, when a table channel needs it.
+    let table = if any_table {
+        let Some(tspec) = &cmap.time else {
+            let names: Vec<&str> = entries
+                .iter()
+                .filter(|e| matches!(e.3, Timing::Table))
+                .map(|e| e.1.name.as_str())
+                .collect();
+            return Err(IngestError::invalid(
+                &map_path,
+                format!(
+                    "[columns] lacks the entry `time`, needed for {} (no waveform properties wf_increment/wf_start_time)",
+                    names.join(", ")
+                ),
+            ));
+        };
+        let tobj = find(tspec, "time")?;
+        let group = tobj.name.split('/').next().unwrap_or("");
+        for e in entries.iter().filter(|e| matches!(e.3, Timing::Table)) {
+            if e.2.name.split('/').next().unwrap_or("") != group {
+                return Err(bad(format!(
+                    "channel {:?} is not a waveform and not in the group {group:?} of the time channel {:?}",
+                    e.2.name, tobj.name
+                )));
+            }
+        }
+        let is_stamp = tobj.pieces.iter().any(|p| p.dtype == T_TIMESTAMP);
+        let raw = decode(&buf, tobj, None).map_err(bad)?;
+        let time: Vec<f64> = raw.iter().map(|t| t * tspec.scale()).collect();
+        if time.len() < 2 {
+            return Err(bad(format!(
+                "too little data: the time channel {:?} has {} values",
+                tobj.name,
+                time.len()
+            )));
+        }
+        if let Some(i) = time
+            .windows(2)
+            .position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        {
+            return Err(bad(format!(
+                "non-monotonic time: time channel {:?}, value {}: {} s does not follow {} s",
+                tobj.name,
+                i + 1,
+                time[i + 1],
+                time[i]
+            )));
+        }
+        let dt_s = median_interval(&time).unwrap_or(f64::NAN);
+        csv::check_rate(&map_path, tspec, dt_s)?;
+        // The absolute time of the first row when the channel holds
+        // timestamps (to line it up with waveforms).
+        let first_stamp = if is_stamp {
+            first_timestamp(&buf, tobj)
+        } else {
+            None
+        };
+        Some((tspec, tobj, time, dt_s, first_stamp))
+    } else {
+        None
+    };
+    let any_wave = entries
+        .iter()
+        .any(|e| matches!(e.3, Timing::Waveform { .. }));
+    if any_wave {
+        if let Some((_, tobj, _, _, None)) = &table {
+            return Err(bad(format!(
+                "the map mixes waveform channels with table channels on the time channel {:?}, whose values are not TDMS timestamps: their clocks cannot be lined up",
+                tobj.name
+            )));
+        }
+    }
+    // The clock origin: the earliest waveform start, else the table's.
+    let reference: i128 = entries
+        .iter()
+        .filter_map(|e| match e.3 {
+            Timing::Waveform { start, .. } => Some(start),
+            Timing::Table => None,
+        })
+        .chain(table.as_ref().and_then(|t| t.4))
+        .min()
+        .unwrap_or(0);
+    let mut channels = Vec::new();
+    let mut setpoints = Vec::new();
+    for (q, spec, obj, timing) in &entries {
+        let raw = decode(&buf, obj, None).map_err(bad)?;
+        let factor = match (spec.scale_given, obj.props.get("unit_string"), q) {
+            (Some(s), _, _) => s,
+            (None, Some(Prop::Str(u)), Some(q)) if !u.trim().is_empty() => {
+                unit_factor(*q, u).ok_or_else(|| {
+                    bad(format!(
+                        "channel {:?} has unit_string {u:?}, not a unit of {} ({}): give its factor to SI as `scale` in {}",
+                        obj.name,
+                        q.name(),
+                        q.unit(),
+                        map_path.display()
+                    ))
+                })?
+            }
+            _ => 1.0,
+        };
+        let (t, dt_s) = match timing {
+            Timing::Waveform {
+                start,
+                offset_s,
+                dt_s,
+            } => {
+                let base = ticks_to_s(start - reference) + offset_s;
+                let t: Vec<f64> = (0..raw.len()).map(|i| base + i as f64 * dt_s).collect();
+                (t, *dt_s)
+            }
+            Timing::Table => {
+                let Some((tspec, tobj, time, dt_s, first)) = &table else {
+                    return Err(bad("internal: table channel without time".into()));
+                };
+                if raw.len() != time.len() {
+                    return Err(bad(format!(
+                        "channel {:?} has {} values, its time channel {:?} {}",
+                        obj.name,
+                        raw.len(),
+                        tobj.name,
+                        time.len()
+                    )));
+                }
+                let base = first.map_or(0.0, |f| ticks_to_s(f - reference)) + tspec.shift_s;
+                (time.iter().map(|t| t + base).collect(), *dt_s)
+            }
+        };
+        match q {
+            Some(q) => {
+                let v: Vec<f64> = raw.iter().map(|x| x * factor).collect();
+                channels.push(RawChannel {
+                    quantity: *q,
+                    source: obj.name.clone(),
+                    dt_s,
+                    t: t.iter().map(|t| t + spec.shift_s).collect(),
+                    v,
+                });
+            }
+            None => {
+                let v: Vec<f64> = raw.iter().map(|x| x * factor).collect();
+                setpoints = csv::setpoints(path, spec, &t, &v, (0.0, 0.0))?;
+            }
+        }
+    }
+    check_finite_times(path, &channels)?;
+    csv::check_drive_amplitude(&map_path, &cmap, &channels)?;
+    // Tables start at their first row (as CSV logs); waveforms at the
+    // earliest sample of any channel.
+    let origin = match &table {
+        Some((tspec, _, time, _, first)) if !any_wave => {
+            Some(time[0] + first.map_or(0.0, |f| ticks_to_s(f - reference)) + tspec.shift_s)
+        }
+        _ => None,
+    };
+    Ok(RawLog {
+        format: LogFormat::Tdms,
+        rig,
+        channels,
+        origin,
+        setpoints,
+        warnings: file.warnings,
+        declared_shifts: declared(&cmap),
+    })
+}
+
+/// The first timestamp of a timestamp channel.
+fn first_timestamp(buf: &[u8], obj: &Object) -> Option<i128> {
+    let p = obj.pieces.iter().find(|p| p.chunks > 0 && p.count > 0)?;
+    if p.dtype != T_TIMESTAMP {
+        return None;
+    }
+    let b = &buf[p.start..p.start + 16];
+    Some(((le_u64(b, 8) as i64 as i128) << 64) + le_u64(b, 0) as i128)
+}
+
+/// Refuses non-finite sample times (a wf_increment or scale that
+/// overflows), naming the channel.
+pub(crate) fn check_finite_times(path: &Path, channels: &[RawChannel]) -> Result<(), IngestError> {
+    for c in channels {
+        if let Some(i) = c.t.iter().position(|t| !t.is_finite()) {
+            return Err(IngestError::invalid(
+                path,
+                format!("channel {}: sample {i} has no finite time", c.source),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The declared shifts of a map's channel entries.
+pub(crate) fn declared(cmap: &ChannelMap) -> Vec<(Quantity, f64)> {
+    cmap.channels.iter().map(|(q, s)| (*q, s.shift_s)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn object_paths_split() {
+        assert_eq!(split_path("/"), Some(vec![]));
+        assert_eq!(split_path("/'g'"), Some(vec!["g".to_string()]));
+        assert_eq!(
+            split_path("/'a/b'/'it''s'"),
+            Some(vec!["a/b".to_string(), "it's".to_string()])
+        );
+        assert_eq!(split_path("/g"), None);
+        assert_eq!(split_path("/'g"), None);
+    }
+
+    #[test]
+    fn ticks_convert_exactly() {
+        assert_eq!(ticks_to_s(3i128 << 64), 3.0);
+        assert_eq!(ticks_to_s((-1i128) << 63), -0.5);
+        assert_eq!(ticks_to_s(1i128 << 62), 0.25);
+    }
+}
