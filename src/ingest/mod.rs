@@ -238,7 +238,7 @@ pub(crate) struct RawLog {
     pub origin: Option<f64>,
     /// Setpoints, times on the same clock as the channels.
     pub setpoints: Vec<Setpoint>,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
     /// Time shifts declared per channel (a CSV map's `shift_s`), already
     /// applied to the times.
     pub declared_shifts: Vec<(Quantity, f64)>,
@@ -308,8 +308,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         LogFormat::Parquet => parquet::read(path)?,
     };
     if opts.map.is_some() && format != LogFormat::Csv {
-        raw.warnings
-            .push("--map applies to CSV logs only; ignored".to_string());
+        raw.warnings.push(crate::warning::Warning::MapIgnored);
     }
     let mut run = run::build(path, raw)?;
     check_signal(path, &run)?;

@@ -23,6 +23,7 @@
 
 use super::delays::{self, ChannelDelays};
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
+use crate::warning::Warning;
 use rayon::prelude::*;
 use std::cmp::Ordering;
 use std::path::{Path, PathBuf};
@@ -184,7 +185,7 @@ pub struct Run {
     /// Every stretch without data, by channel then time.
     pub gaps: Vec<Gap>,
     /// Things the user should know that did not stop the ingest.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// Channel delays against x1 (declared, estimated, applied) and the
     /// velocity channel's consistency with x2 (see `delays`).
     pub delays: ChannelDelays,
@@ -292,11 +293,11 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     for c in &out_channels {
         let bad = c.dropouts;
         if bad * 20 > c.v.len() {
-            warnings.push(format!(
-                "channel {} is null in {bad} of {} samples",
-                c.name(),
-                c.v.len()
-            ));
+            warnings.push(Warning::ChannelNulls {
+                channel: c.name(),
+                nulls: bad,
+                samples: c.v.len(),
+            });
         }
     }
     Ok(Run {
@@ -323,7 +324,7 @@ fn align_channels(
     (channels, gaps, setpoints): (&mut [Channel], &mut [Gap], &[Setpoint]),
     resampled: &mut Resampled,
     declared: &[(Quantity, f64)],
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<ChannelDelays, IngestError> {
     if resampled.len() < 100 {
         return Ok(ChannelDelays::default());
@@ -370,7 +371,7 @@ fn align_channels(
 fn check_channels(
     path: &Path,
     mut channels: Vec<RawChannel>,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<Vec<(RawChannel, usize)>, IngestError> {
     channels.sort_by_key(|c| c.quantity);
     for w in channels.windows(2) {
@@ -438,9 +439,7 @@ fn check_channels(
                     format!("no data: channel {label} has no valid sample"),
                 ));
             }
-            warnings.push(format!(
-                "channel {label} has no valid sample; treated as absent"
-            ));
+            warnings.push(Warning::ChannelEmpty { label });
             continue;
         }
         // Neither finite nor infinite: NaN, a dropout.
@@ -483,7 +482,7 @@ fn note_missing(
     path: &Path,
     format: LogFormat,
     channels: &[RawChannel],
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<(), IngestError> {
     for q in Quantity::ALL {
         if channels.iter().any(|c| c.quantity == q) {
@@ -503,15 +502,9 @@ fn note_missing(
             ));
         }
         match q {
-            Quantity::A2 => warnings.push(
-                "no accelerometer channel (a2): acceleration must be derived from velocity"
-                    .to_string(),
-            ),
-            Quantity::V2 => warnings.push(
-                "no velocity channel (v2): identification derives the velocity of M2 from x2"
-                    .to_string(),
-            ),
-            _ => warnings.push(format!("no {} channel", q.name())),
+            Quantity::A2 => warnings.push(Warning::NoAccelerometer),
+            Quantity::V2 => warnings.push(Warning::NoVelocityChannel),
+            _ => warnings.push(Warning::ChannelAbsent { channel: q.name() }),
         }
     }
     Ok(())

@@ -133,7 +133,7 @@ pub struct MeasuredFrc {
     /// One per step (stepped) or drive period (continuous).
     pub points: Vec<MeasuredPoint>,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
 }
 
 /// Options of [`measure`].
@@ -543,7 +543,7 @@ struct Parts {
     drive_phase_rad: f64,
     plan: Vec<PlanSegment>,
     points: Vec<MeasuredPoint>,
-    warnings: Vec<String>,
+    warnings: Vec<crate::warning::Warning>,
 }
 
 /// Measures the frequency response of a sweep log.
@@ -609,12 +609,11 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     };
     let nominal = run.rig.drive_amplitude_m;
     if (a / nominal - 1.0).abs() > 0.005 {
-        m.warnings.push(format!(
-            "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
-            a * 1e3,
-            nominal * 1e3,
-            (a / nominal - 1.0) * 100.0
-        ));
+        m.warnings
+            .push(crate::warning::Warning::SweepDriveAmplitude {
+                measured_m: a,
+                nominal_m: nominal,
+            });
     }
     // Noise of the raw sensor samples (the common grid interpolates some
     // channels, which averages their noise).
@@ -686,10 +685,10 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         let mid = a + 0.5 * (b - a);
         let s = fit_sine(td, xd, (mid, b), f0, 0.05, 0.0, mid);
         if s.is_none() {
-            warnings.push(format!(
-                "step {} ({f0} Hz): the drive channel has too few samples to measure it",
-                i + 1
-            ));
+            warnings.push(crate::warning::Warning::StepUnmeasured {
+                step: i + 1,
+                frequency_hz: f0,
+            });
         }
         sines.push(s);
     }
@@ -843,7 +842,7 @@ fn step_point(
     grid: &Grid,
     opts: &FrcOptions,
     omega_ref: f64,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<crate::warning::Warning>,
 ) -> Option<(MeasuredPoint, (f64, f64))> {
     let (i1, s) = (hold.step, hold.sine);
     let f = s.frequency_hz;
@@ -859,17 +858,18 @@ fn step_point(
     let k = k.max(1.0);
     let window = (b - k * period, b);
     if window.0 < hold_start - 1e-9 {
-        warnings.push(format!(
-            "step {} ({:.3} Hz): the hold is shorter than one drive period",
-            i1, f
-        ));
+        warnings.push(crate::warning::Warning::StepTooShort {
+            step: i1,
+            frequency_hz: f,
+        });
         return None;
     }
     let Some((a1, a2)) = grid.amplitudes(window, period) else {
-        warnings.push(format!(
-            "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
-            i1, f, window.0, window.1
-        ));
+        warnings.push(crate::warning::Warning::StepFewSamples {
+            step: i1,
+            frequency_hz: f,
+            window_s: window,
+        });
         return None;
     };
     // Trend: the two halves of the window (whole periods each).
@@ -989,10 +989,7 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
     );
     let rms = median(&fit_nodes.iter().map(|(_, s)| s.rms).collect::<Vec<_>>());
     if rms > 0.05 * drive_amplitude_m {
-        warnings.push(format!(
-            "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
-            rms * 1e6
-        ));
+        warnings.push(crate::warning::Warning::DriveShape { rms_m: rms });
     }
     let points = sweep_points(&plan, grid, opts.periods_per_point, omega_ref);
     Ok(Parts {
