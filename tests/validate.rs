@@ -466,6 +466,11 @@ fn band_draws_follow_the_precision_target() {
             .contains("percentage points (bootstrap standard error over 80 drawn laws)")
     });
     assert!(warned, "{}", v["warnings"]);
+    assert!(v["warning_codes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c == "band_precision"));
 }
 
 /// The band's draws carry the sensors' common scale errors as common
