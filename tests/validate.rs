@@ -537,3 +537,32 @@ fn stuck_characteristic_is_a_clear_error() {
     );
     assert!(out.stdout.is_empty());
 }
+
+/// A sweep log that gives no frequency response is refused with its kind
+/// (matched as a kind; the message names the log).
+#[test]
+fn a_characteristic_log_is_not_a_sweep() {
+    use stickslip::validate::ValidateError;
+    let run = ingest::read(&data("char_N4.mcap"), &IngestOptions::default()).expect("ingest");
+    match frc::measure(&run, &FrcOptions::default()) {
+        Err(stickslip::Error::Validate { path, source }) => {
+            assert_eq!(source, ValidateError::NotASweep);
+            assert!(path.ends_with("char_N4.mcap"), "{}", path.display());
+        }
+        other => panic!("not refused as NotASweep: {:?}", other.err()),
+    }
+    // The command line says the same, on one error line naming the log.
+    let out = bin()
+        .args(["validate", "--characteristic"])
+        .arg(data("char_N4.mcap"))
+        .arg("--sweep")
+        .arg(data("char_N2.2.mcap"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("char_N2.2.mcap") && err.contains("not a sweep log"),
+        "{err}"
+    );
+}

@@ -31,6 +31,7 @@
 //!   them — not the raw extremes of noisy samples, which are biased upwards
 //!   by about two noise σ.
 
+use super::ValidateError;
 use crate::identify::smooth::savgol;
 use crate::ingest::{Quantity, Run, SweepKind as LogSweepKind};
 use crate::sim::sweep::Direction;
@@ -172,10 +173,11 @@ impl Default for FrcOptions {
     }
 }
 
-fn bad(run: &Run, msg: impl Into<String>) -> Error {
+/// The error `kind` of the sweep log `run`.
+fn bad(run: &Run, kind: ValidateError) -> Error {
     Error::Validate {
         path: run.source.clone(),
-        source: super::ValidateError::Sweep(msg.into()),
+        source: kind,
     }
 }
 
@@ -549,16 +551,12 @@ struct Parts {
 /// Measures the frequency response of a sweep log.
 pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     if run.rig.test != crate::ingest::TestKind::Sweep {
-        return Err(bad(
-            run,
-            "not a sweep log (rig test = characteristic): a frequency response needs a sweep",
-        ));
+        return Err(bad(run, ValidateError::NotASweep));
     }
-    let (td, xd) = raw(run, Quantity::X0)
-        .ok_or_else(|| bad(run, "the drive channel /drive/position has too few samples"))?;
+    let (td, xd) = raw(run, Quantity::X0).ok_or_else(|| bad(run, ValidateError::NoDriveSamples))?;
     let rs = &run.resampled;
     if rs.t.len() < 16 {
-        return Err(bad(run, "the log is too short for a frequency response"));
+        return Err(bad(run, ValidateError::TooShort));
     }
     let grid = Grid {
         t0: rs.t[0],
@@ -586,14 +584,14 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         return Err(bad(
             run,
             match kind {
-                SweepKind::Stepped => "no step of the sweep could be measured",
-                SweepKind::Continuous => "no drive period of the sweep could be measured",
+                SweepKind::Stepped => ValidateError::NoStepMeasured,
+                SweepKind::Continuous => ValidateError::NoPeriodMeasured,
             },
         ));
     }
     let a = parts.drive_amplitude_m;
     if !(a.is_finite() && a > 0.0) {
-        return Err(bad(run, "the drive amplitude cannot be measured"));
+        return Err(bad(run, ValidateError::DriveAmplitudeUnmeasured));
     }
     let freqs: Vec<f64> = parts.points.iter().map(|p| p.frequency_hz).collect();
     let mut m = MeasuredFrc {
@@ -667,10 +665,7 @@ fn direction_of(f: &[f64]) -> Direction {
 fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let steps = distinct_steps(run);
     if steps.is_empty() {
-        return Err(bad(
-            run,
-            "a stepped sweep needs /drive/setpoint messages (or a setpoint_hz column) to tell its steps",
-        ));
+        return Err(bad(run, ValidateError::NoSteps));
     }
     let t_log_end = td[td.len() - 1].max(grid.end());
     let omega_ref = run.rig.omega_ref();
@@ -697,7 +692,7 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
     // φ(0) from the first hold, carried back to t = 0.
     let drive_phase_rad = sines[0]
         .map(|s| s.phase_at(0.0))
-        .ok_or_else(|| bad(run, "the first step's drive signal cannot be measured"))?;
+        .ok_or_else(|| bad(run, ValidateError::FirstStepUnmeasured))?;
 
     let mut points = Vec::with_capacity(n);
     let mut amps = Vec::new();
@@ -948,10 +943,7 @@ fn seg_time(seg: &PlanSegment, c: f64) -> f64 {
 fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let mut nodes = command_nodes(run);
     if nodes.len() < 2 {
-        return Err(bad(
-            run,
-            "a continuous sweep needs its commanded frequency (/drive/setpoint messages or a setpoint_hz column) at two times at least",
-        ));
+        return Err(bad(run, ValidateError::NoCommandedFrequency));
     }
     let t_end = td[td.len() - 1].max(grid.end());
     let omega_ref = run.rig.omega_ref();
@@ -975,7 +967,7 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
         }
     }
     if fit_nodes.len() < 2 {
-        return Err(bad(run, "the drive signal of the sweep cannot be measured"));
+        return Err(bad(run, ValidateError::DriveUnmeasured));
     }
     let plan = continuous_plan(&nodes, &fit_nodes, td, xd);
     let first = &fit_nodes[0].1;
