@@ -871,6 +871,40 @@ mod tests {
         }
     }
 
+    /// The format-independent checks give their kinds with the numbers.
+    #[test]
+    fn content_errors_have_kinds() {
+        use super::super::{ContentError, IngestError};
+        let dir = tempfile::tempdir().expect("tempdir");
+        let kind = |f: &Fixture, name: &str| match ingest(
+            &f.write(dir.path(), name),
+            &IngestOptions::default(),
+        ) {
+            Err(IngestError::Content { source, .. }) => source,
+            other => panic!("{name}: not a content error: {:?}", other.err()),
+        };
+        // A clock jump of a day: the grid would be far larger than the data.
+        let mut f = Fixture::good();
+        let t = T0 + 86_400 * 1_000_000_000;
+        f.messages.push((1, t, buffer(t, 1_000_000, &[Some(1.0)])));
+        assert!(
+            matches!(kind(&f, "jump.mcap"), ContentError::InconsistentTimes { samples, .. } if samples == 21),
+            "{:?}",
+            kind(&f, "jump.mcap")
+        );
+        // x2 renamed: the required channel is missing (named by its topic).
+        let mut f = Fixture::good();
+        f.messages.retain(|m| m.0 != 2);
+        f.channels[2].0 = "/mass2/position_old".into();
+        assert_eq!(
+            kind(&f, "nox2.mcap"),
+            ContentError::MissingChannel {
+                quantity: "x2",
+                source_name: "/mass2/position"
+            }
+        );
+    }
+
     #[test]
     fn reads_every_compression_with_and_without_summary() {
         let reference = Fixture::good().read().expect("zstd");
