@@ -110,10 +110,36 @@ pub enum ValidateError {
     /// The characteristic log never slid: no sliding level to predict with.
     #[error("the mass never slid in this characteristic log: only a lower bound on the static friction is known, no sliding level to predict a sweep with")]
     NeverSlid,
-    /// The sweep log does not give a frequency response (what is wrong
-    /// with it).
-    #[error("{0}")]
-    Sweep(String),
+    /// The log is a characteristic test, not a sweep.
+    #[error("not a sweep log (rig test = characteristic): a frequency response needs a sweep")]
+    NotASweep,
+    /// The drive channel has too few samples.
+    #[error("the drive channel /drive/position has too few samples")]
+    NoDriveSamples,
+    /// The log is too short for a frequency response.
+    #[error("the log is too short for a frequency response")]
+    TooShort,
+    /// A stepped sweep without setpoints to tell its steps.
+    #[error("a stepped sweep needs /drive/setpoint messages (or a setpoint_hz column) to tell its steps")]
+    NoSteps,
+    /// A continuous sweep without its commanded frequency at two times.
+    #[error("a continuous sweep needs its commanded frequency (/drive/setpoint messages or a setpoint_hz column) at two times at least")]
+    NoCommandedFrequency,
+    /// The first step's drive signal cannot be measured.
+    #[error("the first step's drive signal cannot be measured")]
+    FirstStepUnmeasured,
+    /// A continuous sweep's drive signal cannot be measured.
+    #[error("the drive signal of the sweep cannot be measured")]
+    DriveUnmeasured,
+    /// No step of a stepped sweep could be measured.
+    #[error("no step of the sweep could be measured")]
+    NoStepMeasured,
+    /// No drive period of a continuous sweep could be measured.
+    #[error("no drive period of the sweep could be measured")]
+    NoPeriodMeasured,
+    /// The drive amplitude cannot be measured.
+    #[error("the drive amplitude cannot be measured")]
+    DriveAmplitudeUnmeasured,
     /// The sweep's frequency plan has no segment.
     #[error("the sweep's frequency plan is empty")]
     EmptyPlan,

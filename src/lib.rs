@@ -49,6 +49,8 @@
 //! * [`io`], [`error`], [`guard`], [`stats`]: atomic writes (and the Parquet
 //!   table writer); the crate's error type; panic containment around
 //!   third-party decoders; shared statistics (Student t, normal quantiles).
+//! * [`warning`]: the stages' warnings ([`warning::Warning`]: one variant
+//!   per condition with its numbers, its message and its stable code).
 //!
 //! The core is dimensionless (paper §2): τ = t·√(K2/M2), ζi = xi/A,
 //! ρ = R/(A·K2); SI units appear only at the edges (ingest, reports).
@@ -69,5 +71,6 @@ pub mod sim;
 pub mod stats;
 pub mod synth;
 pub mod validate;
+pub mod warning;
 
 pub use error::{Error, Result};

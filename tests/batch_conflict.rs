@@ -313,19 +313,12 @@ fn duplicates_count_once() {
     assert!(dups.iter().any(|d| d.ends_with("char_N4.mcap")));
     assert_eq!(v["mu_s_points"], 2, "two tests measure Rs");
     assert_eq!(v["settings"].as_array().unwrap().len(), 2);
-    let warnings: Vec<&str> = v["warnings"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|w| w.as_str().unwrap())
-        .collect();
+    let codes = v["warning_codes"].as_array().unwrap();
     assert_eq!(
-        warnings
-            .iter()
-            .filter(|w| w.contains("counted once"))
-            .count(),
+        codes.iter().filter(|c| *c == "duplicate").count(),
         3,
-        "{warnings:?}"
+        "{}",
+        v["warnings"]
     );
     // Every given log still has its fit entry.
     assert_eq!(v["fits"].as_array().unwrap().len(), 5);
@@ -376,6 +369,11 @@ fn mixed_rigs_refused_unless_allowed() {
         .unwrap()
         .iter()
         .any(|w| w.as_str().unwrap().contains("K2")));
+    assert!(v["warning_codes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c == "rig_mismatch"));
     // validate: the characteristic log against a sweep of the other rig.
     let o = Command::new(env!("CARGO_BIN_EXE_stickslip"))
         .args(["validate", "--characteristic", other.to_str().unwrap()])

@@ -22,6 +22,7 @@ use std::path::Path;
 use stickslip::identify::{self, IdentifyOptions, Interval, LogFit};
 use stickslip::ingest::{self, IngestOptions};
 use stickslip::synth::{self, FrictionSpec, RigSpec, Sensors, SynthConfig, TestSpec};
+use stickslip::warning::Warning;
 
 /// Rig A: M1 5 kg, M2 1 kg, K1 = K2 = 400 N/m, drive 2 mm at 2.3 Hz
 /// (η 0.72); Rs 0.44 N, Rd 0.36 N stick about 10 % of the time.
@@ -102,7 +103,19 @@ fn inside(iv: Option<Interval>, x: f64) -> bool {
     matches!(iv, Some((lo, hi)) if lo <= x && x <= hi)
 }
 
-/// The clipped-warning of channel `ch`, and the percentage it states.
+/// The clipped fraction of channel `ch` in a fit's warnings (its
+/// `clipped` warning's number).
+fn clipped_fraction(warnings: &[Warning], ch: &str) -> Option<f64> {
+    warnings.iter().find_map(|w| match w {
+        Warning::Clipped {
+            channel, fraction, ..
+        } if *channel == ch => Some(*fraction),
+        _ => None,
+    })
+}
+
+/// The clipped-warning of channel `ch` in a JSON `warnings` list, and the
+/// percentage its message states.
 fn clipped_warning(warnings: &[String], ch: &str) -> Option<(String, f64)> {
     let w = warnings
         .iter()
@@ -128,8 +141,8 @@ fn clipped_case(case: &Case, seed: u64, dir: &Path) -> (bool, bool, bool) {
     let true_frac = truth["sensors"]["/mass1/position"]["clipped_fraction"]
         .as_f64()
         .expect("clipped fraction in the truth");
-    let warned = clipped_warning(&f.warnings, "x1");
-    let warned_ok = matches!(&warned, Some((_, pct)) if (pct / 100.0 - true_frac).abs() < 0.01);
+    let warned = clipped_fraction(&f.warnings, "x1");
+    let warned_ok = matches!(warned, Some(frac) if (frac - true_frac).abs() < 0.01);
     let (rs, rd) = (case.friction.rs_n, case.friction.rd_n);
     let err = |x: Option<f64>, t: f64| x.map_or(f64::NAN, |x| x / t - 1.0);
     let law = f.law();
@@ -144,7 +157,7 @@ fn clipped_case(case: &Case, seed: u64, dir: &Path) -> (bool, bool, bool) {
         "clip {} seed {seed}: true {:.1} %, warned {:?}; law {:?} Rs {:+.2} % Rd {:+.2} % covered {covered}; adequate {} (x1 {:.2}, x2 {:.2} noise)",
         case.name,
         100.0 * true_frac,
-        warned.as_ref().map(|w| w.1),
+        warned.map(|f| 100.0 * f),
         f.kind(),
         100.0 * ers,
         100.0 * erd,
@@ -252,7 +265,13 @@ fn cli_clip_flag_and_fit_warning() {
         .iter()
         .map(|w| w.as_str().unwrap_or_default().to_string())
         .collect();
-    let (_, pct) = clipped_warning(&w, "x1").expect("clipped warning");
+    let codes = fit["fits"][0]["warning_codes"]
+        .as_array()
+        .expect("warning_codes");
+    assert_eq!(codes.len(), w.len());
+    let (text, pct) = clipped_warning(&w, "x1").expect("clipped warning");
+    let i = w.iter().position(|x| *x == text).expect("found");
+    assert_eq!(codes[i], "clipped");
     assert!((pct / 100.0 - frac).abs() < 0.01, "{pct} % vs {frac}");
     // A bad --clip is one clear error.
     let out = bin()
@@ -284,10 +303,10 @@ fn no_bundled_log_is_clipped() {
             continue;
         }
         let run = ingest::read(&p, &IngestOptions::default()).expect("ingest");
-        let w: Vec<&String> = run
+        let w: Vec<&Warning> = run
             .warnings
             .iter()
-            .filter(|w| w.starts_with("clipped"))
+            .filter(|w| w.code() == "clipped")
             .collect();
         assert!(w.is_empty(), "{}: {w:?}", p.display());
         n += 1;
@@ -323,10 +342,10 @@ fn clean_and_quantised_logs_are_not_clipped() {
                 let p = dir.path().join(format!("c{seed}{noise_free}.mcap"));
                 synth::write(&log, &p).expect("write");
                 let run = ingest::read(&p, &IngestOptions::default()).expect("ingest");
-                let w: Vec<&String> = run
+                let w: Vec<&Warning> = run
                     .warnings
                     .iter()
-                    .filter(|w| w.starts_with("clipped"))
+                    .filter(|w| w.code() == "clipped")
                     .collect();
                 assert!(
                     w.is_empty(),
@@ -438,7 +457,7 @@ fn clean_control_study() {
             let covered = inside(f.rs_interval_n, rs) && inside(f.rd_interval_n, rd);
             good += usize::from(ers.abs() < 0.03 && erd.abs() < 0.03 && covered);
             adequate += usize::from(f.adequate());
-            warned += usize::from(f.warnings.iter().any(|w| w.starts_with("clipped")));
+            warned += usize::from(f.warnings.iter().any(|w| w.code() == "clipped"));
             eprintln!(
                 "clean {} seed {seed}: law {:?} Rs {:+.2} % Rd {:+.2} % covered {covered}; adequate {}",
                 case.name,

@@ -141,6 +141,15 @@ fn m2_channels_lagging_3_ms_are_found_and_corrected() {
     assert_eq!(f(&d["x1"]), 0.0);
     let warnings = ing["warnings"].to_string();
     assert!(warnings.contains("channel x2 lags x1 by 3."), "{warnings}");
+    assert!(
+        ing["warning_codes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c == "channel_delay"),
+        "{}",
+        ing["warning_codes"]
+    );
     let fit = json_of(bin().args(["fit", "--json"]).arg(&log));
     let e = &fit["fits"][0];
     assert_eq!(e["channel_delays_s"], ing["channel_delays_s"]);
@@ -234,9 +243,11 @@ fn positions_overrule_a_velocity_that_says_stuck() {
     let e = &fit["fits"][0];
     assert_eq!(e["stuck"], false, "{}", e["warnings"]);
     assert!(
-        e["warnings"]
-            .to_string()
-            .contains("velocity channel is distrusted"),
+        e["warning_codes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c == "velocity_distrusted"),
         "{}",
         e["warnings"]
     );
@@ -259,10 +270,14 @@ fn bundled_logs_get_no_delay_warning() {
         for key in ["channel_delays_s", "channel_delays_interval_s"] {
             assert!(ing[key].is_object(), "{n}: {key} missing");
         }
-        for w in ing["warnings"].as_array().unwrap() {
-            let w = w.as_str().unwrap();
-            assert!(!(w.contains(" x1 by ") || w.contains("drifts")), "{n}: {w}");
-        }
+        let codes = ing["warning_codes"].as_array().unwrap();
+        assert!(
+            !codes
+                .iter()
+                .any(|c| c == "channel_delay" || c == "velocity_drift"),
+            "{n}: {}",
+            ing["warnings"]
+        );
         // Each estimated shift applied is within one sample (a sensor
         // filter's lag); the CSV map declares x0's shift of −4 ms.
         for (ch, v) in ing["channel_delays_s"].as_object().unwrap() {

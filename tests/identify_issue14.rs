@@ -209,7 +209,7 @@ fn a_wrong_law_is_flagged_and_its_intervals_carry_the_misfit() {
     let json = f.to_json(Path::new("x.mcap"));
     assert_eq!(json["adequate"], false);
     assert!(
-        f.warnings.iter().any(|w| w.contains("does not explain")),
+        f.warnings.iter().any(|w| w.code() == "inadequate"),
         "{:?}",
         f.warnings
     );
@@ -220,7 +220,7 @@ fn a_wrong_law_is_flagged_and_its_intervals_carry_the_misfit() {
     let (g, _) = fit(&ideal, dir.path(), Some(LawKind::Coulomb), false);
     let best = g.law().expect("a sliding law").rd_n;
     let holds = inside(f.rd_interval_n, best);
-    let says = f.warnings.iter().any(|w| w.contains("cannot"));
+    let says = f.warnings.iter().any(|w| w.to_string().contains("cannot"));
     eprintln!(
         "forced Coulomb {:.4} N {:?}; ideal-sensor best {best:.4} N",
         f.law().expect("a sliding law").rd_n,
@@ -243,7 +243,7 @@ fn a_log_without_velocity_is_fitted_with_a_warning() {
     let (f, sf) = fit(&cfg, dir.path(), None, true);
     eprintln!("stick fraction {sf:.3}; {:?}", f.warnings);
     assert!(
-        f.warnings.iter().any(|w| w.contains("no velocity channel")),
+        f.warnings.iter().any(|w| w.code() == "velocity_derived"),
         "{:?}",
         f.warnings
     );

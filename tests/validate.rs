@@ -466,6 +466,11 @@ fn band_draws_follow_the_precision_target() {
             .contains("percentage points (bootstrap standard error over 80 drawn laws)")
     });
     assert!(warned, "{}", v["warnings"]);
+    assert!(v["warning_codes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c == "band_precision"));
 }
 
 /// The band's draws carry the sensors' common scale errors as common
@@ -531,4 +536,33 @@ fn stuck_characteristic_is_a_clear_error() {
         "{err}"
     );
     assert!(out.stdout.is_empty());
+}
+
+/// A sweep log that gives no frequency response is refused with its kind
+/// (matched as a kind; the message names the log).
+#[test]
+fn a_characteristic_log_is_not_a_sweep() {
+    use stickslip::validate::ValidateError;
+    let run = ingest::read(&data("char_N4.mcap"), &IngestOptions::default()).expect("ingest");
+    match frc::measure(&run, &FrcOptions::default()) {
+        Err(stickslip::Error::Validate { path, source }) => {
+            assert_eq!(source, ValidateError::NotASweep);
+            assert!(path.ends_with("char_N4.mcap"), "{}", path.display());
+        }
+        other => panic!("not refused as NotASweep: {:?}", other.err()),
+    }
+    // The command line says the same, on one error line naming the log.
+    let out = bin()
+        .args(["validate", "--characteristic"])
+        .arg(data("char_N4.mcap"))
+        .arg("--sweep")
+        .arg(data("char_N2.2.mcap"))
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("char_N2.2.mcap") && err.contains("not a sweep log"),
+        "{err}"
+    );
 }

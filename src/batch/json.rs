@@ -247,7 +247,9 @@ struct BatchOut<'a> {
     setting_tolerance: f64,
     evaluations: usize,
     periods: u64,
-    warnings: &'a [String],
+    warnings: &'a [crate::warning::Warning],
+    /// One stable code per warning (`crate::warning::Warning::code`).
+    warning_codes: Vec<&'static str>,
 }
 
 impl Batch {
@@ -337,6 +339,7 @@ impl Batch {
             evaluations: b.evaluations,
             periods: b.periods,
             warnings: &b.warnings,
+            warning_codes: crate::warning::codes(&b.warnings),
         };
         match crate::io::json::to_value(out) {
             Value::Object(map) => map,

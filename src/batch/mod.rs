@@ -153,6 +153,7 @@ use crate::sim::engine::Init;
 use crate::sim::sweep::{curve, steady_state_with, Direction, SteadyConfig};
 use crate::sim::SimError;
 use crate::stats::golden_section;
+use crate::warning::Warning;
 use crate::Result;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -540,7 +541,7 @@ pub struct Batch {
     /// Forcing periods integrated by all of them.
     pub periods: u64,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
 }
 
 /// The drive amplitude the batch's ρ uses and its force scale A·K2.
@@ -558,7 +559,7 @@ fn drive_scale(
     rig: &RigMeta,
     opts: &BatchOptions,
     logs: &[BatchLog],
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<crate::warning::Warning>,
 ) -> Result<DriveScale> {
     let (amp, amp_source) = match opts.drive_amplitude_m {
         Some(a) => (a, "option"),
@@ -583,11 +584,10 @@ fn drive_scale(
         .copied()
         .unwrap_or(f64::NAN);
     if measured_amp.is_finite() && (measured_amp / amp - 1.0).abs() > 0.03 {
-        warnings.push(format!(
-            "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
-            measured_amp * 1e3,
-            amp * 1e3
-        ));
+        warnings.push(crate::warning::Warning::BatchDriveAmplitude {
+            measured_m: measured_amp,
+            used_m: amp,
+        });
     }
     Ok(DriveScale {
         amplitude_m: amp,
@@ -703,10 +703,7 @@ pub fn batch_with_progress(
         .into());
     }
     for (p, _) in fits.iter().filter(|(_, f)| f.normal_force_n == 0.0) {
-        warnings.push(format!(
-            "{}: the normal force is zero (the friction member may be off): its μ is null",
-            p.display()
-        ));
+        warnings.push(crate::warning::Warning::LogNormalForceZero { log: p.clone() });
     }
     let mut logs: Vec<BatchLog> = fits
         .iter()
@@ -831,7 +828,9 @@ pub fn batch_with_progress(
     let (recommendation, cliff, recommendation_reason) = match outcome {
         Ok((r, c)) => (Some(r), c, None),
         Err(reason) => {
-            warnings.push(format!("no normal force recommended: {reason}"));
+            warnings.push(crate::warning::Warning::NoRecommendation {
+                reason: reason.clone(),
+            });
             (None, None, Some(reason))
         }
     };
@@ -857,9 +856,7 @@ pub fn batch_with_progress(
         .flat_map(|(_, w)| w.iter().map(|w| w.missing))
         .sum();
     if missing > 0 {
-        warnings.push(format!(
-            "{missing} steady states without amplitude (interrupted or resonant) were left out of the worst case"
-        ));
+        warnings.push(crate::warning::Warning::MissingSteadyStates { missing });
     }
     Ok(Batch {
         logs,

@@ -34,7 +34,7 @@ pub(super) fn split_sigma(
 /// and its intervals: its bootstrap separates the statistical part (which
 /// averages over logs) from the calibration part (common to the batch); the
 /// output-error refinement has no such split.
-pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> BatchLog {
+pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> BatchLog {
     let e = &f.fit;
     let oe = f.output_error.as_ref();
     let n = f.normal_force_n;
@@ -71,16 +71,14 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<String>) -> Ba
         }
     };
     if matches!(static_obs, StaticObs::Unknown) {
-        warnings.push(format!(
-            "{}: no usable static-friction information (no estimate, bound or interval)",
-            path.display()
-        ));
+        warnings.push(Warning::NoStaticInformation {
+            log: path.to_path_buf(),
+        });
     }
     if !e.stuck && rd.is_none() {
-        warnings.push(format!(
-            "{}: no usable sliding level with an interval: left out of μd",
-            path.display()
-        ));
+        warnings.push(Warning::NoSlidingLevel {
+            log: path.to_path_buf(),
+        });
     }
     let ratio = |x: f64| (x.is_finite() && n > 0.0).then(|| x / n);
     let mu_s = match static_obs {
@@ -305,7 +303,7 @@ type Item = (usize, Obs, Option<f64>);
 pub(super) fn fit_coefficients(
     logs: &mut [BatchLog],
     normal_gain_u: f64,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<Coefficients> {
     let rel = typical_rel_sigma(logs);
     let (obs_s, obs_d) = collect_observations(logs, rel, warnings);
@@ -340,7 +338,7 @@ pub(super) fn fit_coefficients(
 fn collect_observations(
     logs: &[BatchLog],
     rel: f64,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> (Vec<Item>, Vec<Item>) {
     // (log index, observation, calibration) per quantity.
     let mut obs_s: Vec<Item> = Vec::new();
@@ -348,10 +346,10 @@ fn collect_observations(
     for (i, l) in logs.iter().enumerate() {
         let n = l.normal_force_n;
         if !(n.is_finite() && n > 0.0) {
-            warnings.push(format!(
-                "{}: measured normal force {n} N is not positive: left out of the fits",
-                l.log.display()
-            ));
+            warnings.push(Warning::NormalForceNotPositive {
+                log: l.log.clone(),
+                normal_force_n: n,
+            });
             continue;
         }
         match l.static_obs {
@@ -391,10 +389,11 @@ fn collect_observations(
                         None,
                     ));
                 } else {
-                    warnings.push(format!(
-                        "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
-                        l.log.display()
-                    ));
+                    warnings.push(Warning::EmptyStaticBounds {
+                        log: l.log.clone(),
+                        low_n,
+                        high_n,
+                    });
                 }
             }
             StaticObs::Unknown => {}
@@ -410,17 +409,18 @@ fn collect_observations(
 
 /// Warns of the logs whose equation-error and output-error Rs or Rd differ
 /// by more than 1.96σ.
-fn warn_disagreements(logs: &[BatchLog], warnings: &mut Vec<String>) {
+fn warn_disagreements(logs: &[BatchLog], warnings: &mut Vec<Warning>) {
     for l in logs.iter() {
         for (q, z) in [
             ("Rs", l.estimate_disagreement.0),
             ("Rd", l.estimate_disagreement.1),
         ] {
             if z > 1.96 {
-                warnings.push(format!(
-                    "{}: its equation-error and output-error {q} differ by {z:.1}σ: the log's {q} is in doubt",
-                    l.log.display()
-                ));
+                warnings.push(Warning::EstimatesDisagree {
+                    log: l.log.clone(),
+                    quantity: q,
+                    z,
+                });
             }
         }
     }
@@ -463,7 +463,7 @@ fn fit_quantity(
     name: &'static str,
     gain_n: f64,
     logs: &mut [BatchLog],
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<(MuFit, MuFit, Vec<Conflict>)> {
     let all_refs: Vec<&Item> = items.iter().collect();
     let all = mu_fit(&all_refs, name, gain_n)?;
@@ -499,15 +499,14 @@ fn fit_quantity(
     }
     let sym = if quantity == "mu_s" { "μs" } else { "μd" };
     if !found.is_empty() && !resolved {
-        warnings.push(format!(
-            "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
-        ));
+        warnings.push(Warning::UnresolvedConflict { quantity: sym });
     }
     if kept.iter().any(|k| !k) {
-        warnings.push(format!(
-            "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
-            robust.mu, robust.interval.0, robust.interval.1, all.mu, all.interval.0, all.interval.1
-        ));
+        warnings.push(Warning::ConflictSetAside {
+            quantity: sym,
+            robust: (robust.mu, robust.interval.0, robust.interval.1),
+            all: (all.mu, all.interval.0, all.interval.1),
+        });
     }
     let mut found = found;
     if robust.birge > 1.5 {
@@ -558,36 +557,38 @@ fn scatter_conflict(
 
 /// Warnings on the fits: μs resting on few points, a significant intercept
 /// of a free fit, each conflict, μd above μs.
-fn warn_fits(mu_s: &MuFit, mu_d: &MuFit, conflicts: &[Conflict], warnings: &mut Vec<String>) {
+fn warn_fits(mu_s: &MuFit, mu_d: &MuFit, conflicts: &[Conflict], warnings: &mut Vec<Warning>) {
     let n_points_s = mu_s.points;
     if n_points_s < 2 {
-        warnings.push(format!(
-            "μs rests on {n_points_s} measured log(s) (the others only bound it): its interval is wide"
-        ));
+        warnings.push(Warning::FewStaticPoints { points: n_points_s });
     }
     for (name, m) in [("μs", mu_s), ("μd", mu_d)] {
         if let Some((_, a, hw)) = m.free {
             if a.abs() > hw {
-                warnings.push(format!(
-                    "{name}: the free fit's intercept {a:.4} N is significant (95 % half-width {hw:.4} N): the forces are not proportional to the measured normal force (normal-force offset?)"
-                ));
+                warnings.push(Warning::Intercept {
+                    quantity: name,
+                    intercept_n: a,
+                    half_width_n: hw,
+                });
             }
         }
     }
     for c in conflicts {
-        warnings.push(format!("conflict: {}", c.what));
+        warnings.push(Warning::Conflict {
+            what: c.what.clone(),
+        });
     }
     if mu_d.mu > mu_s.mu {
-        warnings.push(format!(
-            "μd = {:.4} exceeds μs = {:.4}: the recommendation uses ρd = ρs",
-            mu_d.mu, mu_s.mu
-        ));
+        warnings.push(Warning::MuDAboveMuS {
+            mu_d: mu_d.mu,
+            mu_s: mu_s.mu,
+        });
     }
 }
 
 /// Censored logs: do their bounds agree with the fitted μs? Sets each log's
 /// `consistent` flag and warns of those that disagree.
-fn check_censored(logs: &mut [BatchLog], mu_s: &MuFit, warnings: &mut Vec<String>) {
+fn check_censored(logs: &mut [BatchLog], mu_s: &MuFit, warnings: &mut Vec<Warning>) {
     for l in logs.iter_mut() {
         let n = l.normal_force_n;
         let (lo, hi) = (mu_s.interval.0 * n, mu_s.interval.1 * n);
@@ -600,12 +601,10 @@ fn check_censored(logs: &mut [BatchLog], mu_s: &MuFit, warnings: &mut Vec<String
             _ => None,
         };
         if l.consistent == Some(false) {
-            warnings.push(format!(
-                "{}: its bound on Rs disagrees with the fitted μs interval [{:.4}, {:.4}]",
-                l.log.display(),
-                mu_s.interval.0,
-                mu_s.interval.1
-            ));
+            warnings.push(Warning::CensoredDisagrees {
+                log: l.log.clone(),
+                interval: mu_s.interval,
+            });
         }
     }
 }

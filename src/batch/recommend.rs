@@ -53,7 +53,7 @@ impl Search<'_> {
     pub fn run(
         &self,
         table: &mut Table<'_>,
-        warnings: &mut Vec<String>,
+        warnings: &mut Vec<crate::warning::Warning>,
     ) -> Result<Outcome, SimError> {
         if !self.box_ok {
             return Ok(Err(self.no_box_reason()));
@@ -116,9 +116,7 @@ impl Search<'_> {
             rho_s_box: (box_a, box_b),
         };
         if rob[..best].iter().all(Option::is_none) || rob[best + 1..].iter().all(Option::is_none) {
-            warnings.push(
-                "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max".into(),
-            );
+            warnings.push(crate::warning::Warning::RecommendationAtEdge);
         }
         let cliff = self.cliff(table, best, rho_rec, w_rec.amplitude1, warnings)?;
         Ok(Ok((recommendation, cliff)))
@@ -206,14 +204,14 @@ impl Search<'_> {
         best: usize,
         rho_rec: f64,
         w_rec: f64,
-        warnings: &mut Vec<String>,
+        warnings: &mut Vec<crate::warning::Warning>,
     ) -> Result<Option<Cliff>, SimError> {
         let threshold = 2.0 * w_rec;
         let Some(i) = (0..best).rev().find(|&i| table.w(i) > threshold) else {
-            warnings.push(format!(
-                "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {}",
-                self.rho_min
-            ));
+            warnings.push(crate::warning::Warning::NoCliff {
+                threshold,
+                rho_min: self.rho_min,
+            });
             return Ok(None);
         };
         let (mut bad, mut good) = (table.nodes[i].0, table.nodes[i + 1].0);

@@ -516,7 +516,7 @@ pub(super) fn geom_node(lo: f64, hi: f64, steps: usize, k: usize) -> f64 {
 
 /// Checks that the logs come from one rig (M1, M2, K1, K2, d within 1 %);
 /// returns a warning per differing constant.
-pub fn rig_warnings(rigs: &[(PathBuf, RigMeta)]) -> Vec<String> {
+pub fn rig_warnings(rigs: &[(PathBuf, RigMeta)]) -> Vec<crate::warning::Warning> {
     let mut out = Vec::new();
     let Some((p0, r0)) = rigs.first() else {
         return out;
@@ -531,11 +531,13 @@ pub fn rig_warnings(rigs: &[(PathBuf, RigMeta)]) -> Vec<String> {
             ("nominal A", r0.drive_amplitude_m, r.drive_amplitude_m),
         ] {
             if (a - b).abs() > 0.01 * a.abs().max(b.abs()) {
-                out.push(format!(
-                    "rig constant {name} of {} ({b}) differs from {} ({a}): a batch should be one pad on one rig",
-                    p.display(),
-                    p0.display()
-                ));
+                out.push(crate::warning::Warning::BatchRigMismatch {
+                    constant: name,
+                    log: p.clone(),
+                    value: b,
+                    reference_log: p0.clone(),
+                    reference: a,
+                });
             }
         }
     }

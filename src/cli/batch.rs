@@ -177,7 +177,7 @@ type Fits = [(PathBuf, crate::Result<(RigMeta, LogFit)>)];
 fn drop_duplicates(
     good: &mut Vec<(PathBuf, LogFit)>,
     rigs: &mut Vec<(PathBuf, RigMeta)>,
-) -> (Vec<String>, Vec<String>) {
+) -> (Vec<String>, Vec<crate::warning::Warning>) {
     let (keep, dup_warnings) = {
         let ids: Vec<crate::pipeline::checks::TestId<'_>> = good
             .iter()

@@ -42,7 +42,9 @@ struct CharacteristicOut<'a> {
     velocity_noise_m_per_s: f64,
     out: Option<String>,
     bias_n: f64,
-    warnings: &'a [String],
+    warnings: &'a [crate::warning::Warning],
+    /// One stable code per warning (`crate::warning::Warning::code`).
+    warning_codes: Vec<&'static str>,
 }
 
 /// Writes the characteristic table: time, R (bias removed), ẋ2 (0 where
@@ -116,8 +118,7 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
     let bias = match fit.as_ref().map(|f| f.bias_n) {
         Some(b) if b.is_finite() => b,
         _ => {
-            warnings
-                .push("force bias unknown (M2 never slid): R includes the sensors' offsets".into());
+            warnings.push(crate::warning::Warning::BiasUnknown);
             0.0
         }
     };
@@ -166,6 +167,7 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
             out: args.out.as_ref().map(|p| p.display().to_string()),
             bias_n: bias,
             warnings: &warnings,
+            warning_codes: crate::warning::codes(&warnings),
         }))?;
     } else {
         eprintln!(

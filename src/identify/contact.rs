@@ -30,6 +30,7 @@ use super::smooth::{finite_blocks, savgol};
 use crate::ingest::Run;
 use crate::sim::linalg::C64;
 use crate::stats::golden_section;
+use crate::warning::Warning;
 
 /// Multipliers applied to the sensor channels before identification: 1 for
 /// the data as logged; the calibration budget re-runs the identification
@@ -127,7 +128,7 @@ pub struct Contact {
     /// Half-width (samples) of the smoothing/differentiating window.
     pub half_window: usize,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// How many of `warnings` the velocity stage gave (the acceleration
     /// stage's follow): what [`compute_reusing`] keeps of a base.
     pub(crate) velocity_warnings: usize,
@@ -455,7 +456,7 @@ fn velocity(
     x2: &[f64],
     dx2: Vec<f64>,
     w: (f64, usize),
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> (Vec<f64>, f64, f64) {
     let (dt, half) = w;
     // A log without a velocity channel: ẋ2 from x2 (a cubic
@@ -463,9 +464,7 @@ fn velocity(
     let v2_raw = if run.has_velocity() {
         v2_raw
     } else {
-        warnings.push(format!(
-            "no velocity channel: ẋ2 derived from x2 (Savitzky–Golay derivative over ±{half} samples); its noise sets the stick detection threshold"
-        ));
+        warnings.push(Warning::VelocityDerived { half_window: half });
         dx2.clone()
     };
     // Time offset of v2 against the derivative of x2.
@@ -479,10 +478,7 @@ fn velocity(
             v2 = shift(&v2_raw, dt, lag);
             v2_lag_s = lag;
             if lag.abs() > 2.0 * dt {
-                warnings.push(format!(
-                    "velocity channel lags the position x2 by {:.2} ms; corrected",
-                    lag * 1e3
-                ));
+                warnings.push(Warning::VelocityLag { lag_s: lag });
             }
         }
     }
@@ -514,7 +510,7 @@ fn acceleration(
     v2: &[f64],
     dv2: &[f64],
     w: (f64, usize),
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Acceleration {
     let (dt, half) = w;
     // Accelerometer zero from the physics: ∫a dt = Δv.
@@ -526,10 +522,7 @@ fn acceleration(
     let (a_sh, lag) = match estimate_lag(&a_s, dv2, dt, 0.01) {
         Some((lag, se)) if lag.abs() > 3.0 * se && lag.abs() > 0.05 * dt => {
             if lag.abs() > 2.0 * dt {
-                warnings.push(format!(
-                    "acceleration channel lags the velocity by {:.2} ms; corrected",
-                    lag * 1e3
-                ));
+                warnings.push(Warning::AccelerationLag { lag_s: lag });
             }
             (shift(&a_raw, dt, lag), lag)
         }
@@ -552,9 +545,7 @@ fn acceleration(
         })
         .collect();
     if filled > 0 {
-        warnings.push(format!(
-            "{filled} samples without accelerometer data use the differentiated velocity"
-        ));
+        warnings.push(Warning::AccelerationFilled { samples: filled });
     }
     Acceleration {
         merged,

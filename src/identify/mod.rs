@@ -149,6 +149,7 @@ pub use segment::Segmentation;
 
 use crate::error::{Error, Result};
 use crate::ingest::{RigMeta, Run, TestKind};
+use crate::warning::Warning;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -253,13 +254,9 @@ fn characteristic_reusing(
                 .iter_mut()
                 .for_each(|v| *v = f64::NAN);
             let mut ch = characteristic_reusing(&no_velocity, gains, None)?;
-            ch.contact.warnings.insert(
-                0,
-                format!(
-                    "{}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2",
-                    why.what
-                ),
-            );
+            ch.contact
+                .warnings
+                .insert(0, Warning::VelocityDistrusted { why: why.what });
             ch.contact.velocity_warnings += 1;
             return Ok(ch);
         }
@@ -398,11 +395,11 @@ pub struct LogFit {
     /// Characteristic details (noise, lags, offsets) for reports.
     pub notes: Vec<String>,
     /// Warnings (ingest, contact, fit).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// The adequacy verdict of the law used (see [`LogFit::adequate`]).
     pub adequacy: Option<output_error::Adequacy>,
     /// Contradictions found among the bounds (each makes the fit inadequate).
-    pub contradictions: Vec<String>,
+    pub contradictions: Vec<Warning>,
     /// A sliding log whose law was not tested against the positions (the
     /// equation-error estimate: the Stribeck type, or a failed refinement).
     untested: bool,
@@ -662,28 +659,27 @@ fn calibration_variance(
 
 /// The warning of a law that does not explain its log down to the sensor
 /// noise, naming the largest counted structure in the residuals.
-fn inadequacy_warning(kind: LawKind, a: &output_error::Adequacy) -> String {
+fn inadequacy_warning(kind: LawKind, a: &output_error::Adequacy) -> Warning {
     let worst = a
         .structure
         .iter()
         .filter(|s| s.counted())
         .max_by(|p, q| p.effect.total_cmp(&q.effect))
-        .map_or(String::new(), |st| {
-            format!(
-                "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
-                st.channel, st.against, st.effect, st.chi2_per_dof, st.z
-            )
+        .map(|st| crate::warning::WorstStructure {
+            channel: st.channel,
+            against: st.against,
+            effect: st.effect,
+            chi2_per_dof: st.chi2_per_dof,
+            z: st.z,
         });
-    format!(
-        "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
-        kind.as_str(),
-        a.noise_ratio.0,
-        a.noise_ratio.1,
-        a.force_ratio
-            .map_or(String::new(), |r| format!(", force {r:.2}")),
-        output_error::MAX_NOISE_RATIO,
-        a.inflation
-    )
+    Warning::Inadequate {
+        law: kind,
+        noise_ratio: a.noise_ratio,
+        force_ratio: a.force_ratio,
+        max_noise_ratio: output_error::MAX_NOISE_RATIO,
+        worst,
+        inflation: a.inflation,
+    }
 }
 
 /// The characteristic's details for reports: acceleration source, lags,
@@ -725,7 +721,7 @@ fn refine(
     base: &Characteristic,
     ef: &mut EquationFit,
     opts: &IdentifyOptions,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> (Option<OutputErrorFit>, bool) {
     // Output-error refinement (not for a stuck log: nothing slides). The
     // Stribeck family is refined there only where no simple family
@@ -761,11 +757,12 @@ fn refine(
                     if o2.adequacy.adequate {
                         let (d1, d2) = o2.chosen.delays_s;
                         let (i1, i2) = o2.chosen.delays_interval_s;
-                        warnings.push(format!(
-                            "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
-                             (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",
-                            d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
-                        ));
+                        warnings.push(Warning::PositionDelays {
+                            x1_s: d1,
+                            x1_interval_s: i1,
+                            x2_s: d2,
+                            x2_interval_s: i2,
+                        });
                         first = Ok(o2);
                     }
                 }
@@ -773,9 +770,9 @@ fn refine(
         }
         match first {
             Ok(o) => output_error = Some(o),
-            Err(e) => warnings.push(format!(
-                "output-error refinement not possible ({e}); the equation-error estimate is used"
-            )),
+            Err(e) => warnings.push(Warning::RefinementFailed {
+                reason: e.to_string(),
+            }),
         }
     }
     // The evidence decides stick or no stick: the simulated law sticks
@@ -789,15 +786,14 @@ fn refine(
         let per_run = c.stick_fraction * o.samples as f64 / c.stick_runs.max(1) as f64
             * opts.oe.stride as f64
             * base.contact.dt;
-        warnings.push(format!(
-            "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
-            c.law.kind.as_str(),
-            100.0 * c.stick_fraction,
-            c.stick_runs,
-            per_run * 1e3
-        ));
+        warnings.push(Warning::ShortSticks {
+            law: c.law.kind,
+            stick_fraction: c.stick_fraction,
+            stick_runs: c.stick_runs,
+            run_s: per_run,
+        });
         no_stick = false;
-        warnings.retain(|w| !w.starts_with("M2 never sticks in this log"));
+        warnings.retain(|w| *w != Warning::NeverSticks);
         // The reversal bound assumed no stick there: it does not hold.
         ef.rs_upper_bound_n = None;
     }
@@ -903,9 +899,11 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
             let rs_bounds = bounds(iv.rd_n);
             if no_stick && rs_bounds.is_none() {
                 if let (Some((lo, _)), Some(ub)) = (iv.rd_n, ub) {
-                    contradictions.push(format!(
-                        "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N; no stick-free law explains this log"
-                    ));
+                    contradictions.push(Warning::BoundsContradict {
+                        upper_n: ub,
+                        lower_n: lo,
+                        output_error: true,
+                    });
                 }
             }
             let used = Intervals {
@@ -921,11 +919,10 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                 dstar: iv.dstar,
             };
             if o.law.kind != ef.law.kind {
-                warnings.push(format!(
-                    "the output-error refinement chose the law {} (equation error: {})",
-                    o.law.kind.as_str(),
-                    ef.law.kind.as_str()
-                ));
+                warnings.push(Warning::LawChanged {
+                    output_error: o.law.kind,
+                    equation_error: ef.law.kind,
+                });
             }
             o.intervals = used;
             (Estimate::OutputError, o.law, used)
@@ -937,9 +934,11 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         && bounds(equation_error.rd_n).is_none()
     {
         if let (Some((lo, _)), Some(ub)) = (equation_error.rd_n, ub) {
-            contradictions.push(format!(
-                "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N"
-            ));
+            contradictions.push(Warning::BoundsContradict {
+                upper_n: ub,
+                lower_n: lo,
+                output_error: false,
+            });
         }
     }
     let adequacy = match (&output_error, estimate) {
@@ -948,10 +947,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     };
     let untested = adequacy.is_none() && !ef.stuck;
     if untested {
-        warnings.push(format!(
-            "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
-            law.kind.as_str()
-        ));
+        warnings.push(Warning::Untested { law: law.kind });
     }
     if let Some(a) = adequacy.as_ref().filter(|a| !a.adequate) {
         warnings.push(inadequacy_warning(law.kind, a));
@@ -982,31 +978,25 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         .filter(|v| v.is_finite())
         .unwrap_or(rig.normal_force_n);
     if normal_force_n < 0.0 {
-        warnings.push(format!(
-            "the normal force is negative ({normal_force_n} N): a sign or unit mistake in the log? Friction coefficients from it would be meaningless (batch refuses it)"
-        ));
+        warnings.push(Warning::NormalForceNegative { normal_force_n });
     } else if normal_force_n == 0.0 {
-        warnings.push(
-            "the normal force is zero: the friction member may be off; no friction coefficient (μ) can be formed".to_string(),
-        );
+        warnings.push(Warning::NormalForceZero);
     }
     let eta = 2.0 * std::f64::consts::PI * base.contact.drive.frequency_hz / rig.omega_ref();
     let rel = base.contact.drive.amplitude_m / rig.drive_amplitude_m - 1.0;
     if rel.abs() > 0.005 {
-        warnings.push(format!(
-            "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; ρ uses the measured one",
-            base.contact.drive.amplitude_m * 1e3,
-            rig.drive_amplitude_m * 1e3,
-            rel * 100.0
-        ));
+        warnings.push(Warning::DriveAmplitude {
+            measured_m: base.contact.drive.amplitude_m,
+            nominal_m: rig.drive_amplitude_m,
+        });
     }
     if let Some(meta) = base.contact.drive.metadata_frequency_hz {
         let measured = base.contact.drive.frequency_hz;
-        warnings.push(format!(
-            "the metadata's drive frequency {meta} Hz contradicts the measured {measured:.4} Hz (by {:+.1} %, more than {} %); η and the fit use the measured one",
-            (meta / measured - 1.0) * 100.0,
-            contact::DRIVE_FREQUENCY_TOLERANCE * 100.0
-        ));
+        warnings.push(Warning::DriveFrequency {
+            metadata_hz: meta,
+            measured_hz: measured,
+            tolerance: contact::DRIVE_FREQUENCY_TOLERANCE,
+        });
     }
     let notes = characteristic_notes(&base, &ef);
     Ok(LogFit {

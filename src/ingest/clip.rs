@@ -70,18 +70,17 @@ impl Clipped {
         self.samples as f64 / self.valid.max(1) as f64
     }
 
-    /// The warning (starts with `clipped:`).
-    pub fn warning(&self) -> String {
-        format!(
-            "clipped: {} flat at its {} ({:.4e} {}) in {:.1} % of the samples ({} samples in {} runs): saturated sensor or DAQ input; those samples are left out of every fit",
-            self.quantity.name(),
-            if self.high { "maximum" } else { "minimum" },
-            self.level,
-            self.quantity.unit(),
-            100.0 * self.fraction(),
-            self.samples,
-            self.runs.len()
-        )
+    /// The warning (code `clipped`; its message starts with `clipped:`).
+    pub fn warning(&self) -> crate::warning::Warning {
+        crate::warning::Warning::Clipped {
+            channel: self.quantity.name(),
+            high: self.high,
+            level: self.level,
+            unit: self.quantity.unit(),
+            fraction: self.fraction(),
+            samples: self.samples,
+            runs: self.runs.len(),
+        }
     }
 }
 
@@ -337,8 +336,10 @@ mod tests {
             "{} vs {ex}",
             c[0].fraction()
         );
+        assert_eq!(c[0].warning().code(), "clipped");
         assert!(c[0]
             .warning()
+            .to_string()
             .starts_with("clipped: x1 flat at its maximum"));
     }
 
@@ -430,6 +431,9 @@ mod tests {
             "{left} rows at the rail left of {}",
             found[0].samples
         );
-        assert!(run.warnings.iter().any(|w| w.starts_with("clipped: x1")));
+        assert!(run
+            .warnings
+            .iter()
+            .any(|w| matches!(w, crate::warning::Warning::Clipped { channel: "x1", .. })));
     }
 }

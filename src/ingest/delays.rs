@@ -47,6 +47,7 @@
 
 use super::{Quantity, Resampled, RigMeta};
 use crate::stats::{mad_sigma, quantile, student_t_quantile};
+use crate::warning::Warning;
 
 /// Width of the Gaussian low-pass applied to every signal before the
 /// regressions (its σ, in drive periods; zero phase, so it moves no channel
@@ -517,7 +518,7 @@ pub(crate) struct Estimate {
     /// The velocity's consistency and its drift to remove (m/s per s).
     pub(crate) velocity: Option<VelocityConsistency>,
     /// Warnings with the numbers.
-    pub(crate) warnings: Vec<String>,
+    pub(crate) warnings: Vec<Warning>,
 }
 
 /// Estimates the shifts of x0, x2, v2 and a2 against x1 (and the velocity's
@@ -610,17 +611,14 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
                 drift_corrected,
             });
             if drift_corrected {
-                warnings.push(format!(
-                    "velocity channel v2: its offset drifts by {:.3} mm/s over the log ({:.4} ± {:.4} mm/s per s against d/dt x2); removed",
-                    drift * span * 1e3,
-                    drift * 1e3,
-                    o.tq * drift_se * 1e3
-                ));
+                warnings.push(Warning::VelocityDrift {
+                    drift_m_per_s2: drift,
+                    span_s: span,
+                    half_width_m_per_s2: o.tq * drift_se,
+                });
             }
             if (gain - 1.0).abs() > 0.05 && (gain - 1.0).abs() > o.tq * o.cov[0][0].sqrt() {
-                warnings.push(format!(
-                    "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
-                ));
+                warnings.push(Warning::VelocityGain { gain });
             }
         }
     }
@@ -704,25 +702,18 @@ impl Estimate {
 }
 
 /// Warnings for the shifts applied that exceed one grid sample.
-pub(crate) fn shift_warnings(d: &ChannelDelays, dt: f64) -> Vec<String> {
+pub(crate) fn shift_warnings(d: &ChannelDelays, dt: f64) -> Vec<Warning> {
     let mut w = Vec::new();
     for c in &d.channels {
         let est = c.shift_s - c.declared_s;
         if c.applied && est.abs() >= dt {
             let (lo, hi) = c.interval_s.map_or((f64::NAN, f64::NAN), |i| (i[0], i[1]));
-            w.push(format!(
-                "channel {} {} x1 by {:.2} ms (95 % interval of its shift {:.2} to {:.2} ms){}; corrected",
-                c.quantity.name(),
-                if est < 0.0 { "lags" } else { "leads" },
-                est.abs() * 1e3,
-                lo * 1e3,
-                hi * 1e3,
-                if c.declared_s != 0.0 {
-                    format!(" beyond the declared shift_s {:.2} ms", c.declared_s * 1e3)
-                } else {
-                    String::new()
-                }
-            ));
+            w.push(Warning::ChannelDelay {
+                channel: c.quantity.name(),
+                shift_s: est,
+                interval_s: (lo, hi),
+                declared_s: c.declared_s,
+            });
         }
     }
     w

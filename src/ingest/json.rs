@@ -87,7 +87,9 @@ struct RunOut<'a> {
     rig: Value,
     gaps: Vec<GapOut<'a>>,
     setpoints: Vec<SetpointOut>,
-    warnings: &'a [String],
+    warnings: &'a [crate::warning::Warning],
+    /// One stable code per warning (`crate::warning::Warning::code`).
+    warning_codes: Vec<&'static str>,
     channel_delays_s: Value,
     channel_delays_interval_s: Value,
     velocity_consistency: Value,
@@ -111,6 +113,7 @@ impl Run {
             gaps: self.gaps.iter().map(GapOut::from).collect(),
             setpoints: self.setpoints.iter().map(SetpointOut::from).collect(),
             warnings: &self.warnings,
+            warning_codes: crate::warning::codes(&self.warnings),
             channel_delays_s: self.delays.shifts_json(),
             channel_delays_interval_s: self.delays.intervals_json(),
             velocity_consistency: self.delays.velocity_json(),

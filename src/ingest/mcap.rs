@@ -14,6 +14,7 @@
 use super::rig::RigMeta;
 use super::run::Setpoint;
 use super::{buffer_json, unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use crate::warning::Warning;
 use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::Deserialize;
@@ -246,7 +247,7 @@ struct Collector<'a> {
     rig: Option<BTreeMap<String, String>>,
     accs: BTreeMap<Quantity, Acc>,
     setpoints: Vec<(u64, f64, Option<f64>)>,
-    warnings: Vec<String>,
+    warnings: Vec<Warning>,
     n_messages: u64,
     /// Messages per channel id announced by the summary section (a hint
     /// for reserving sample vectors, see [`expected_counts`]).
@@ -508,11 +509,10 @@ impl Collector<'_> {
                         ),
                     ));
                 }
-                warnings.push(format!(
-                    "channel {} ({}) has no messages",
-                    acc.topic,
-                    q.name()
-                ));
+                warnings.push(Warning::ChannelNoMessages {
+                    topic: acc.topic,
+                    quantity: q.name(),
+                });
                 continue;
             }
             raw_channels.push(expand(q, acc, origin, &mut warnings));
@@ -541,7 +541,7 @@ impl Collector<'_> {
 fn channel_info(
     path: &Path,
     ch: &mcap::records::Channel,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<ChannelInfo, IngestError> {
     let topic = ch.topic.clone();
     let role = if topic == SETPOINT_TOPIC {
@@ -549,7 +549,9 @@ fn channel_info(
     } else if let Some(q) = Quantity::from_topic(&topic) {
         Role::Sensor(q)
     } else {
-        warnings.push(format!("ignored unknown topic {topic}"));
+        warnings.push(Warning::UnknownTopic {
+            topic: topic.clone(),
+        });
         Role::Ignored
     };
     if !matches!(role, Role::Ignored) && ch.message_encoding != "json" {
@@ -576,10 +578,10 @@ fn channel_info(
                     )
                 })?;
             }
-            None => warnings.push(format!(
-                "channel {topic} states no unit; {} assumed",
-                q.unit()
-            )),
+            None => warnings.push(Warning::UnitAssumed {
+                topic: topic.clone(),
+                unit: q.unit(),
+            }),
         }
     }
     let rate_hz = match ch.metadata.get("sample_rate_hz") {
@@ -692,7 +694,7 @@ fn ns_diff_s(t: u64, origin: u64) -> f64 {
 }
 
 /// Expands a channel's buffers into per-sample times from `origin`.
-fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> RawChannel {
+fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<Warning>) -> RawChannel {
     let mut t = Vec::with_capacity(acc.values.len());
     let mut dts: Vec<u64> = Vec::with_capacity(acc.buffers.len());
     for (k, &(t0, dt, start)) in acc.buffers.iter().enumerate() {
@@ -726,23 +728,20 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
     let dt_ns = dts[dts.len() / 2];
     let dt_s = dt_ns as f64 * 1e-9;
     if dts.first() != dts.last() {
-        warnings.push(format!(
-            "channel {}: buffers use different sample intervals ({}..{} ns); {} ns taken as nominal",
-            acc.topic,
-            dts.first().copied().unwrap_or(0),
-            dts.last().copied().unwrap_or(0),
-            dt_ns
-        ));
+        warnings.push(Warning::MixedSampleIntervals {
+            topic: acc.topic.clone(),
+            min_ns: dts.first().copied().unwrap_or(0),
+            max_ns: dts.last().copied().unwrap_or(0),
+            nominal_ns: dt_ns,
+        });
     }
     if let Some(r) = acc.rate_hz {
         if ((1.0 / dt_s) / r - 1.0).abs() > 0.01 {
-            warnings.push(format!(
-                "channel {}: sample_rate_hz {} disagrees with dt_ns {} ({} Hz); dt_ns used",
-                acc.topic,
-                r,
+            warnings.push(Warning::SampleRateMismatch {
+                topic: acc.topic.clone(),
+                rate_hz: r,
                 dt_ns,
-                1.0 / dt_s
-            ));
+            });
         }
     }
     RawChannel {
@@ -757,6 +756,7 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<String>) -> Raw
 #[cfg(test)]
 mod tests {
     use super::super::{read as ingest, GapKind, IngestOptions, Quantity};
+    use crate::warning::Warning;
     use mcap::records::{MessageHeader, Metadata};
     use mcap::{Compression, WriteOptions};
     use std::collections::BTreeMap;
@@ -871,16 +871,47 @@ mod tests {
         }
     }
 
+    /// The format-independent checks give their kinds with the numbers.
+    #[test]
+    fn content_errors_have_kinds() {
+        use super::super::{ContentError, IngestError};
+        let dir = tempfile::tempdir().expect("tempdir");
+        let kind = |f: &Fixture, name: &str| match ingest(
+            &f.write(dir.path(), name),
+            &IngestOptions::default(),
+        ) {
+            Err(IngestError::Content { source, .. }) => source,
+            other => panic!("{name}: not a content error: {:?}", other.err()),
+        };
+        // A clock jump of a day: the grid would be far larger than the data.
+        let mut f = Fixture::good();
+        let t = T0 + 86_400 * 1_000_000_000;
+        f.messages.push((1, t, buffer(t, 1_000_000, &[Some(1.0)])));
+        assert!(
+            matches!(kind(&f, "jump.mcap"), ContentError::InconsistentTimes { samples, .. } if samples == 21),
+            "{:?}",
+            kind(&f, "jump.mcap")
+        );
+        // x2 renamed: the required channel is missing (named by its topic).
+        let mut f = Fixture::good();
+        f.messages.retain(|m| m.0 != 2);
+        f.channels[2].0 = "/mass2/position_old".into();
+        assert_eq!(
+            kind(&f, "nox2.mcap"),
+            ContentError::MissingChannel {
+                quantity: "x2",
+                source_name: "/mass2/position"
+            }
+        );
+    }
+
     #[test]
     fn reads_every_compression_with_and_without_summary() {
         let reference = Fixture::good().read().expect("zstd");
         assert_eq!(reference.channels.len(), 4);
         assert_eq!(reference.channel(Quantity::X1).expect("x1").t.len(), 20);
         assert!(!reference.has_acceleration);
-        assert!(reference
-            .warnings
-            .iter()
-            .any(|w| w.contains("accelerometer")));
+        assert!(reference.warnings.contains(&Warning::NoAccelerometer));
         assert!(reference.gaps.is_empty(), "{:?}", reference.gaps);
         for compression in [None, Some(Compression::Lz4), Some(Compression::Zstd)] {
             for summary in [true, false] {
@@ -989,7 +1020,10 @@ mod tests {
         let run = f.read().expect("reads");
         let x2 = run.channel(Quantity::X2).expect("x2");
         assert_eq!(x2.dropouts, 1);
-        assert!(run.warnings.iter().any(|w| w.contains("/daq/temperature")));
+        assert!(run
+            .warnings
+            .iter()
+            .any(|w| matches!(w, Warning::UnknownTopic { topic } if topic == "/daq/temperature")));
         let gaps: Vec<_> = run.gaps.iter().filter(|g| g.channel == "x2").collect();
         assert_eq!(gaps.len(), 1, "{gaps:?}");
         assert_eq!(gaps[0].kind, GapKind::Missing);

@@ -182,7 +182,16 @@ pub enum IngestError {
         /// What is wrong with the record.
         source: RigError,
     },
-    /// Anything else wrong with the content.
+    /// What is wrong with the log, whatever its format (a kind with
+    /// its numbers).
+    #[error("{}: {source}", path.display())]
+    Content {
+        /// The log.
+        path: PathBuf,
+        /// What is wrong.
+        source: ContentError,
+    },
+    /// Anything else wrong with the content (what a format's reader found).
     #[error("{}: {msg}", path.display())]
     Invalid {
         /// The file concerned.
@@ -192,7 +201,121 @@ pub enum IngestError {
     },
 }
 
+/// What is wrong with a log whatever its format: the file, its channels
+/// and their times, the signal, the rig ([`IngestError::Content`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ContentError {
+    /// The file's extension names no log format.
+    #[error("unknown log type {:?}: expected a .mcap, .csv, .parquet, .tdms or .mat file", if .extension.is_empty() { "(no extension)" } else { .extension.as_str() })]
+    UnknownType {
+        /// The extension, lower case (empty: none).
+        extension: String,
+    },
+    /// A directory was given.
+    #[error("is a directory, not a log file")]
+    Directory,
+    /// The file is empty.
+    #[error("file is empty")]
+    Empty,
+    /// A CSV log too large to read within the memory budget.
+    #[error("is {bytes} bytes; reading a CSV log takes about {CSV_MEMORY_FACTOR} times its size in memory ({}), over {}: CSV logs up to {} bytes are read; split it into shorter logs", crate::limits::human(*.bytes as f64 * CSV_MEMORY_FACTOR as f64), crate::limits::budget_text(), crate::limits::MEMORY_BUDGET_BYTES / CSV_MEMORY_FACTOR)]
+    CsvTooLarge {
+        /// The file's size.
+        bytes: u64,
+    },
+    /// Two channels carry one quantity.
+    #[error("two channels carry {quantity} ({first} and {second})")]
+    DuplicateQuantity {
+        /// The quantity's name.
+        quantity: &'static str,
+        /// The first channel.
+        first: String,
+        /// The second channel.
+        second: String,
+    },
+    /// A channel's times and values differ in length.
+    #[error("{channel}: times and values differ in length")]
+    LengthMismatch {
+        /// The channel.
+        channel: String,
+    },
+    /// A channel without a valid sample interval.
+    #[error("{channel}: no valid sample interval")]
+    NoSampleInterval {
+        /// The channel.
+        channel: String,
+    },
+    /// A sample whose time is not finite.
+    #[error("{channel}: sample {sample} has no valid time")]
+    InvalidTime {
+        /// The channel.
+        channel: String,
+        /// The sample (0-based).
+        sample: usize,
+    },
+    /// A sample whose time does not follow the one before.
+    #[error("non-monotonic time on channel {channel}: sample {sample} at {t_s:.6} s does not follow {previous_s:.6} s")]
+    NonMonotonicTime {
+        /// The channel.
+        channel: String,
+        /// The sample (0-based).
+        sample: usize,
+        /// Its time (s).
+        t_s: f64,
+        /// The time of the sample before (s).
+        previous_s: f64,
+    },
+    /// An infinite sample.
+    #[error("{channel}: sample {sample} is infinite")]
+    InfiniteSample {
+        /// The channel.
+        channel: String,
+        /// The sample (0-based).
+        sample: usize,
+    },
+    /// A required channel without a valid sample.
+    #[error("no data: channel {channel} has no valid sample")]
+    NoValidSample {
+        /// The channel.
+        channel: String,
+    },
+    /// A required channel is missing.
+    #[error("no data for required channel {quantity} ({source_name})")]
+    MissingChannel {
+        /// The quantity's name.
+        quantity: &'static str,
+        /// Its topic (MCAP) or column name.
+        source_name: &'static str,
+    },
+    /// The position channels' time span does not fit their samples.
+    #[error("time stamps inconsistent: the position channels span {span_s:.3} s but hold only {samples} samples at {rate_hz} Hz")]
+    InconsistentTimes {
+        /// The span (s).
+        span_s: f64,
+        /// The most samples of a position channel.
+        samples: usize,
+        /// Their rate (Hz).
+        rate_hz: f64,
+    },
+    /// Motion channels without signal.
+    #[error("the channel{} {} carr{} no signal (every sample the same value): nothing moved or the sensor was not connected; there is nothing to fit", if .channels.len() > 1 { "s" } else { "" }, .channels.join(", "), if .channels.len() > 1 { "y" } else { "ies" })]
+    NoSignal {
+        /// The flat channels.
+        channels: Vec<&'static str>,
+    },
+    /// Rig constants the engines cannot integrate.
+    #[error("rig metadata: {0}")]
+    NotIntegrable(#[from] crate::model::IntegrableError),
+}
+
 impl IngestError {
+    /// An [`IngestError::Content`] of `kind` for `path`.
+    pub(crate) fn content(path: &Path, kind: ContentError) -> Self {
+        IngestError::Content {
+            path: path.to_path_buf(),
+            source: kind,
+        }
+    }
     /// An [`IngestError::Invalid`] for `path`.
     /// The message is folded onto one line (errors of other crates, e.g.
     /// TOML's, can span several).
@@ -255,7 +378,7 @@ pub(crate) struct RawLog {
     pub origin: Option<f64>,
     /// Setpoints, times on the same clock as the channels.
     pub setpoints: Vec<Setpoint>,
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
     /// Time shifts declared per channel (a CSV map's `shift_s`), already
     /// applied to the times.
     pub declared_shifts: Vec<(Quantity, f64)>,
@@ -287,38 +410,24 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         "tdms" => LogFormat::Tdms,
         "mat" => LogFormat::Mat,
         _ => {
-            return Err(IngestError::invalid(
+            return Err(IngestError::content(
                 path,
-                format!(
-                    "unknown log type {:?}: expected a .mcap, .csv, .parquet, .tdms or .mat file",
-                    if ext.is_empty() {
-                        "(no extension)"
-                    } else {
-                        &ext
-                    }
-                ),
+                ContentError::UnknownType { extension: ext },
             ))
         }
     };
     let meta = std::fs::metadata(path).map_err(|e| IngestError::io(path, e))?;
     if meta.is_dir() {
-        return Err(IngestError::invalid(path, "is a directory, not a log file"));
+        return Err(IngestError::content(path, ContentError::Directory));
     }
     if meta.len() == 0 {
-        return Err(IngestError::invalid(path, "file is empty"));
+        return Err(IngestError::content(path, ContentError::Empty));
     }
     if format == LogFormat::Csv && meta.len() > MAX_CSV_BYTES {
         // Refused before any read: the CSV reader holds the whole table.
-        let budget = crate::limits::MEMORY_BUDGET_BYTES;
-        return Err(IngestError::invalid(
+        return Err(IngestError::content(
             path,
-            format!(
-                "is {} bytes; reading a CSV log takes about {CSV_MEMORY_FACTOR} times its size in memory ({}), over {}: CSV logs up to {} bytes are read; split it into shorter logs",
-                meta.len(),
-                crate::limits::human(meta.len() as f64 * CSV_MEMORY_FACTOR as f64),
-                crate::limits::budget_text(),
-                budget / CSV_MEMORY_FACTOR
-            ),
+            ContentError::CsvTooLarge { bytes: meta.len() },
         ));
     }
     let held = match format {
@@ -347,8 +456,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         LogFormat::Mat => mat::read(path, opts.map.as_deref())?,
     };
     if opts.map.is_some() && !format.needs_map() {
-        raw.warnings
-            .push("--map applies to CSV, TDMS and MAT logs only; ignored".to_string());
+        raw.warnings.push(crate::warning::Warning::MapIgnored);
     }
     let mut run = run::build(path, raw)?;
     check_signal(path, &run)?;
@@ -358,7 +466,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     run.rig
         .constants()
         .check_integrable(drive_hz)
-        .map_err(|e| IngestError::invalid(path, format!("rig metadata: {e}")))?;
+        .map_err(|e| IngestError::content(path, e.into()))?;
     clip::apply(&mut run);
     Ok(run)
 }
@@ -389,14 +497,9 @@ fn check_signal(path: &Path, run: &Run) -> Result<(), IngestError> {
     if flat.is_empty() {
         return Ok(());
     }
-    Err(IngestError::invalid(
+    Err(IngestError::content(
         path,
-        format!(
-            "the channel{} {} carr{} no signal (every sample the same value): nothing moved or the sensor was not connected; there is nothing to fit",
-            if flat.len() > 1 { "s" } else { "" },
-            flat.join(", "),
-            if flat.len() > 1 { "y" } else { "ies" }
-        ),
+        ContentError::NoSignal { channels: flat },
     ))
 }
 
@@ -482,13 +585,21 @@ mod tests {
         let dir = tempfile::tempdir().expect("tempdir");
         let odd = dir.path().join("log.txt");
         std::fs::write(&odd, b"hello").expect("write");
-        let e = read(&odd, &IngestOptions::default())
-            .unwrap_err()
-            .to_string();
+        let e = read(&odd, &IngestOptions::default()).unwrap_err();
         assert!(
-            e.contains("log.txt") && e.contains("unknown log type"),
+            matches!(&e, IngestError::Content { source: ContentError::UnknownType { extension }, .. } if extension == "txt"),
+            "{e:?}"
+        );
+        let e = e.to_string();
+        assert!(
+            e.contains("log.txt")
+                && e.ends_with("unknown log type \"txt\": expected a .mcap, .csv, .parquet, .tdms or .mat file"),
             "{e}"
         );
+        let e = read(&dir.path().join("log"), &IngestOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unknown log type \"(no extension)\""), "{e}");
         for name in [
             "empty.mcap",
             "empty.csv",
@@ -498,8 +609,19 @@ mod tests {
         ] {
             let p = dir.path().join(name);
             std::fs::write(&p, b"").expect("write");
-            let e = read(&p, &IngestOptions::default()).unwrap_err().to_string();
-            assert!(e.contains(name) && e.contains("empty"), "{e}");
+            let e = read(&p, &IngestOptions::default()).unwrap_err();
+            assert!(
+                matches!(
+                    e,
+                    IngestError::Content {
+                        source: ContentError::Empty,
+                        ..
+                    }
+                ),
+                "{e:?}"
+            );
+            let e = e.to_string();
+            assert!(e.contains(name) && e.ends_with(": file is empty"), "{e}");
         }
     }
 }

@@ -22,7 +22,8 @@
 //!   the last position sample.
 
 use super::delays::{self, ChannelDelays};
-use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
+use super::{ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, RigMeta};
+use crate::warning::Warning;
 use rayon::prelude::*;
 use std::cmp::Ordering;
 use std::path::{Path, PathBuf};
@@ -184,7 +185,7 @@ pub struct Run {
     /// Every stretch without data, by channel then time.
     pub gaps: Vec<Gap>,
     /// Things the user should know that did not stop the ingest.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
     /// Channel delays against x1 (declared, estimated, applied) and the
     /// velocity channel's consistency with x2 (see `delays`).
     pub delays: ChannelDelays,
@@ -292,11 +293,11 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     for c in &out_channels {
         let bad = c.dropouts;
         if bad * 20 > c.v.len() {
-            warnings.push(format!(
-                "channel {} is null in {bad} of {} samples",
-                c.name(),
-                c.v.len()
-            ));
+            warnings.push(Warning::ChannelNulls {
+                channel: c.name(),
+                nulls: bad,
+                samples: c.v.len(),
+            });
         }
     }
     Ok(Run {
@@ -323,7 +324,7 @@ fn align_channels(
     (channels, gaps, setpoints): (&mut [Channel], &mut [Gap], &[Setpoint]),
     resampled: &mut Resampled,
     declared: &[(Quantity, f64)],
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<ChannelDelays, IngestError> {
     if resampled.len() < 100 {
         return Ok(ChannelDelays::default());
@@ -370,19 +371,18 @@ fn align_channels(
 fn check_channels(
     path: &Path,
     mut channels: Vec<RawChannel>,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<Vec<(RawChannel, usize)>, IngestError> {
     channels.sort_by_key(|c| c.quantity);
     for w in channels.windows(2) {
         if w[0].quantity == w[1].quantity {
-            return Err(IngestError::invalid(
+            return Err(IngestError::content(
                 path,
-                format!(
-                    "two channels carry {} ({} and {})",
-                    w[0].quantity.name(),
-                    w[0].source,
-                    w[1].source
-                ),
+                ContentError::DuplicateQuantity {
+                    quantity: w[0].quantity.name(),
+                    first: w[0].source.to_string(),
+                    second: w[1].source.to_string(),
+                },
             ));
         }
     }
@@ -390,15 +390,15 @@ fn check_channels(
     for c in channels {
         let label = channel_label(&c);
         if c.t.len() != c.v.len() {
-            return Err(IngestError::invalid(
+            return Err(IngestError::content(
                 path,
-                format!("{label}: times and values differ in length"),
+                ContentError::LengthMismatch { channel: label },
             ));
         }
         if !(c.dt_s.is_finite() && c.dt_s > 0.0) {
-            return Err(IngestError::invalid(
+            return Err(IngestError::content(
                 path,
-                format!("{label}: no valid sample interval"),
+                ContentError::NoSampleInterval { channel: label },
             ));
         }
         // The usual case in one counting pass each (no early exit, so the
@@ -406,41 +406,45 @@ fn check_channels(
         // there is one.
         if !strictly_increasing_finite(&c.t) {
             if let Some(i) = c.t.iter().position(|t| !t.is_finite()) {
-                return Err(IngestError::invalid(
+                return Err(IngestError::content(
                     path,
-                    format!("{label}: sample {i} has no valid time"),
+                    ContentError::InvalidTime {
+                        channel: label,
+                        sample: i,
+                    },
                 ));
             }
             if let Some(i) = c.t.windows(2).position(|w| w[1] <= w[0]) {
-                return Err(IngestError::invalid(
+                return Err(IngestError::content(
                     path,
-                    format!(
-                        "non-monotonic time on channel {label}: sample {} at {:.6} s does not follow {:.6} s",
-                        i + 1,
-                        c.t[i + 1],
-                        c.t[i]
-                    ),
+                    ContentError::NonMonotonicTime {
+                        channel: label,
+                        sample: i + 1,
+                        t_s: c.t[i + 1],
+                        previous_s: c.t[i],
+                    },
                 ));
             }
         }
         let (valid, infinite) = count_finite_infinite(&c.v);
         if infinite > 0 {
             let i = c.v.iter().position(|v| v.is_infinite()).unwrap_or(0);
-            return Err(IngestError::invalid(
+            return Err(IngestError::content(
                 path,
-                format!("{label}: sample {i} is infinite"),
+                ContentError::InfiniteSample {
+                    channel: label,
+                    sample: i,
+                },
             ));
         }
         if valid == 0 {
             if c.quantity.required() {
-                return Err(IngestError::invalid(
+                return Err(IngestError::content(
                     path,
-                    format!("no data: channel {label} has no valid sample"),
+                    ContentError::NoValidSample { channel: label },
                 ));
             }
-            warnings.push(format!(
-                "channel {label} has no valid sample; treated as absent"
-            ));
+            warnings.push(Warning::ChannelEmpty { label });
             continue;
         }
         // Neither finite nor infinite: NaN, a dropout.
@@ -483,35 +487,28 @@ fn note_missing(
     path: &Path,
     format: LogFormat,
     channels: &[RawChannel],
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<(), IngestError> {
     for q in Quantity::ALL {
         if channels.iter().any(|c| c.quantity == q) {
             continue;
         }
         if q.required() {
-            return Err(IngestError::invalid(
+            return Err(IngestError::content(
                 path,
-                format!(
-                    "no data for required channel {} ({})",
-                    q.name(),
-                    match format {
+                ContentError::MissingChannel {
+                    quantity: q.name(),
+                    source_name: match format {
                         LogFormat::Mcap => q.topic(),
                         _ => q.name(),
-                    }
-                ),
+                    },
+                },
             ));
         }
         match q {
-            Quantity::A2 => warnings.push(
-                "no accelerometer channel (a2): acceleration must be derived from velocity"
-                    .to_string(),
-            ),
-            Quantity::V2 => warnings.push(
-                "no velocity channel (v2): identification derives the velocity of M2 from x2"
-                    .to_string(),
-            ),
-            _ => warnings.push(format!("no {} channel", q.name())),
+            Quantity::A2 => warnings.push(Warning::NoAccelerometer),
+            Quantity::V2 => warnings.push(Warning::NoVelocityChannel),
+            _ => warnings.push(Warning::ChannelAbsent { channel: q.name() }),
         }
     }
     Ok(())
@@ -533,11 +530,13 @@ fn resample(
     let most_samples = positions().map(|c| c.t.len()).max().unwrap_or(0);
     let rows_f = (pos_end * rate_hz + 1e-6).floor() + 1.0;
     if !rows_f.is_finite() || rows_f > (MAX_GRID_INFLATION * most_samples.max(1000)) as f64 {
-        return Err(IngestError::invalid(
+        return Err(IngestError::content(
             path,
-            format!(
-                "time stamps inconsistent: the position channels span {pos_end:.3} s but hold only {most_samples} samples at {rate_hz} Hz"
-            ),
+            ContentError::InconsistentTimes {
+                span_s: pos_end,
+                samples: most_samples,
+                rate_hz,
+            },
         ));
     }
     let rows = rows_f as usize;

@@ -27,6 +27,7 @@ use super::csv::{self, ChannelMap, ColumnSpec, MapKind};
 use super::rig::RigMeta;
 use super::run::median_interval;
 use super::{unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use crate::warning::Warning;
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -137,7 +138,7 @@ struct Object {
 /// The parsed file: objects by first appearance.
 struct File {
     objects: Vec<Object>,
-    warnings: Vec<String>,
+    warnings: Vec<Warning>,
 }
 
 /// A bounds-checked little-endian reader over a byte range of the file.
@@ -473,7 +474,7 @@ fn place_data(
     (start, len): (usize, usize),
     interleaved: bool,
     unfinished: bool,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> Result<(), String> {
     let with_data: Vec<(usize, Index)> = active
         .iter()
@@ -521,10 +522,10 @@ fn place_data(
                 "corrupt TDMS file: segment {segment} at byte {seg} has {len} bytes of raw data, not a whole number of {chunk}-byte chunks"
             ));
         }
-        warnings.push(format!(
-            "the last TDMS segment (at byte {seg}) was not finished by its writer: {} bytes of an incomplete chunk ignored",
-            len64 % chunk
-        ));
+        warnings.push(Warning::UnfinishedSegment {
+            byte: seg,
+            ignored: len64 % chunk,
+        });
     }
     // All below fit in usize: they are at most `len`.
     let chunks = chunks as usize;

@@ -195,11 +195,28 @@ pub struct Schedule {
     pub amplitude: f64,
 }
 
+/// Why a [`Schedule`] gives no drives.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScheduleError {
+    /// A ramp with no segment before it to start from.
+    #[error("segment {segment}: a schedule must start with a dwell")]
+    StartsWithRamp {
+        /// The segment (0-based).
+        segment: usize,
+    },
+    /// A segment whose duration or η is not finite and positive.
+    #[error("segment {segment}: duration and eta must be finite and > 0")]
+    BadSegment {
+        /// The segment (0-based).
+        segment: usize,
+    },
+}
+
 impl Schedule {
     /// The drives of the segments with their start times, phases continued
     /// from segment to segment. A ramp starts at the previous segment's
     /// frequency (the first segment must be a dwell).
-    pub fn drives(&self) -> Result<Vec<(f64, Drive, f64)>, String> {
+    pub fn drives(&self) -> Result<Vec<(f64, Drive, f64)>, ScheduleError> {
         let mut out = Vec::with_capacity(self.segments.len());
         let (mut t, mut phase, mut eta_prev) = (0.0, self.phase, None);
         for (i, seg) in self.segments.iter().enumerate() {
@@ -214,9 +231,7 @@ impl Schedule {
                     eta,
                 ),
                 Segment::Ramp { eta, duration } => {
-                    let eta0 = eta_prev.ok_or_else(|| {
-                        format!("segment {i}: a schedule must start with a dwell")
-                    })?;
+                    let eta0 = eta_prev.ok_or(ScheduleError::StartsWithRamp { segment: i })?;
                     (
                         Drive::Chirp {
                             eta0,
@@ -231,9 +246,7 @@ impl Schedule {
                 }
             };
             if !(dur.is_finite() && dur > 0.0 && eta_end.is_finite() && eta_end > 0.0) {
-                return Err(format!(
-                    "segment {i}: duration and eta must be finite and > 0"
-                ));
+                return Err(ScheduleError::BadSegment { segment: i });
             }
             let end_phase = drive.phase_at(dur).expect("harmonic or chirp");
             // Keep the phase small: only its value mod 2π matters.
@@ -317,15 +330,35 @@ mod tests {
             assert!((a.eval(dur).0 - b.eval(0.0).0).abs() < 1e-12);
             assert!((a.eval(dur).1 - b.eval(0.0).1).abs() < 1e-12);
         }
-        assert!(Schedule {
+        let e = Schedule {
             segments: vec![Segment::Ramp {
                 eta: 1.0,
-                duration: 1.0
+                duration: 1.0,
             }],
             phase: 0.0,
-            amplitude: 1.0
+            amplitude: 1.0,
         }
         .drives()
-        .is_err());
+        .unwrap_err();
+        assert_eq!(e, ScheduleError::StartsWithRamp { segment: 0 });
+        assert_eq!(
+            e.to_string(),
+            "segment 0: a schedule must start with a dwell"
+        );
+        let e = Schedule {
+            segments: vec![Segment::Dwell {
+                eta: 1.0,
+                duration: f64::NAN,
+            }],
+            phase: 0.0,
+            amplitude: 1.0,
+        }
+        .drives()
+        .unwrap_err();
+        assert_eq!(e, ScheduleError::BadSegment { segment: 0 });
+        assert_eq!(
+            e.to_string(),
+            "segment 0: duration and eta must be finite and > 0"
+        );
     }
 }

@@ -17,11 +17,11 @@
 //! ζ0(τ) is the base motion divided by A: `cos(ητ)` for the paper's drive.
 
 mod stiffness;
-pub use stiffness::{MAX_MODE_TO_DRIVE_RATIO, STIFFNESS_RATIO_RANGE};
+pub use stiffness::{IntegrableError, MAX_MODE_TO_DRIVE_RATIO, STIFFNESS_RATIO_RANGE};
 mod drive;
 mod law;
 
-pub use drive::{Drive, Schedule, Segment};
+pub use drive::{Drive, Schedule, ScheduleError, Segment};
 pub use law::{Coulomb, Decreasing, Family, Law, LawKind, Scales, SiLaw, StaticDynamic, Stribeck};
 
 /// A number as a person reads it: plain where short, else in exponent form

@@ -70,7 +70,7 @@ pub struct TestId<'a> {
 /// frequency within 2 %, 1 % and 0.5 %). Returns which entries to keep (the
 /// first of each test) and a warning per duplicate; two logs with the same
 /// record whose data differ are kept, with a warning.
-pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<String>) {
+pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<crate::warning::Warning>) {
     let mut keep = vec![true; ids.len()];
     let mut warnings = Vec::new();
     let canon: Vec<Option<PathBuf>> = ids
@@ -86,7 +86,9 @@ pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<String>) {
             let (a, b) = (&ids[i], &ids[j]);
             if canon[i].is_some() && canon[i] == canon[j] {
                 keep[j] = false;
-                warnings.push(format!("{} is given twice: counted once", b.path.display()));
+                warnings.push(crate::warning::Warning::DuplicateFile {
+                    log: b.path.to_path_buf(),
+                });
                 break;
             }
             if a.rig.recorded_at.is_some() && a.rig.to_map() == b.rig.to_map() {
@@ -95,23 +97,19 @@ pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<String>) {
                     && close(a.drive_frequency_hz, b.drive_frequency_hz, 0.005)
                 {
                     keep[j] = false;
-                    warnings.push(format!(
-                        "{} is the same test as {} (same rig record, recorded_at {}, same measured normal force and drive): counted once",
-                        b.path.display(),
-                        a.path.display(),
-                        a.rig.recorded_at.as_deref().unwrap_or("?")
-                    ));
+                    warnings.push(crate::warning::Warning::DuplicateTest {
+                        log: b.path.to_path_buf(),
+                        of: a.path.to_path_buf(),
+                        recorded_at: a.rig.recorded_at.clone(),
+                    });
                     break;
                 }
-                warnings.push(format!(
-                    "{} and {} carry the same rig record and recorded_at but their data differ (normal force {:.3} / {:.3} N, drive {:.4} / {:.4} mm): kept as two tests",
-                    a.path.display(),
-                    b.path.display(),
-                    a.normal_force_n,
-                    b.normal_force_n,
-                    a.drive_amplitude_m * 1e3,
-                    b.drive_amplitude_m * 1e3
-                ));
+                warnings.push(crate::warning::Warning::SameRecord {
+                    first: a.path.to_path_buf(),
+                    second: b.path.to_path_buf(),
+                    normal_force_n: (a.normal_force_n, b.normal_force_n),
+                    drive_amplitude_m: (a.drive_amplitude_m, b.drive_amplitude_m),
+                });
             }
         }
     }

@@ -228,8 +228,9 @@ pub fn batch_view(b: &Batch, figure: Option<String>) -> BatchView {
         warnings: b
             .warnings
             .iter()
-            .filter(|w| !w.starts_with("conflict: "))
-            .cloned()
+            // The conflicts are listed above on their own.
+            .filter(|w| !matches!(w, crate::warning::Warning::Conflict { .. }))
+            .map(ToString::to_string)
             .collect(),
     }
 }

@@ -79,7 +79,7 @@ pub fn fit_view(
         error: None,
         rows,
         figure,
-        warnings: f.warnings.clone(),
+        warnings: crate::warning::messages(&f.warnings),
         notes: f.notes.clone(),
         rig_notes: rig_notes.map(str::to_string),
     }
@@ -226,7 +226,7 @@ pub fn validation_view(
         figure,
         header,
         steps,
-        warnings: v.warnings.clone(),
+        warnings: crate::warning::messages(&v.warnings),
     }
 }
 

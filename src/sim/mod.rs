@@ -42,4 +42,7 @@ pub enum SimError {
     /// The request is outside what the engine can compute.
     #[error("{0}")]
     Unsupported(String),
+    /// A drive schedule that gives no drives.
+    #[error(transparent)]
+    Schedule(#[from] crate::model::ScheduleError),
 }

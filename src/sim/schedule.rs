@@ -53,7 +53,7 @@ pub fn run_schedule<O: SegmentObserver>(
     opts: NumericOptions,
     obs: &mut O,
 ) -> Result<RunEnd, SimError> {
-    let drives = schedule.drives().map_err(SimError::Unsupported)?;
+    let drives = schedule.drives()?;
     let mut state = init;
     let (mut events, mut stick_time, mut periods) = (0u64, 0.0, 0u64);
     let mut last = RunEnd {

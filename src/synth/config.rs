@@ -499,7 +499,10 @@ impl SynthConfig {
                 (self.test.duration_s(), from_hz.max(*to_hz))
             }
         };
-        self.rig.constants().check_integrable(max_hz).map_err(bad)?;
+        self.rig
+            .constants()
+            .check_integrable(max_hz)
+            .map_err(|e| bad(e.to_string()))?;
         let periods = simulated_s * max_hz;
         if periods.is_nan() || periods > MAX_SYNTH_PERIODS {
             return Err(bad(format!(

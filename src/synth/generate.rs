@@ -397,7 +397,9 @@ fn hold_last_frequency(s: &mut Schedule, past: f64) -> Result<Drives, SynthError
         // (past the last request: a span's end sample is not delivered)
         duration: past + 1.0,
     });
-    Ok(Drives(s.drives().map_err(SynthError::Sim)?))
+    Ok(Drives(
+        s.drives().map_err(|e| SynthError::Sim(e.to_string()))?,
+    ))
 }
 
 /// Runs the engine over the whole log into `col`: one harmonic piece

@@ -31,6 +31,7 @@
 //!   them — not the raw extremes of noisy samples, which are biased upwards
 //!   by about two noise σ.
 
+use super::ValidateError;
 use crate::identify::smooth::savgol;
 use crate::ingest::{Quantity, Run, SweepKind as LogSweepKind};
 use crate::sim::sweep::Direction;
@@ -133,7 +134,7 @@ pub struct MeasuredFrc {
     /// One per step (stepped) or drive period (continuous).
     pub points: Vec<MeasuredPoint>,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
 }
 
 /// Options of [`measure`].
@@ -172,10 +173,11 @@ impl Default for FrcOptions {
     }
 }
 
-fn bad(run: &Run, msg: impl Into<String>) -> Error {
+/// The error `kind` of the sweep log `run`.
+fn bad(run: &Run, kind: ValidateError) -> Error {
     Error::Validate {
         path: run.source.clone(),
-        source: super::ValidateError::Sweep(msg.into()),
+        source: kind,
     }
 }
 
@@ -543,22 +545,18 @@ struct Parts {
     drive_phase_rad: f64,
     plan: Vec<PlanSegment>,
     points: Vec<MeasuredPoint>,
-    warnings: Vec<String>,
+    warnings: Vec<crate::warning::Warning>,
 }
 
 /// Measures the frequency response of a sweep log.
 pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     if run.rig.test != crate::ingest::TestKind::Sweep {
-        return Err(bad(
-            run,
-            "not a sweep log (rig test = characteristic): a frequency response needs a sweep",
-        ));
+        return Err(bad(run, ValidateError::NotASweep));
     }
-    let (td, xd) = raw(run, Quantity::X0)
-        .ok_or_else(|| bad(run, "the drive channel /drive/position has too few samples"))?;
+    let (td, xd) = raw(run, Quantity::X0).ok_or_else(|| bad(run, ValidateError::NoDriveSamples))?;
     let rs = &run.resampled;
     if rs.t.len() < 16 {
-        return Err(bad(run, "the log is too short for a frequency response"));
+        return Err(bad(run, ValidateError::TooShort));
     }
     let grid = Grid {
         t0: rs.t[0],
@@ -586,14 +584,14 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         return Err(bad(
             run,
             match kind {
-                SweepKind::Stepped => "no step of the sweep could be measured",
-                SweepKind::Continuous => "no drive period of the sweep could be measured",
+                SweepKind::Stepped => ValidateError::NoStepMeasured,
+                SweepKind::Continuous => ValidateError::NoPeriodMeasured,
             },
         ));
     }
     let a = parts.drive_amplitude_m;
     if !(a.is_finite() && a > 0.0) {
-        return Err(bad(run, "the drive amplitude cannot be measured"));
+        return Err(bad(run, ValidateError::DriveAmplitudeUnmeasured));
     }
     let freqs: Vec<f64> = parts.points.iter().map(|p| p.frequency_hz).collect();
     let mut m = MeasuredFrc {
@@ -609,12 +607,11 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     };
     let nominal = run.rig.drive_amplitude_m;
     if (a / nominal - 1.0).abs() > 0.005 {
-        m.warnings.push(format!(
-            "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
-            a * 1e3,
-            nominal * 1e3,
-            (a / nominal - 1.0) * 100.0
-        ));
+        m.warnings
+            .push(crate::warning::Warning::SweepDriveAmplitude {
+                measured_m: a,
+                nominal_m: nominal,
+            });
     }
     // Noise of the raw sensor samples (the common grid interpolates some
     // channels, which averages their noise).
@@ -668,10 +665,7 @@ fn direction_of(f: &[f64]) -> Direction {
 fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let steps = distinct_steps(run);
     if steps.is_empty() {
-        return Err(bad(
-            run,
-            "a stepped sweep needs /drive/setpoint messages (or a setpoint_hz column) to tell its steps",
-        ));
+        return Err(bad(run, ValidateError::NoSteps));
     }
     let t_log_end = td[td.len() - 1].max(grid.end());
     let omega_ref = run.rig.omega_ref();
@@ -686,10 +680,10 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         let mid = a + 0.5 * (b - a);
         let s = fit_sine(td, xd, (mid, b), f0, 0.05, 0.0, mid);
         if s.is_none() {
-            warnings.push(format!(
-                "step {} ({f0} Hz): the drive channel has too few samples to measure it",
-                i + 1
-            ));
+            warnings.push(crate::warning::Warning::StepUnmeasured {
+                step: i + 1,
+                frequency_hz: f0,
+            });
         }
         sines.push(s);
     }
@@ -698,7 +692,7 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
     // φ(0) from the first hold, carried back to t = 0.
     let drive_phase_rad = sines[0]
         .map(|s| s.phase_at(0.0))
-        .ok_or_else(|| bad(run, "the first step's drive signal cannot be measured"))?;
+        .ok_or_else(|| bad(run, ValidateError::FirstStepUnmeasured))?;
 
     let mut points = Vec::with_capacity(n);
     let mut amps = Vec::new();
@@ -843,7 +837,7 @@ fn step_point(
     grid: &Grid,
     opts: &FrcOptions,
     omega_ref: f64,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<crate::warning::Warning>,
 ) -> Option<(MeasuredPoint, (f64, f64))> {
     let (i1, s) = (hold.step, hold.sine);
     let f = s.frequency_hz;
@@ -859,17 +853,18 @@ fn step_point(
     let k = k.max(1.0);
     let window = (b - k * period, b);
     if window.0 < hold_start - 1e-9 {
-        warnings.push(format!(
-            "step {} ({:.3} Hz): the hold is shorter than one drive period",
-            i1, f
-        ));
+        warnings.push(crate::warning::Warning::StepTooShort {
+            step: i1,
+            frequency_hz: f,
+        });
         return None;
     }
     let Some((a1, a2)) = grid.amplitudes(window, period) else {
-        warnings.push(format!(
-            "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
-            i1, f, window.0, window.1
-        ));
+        warnings.push(crate::warning::Warning::StepFewSamples {
+            step: i1,
+            frequency_hz: f,
+            window_s: window,
+        });
         return None;
     };
     // Trend: the two halves of the window (whole periods each).
@@ -948,10 +943,7 @@ fn seg_time(seg: &PlanSegment, c: f64) -> f64 {
 fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) -> Result<Parts> {
     let mut nodes = command_nodes(run);
     if nodes.len() < 2 {
-        return Err(bad(
-            run,
-            "a continuous sweep needs its commanded frequency (/drive/setpoint messages or a setpoint_hz column) at two times at least",
-        ));
+        return Err(bad(run, ValidateError::NoCommandedFrequency));
     }
     let t_end = td[td.len() - 1].max(grid.end());
     let omega_ref = run.rig.omega_ref();
@@ -975,7 +967,7 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
         }
     }
     if fit_nodes.len() < 2 {
-        return Err(bad(run, "the drive signal of the sweep cannot be measured"));
+        return Err(bad(run, ValidateError::DriveUnmeasured));
     }
     let plan = continuous_plan(&nodes, &fit_nodes, td, xd);
     let first = &fit_nodes[0].1;
@@ -989,10 +981,7 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
     );
     let rms = median(&fit_nodes.iter().map(|(_, s)| s.rms).collect::<Vec<_>>());
     if rms > 0.05 * drive_amplitude_m {
-        warnings.push(format!(
-            "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
-            rms * 1e6
-        ));
+        warnings.push(crate::warning::Warning::DriveShape { rms_m: rms });
     }
     let points = sweep_points(&plan, grid, opts.periods_per_point, omega_ref);
     Ok(Parts {

@@ -59,7 +59,9 @@ struct ValidationOut<'a> {
     score: ScoreOut<'a>,
     draws: usize,
     band_precision: &'a crate::validate::predict::BandPrecision,
-    warnings: &'a [String],
+    warnings: &'a [crate::warning::Warning],
+    /// One stable code per warning (`crate::warning::Warning::code`).
+    warning_codes: Vec<&'static str>,
 }
 
 impl Validation {
@@ -107,6 +109,7 @@ impl Validation {
             draws: p.draws,
             band_precision: &p.band,
             warnings: &self.warnings,
+            warning_codes: crate::warning::codes(&self.warnings),
         };
         crate::io::json::to_value(out)
     }

@@ -40,7 +40,7 @@ pub struct Validation {
     /// Predictions, bands, steady-state call and score.
     pub prediction: Prediction,
     /// Things the user should know (rig mismatch, measurement, prediction).
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
 }
 
 /// Relative difference above which the rig constants of the characteristic
@@ -93,9 +93,11 @@ pub fn validate(
         ("K2", fit_rig.k2_n_per_m, rig.k2_n_per_m),
     ] {
         if (a - b).abs() > RIG_MISMATCH * a.abs().max(b.abs()) {
-            warnings.push(format!(
-                "rig constant {name} differs between the characteristic log ({a}) and the sweep ({b}): are they from the same rig?"
-            ));
+            warnings.push(crate::warning::Warning::SweepRigMismatch {
+                constant: name,
+                characteristic: a,
+                sweep: b,
+            });
         }
     }
     let prediction =

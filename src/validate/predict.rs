@@ -222,7 +222,7 @@ pub struct Prediction {
     /// How precisely the draws fix the band's scores.
     pub band: BandPrecision,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<crate::warning::Warning>,
 }
 
 /// A draw from a split normal with the interval as its 2.5/97.5 % points.
@@ -967,11 +967,10 @@ pub fn predict_with(
     };
     let models: Vec<Model> = draws.iter().filter_map(to_model).collect();
     if models.len() < draws.len() {
-        warnings.push(format!(
-            "{} of {} drawn laws were invalid and skipped",
-            draws.len() - models.len(),
-            draws.len()
-        ));
+        warnings.push(crate::warning::Warning::InvalidDraws {
+            invalid: draws.len() - models.len(),
+            draws: draws.len(),
+        });
     }
     let etas: Vec<f64> = frc.points.iter().map(|p| p.eta).collect();
     let sched = schedule(frc)?;
@@ -1037,12 +1036,11 @@ pub fn predict_with(
         .into_iter()
         .flatten()
         .fold(0.0, f64::max);
-        warnings.push(format!(
-            "the replay band's coverages are known to ±{:.1} percentage points (bootstrap standard error over {} drawn laws), more than the target ±{:.1}: draw more laws (--samples) for a more precise band",
-            100.0 * worst,
-            band.draws,
-            100.0 * band.target
-        ));
+        warnings.push(crate::warning::Warning::BandImprecise {
+            standard_error: worst,
+            draws: band.draws,
+            target: band.target,
+        });
     }
     let (c_steady, c_replay) = (&c_steady, &c_replay);
     let steady = banded(&etas, c_steady, &d_steady);
@@ -1052,7 +1050,7 @@ pub fn predict_with(
 
     let score = score(frc, &steady, &replay, &steady_reached);
     if score.steady_points == 0 {
-        warnings.push("no step reached its steady state: the steady-state scores are null".into());
+        warnings.push(crate::warning::Warning::NoSteadyState);
     }
     Ok(Prediction {
         law: model.law,

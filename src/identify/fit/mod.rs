@@ -48,6 +48,7 @@ use super::segment::Segmentation;
 use slip::Sample;
 
 use crate::model::{LawKind, SiLaw};
+use crate::warning::Warning;
 
 /// Options of the equation-error fit.
 #[derive(Debug, Clone)]
@@ -120,7 +121,7 @@ pub struct EquationFit {
     /// also when its breakaway level is not above the slip level).
     pub candidates: Vec<SiLaw>,
     /// Things the user should know.
-    pub warnings: Vec<String>,
+    pub warnings: Vec<Warning>,
 }
 
 /// Regressors of a slip sample: bias, the law's terms, then K2·x1 and K2·x2.
@@ -173,10 +174,9 @@ pub fn fit(
     let (samples, idx) = slip::slip_samples(c, seg, &gauge);
     if seg.stuck() || samples.len() < 20 {
         if !seg.stuck() {
-            warnings.push(format!(
-                "M2 slid in only {} usable samples: reported as stuck",
-                samples.len()
-            ));
+            warnings.push(Warning::FewSlipSamples {
+                samples: samples.len(),
+            });
         }
         return Ok(EquationFit::stuck(
             opts.law.unwrap_or(LawKind::StaticDynamic),
@@ -224,11 +224,10 @@ pub fn fit(
             .collect();
         simple_crit.sort_by(|a, b| a.1.total_cmp(&b.1));
         let k = simple_crit[0].0;
-        warnings.push(format!(
-            "none of the simple laws fits: residuals are structured (Stribeck-like peak near zero velocity, v_s = {:.2} mm/s); best simple law {}",
-            stribeck_vs.unwrap_or(f64::NAN) * 1e3,
-            k.as_str()
-        ));
+        warnings.push(Warning::NoSimpleLaw {
+            stribeck_velocity_m_per_s: stribeck_vs,
+            best: k,
+        });
         cands.iter().find(|c| c.kind == k).map(to_law)
     } else {
         None
@@ -247,10 +246,7 @@ pub fn fit(
     if never_sticks {
         rs_upper = bounds::reversal_upper_bound(c, seg, &gauge, &chosen.coef);
         law.rs_n = f64::NAN;
-        warnings.push(
-            "M2 never sticks in this log: the static threshold is only bounded (rho_s_interval holds the bounds)"
-                .into(),
-        );
+        warnings.push(Warning::NeverSticks);
     }
     let n_periods = slip::period_of(c, c.r.len() as f64) + 1;
     let stat = bootstrap::bootstrap(&samples, &brks, chosen, n_periods, opts, never_sticks);
@@ -260,7 +256,7 @@ pub fn fit(
         .map(|k| k.f - k.dir * offset_at(&chosen.coef, k.k1, k.k2))
         .collect();
     if !never_sticks && brks.is_empty() {
-        warnings.push("no stick → slip transition could be located".into());
+        warnings.push(Warning::NoBreakaway);
     }
     Ok(EquationFit {
         law,
@@ -358,7 +354,7 @@ pub(crate) fn fit_forced(
 impl EquationFit {
     /// The fit of a stuck log: only a lower bound on Rs (every other
     /// parameter NaN); `kind` is the family asked for.
-    fn stuck(kind: LawKind, lower_bound_n: f64, n_slip: usize, warnings: Vec<String>) -> Self {
+    fn stuck(kind: LawKind, lower_bound_n: f64, n_slip: usize, warnings: Vec<Warning>) -> Self {
         let nan = f64::NAN;
         EquationFit {
             law: SiLaw {

@@ -7,6 +7,7 @@ use super::slip::{irls, rss, Sample};
 use super::{bic, offset_at};
 use crate::model::{LawKind, SiLaw};
 use crate::stats::median;
+use crate::warning::Warning;
 
 /// One family's robust slip fit.
 pub(super) struct Cand {
@@ -134,16 +135,13 @@ pub(super) fn choose(
     cands: &[Cand],
     criteria: &[(LawKind, f64)],
     never_sticks: bool,
-    warnings: &mut Vec<String>,
+    warnings: &mut Vec<Warning>,
 ) -> LawKind {
     let chosen = match asked {
         Some(k) if cands.iter().any(|c| c.kind == k) => k,
         Some(_) | None if criteria.is_empty() => LawKind::Coulomb,
         Some(k) => {
-            warnings.push(format!(
-                "law {} could not be fitted to this log; chose by BIC instead",
-                k.as_str()
-            ));
+            warnings.push(Warning::LawNotFitted { law: k });
             best_kind(criteria)
         }
         None => best_kind(criteria),

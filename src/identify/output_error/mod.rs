@@ -247,8 +247,8 @@ pub struct OutputErrorFit {
     pub adequacy: Adequacy,
     /// How strongly the data prefer the chosen family (None: one family).
     pub evidence: Option<Evidence>,
-    /// Notes on the choice (parsimony).
-    pub notes: Vec<String>,
+    /// Notes on the choice (parsimony), as warnings.
+    pub notes: Vec<crate::warning::Warning>,
 }
 
 /// Anchors at the middle of every stick run (ends excluded): M2 at rest,
@@ -704,9 +704,9 @@ impl Refinement {
                     out = self.conclude(&fits, forced, u, t0)?;
                 }
                 Ok(None) => {}
-                Err(e) => out.notes.push(format!(
-                    "the Stribeck family could not be refined ({e}); the best simple law is kept"
-                )),
+                Err(e) => out.notes.push(crate::warning::Warning::StribeckFailed {
+                    reason: e.to_string(),
+                }),
             }
         }
         Ok(out)
@@ -953,10 +953,7 @@ impl Refinement {
             };
             if let Some(c) = fits.iter().position(|f| f.kind == LawKind::Coulomb) {
                 if nested {
-                    notes.push(format!(
-                        "the {} family's extra parameter is consistent with Coulomb friction (its 95 % interval holds the nested value): Coulomb chosen",
-                        l.kind.as_str()
-                    ));
+                    notes.push(crate::warning::Warning::NestedCoulomb { law: l.kind });
                     best = c;
                     adequacy = self.adequacy(fits[c].kind, &fits[c].th, &fits[c].proj)?;
                     intervals = self

@@ -1,0 +1,1632 @@
+//! Warnings: things the user should know that did not stop a job.
+//!
+//! Every stage pushes [`Warning`]s, one variant per condition, carrying its
+//! numbers. [`Warning`]'s `Display` renders the message users read (and
+//! JSON's `warnings` holds); [`Warning::code`] gives a stable snake_case
+//! code (JSON's `warning_codes`, one per warning, in the same order) that
+//! scripts and the code itself match instead of the text. Several variants
+//! share a code where they are one kind of condition (every missing
+//! channel is `channel_absent`, every corrected lag `channel_delay`); the
+//! codes are listed in [`CODES`] and documented in `docs/interface.md`.
+//!
+//! The module depends on nothing above the model (it names a law by its
+//! [`LawKind`] and a channel by its name), so every stage can use it.
+
+use crate::model::LawKind;
+use std::fmt;
+use std::path::PathBuf;
+
+/// Every code [`Warning::code`] gives, each once.
+pub const CODES: &[&str] = &[
+    "option_ignored",
+    "channel_absent",
+    "dropouts",
+    "unknown_topic",
+    "unit_assumed",
+    "unfinished_segment",
+    "sample_rate",
+    "clipped",
+    "velocity_drift",
+    "velocity_gain",
+    "channel_delay",
+    "velocity_derived",
+    "acceleration_filled",
+    "velocity_distrusted",
+    "stuck",
+    "law_not_fitted",
+    "no_simple_law",
+    "never_sticks",
+    "no_breakaway",
+    "position_delay",
+    "refinement_failed",
+    "short_sticks",
+    "contradiction",
+    "law_changed",
+    "parsimony",
+    "untested",
+    "inadequate",
+    "normal_force",
+    "drive_amplitude",
+    "drive_frequency",
+    "bias_unknown",
+    "step_skipped",
+    "drive_shape",
+    "rig_mismatch",
+    "invalid_draws",
+    "band_precision",
+    "no_steady_state",
+    "recommendation_edge",
+    "no_cliff",
+    "no_recommendation",
+    "missing_steady_states",
+    "log_left_out",
+    "estimates_disagree",
+    "conflict",
+    "few_points",
+    "intercept",
+    "mu_d_above_mu_s",
+    "censored_disagrees",
+    "duplicate",
+    "same_record",
+];
+
+/// The largest residual structure named by [`Warning::Inadequate`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorstStructure {
+    /// `x1` or `x2`.
+    pub channel: &'static str,
+    /// What the residuals were binned against (`drive phase`, `velocity`, ...).
+    pub against: &'static str,
+    /// Size of the structure in units of the noise.
+    pub effect: f64,
+    /// χ² of the bin means per degree of freedom.
+    pub chi2_per_dof: f64,
+    /// Standard score of that χ².
+    pub z: f64,
+}
+
+/// One warning with its numbers. `Display` gives the message; [`Self::code`]
+/// its stable code.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Warning {
+    // ---- ingest ----
+    /// `--map` given for a log that is not CSV.
+    MapIgnored,
+    /// An optional channel of this quantity is absent (neither a2 nor v2).
+    ChannelAbsent {
+        /// The quantity's name.
+        channel: &'static str,
+    },
+    /// No accelerometer channel.
+    NoAccelerometer,
+    /// No velocity channel.
+    NoVelocityChannel,
+    /// An optional channel without a valid sample, dropped.
+    ChannelEmpty {
+        /// The channel as the log names it.
+        label: String,
+    },
+    /// An MCAP channel of an optional quantity without messages.
+    ChannelNoMessages {
+        /// The topic.
+        topic: String,
+        /// The quantity's name.
+        quantity: &'static str,
+    },
+    /// More than 5 % of a channel's samples are null.
+    ChannelNulls {
+        /// The channel's name.
+        channel: &'static str,
+        /// Null samples.
+        nulls: usize,
+        /// All samples.
+        samples: usize,
+    },
+    /// An MCAP topic that is no channel stickslip knows.
+    UnknownTopic {
+        /// The topic.
+        topic: String,
+    },
+    /// An MCAP channel without a unit: the quantity's SI unit is assumed.
+    UnitAssumed {
+        /// The topic.
+        topic: String,
+        /// The unit assumed.
+        unit: &'static str,
+    },
+    /// The last TDMS segment was not finished by its writer: the bytes of
+    /// its incomplete chunk are ignored.
+    UnfinishedSegment {
+        /// Byte offset of the segment.
+        byte: usize,
+        /// Bytes ignored.
+        ignored: u64,
+    },
+    /// An MCAP channel's buffers use different sample intervals.
+    MixedSampleIntervals {
+        /// The topic.
+        topic: String,
+        /// The shortest interval (ns).
+        min_ns: u64,
+        /// The longest interval (ns).
+        max_ns: u64,
+        /// The interval taken as nominal (the median, ns).
+        nominal_ns: u64,
+    },
+    /// An MCAP channel's `sample_rate_hz` disagrees with its `dt_ns`.
+    SampleRateMismatch {
+        /// The topic.
+        topic: String,
+        /// The stated rate (Hz).
+        rate_hz: f64,
+        /// The buffers' interval (ns), which is used.
+        dt_ns: u64,
+    },
+    /// A channel flat at one end of its range (a saturated sensor).
+    Clipped {
+        /// The channel's name.
+        channel: &'static str,
+        /// At its maximum (else its minimum).
+        high: bool,
+        /// The level (SI).
+        level: f64,
+        /// The channel's unit.
+        unit: &'static str,
+        /// Fraction of the samples clipped.
+        fraction: f64,
+        /// Samples clipped.
+        samples: usize,
+        /// Runs of clipped samples.
+        runs: usize,
+    },
+    /// The velocity channel's offset drifts (removed).
+    VelocityDrift {
+        /// The drift (m/s per s).
+        drift_m_per_s2: f64,
+        /// The log's duration (s).
+        span_s: f64,
+        /// 95 % half-width of the drift (m/s per s).
+        half_width_m_per_s2: f64,
+    },
+    /// The velocity channel's gain differs from that of d/dt x2.
+    VelocityGain {
+        /// v2 over d/dt x2.
+        gain: f64,
+    },
+    /// A channel's estimated shift against x1, applied.
+    ChannelDelay {
+        /// The channel's name.
+        channel: &'static str,
+        /// The shift applied beyond the declared one (s; negative: lags).
+        shift_s: f64,
+        /// 95 % interval of the channel's shift (s; NaN when unknown).
+        interval_s: (f64, f64),
+        /// The declared shift (s; 0: none).
+        declared_s: f64,
+    },
+    /// The velocity channel lags x2 (corrected by the identification).
+    VelocityLag {
+        /// The lag (s).
+        lag_s: f64,
+    },
+    /// The acceleration channel lags the velocity (corrected).
+    AccelerationLag {
+        /// The lag (s).
+        lag_s: f64,
+    },
+    // ---- identify ----
+    /// No velocity channel: ẋ2 is derived from x2.
+    VelocityDerived {
+        /// Savitzky–Golay half-window (samples).
+        half_window: usize,
+    },
+    /// Samples without accelerometer data use the differentiated velocity.
+    AccelerationFilled {
+        /// How many.
+        samples: usize,
+    },
+    /// The positions contradict the velocity channel's verdict.
+    VelocityDistrusted {
+        /// What the positions show.
+        why: String,
+    },
+    /// Too few slip samples: the log is reported as stuck.
+    FewSlipSamples {
+        /// Usable slip samples.
+        samples: usize,
+    },
+    /// The law asked for could not be fitted.
+    LawNotFitted {
+        /// The law asked for.
+        law: LawKind,
+    },
+    /// None of the simple laws fits (Stribeck-like residuals).
+    NoSimpleLaw {
+        /// The Stribeck velocity (m/s), if found.
+        stribeck_velocity_m_per_s: Option<f64>,
+        /// The best simple law.
+        best: LawKind,
+    },
+    /// M2 never sticks: Rs only bounded.
+    NeverSticks,
+    /// No stick → slip transition found.
+    NoBreakaway,
+    /// The position records lag the drive (fitted with the law).
+    PositionDelays {
+        /// x1's lag (s).
+        x1_s: f64,
+        /// Its 95 % interval (s).
+        x1_interval_s: (f64, f64),
+        /// x2's lag (s).
+        x2_s: f64,
+        /// Its 95 % interval (s).
+        x2_interval_s: (f64, f64),
+    },
+    /// The output-error refinement failed.
+    RefinementFailed {
+        /// Why.
+        reason: String,
+    },
+    /// The Stribeck family could not be refined.
+    StribeckFailed {
+        /// Why.
+        reason: String,
+    },
+    /// The output-error law sticks where the velocity showed no stick.
+    ShortSticks {
+        /// The output-error law.
+        law: LawKind,
+        /// Fraction of the time stuck.
+        stick_fraction: f64,
+        /// Stick phases.
+        stick_runs: usize,
+        /// Typical stick phase (s).
+        run_s: f64,
+    },
+    /// The never-sticks bounds on Rs contradict each other.
+    BoundsContradict {
+        /// Upper bound from the reversal forces (N).
+        upper_n: f64,
+        /// Lower bound from the sliding level (N).
+        lower_n: f64,
+        /// From the output-error estimate (no stick-free law explains the log).
+        output_error: bool,
+    },
+    /// The output-error refinement chose another law.
+    LawChanged {
+        /// The output-error law.
+        output_error: LawKind,
+        /// The equation-error law.
+        equation_error: LawKind,
+    },
+    /// A family's extra parameter is consistent with Coulomb: Coulomb chosen.
+    NestedCoulomb {
+        /// The family set aside.
+        law: LawKind,
+    },
+    /// The law was not checked against the positions.
+    Untested {
+        /// The law.
+        law: LawKind,
+    },
+    /// The law does not explain the log down to its noise.
+    Inadequate {
+        /// The law.
+        law: LawKind,
+        /// Residual / noise of x1 and x2.
+        noise_ratio: (f64, f64),
+        /// Residual / noise of the force, where known.
+        force_ratio: Option<f64>,
+        /// The adequacy limit of the noise ratios.
+        max_noise_ratio: f64,
+        /// The largest residual structure, if any counts.
+        worst: Option<WorstStructure>,
+        /// Factor the intervals are widened by.
+        inflation: f64,
+    },
+    /// The log's normal force is negative.
+    NormalForceNegative {
+        /// The normal force (N).
+        normal_force_n: f64,
+    },
+    /// The log's normal force is zero.
+    NormalForceZero,
+    /// A characteristic log's drive amplitude differs from the nominal.
+    DriveAmplitude {
+        /// Measured (m).
+        measured_m: f64,
+        /// Nominal (m).
+        nominal_m: f64,
+    },
+    /// The metadata's drive frequency contradicts the measured one.
+    DriveFrequency {
+        /// The metadata's (Hz).
+        metadata_hz: f64,
+        /// Measured (Hz).
+        measured_hz: f64,
+        /// The relative tolerance exceeded.
+        tolerance: f64,
+    },
+    /// The force bias is unknown (`characteristic`).
+    BiasUnknown,
+    // ---- validate ----
+    /// A sweep's drive amplitude differs from the nominal.
+    SweepDriveAmplitude {
+        /// Measured (m).
+        measured_m: f64,
+        /// Nominal (m).
+        nominal_m: f64,
+    },
+    /// A step whose drive could not be measured.
+    StepUnmeasured {
+        /// The step (1-based).
+        step: usize,
+        /// Its frequency (Hz).
+        frequency_hz: f64,
+    },
+    /// A step whose hold is shorter than one drive period.
+    StepTooShort {
+        /// The step (1-based).
+        step: usize,
+        /// Its frequency (Hz).
+        frequency_hz: f64,
+    },
+    /// A step where x1/x2 have too few samples.
+    StepFewSamples {
+        /// The step (1-based).
+        step: usize,
+        /// Its frequency (Hz).
+        frequency_hz: f64,
+        /// The window (s).
+        window_s: (f64, f64),
+    },
+    /// The drive departs from a slowly swept sinusoid.
+    DriveShape {
+        /// Residual (m RMS).
+        rms_m: f64,
+    },
+    /// A rig constant differs between the characteristic log and the sweep.
+    SweepRigMismatch {
+        /// The constant (`M1`, `M2`, `K1`, `K2`).
+        constant: &'static str,
+        /// The characteristic log's value.
+        characteristic: f64,
+        /// The sweep's value.
+        sweep: f64,
+    },
+    /// Drawn laws that were invalid.
+    InvalidDraws {
+        /// Invalid draws.
+        invalid: usize,
+        /// All draws.
+        draws: usize,
+    },
+    /// The replay band's coverages are less precise than the target.
+    BandImprecise {
+        /// The worst standard error (fraction).
+        standard_error: f64,
+        /// Drawn laws.
+        draws: usize,
+        /// The target (fraction).
+        target: f64,
+    },
+    /// No step reached its steady state.
+    NoSteadyState,
+    // ---- batch ----
+    /// The recommendation lies at the edge of the candidates.
+    RecommendationAtEdge,
+    /// No cliff found below the recommendation.
+    NoCliff {
+        /// Twice the recommendation's worst amplitude.
+        threshold: f64,
+        /// The lowest ρs searched.
+        rho_min: f64,
+    },
+    /// No normal force recommended.
+    NoRecommendation {
+        /// Why.
+        reason: String,
+    },
+    /// Steady states without amplitude left out of the worst case.
+    MissingSteadyStates {
+        /// How many.
+        missing: usize,
+    },
+    /// The logs' median drive amplitude differs from the one used for ρ.
+    BatchDriveAmplitude {
+        /// The logs' median measured amplitude (m).
+        measured_m: f64,
+        /// The amplitude used (m).
+        used_m: f64,
+    },
+    /// A log of the batch with a zero normal force.
+    LogNormalForceZero {
+        /// The log.
+        log: PathBuf,
+    },
+    /// A log without usable static-friction information.
+    NoStaticInformation {
+        /// The log.
+        log: PathBuf,
+    },
+    /// A log without a sliding level with an interval (left out of μd).
+    NoSlidingLevel {
+        /// The log.
+        log: PathBuf,
+    },
+    /// A log whose normal force is not positive (left out of the fits).
+    NormalForceNotPositive {
+        /// The log.
+        log: PathBuf,
+        /// Its normal force (N).
+        normal_force_n: f64,
+    },
+    /// A log's static-friction bounds are empty (left out of μs).
+    EmptyStaticBounds {
+        /// The log.
+        log: PathBuf,
+        /// Lower bound (N).
+        low_n: f64,
+        /// Upper bound (N).
+        high_n: f64,
+    },
+    /// A log's equation-error and output-error estimates disagree.
+    EstimatesDisagree {
+        /// The log.
+        log: PathBuf,
+        /// `Rs` or `Rd`.
+        quantity: &'static str,
+        /// The difference in standard deviations.
+        z: f64,
+    },
+    /// A conflict between the logs (also listed in `conflicts`).
+    Conflict {
+        /// What the conflict is.
+        what: String,
+    },
+    /// The logs contradict each other and the data do not say which is off.
+    UnresolvedConflict {
+        /// `μs` or `μd`.
+        quantity: &'static str,
+    },
+    /// μ without and with the conflicting logs.
+    ConflictSetAside {
+        /// `μs` or `μd`.
+        quantity: &'static str,
+        /// μ and its 95 % interval without the conflicting logs.
+        robust: (f64, f64, f64),
+        /// μ and its 95 % interval with every log.
+        all: (f64, f64, f64),
+    },
+    /// μs rests on few measured logs.
+    FewStaticPoints {
+        /// Measured logs.
+        points: usize,
+    },
+    /// A free fit's intercept is significant.
+    Intercept {
+        /// `μs` or `μd`.
+        quantity: &'static str,
+        /// The intercept (N).
+        intercept_n: f64,
+        /// Its 95 % half-width (N).
+        half_width_n: f64,
+    },
+    /// μd exceeds μs.
+    MuDAboveMuS {
+        /// μd.
+        mu_d: f64,
+        /// μs.
+        mu_s: f64,
+    },
+    /// A censored log's bound disagrees with the fitted μs.
+    CensoredDisagrees {
+        /// The log.
+        log: PathBuf,
+        /// The μs interval.
+        interval: (f64, f64),
+    },
+    /// A rig constant differs between the logs of a batch.
+    BatchRigMismatch {
+        /// The constant.
+        constant: &'static str,
+        /// The log that differs.
+        log: PathBuf,
+        /// Its value.
+        value: f64,
+        /// The first log.
+        reference_log: PathBuf,
+        /// Its value.
+        reference: f64,
+    },
+    // ---- pipeline ----
+    /// A file given twice.
+    DuplicateFile {
+        /// The file.
+        log: PathBuf,
+    },
+    /// Two files of the same test.
+    DuplicateTest {
+        /// The file set aside.
+        log: PathBuf,
+        /// The file kept.
+        of: PathBuf,
+        /// The shared `recorded_at`.
+        recorded_at: Option<String>,
+    },
+    /// Two files with one rig record whose data differ (both kept).
+    SameRecord {
+        /// The first file.
+        first: PathBuf,
+        /// The second file.
+        second: PathBuf,
+        /// Their normal forces (N).
+        normal_force_n: (f64, f64),
+        /// Their drive amplitudes (m).
+        drive_amplitude_m: (f64, f64),
+    },
+}
+
+impl Warning {
+    /// The stable snake_case code of this warning's kind (one of [`CODES`]).
+    pub fn code(&self) -> &'static str {
+        use Warning::*;
+        match self {
+            MapIgnored => "option_ignored",
+            ChannelAbsent { .. }
+            | NoAccelerometer
+            | NoVelocityChannel
+            | ChannelEmpty { .. }
+            | ChannelNoMessages { .. } => "channel_absent",
+            ChannelNulls { .. } => "dropouts",
+            UnknownTopic { .. } => "unknown_topic",
+            UnitAssumed { .. } => "unit_assumed",
+            UnfinishedSegment { .. } => "unfinished_segment",
+            MixedSampleIntervals { .. } | SampleRateMismatch { .. } => "sample_rate",
+            Clipped { .. } => "clipped",
+            VelocityDrift { .. } => "velocity_drift",
+            VelocityGain { .. } => "velocity_gain",
+            ChannelDelay { .. } | VelocityLag { .. } | AccelerationLag { .. } => "channel_delay",
+            VelocityDerived { .. } => "velocity_derived",
+            AccelerationFilled { .. } => "acceleration_filled",
+            VelocityDistrusted { .. } => "velocity_distrusted",
+            FewSlipSamples { .. } => "stuck",
+            LawNotFitted { .. } => "law_not_fitted",
+            NoSimpleLaw { .. } => "no_simple_law",
+            NeverSticks => "never_sticks",
+            NoBreakaway => "no_breakaway",
+            PositionDelays { .. } => "position_delay",
+            RefinementFailed { .. } | StribeckFailed { .. } => "refinement_failed",
+            ShortSticks { .. } => "short_sticks",
+            BoundsContradict { .. } => "contradiction",
+            LawChanged { .. } => "law_changed",
+            NestedCoulomb { .. } => "parsimony",
+            Untested { .. } => "untested",
+            Inadequate { .. } => "inadequate",
+            NormalForceNegative { .. } | NormalForceZero | LogNormalForceZero { .. } => {
+                "normal_force"
+            }
+            DriveAmplitude { .. } | SweepDriveAmplitude { .. } | BatchDriveAmplitude { .. } => {
+                "drive_amplitude"
+            }
+            DriveFrequency { .. } => "drive_frequency",
+            BiasUnknown => "bias_unknown",
+            StepUnmeasured { .. } | StepTooShort { .. } | StepFewSamples { .. } => "step_skipped",
+            DriveShape { .. } => "drive_shape",
+            SweepRigMismatch { .. } | BatchRigMismatch { .. } => "rig_mismatch",
+            InvalidDraws { .. } => "invalid_draws",
+            BandImprecise { .. } => "band_precision",
+            NoSteadyState => "no_steady_state",
+            RecommendationAtEdge => "recommendation_edge",
+            NoCliff { .. } => "no_cliff",
+            NoRecommendation { .. } => "no_recommendation",
+            MissingSteadyStates { .. } => "missing_steady_states",
+            NoStaticInformation { .. }
+            | NoSlidingLevel { .. }
+            | NormalForceNotPositive { .. }
+            | EmptyStaticBounds { .. } => "log_left_out",
+            EstimatesDisagree { .. } => "estimates_disagree",
+            Conflict { .. } | UnresolvedConflict { .. } | ConflictSetAside { .. } => "conflict",
+            FewStaticPoints { .. } => "few_points",
+            Intercept { .. } => "intercept",
+            MuDAboveMuS { .. } => "mu_d_above_mu_s",
+            CensoredDisagrees { .. } => "censored_disagrees",
+            DuplicateFile { .. } | DuplicateTest { .. } => "duplicate",
+            SameRecord { .. } => "same_record",
+        }
+    }
+}
+
+/// The codes of `warnings`, in order (JSON's `warning_codes`).
+pub fn codes(warnings: &[Warning]) -> Vec<&'static str> {
+    warnings.iter().map(Warning::code).collect()
+}
+
+/// The messages of `warnings`, in order (JSON's `warnings`, the report's).
+pub fn messages(warnings: &[Warning]) -> Vec<String> {
+    warnings.iter().map(ToString::to_string).collect()
+}
+
+impl fmt::Display for Warning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        use Warning::*;
+        match self {
+            MapIgnored => f.write_str("--map applies to CSV, TDMS and MAT logs only; ignored"),
+            ChannelAbsent { channel } => write!(f, "no {channel} channel"),
+            NoAccelerometer => f.write_str(
+                "no accelerometer channel (a2): acceleration must be derived from velocity",
+            ),
+            NoVelocityChannel => f.write_str(
+                "no velocity channel (v2): identification derives the velocity of M2 from x2",
+            ),
+            ChannelEmpty { label } => {
+                write!(f, "channel {label} has no valid sample; treated as absent")
+            }
+            ChannelNoMessages { topic, quantity } => {
+                write!(f, "channel {topic} ({quantity}) has no messages")
+            }
+            ChannelNulls {
+                channel,
+                nulls,
+                samples,
+            } => write!(f, "channel {channel} is null in {nulls} of {samples} samples"),
+            UnknownTopic { topic } => write!(f, "ignored unknown topic {topic}"),
+            UnitAssumed { topic, unit } => {
+                write!(f, "channel {topic} states no unit; {unit} assumed")
+            }
+            UnfinishedSegment { byte, ignored } => write!(
+                f,
+                "the last TDMS segment (at byte {byte}) was not finished by its writer: {ignored} bytes of an incomplete chunk ignored"
+            ),
+            MixedSampleIntervals {
+                topic,
+                min_ns,
+                max_ns,
+                nominal_ns,
+            } => write!(
+                f,
+                "channel {topic}: buffers use different sample intervals ({min_ns}..{max_ns} ns); {nominal_ns} ns taken as nominal"
+            ),
+            SampleRateMismatch {
+                topic,
+                rate_hz,
+                dt_ns,
+            } => write!(
+                f,
+                "channel {}: sample_rate_hz {} disagrees with dt_ns {} ({} Hz); dt_ns used",
+                topic,
+                rate_hz,
+                dt_ns,
+                1.0 / (*dt_ns as f64 * 1e-9)
+            ),
+            Clipped {
+                channel,
+                high,
+                level,
+                unit,
+                fraction,
+                samples,
+                runs,
+            } => write!(
+                f,
+                "clipped: {} flat at its {} ({:.4e} {}) in {:.1} % of the samples ({} samples in {} runs): saturated sensor or DAQ input; those samples are left out of every fit",
+                channel,
+                if *high { "maximum" } else { "minimum" },
+                level,
+                unit,
+                100.0 * fraction,
+                samples,
+                runs
+            ),
+            VelocityDrift {
+                drift_m_per_s2: drift,
+                span_s: span,
+                half_width_m_per_s2: half,
+            } => write!(
+                f,
+                "velocity channel v2: its offset drifts by {:.3} mm/s over the log ({:.4} ± {:.4} mm/s per s against d/dt x2); removed",
+                drift * span * 1e3,
+                drift * 1e3,
+                half * 1e3
+            ),
+            VelocityGain { gain } => write!(
+                f,
+                "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
+            ),
+            ChannelDelay {
+                channel,
+                shift_s: est,
+                interval_s: (lo, hi),
+                declared_s,
+            } => write!(
+                f,
+                "channel {} {} x1 by {:.2} ms (95 % interval of its shift {:.2} to {:.2} ms){}; corrected",
+                channel,
+                if *est < 0.0 { "lags" } else { "leads" },
+                est.abs() * 1e3,
+                lo * 1e3,
+                hi * 1e3,
+                if *declared_s != 0.0 {
+                    format!(" beyond the declared shift_s {:.2} ms", declared_s * 1e3)
+                } else {
+                    String::new()
+                }
+            ),
+            VelocityLag { lag_s } => write!(
+                f,
+                "velocity channel lags the position x2 by {:.2} ms; corrected",
+                lag_s * 1e3
+            ),
+            AccelerationLag { lag_s } => write!(
+                f,
+                "acceleration channel lags the velocity by {:.2} ms; corrected",
+                lag_s * 1e3
+            ),
+            VelocityDerived { half_window: half } => write!(
+                f,
+                "no velocity channel: ẋ2 derived from x2 (Savitzky–Golay derivative over ±{half} samples); its noise sets the stick detection threshold"
+            ),
+            AccelerationFilled { samples } => write!(
+                f,
+                "{samples} samples without accelerometer data use the differentiated velocity"
+            ),
+            VelocityDistrusted { why } => write!(
+                f,
+                "{why}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2"
+            ),
+            FewSlipSamples { samples } => write!(
+                f,
+                "M2 slid in only {samples} usable samples: reported as stuck"
+            ),
+            LawNotFitted { law } => write!(
+                f,
+                "law {} could not be fitted to this log; chose by BIC instead",
+                law.as_str()
+            ),
+            NoSimpleLaw {
+                stribeck_velocity_m_per_s: vs,
+                best,
+            } => write!(
+                f,
+                "none of the simple laws fits: residuals are structured (Stribeck-like peak near zero velocity, v_s = {:.2} mm/s); best simple law {}",
+                vs.unwrap_or(f64::NAN) * 1e3,
+                best.as_str()
+            ),
+            NeverSticks => f.write_str(
+                "M2 never sticks in this log: the static threshold is only bounded (rho_s_interval holds the bounds)",
+            ),
+            NoBreakaway => f.write_str("no stick → slip transition could be located"),
+            PositionDelays {
+                x1_s: d1,
+                x1_interval_s: i1,
+                x2_s: d2,
+                x2_interval_s: i2,
+            } => write!(
+                f,
+                "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
+                 (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",
+                d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
+            ),
+            RefinementFailed { reason } => write!(
+                f,
+                "output-error refinement not possible ({reason}); the equation-error estimate is used"
+            ),
+            StribeckFailed { reason } => write!(
+                f,
+                "the Stribeck family could not be refined ({reason}); the best simple law is kept"
+            ),
+            ShortSticks {
+                law,
+                stick_fraction,
+                stick_runs,
+                run_s,
+            } => write!(
+                f,
+                "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
+                law.as_str(),
+                100.0 * stick_fraction,
+                stick_runs,
+                run_s * 1e3
+            ),
+            BoundsContradict {
+                upper_n: ub,
+                lower_n: lo,
+                output_error,
+            } => {
+                write!(
+                    f,
+                    "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N"
+                )?;
+                if *output_error {
+                    f.write_str("; no stick-free law explains this log")?;
+                }
+                Ok(())
+            }
+            LawChanged {
+                output_error,
+                equation_error,
+            } => write!(
+                f,
+                "the output-error refinement chose the law {} (equation error: {})",
+                output_error.as_str(),
+                equation_error.as_str()
+            ),
+            NestedCoulomb { law } => write!(
+                f,
+                "the {} family's extra parameter is consistent with Coulomb friction (its 95 % interval holds the nested value): Coulomb chosen",
+                law.as_str()
+            ),
+            Untested { law } => write!(
+                f,
+                "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
+                law.as_str()
+            ),
+            Inadequate {
+                law,
+                noise_ratio,
+                force_ratio,
+                max_noise_ratio,
+                worst,
+                inflation,
+            } => {
+                let worst = worst.map_or(String::new(), |st| {
+                    format!(
+                        "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
+                        st.channel, st.against, st.effect, st.chi2_per_dof, st.z
+                    )
+                });
+                write!(
+                    f,
+                    "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
+                    law.as_str(),
+                    noise_ratio.0,
+                    noise_ratio.1,
+                    force_ratio.map_or(String::new(), |r| format!(", force {r:.2}")),
+                    max_noise_ratio,
+                    inflation
+                )
+            }
+            NormalForceNegative { normal_force_n } => write!(
+                f,
+                "the normal force is negative ({normal_force_n} N): a sign or unit mistake in the log? Friction coefficients from it would be meaningless (batch refuses it)"
+            ),
+            NormalForceZero => f.write_str(
+                "the normal force is zero: the friction member may be off; no friction coefficient (μ) can be formed",
+            ),
+            DriveAmplitude {
+                measured_m,
+                nominal_m,
+            } => write!(
+                f,
+                "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; ρ uses the measured one",
+                measured_m * 1e3,
+                nominal_m * 1e3,
+                (measured_m / nominal_m - 1.0) * 100.0
+            ),
+            DriveFrequency {
+                metadata_hz: meta,
+                measured_hz: measured,
+                tolerance,
+            } => write!(
+                f,
+                "the metadata's drive frequency {meta} Hz contradicts the measured {measured:.4} Hz (by {:+.1} %, more than {} %); η and the fit use the measured one",
+                (meta / measured - 1.0) * 100.0,
+                tolerance * 100.0
+            ),
+            BiasUnknown => f.write_str(
+                "force bias unknown (M2 never slid): R includes the sensors' offsets",
+            ),
+            SweepDriveAmplitude {
+                measured_m,
+                nominal_m,
+            } => write!(
+                f,
+                "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
+                measured_m * 1e3,
+                nominal_m * 1e3,
+                (measured_m / nominal_m - 1.0) * 100.0
+            ),
+            StepUnmeasured { step, frequency_hz } => write!(
+                f,
+                "step {step} ({frequency_hz} Hz): the drive channel has too few samples to measure it"
+            ),
+            StepTooShort { step, frequency_hz } => write!(
+                f,
+                "step {step} ({frequency_hz:.3} Hz): the hold is shorter than one drive period"
+            ),
+            StepFewSamples {
+                step,
+                frequency_hz,
+                window_s,
+            } => write!(
+                f,
+                "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
+                step, frequency_hz, window_s.0, window_s.1
+            ),
+            DriveShape { rms_m } => write!(
+                f,
+                "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
+                rms_m * 1e6
+            ),
+            SweepRigMismatch {
+                constant,
+                characteristic,
+                sweep,
+            } => write!(
+                f,
+                "rig constant {constant} differs between the characteristic log ({characteristic}) and the sweep ({sweep}): are they from the same rig?"
+            ),
+            InvalidDraws { invalid, draws } => {
+                write!(f, "{invalid} of {draws} drawn laws were invalid and skipped")
+            }
+            BandImprecise {
+                standard_error,
+                draws,
+                target,
+            } => write!(
+                f,
+                "the replay band's coverages are known to ±{:.1} percentage points (bootstrap standard error over {} drawn laws), more than the target ±{:.1}: draw more laws (--samples) for a more precise band",
+                100.0 * standard_error,
+                draws,
+                100.0 * target
+            ),
+            NoSteadyState => f.write_str(
+                "no step reached its steady state: the steady-state scores are null",
+            ),
+            RecommendationAtEdge => f.write_str(
+                "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max",
+            ),
+            NoCliff { threshold, rho_min } => write!(
+                f,
+                "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {rho_min}"
+            ),
+            NoRecommendation { reason } => write!(f, "no normal force recommended: {reason}"),
+            MissingSteadyStates { missing } => write!(
+                f,
+                "{missing} steady states without amplitude (interrupted or resonant) were left out of the worst case"
+            ),
+            BatchDriveAmplitude { measured_m, used_m } => write!(
+                f,
+                "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
+                measured_m * 1e3,
+                used_m * 1e3
+            ),
+            LogNormalForceZero { log } => write!(
+                f,
+                "{}: the normal force is zero (the friction member may be off): its μ is null",
+                log.display()
+            ),
+            NoStaticInformation { log } => write!(
+                f,
+                "{}: no usable static-friction information (no estimate, bound or interval)",
+                log.display()
+            ),
+            NoSlidingLevel { log } => write!(
+                f,
+                "{}: no usable sliding level with an interval: left out of μd",
+                log.display()
+            ),
+            NormalForceNotPositive {
+                log,
+                normal_force_n: n,
+            } => write!(
+                f,
+                "{}: measured normal force {n} N is not positive: left out of the fits",
+                log.display()
+            ),
+            EmptyStaticBounds { log, low_n, high_n } => write!(
+                f,
+                "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
+                log.display()
+            ),
+            EstimatesDisagree { log, quantity: q, z } => write!(
+                f,
+                "{}: its equation-error and output-error {q} differ by {z:.1}σ: the log's {q} is in doubt",
+                log.display()
+            ),
+            Conflict { what } => write!(f, "conflict: {what}"),
+            UnresolvedConflict { quantity: sym } => write!(
+                f,
+                "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
+            ),
+            ConflictSetAside {
+                quantity: sym,
+                robust,
+                all,
+            } => write!(
+                f,
+                "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
+                robust.0, robust.1, robust.2, all.0, all.1, all.2
+            ),
+            FewStaticPoints { points } => write!(
+                f,
+                "μs rests on {points} measured log(s) (the others only bound it): its interval is wide"
+            ),
+            Intercept {
+                quantity: name,
+                intercept_n: a,
+                half_width_n: hw,
+            } => write!(
+                f,
+                "{name}: the free fit's intercept {a:.4} N is significant (95 % half-width {hw:.4} N): the forces are not proportional to the measured normal force (normal-force offset?)"
+            ),
+            MuDAboveMuS { mu_d, mu_s } => write!(
+                f,
+                "μd = {mu_d:.4} exceeds μs = {mu_s:.4}: the recommendation uses ρd = ρs"
+            ),
+            CensoredDisagrees { log, interval } => write!(
+                f,
+                "{}: its bound on Rs disagrees with the fitted μs interval [{:.4}, {:.4}]",
+                log.display(),
+                interval.0,
+                interval.1
+            ),
+            BatchRigMismatch {
+                constant,
+                log,
+                value,
+                reference_log,
+                reference,
+            } => write!(
+                f,
+                "rig constant {constant} of {} ({value}) differs from {} ({reference}): a batch should be one pad on one rig",
+                log.display(),
+                reference_log.display()
+            ),
+            DuplicateFile { log } => write!(f, "{} is given twice: counted once", log.display()),
+            DuplicateTest {
+                log,
+                of,
+                recorded_at,
+            } => write!(
+                f,
+                "{} is the same test as {} (same rig record, recorded_at {}, same measured normal force and drive): counted once",
+                log.display(),
+                of.display(),
+                recorded_at.as_deref().unwrap_or("?")
+            ),
+            SameRecord {
+                first,
+                second,
+                normal_force_n: n,
+                drive_amplitude_m: a,
+            } => write!(
+                f,
+                "{} and {} carry the same rig record and recorded_at but their data differ (normal force {:.3} / {:.3} N, drive {:.4} / {:.4} mm): kept as two tests",
+                first.display(),
+                second.display(),
+                n.0,
+                n.1,
+                a.0 * 1e3,
+                a.1 * 1e3
+            ),
+        }
+    }
+}
+
+/// Serialized as its message (JSON's `warnings` stays a list of strings;
+/// the codes go beside it as `warning_codes`).
+impl serde::Serialize for Warning {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::{BTreeMap, BTreeSet};
+
+    /// One of each variant, with the message the stages wrote before the
+    /// warnings were typed (their format strings and arguments, copied):
+    /// the messages must not change. (The old arguments are kept as they
+    /// were written, nested `format!`s and casts included.)
+    #[allow(
+        clippy::format_in_format_args,
+        clippy::unnecessary_cast,
+        clippy::unnecessary_literal_unwrap
+    )]
+    fn examples() -> Vec<(Warning, String)> {
+        use Warning::*;
+        let p = PathBuf::from("logs/a.mcap");
+        let q = PathBuf::from("logs/b.mcap");
+        let (x, y, z) = (1.234_567_8_f64, -0.004_321_f64, 2.5e-3_f64);
+        let s = LawKind::StaticDynamic;
+        let c = LawKind::Coulomb;
+        let topic = "/mass2/velocity";
+        let label = "/daq/v2";
+        let (half, filled, n) = (7usize, 101usize, 12usize);
+        vec![
+            (MapIgnored, "--map applies to CSV, TDMS and MAT logs only; ignored".to_string()),
+            (
+                UnfinishedSegment {
+                    byte: 1234,
+                    ignored: 12,
+                },
+                "the last TDMS segment (at byte 1234) was not finished by its writer: 12 bytes of an incomplete chunk ignored".to_string(),
+            ),
+            (ChannelAbsent { channel: "x0" }, format!("no {} channel", "x0")),
+            (
+                NoAccelerometer,
+                "no accelerometer channel (a2): acceleration must be derived from velocity"
+                    .to_string(),
+            ),
+            (
+                NoVelocityChannel,
+                "no velocity channel (v2): identification derives the velocity of M2 from x2"
+                    .to_string(),
+            ),
+            (
+                ChannelEmpty { label: label.into() },
+                format!("channel {label} has no valid sample; treated as absent"),
+            ),
+            (
+                ChannelNoMessages { topic: topic.into(), quantity: "v2" },
+                format!("channel {} ({}) has no messages", topic, "v2"),
+            ),
+            (
+                ChannelNulls { channel: "x1", nulls: n, samples: 200 },
+                format!("channel {} is null in {n} of {} samples", "x1", 200),
+            ),
+            (
+                UnknownTopic { topic: topic.into() },
+                format!("ignored unknown topic {topic}"),
+            ),
+            (
+                UnitAssumed { topic: topic.into(), unit: "m/s" },
+                format!("channel {topic} states no unit; {} assumed", "m/s"),
+            ),
+            (
+                MixedSampleIntervals { topic: topic.into(), min_ns: 999_000, max_ns: 1_001_000, nominal_ns: 1_000_000 },
+                format!(
+                    "channel {}: buffers use different sample intervals ({}..{} ns); {} ns taken as nominal",
+                    topic, 999_000u64, 1_001_000u64, 1_000_000u64
+                ),
+            ),
+            (
+                SampleRateMismatch { topic: topic.into(), rate_hz: 1000.0, dt_ns: 1_100_000 },
+                format!(
+                    "channel {}: sample_rate_hz {} disagrees with dt_ns {} ({} Hz); dt_ns used",
+                    topic,
+                    1000.0,
+                    1_100_000u64,
+                    1.0 / (1_100_000u64 as f64 * 1e-9)
+                ),
+            ),
+            (
+                Clipped { channel: "x1", high: true, level: x, unit: "m", fraction: 0.15, samples: 300, runs: 4 },
+                format!(
+                    "clipped: {} flat at its {} ({:.4e} {}) in {:.1} % of the samples ({} samples in {} runs): saturated sensor or DAQ input; those samples are left out of every fit",
+                    "x1", "maximum", x, "m", 100.0 * 0.15, 300, 4
+                ),
+            ),
+            (
+                VelocityDrift { drift_m_per_s2: y, span_s: 20.0, half_width_m_per_s2: z },
+                format!(
+                    "velocity channel v2: its offset drifts by {:.3} mm/s over the log ({:.4} ± {:.4} mm/s per s against d/dt x2); removed",
+                    y * 20.0 * 1e3,
+                    y * 1e3,
+                    z * 1e3
+                ),
+            ),
+            (
+                VelocityGain { gain: x },
+                format!(
+                    "velocity channel v2: its gain is {:.3} times that of d/dt x2; not corrected (x2 sets the scale)",
+                    x
+                ),
+            ),
+            (
+                ChannelDelay { channel: "x2", shift_s: -0.003, interval_s: (-0.0035, -0.0025), declared_s: 0.001 },
+                format!(
+                    "channel {} {} x1 by {:.2} ms (95 % interval of its shift {:.2} to {:.2} ms){}; corrected",
+                    "x2",
+                    "lags",
+                    0.003 * 1e3,
+                    -0.0035 * 1e3,
+                    -0.0025 * 1e3,
+                    format!(" beyond the declared shift_s {:.2} ms", 0.001 * 1e3)
+                ),
+            ),
+            (
+                VelocityLag { lag_s: z },
+                format!("velocity channel lags the position x2 by {:.2} ms; corrected", z * 1e3),
+            ),
+            (
+                AccelerationLag { lag_s: z },
+                format!("acceleration channel lags the velocity by {:.2} ms; corrected", z * 1e3),
+            ),
+            (
+                VelocityDerived { half_window: half },
+                format!("no velocity channel: ẋ2 derived from x2 (Savitzky–Golay derivative over ±{half} samples); its noise sets the stick detection threshold"),
+            ),
+            (
+                AccelerationFilled { samples: filled },
+                format!("{filled} samples without accelerometer data use the differentiated velocity"),
+            ),
+            (
+                VelocityDistrusted { why: "x2 moves".into() },
+                format!("{}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2", "x2 moves"),
+            ),
+            (
+                FewSlipSamples { samples: n },
+                format!("M2 slid in only {} usable samples: reported as stuck", n),
+            ),
+            (
+                LawNotFitted { law: s },
+                format!("law {} could not be fitted to this log; chose by BIC instead", s.as_str()),
+            ),
+            (
+                NoSimpleLaw { stribeck_velocity_m_per_s: Some(0.008), best: s },
+                format!(
+                    "none of the simple laws fits: residuals are structured (Stribeck-like peak near zero velocity, v_s = {:.2} mm/s); best simple law {}",
+                    Some(0.008).unwrap_or(f64::NAN) * 1e3,
+                    s.as_str()
+                ),
+            ),
+            (
+                NeverSticks,
+                "M2 never sticks in this log: the static threshold is only bounded (rho_s_interval holds the bounds)".to_string(),
+            ),
+            (NoBreakaway, "no stick → slip transition could be located".to_string()),
+            (
+                PositionDelays { x1_s: z, x1_interval_s: (0.002, 0.003), x2_s: y, x2_interval_s: (-0.005, -0.004) },
+                format!(
+                    "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
+                     (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",
+                    z * 1e3, 0.002 * 1e3, 0.003 * 1e3, y * 1e3, -0.005 * 1e3, -0.004 * 1e3
+                ),
+            ),
+            (
+                RefinementFailed { reason: "too few sticks".into() },
+                format!("output-error refinement not possible ({}); the equation-error estimate is used", "too few sticks"),
+            ),
+            (
+                StribeckFailed { reason: "no data".into() },
+                format!("the Stribeck family could not be refined ({}); the best simple law is kept", "no data"),
+            ),
+            (
+                ShortSticks { law: s, stick_fraction: 0.0312, stick_runs: 40, run_s: 0.0123 },
+                format!(
+                    "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
+                    s.as_str(),
+                    100.0 * 0.0312,
+                    40,
+                    0.0123 * 1e3
+                ),
+            ),
+            (
+                BoundsContradict { upper_n: x, lower_n: 1.3, output_error: true },
+                format!(
+                    "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {:.4} N, the sliding level below by {:.4} N; no stick-free law explains this log",
+                    x, 1.3
+                ),
+            ),
+            (
+                BoundsContradict { upper_n: x, lower_n: 1.3, output_error: false },
+                format!(
+                    "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {:.4} N, the sliding level below by {:.4} N",
+                    x, 1.3
+                ),
+            ),
+            (
+                LawChanged { output_error: c, equation_error: s },
+                format!(
+                    "the output-error refinement chose the law {} (equation error: {})",
+                    c.as_str(),
+                    s.as_str()
+                ),
+            ),
+            (
+                NestedCoulomb { law: s },
+                format!(
+                    "the {} family's extra parameter is consistent with Coulomb friction (its 95 % interval holds the nested value): Coulomb chosen",
+                    s.as_str()
+                ),
+            ),
+            (
+                Untested { law: s },
+                format!(
+                    "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
+                    s.as_str()
+                ),
+            ),
+            (
+                Inadequate {
+                    law: s,
+                    noise_ratio: (2.5, 1.25),
+                    force_ratio: Some(3.125),
+                    max_noise_ratio: 2.0,
+                    worst: Some(WorstStructure { channel: "x2", against: "velocity", effect: 0.75, chi2_per_dof: 4.25, z: 9.5 }),
+                    inflation: 1.875,
+                },
+                format!(
+                    "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){}; the statistical intervals are widened ×{:.2}",
+                    s.as_str(),
+                    2.5,
+                    1.25,
+                    format!(", force {:.2}", 3.125),
+                    2.0,
+                    format!(
+                        "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
+                        "x2", "velocity", 0.75, 4.25, 9.5
+                    ),
+                    1.875
+                ),
+            ),
+            (
+                Inadequate { law: c, noise_ratio: (2.5, 1.25), force_ratio: None, max_noise_ratio: 2.0, worst: None, inflation: 1.875 },
+                format!(
+                    "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){}; the statistical intervals are widened ×{:.2}",
+                    c.as_str(), 2.5, 1.25, "", 2.0, "", 1.875
+                ),
+            ),
+            (
+                NormalForceNegative { normal_force_n: -x },
+                format!(
+                    "the normal force is negative ({} N): a sign or unit mistake in the log? Friction coefficients from it would be meaningless (batch refuses it)",
+                    -x
+                ),
+            ),
+            (
+                NormalForceZero,
+                "the normal force is zero: the friction member may be off; no friction coefficient (μ) can be formed".to_string(),
+            ),
+            (
+                DriveAmplitude { measured_m: 0.002_527, nominal_m: 0.0025 },
+                format!(
+                    "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; ρ uses the measured one",
+                    0.002_527 * 1e3,
+                    0.0025 * 1e3,
+                    (0.002_527 / 0.0025 - 1.0) * 100.0
+                ),
+            ),
+            (
+                DriveFrequency { metadata_hz: 10.0, measured_hz: 10.5, tolerance: 0.02 },
+                format!(
+                    "the metadata's drive frequency {} Hz contradicts the measured {:.4} Hz (by {:+.1} %, more than {} %); η and the fit use the measured one",
+                    10.0,
+                    10.5,
+                    (10.0 / 10.5 - 1.0) * 100.0,
+                    0.02 * 100.0
+                ),
+            ),
+            (BiasUnknown, "force bias unknown (M2 never slid): R includes the sensors' offsets".to_string()),
+            (
+                SweepDriveAmplitude { measured_m: 0.002_454_8, nominal_m: 0.0025 },
+                format!(
+                    "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
+                    0.002_454_8 * 1e3,
+                    0.0025 * 1e3,
+                    (0.002_454_8 / 0.0025 - 1.0) * 100.0
+                ),
+            ),
+            (
+                StepUnmeasured { step: 3, frequency_hz: 10.25 },
+                format!("step {} ({} Hz): the drive channel has too few samples to measure it", 3, 10.25),
+            ),
+            (
+                StepTooShort { step: 3, frequency_hz: x },
+                format!("step {} ({:.3} Hz): the hold is shorter than one drive period", 3, x),
+            ),
+            (
+                StepFewSamples { step: 3, frequency_hz: x, window_s: (1.5, 2.25) },
+                format!("step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s", 3, x, 1.5, 2.25),
+            ),
+            (
+                DriveShape { rms_m: z },
+                format!(
+                    "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
+                    z * 1e6
+                ),
+            ),
+            (
+                SweepRigMismatch { constant: "K2", characteristic: 1000.0, sweep: 1100.5 },
+                format!(
+                    "rig constant {} differs between the characteristic log ({}) and the sweep ({}): are they from the same rig?",
+                    "K2", 1000.0, 1100.5
+                ),
+            ),
+            (
+                InvalidDraws { invalid: 2, draws: 200 },
+                format!("{} of {} drawn laws were invalid and skipped", 2, 200),
+            ),
+            (
+                BandImprecise { standard_error: 0.0234, draws: 60, target: 0.01 },
+                format!(
+                    "the replay band's coverages are known to ±{:.1} percentage points (bootstrap standard error over {} drawn laws), more than the target ±{:.1}: draw more laws (--samples) for a more precise band",
+                    100.0 * 0.0234,
+                    60,
+                    100.0 * 0.01
+                ),
+            ),
+            (NoSteadyState, "no step reached its steady state: the steady-state scores are null".to_string()),
+            (
+                RecommendationAtEdge,
+                "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max".to_string(),
+            ),
+            (
+                NoCliff { threshold: x, rho_min: 0.05 },
+                format!(
+                    "no cliff found: W stays below twice the recommendation's ({:.3}) down to ρs = {}",
+                    x, 0.05
+                ),
+            ),
+            (
+                NoRecommendation { reason: "no box".into() },
+                format!("no normal force recommended: {}", "no box"),
+            ),
+            (
+                MissingSteadyStates { missing: 5 },
+                format!("{} steady states without amplitude (interrupted or resonant) were left out of the worst case", 5),
+            ),
+            (
+                BatchDriveAmplitude { measured_m: 0.0026, used_m: 0.0025 },
+                format!(
+                    "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
+                    0.0026 * 1e3,
+                    0.0025 * 1e3
+                ),
+            ),
+            (
+                LogNormalForceZero { log: p.clone() },
+                format!("{}: the normal force is zero (the friction member may be off): its μ is null", p.display()),
+            ),
+            (
+                NoStaticInformation { log: p.clone() },
+                format!("{}: no usable static-friction information (no estimate, bound or interval)", p.display()),
+            ),
+            (
+                NoSlidingLevel { log: p.clone() },
+                format!("{}: no usable sliding level with an interval: left out of μd", p.display()),
+            ),
+            (
+                NormalForceNotPositive { log: p.clone(), normal_force_n: -x },
+                format!("{}: measured normal force {} N is not positive: left out of the fits", p.display(), -x),
+            ),
+            (
+                EmptyStaticBounds { log: p.clone(), low_n: 1.5, high_n: x },
+                format!(
+                    "{}: static-friction bounds are empty ({:.4} N ≥ {:.4} N): the log contradicts its own never-sticks call; left out of μs",
+                    p.display(), 1.5, x
+                ),
+            ),
+            (
+                EstimatesDisagree { log: p.clone(), quantity: "Rs", z: 2.345 },
+                format!(
+                    "{}: its equation-error and output-error {q} differ by {:.1}σ: the log's {q} is in doubt",
+                    p.display(),
+                    2.345,
+                    q = "Rs"
+                ),
+            ),
+            (
+                Conflict { what: "μs: scatter".into() },
+                format!("conflict: {}", "μs: scatter"),
+            ),
+            (
+                UnresolvedConflict { quantity: "μd" },
+                format!(
+                    "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter",
+                    sym = "μd"
+                ),
+            ),
+            (
+                ConflictSetAside { quantity: "μs", robust: (0.41, 0.4, 0.42), all: (0.43, 0.39, 0.47) },
+                format!(
+                    "{}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
+                    "μs", 0.41, 0.4, 0.42, 0.43, 0.39, 0.47
+                ),
+            ),
+            (
+                FewStaticPoints { points: 1 },
+                format!("μs rests on {} measured log(s) (the others only bound it): its interval is wide", 1),
+            ),
+            (
+                Intercept { quantity: "μd", intercept_n: y, half_width_n: z },
+                format!(
+                    "{}: the free fit's intercept {:.4} N is significant (95 % half-width {:.4} N): the forces are not proportional to the measured normal force (normal-force offset?)",
+                    "μd", y, z
+                ),
+            ),
+            (
+                MuDAboveMuS { mu_d: 0.45, mu_s: 0.4 },
+                format!("μd = {:.4} exceeds μs = {:.4}: the recommendation uses ρd = ρs", 0.45, 0.4),
+            ),
+            (
+                CensoredDisagrees { log: p.clone(), interval: (0.4, 0.42) },
+                format!(
+                    "{}: its bound on Rs disagrees with the fitted μs interval [{:.4}, {:.4}]",
+                    p.display(), 0.4, 0.42
+                ),
+            ),
+            (
+                BatchRigMismatch { constant: "nominal A", log: q.clone(), value: 0.0026, reference_log: p.clone(), reference: 0.0025 },
+                format!(
+                    "rig constant {} of {} ({}) differs from {} ({}): a batch should be one pad on one rig",
+                    "nominal A", q.display(), 0.0026, p.display(), 0.0025
+                ),
+            ),
+            (DuplicateFile { log: q.clone() }, format!("{} is given twice: counted once", q.display())),
+            (
+                DuplicateTest { log: q.clone(), of: p.clone(), recorded_at: None },
+                format!(
+                    "{} is the same test as {} (same rig record, recorded_at {}, same measured normal force and drive): counted once",
+                    q.display(), p.display(), "?"
+                ),
+            ),
+            (
+                SameRecord { first: p.clone(), second: q.clone(), normal_force_n: (4.0, 4.5), drive_amplitude_m: (0.0025, 0.0026) },
+                format!(
+                    "{} and {} carry the same rig record and recorded_at but their data differ (normal force {:.3} / {:.3} N, drive {:.4} / {:.4} mm): kept as two tests",
+                    p.display(), q.display(), 4.0, 4.5, 0.0025 * 1e3, 0.0026 * 1e3
+                ),
+            ),
+        ]
+    }
+
+    #[test]
+    fn every_variant_renders_its_old_message() {
+        for (w, old) in examples() {
+            assert_eq!(w.to_string(), old, "{w:?}");
+            // And serializes as that message.
+            assert_eq!(serde_json::to_value(&w).unwrap(), old.as_str());
+        }
+    }
+
+    #[test]
+    fn codes_are_snake_case_listed_once_and_all_used() {
+        let snake = |c: &str| {
+            !c.is_empty()
+                && c.starts_with(|ch: char| ch.is_ascii_lowercase())
+                && !c.ends_with('_')
+                && !c.contains("__")
+                && c.chars().all(|ch| ch.is_ascii_lowercase() || ch == '_')
+        };
+        let listed: BTreeSet<&str> = CODES.iter().copied().collect();
+        assert_eq!(listed.len(), CODES.len(), "a code is listed twice");
+        for c in CODES {
+            assert!(snake(c), "{c} is not snake_case");
+        }
+        // Every variant (the examples hold one of each: counted by their
+        // discriminants) has a listed code, and every listed code is used.
+        let ex = examples();
+        let kinds: BTreeMap<String, &str> = ex
+            .iter()
+            .map(|(w, _)| {
+                let name = format!("{w:?}");
+                let name = name
+                    .split(|c: char| !c.is_alphanumeric())
+                    .next()
+                    .unwrap_or_default()
+                    .to_string();
+                (name, w.code())
+            })
+            .collect();
+        assert_eq!(kinds.len(), VARIANTS, "one example per variant");
+        let used: BTreeSet<&str> = kinds.values().copied().collect();
+        for c in &used {
+            assert!(listed.contains(c), "{c} is not in CODES");
+        }
+        assert_eq!(used, listed, "listed codes that no variant gives");
+    }
+
+    /// The number of variants of [`Warning`] (a new variant needs an
+    /// example above, a code, and a line in `docs/interface.md`).
+    const VARIANTS: usize = 71;
+
+    #[test]
+    fn every_code_is_documented() {
+        let doc = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/interface.md"),
+        )
+        .expect("docs/interface.md");
+        for c in CODES {
+            assert!(
+                doc.contains(&format!("| `{c}` |")),
+                "{c} has no row in docs/interface.md's table of warning codes"
+            );
+        }
+    }
+}
