@@ -52,7 +52,7 @@ studies:
     python3 scripts/adequacy_eval.py target/adequacy-study target/release/stickslip
     cargo test --release --test fit_synth -- --ignored --nocapture
     cargo test --release --test identify_roundtrip -- --ignored --nocapture
-    cargo test --release --test identify_issue14 -- --ignored --nocapture
+    cargo test --release --test identify_other_rigs -- --ignored --nocapture
     cargo test --release --test defects -- --ignored --nocapture
 
 # Mutation-fuzz the ingest parsers and the channel-map parser, 300 s each

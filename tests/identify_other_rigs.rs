@@ -1,4 +1,4 @@
-//! Identification on logs it was not tuned on (issue 14), built with the
+//! Identification on logs it was not tuned on (first asked in issue 14), built with the
 //! virtual rig (`stickslip synth`'s library): another rig (M2 = 1.5 kg,
 //! K2 = 800 N/m, drive 2 mm), short sticks at reversal, no accelerometer,
 //! a noisy velocity channel (1–2 mm/s), no velocity channel at all,
