@@ -262,6 +262,11 @@ pub enum Warning {
         x2_s: f64,
         /// Its 95 % interval (s).
         x2_interval_s: (f64, f64),
+        /// `None`: fitted because the law without lags did not explain the
+        /// log; `Some(ΔBIC)`: the law without lags explained it to the
+        /// noise, but its residuals followed the velocity or the drive
+        /// phase and the lags lowered the BIC by this much.
+        delta_bic: Option<f64>,
     },
     /// The output-error refinement failed.
     RefinementFailed {
@@ -802,12 +807,22 @@ impl fmt::Display for Warning {
                 x1_interval_s: i1,
                 x2_s: d2,
                 x2_interval_s: i2,
-            } => write!(
-                f,
-                "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
-                 (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",
-                d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
-            ),
+                delta_bic,
+            } => {
+                write!(
+                    f,
+                    "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] ",
+                    d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
+                )?;
+                match delta_bic {
+                    None => f.write_str("(fitted with the law: without these lags it does not explain the log"),
+                    Some(d) => write!(
+                        f,
+                        "(fitted with the law: without them its residuals follow the velocity or the drive phase, and the lags lower the BIC by {d:.0}"
+                    ),
+                }?;
+                f.write_str("; a sensor filter at f_c lags by about 1/(2π·f_c))")
+            }
             RefinementFailed { reason } => write!(
                 f,
                 "output-error refinement not possible ({reason}); the equation-error estimate is used"
@@ -1271,7 +1286,7 @@ mod tests {
             ),
             (NoBreakaway, "no stick → slip transition could be located".to_string()),
             (
-                PositionDelays { x1_s: z, x1_interval_s: (0.002, 0.003), x2_s: y, x2_interval_s: (-0.005, -0.004) },
+                PositionDelays { x1_s: z, x1_interval_s: (0.002, 0.003), x2_s: y, x2_interval_s: (-0.005, -0.004), delta_bic: None },
                 format!(
                     "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
                      (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",

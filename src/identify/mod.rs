@@ -306,6 +306,10 @@ impl Default for IdentifyOptions {
     }
 }
 
+/// BIC evidence (very strong) the lags of x1 and x2 must bring before
+/// they are fitted on a log whose law explains it without them.
+const LAG_EVIDENCE_BIC: f64 = 10.0;
+
 /// Which estimate a [`LogFit`]'s law and intervals are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Estimate {
@@ -730,7 +734,7 @@ fn refine(
     let u = opts.gain_uncertainty;
     if opts.output_error && !ef.stuck {
         let forced = opts.fit.law;
-        let refine_with = |oe: &output_error::OeOptions| {
+        let refine_with = |oe: &output_error::OeOptions, starts: &[SiLaw], bias: f64| {
             output_error::Refinement::new(
                 &base.contact,
                 &run.resampled.x0,
@@ -738,23 +742,46 @@ fn refine(
                 &run.rig,
                 oe,
             )
-            .and_then(|r| r.run(&ef.candidates, ef.bias_n, forced, u))
+            .and_then(|r| r.run(starts, bias, forced, u))
         };
-        let mut first = refine_with(&opts.oe);
+        let mut first = refine_with(&opts.oe, &ef.candidates, ef.bias_n);
         // Position records that lag the drive (sensor filters, DAQ
-        // channels) leave structured residuals the law cannot explain:
-        // where the law without lags is not adequate, the lags of x1 and
-        // x2 are fitted with it, and kept where that explains the log.
-        // (Fitted on every log they are not neutral: on a lag-free log
-        // with a decreasing law they took 0.2 ms and moved D* by 1.5 %.)
+        // channels) leave residuals that follow the velocity (a lag δ
+        // leaves −δ·ẋ). Where the law without lags is not adequate, or is
+        // but its residuals carry that signature (a significant structure
+        // against velocity or drive phase, however small), the lags of x1
+        // and x2 are fitted with it. An inadequate law gives way to an
+        // adequate lagged one; an adequate law only where the lags lower
+        // the BIC (n_eff·ln S + k·ln n_eff, two more parameters, the
+        // lag-free fit's n_eff) by more than 10. (Fitted on every log the
+        // lags are not neutral: on a lag-free log with a decreasing law the
+        // lagged search ended at a higher cost, D* 1.3 % off.)
         if let (Ok(o), true) = (&first, opts.lag_fallback && !opts.oe.position_delays) {
-            if !o.adequacy.adequate {
+            let signature = o.adequacy.structure.iter().any(|s| s.lag_signature());
+            if !o.adequacy.adequate || signature {
                 let oe = output_error::OeOptions {
                     position_delays: true,
                     ..opts.oe.clone()
                 };
-                if let Ok(o2) = refine_with(&oe) {
-                    if o2.adequacy.adequate {
+                // From the lag-free optima (nested: lags of zero are
+                // feasible, so the search starts where the lag-free one
+                // ended); the equation-error laws where a family has none.
+                let mut starts: Vec<SiLaw> = o.families.iter().map(|f| f.law).collect();
+                starts.extend(
+                    ef.candidates
+                        .iter()
+                        .filter(|c| !starts.iter().any(|s| s.kind == c.kind))
+                        .copied()
+                        .collect::<Vec<_>>(),
+                );
+                if let Ok(o2) = refine_with(&oe, &starts, o.chosen.bias_n) {
+                    let n = o.n_eff.max(2.0);
+                    let k = |f: &output_error::FamilyFit| f.law.kind.family().params().len() as f64;
+                    let delta_bic = n * (o2.chosen.cost / o.chosen.cost).ln()
+                        + (k(&o2.chosen) + 2.0 - k(&o.chosen)) * n.ln();
+                    let keep = o2.adequacy.adequate
+                        && (!o.adequacy.adequate || delta_bic < -LAG_EVIDENCE_BIC);
+                    if keep {
                         let (d1, d2) = o2.chosen.delays_s;
                         let (i1, i2) = o2.chosen.delays_interval_s;
                         warnings.push(Warning::PositionDelays {
@@ -762,6 +789,7 @@ fn refine(
                             x1_interval_s: i1,
                             x2_s: d2,
                             x2_interval_s: i2,
+                            delta_bic: o.adequacy.adequate.then_some(-delta_bic),
                         });
                         first = Ok(o2);
                     }

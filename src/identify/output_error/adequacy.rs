@@ -105,6 +105,15 @@ impl Structure {
     pub fn flagged(&self) -> bool {
         self.z > MAX_STRUCTURE_Z && self.effect > MAX_STRUCTURE_EFFECT
     }
+    /// The signature of a position record that lags the drive: a
+    /// significant structure (z above [`MAX_STRUCTURE_Z`], whatever its
+    /// size) of x1's or x2's residuals against the velocity or the drive
+    /// phase (a lag δ leaves −δ·ẋ in the residual).
+    pub fn lag_signature(&self) -> bool {
+        self.z > MAX_STRUCTURE_Z
+            && self.channel != "force"
+            && (self.against == "velocity" || self.against == "drive phase")
+    }
     /// Counted in the verdict: the positions' tests are, the force's
     /// (accelerometer) tests are reported only.
     pub fn counted(&self) -> bool {
