@@ -42,6 +42,7 @@ pub const CODES: &[&str] = &[
     "short_sticks",
     "contradiction",
     "law_changed",
+    "threshold_not_identified",
     "parsimony",
     "untested",
     "inadequate",
@@ -304,6 +305,19 @@ pub enum Warning {
         output_error: LawKind,
         /// The equation-error law.
         equation_error: LawKind,
+    },
+    /// Another family explains the log almost as well (ΔBIC below 10) but
+    /// puts the breakaway threshold Rs outside the chosen law's interval:
+    /// the interval is widened to hold it.
+    ThresholdNotIdentified {
+        /// The other family.
+        other: LawKind,
+        /// Its BIC minus the chosen one's.
+        delta_bic: f64,
+        /// Its Rs (N).
+        other_rs_n: f64,
+        /// The chosen law's Rs interval before widening (N).
+        interval_n: (f64, f64),
     },
     /// A family's extra parameter is consistent with Coulomb: Coulomb chosen.
     NestedCoulomb {
@@ -606,6 +620,7 @@ impl Warning {
             ShortSticks { .. } => "short_sticks",
             BoundsContradict { .. } => "contradiction",
             LawChanged { .. } => "law_changed",
+            ThresholdNotIdentified { .. } => "threshold_not_identified",
             NestedCoulomb { .. } => "parsimony",
             Untested { .. } => "untested",
             Inadequate { .. } => "inadequate",
@@ -866,6 +881,16 @@ impl fmt::Display for Warning {
                 "the output-error refinement chose the law {} (equation error: {})",
                 output_error.as_str(),
                 equation_error.as_str()
+            ),
+            ThresholdNotIdentified {
+                other,
+                delta_bic,
+                other_rs_n,
+                interval_n: (lo, hi),
+            } => write!(
+                f,
+                "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
+                other.as_str()
             ),
             NestedCoulomb { law } => write!(
                 f,
@@ -1326,6 +1351,13 @@ mod tests {
                 ),
             ),
             (
+                ThresholdNotIdentified { other: s, delta_bic: 3.25, other_rs_n: 1.5, interval_n: (1.2, 1.3) },
+                format!(
+                    "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {:.1}) with Rs {:.4} N, outside the chosen law's interval [{:.4}, {:.4}] N; the Rs interval is widened to hold it",
+                    s.as_str(), 3.25, 1.5, 1.2, 1.3
+                ),
+            ),
+            (
                 LawChanged { output_error: c, equation_error: s },
                 format!(
                     "the output-error refinement chose the law {} (equation error: {})",
@@ -1629,7 +1661,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 71;
+    const VARIANTS: usize = 72;
 
     #[test]
     fn every_code_is_documented() {

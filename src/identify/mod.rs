@@ -310,6 +310,11 @@ impl Default for IdentifyOptions {
 /// they are fitted on a log whose law explains it without them.
 const LAG_EVIDENCE_BIC: f64 = 10.0;
 
+/// Families closer than this in BIC to the chosen one are not told apart
+/// by the log: where they put Rs outside the chosen law's interval, the
+/// interval is widened to hold them (issue 30, item 5).
+const THRESHOLD_EVIDENCE_BIC: f64 = 10.0;
+
 /// Which estimate a [`LogFit`]'s law and intervals are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Estimate {
@@ -946,6 +951,36 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                 rho_d: iv.rho_d,
                 dstar: iv.dstar,
             };
+            // Identifiability of the threshold: a family the data hardly
+            // tell from the chosen one (ΔBIC below 10) that puts Rs
+            // outside its interval widens the interval to hold it (the
+            // union), with a warning.
+            let mut used = used;
+            if let (false, Some(iv)) = (no_stick, used.rs_n) {
+                let (mut lo, mut hi) = iv;
+                for f in o
+                    .families
+                    .iter()
+                    .filter(|f| f.law.kind != o.chosen.law.kind)
+                {
+                    let d = f.bic - o.chosen.bic;
+                    let rs = f.law.rs_n;
+                    if d < THRESHOLD_EVIDENCE_BIC && rs.is_finite() && !(lo..=hi).contains(&rs) {
+                        warnings.push(Warning::ThresholdNotIdentified {
+                            other: f.law.kind,
+                            delta_bic: d,
+                            other_rs_n: rs,
+                            interval_n: iv,
+                        });
+                        lo = lo.min(rs);
+                        hi = hi.max(rs);
+                    }
+                }
+                if (lo, hi) != iv && iv.0 > 0.0 && iv.1 > 0.0 {
+                    used.rs_n = Some((lo, hi));
+                    used.rho_s = used.rho_s.map(|(l, h)| (l * lo / iv.0, h * hi / iv.1));
+                }
+            }
             if o.law.kind != ef.law.kind {
                 warnings.push(Warning::LawChanged {
                     output_error: o.law.kind,
