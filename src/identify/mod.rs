@@ -131,6 +131,7 @@
 // Index loops mirror the formulas (several arrays indexed together).
 #![allow(clippy::needless_range_loop)]
 
+pub mod artifact;
 pub mod contact;
 pub mod fit;
 pub mod json;
@@ -310,7 +311,7 @@ impl Default for IdentifyOptions {
 }
 
 /// Which estimate a [`LogFit`]'s law and intervals are.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Estimate {
     /// The equation-error fit of the characteristic R(ẋ2).
     EquationError,
@@ -329,7 +330,7 @@ impl Estimate {
 }
 
 /// 95 % intervals of one estimate, in SI and dimensionless.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Intervals {
     /// Rs (N); for a never-sticking log, the bounds.
     pub rs_n: Option<Interval>,
@@ -357,7 +358,7 @@ pub type Interval = (f64, f64);
 /// says which one is *used*: [`LogFit::law`], [`LogFit::rho_s`] etc. and
 /// the flat interval fields (`rs_interval_n`, …) are that estimate's, and
 /// they are what validation and batch read.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct LogFit {
     /// The equation-error fit (point estimates, bootstrap, diagnostics).
     pub fit: EquationFit,
@@ -412,7 +413,7 @@ pub struct LogFit {
 }
 
 /// What a log measured of its friction law.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Measured {
     /// M2 sticks and slips: every parameter of the law is measured.
     StickSlip(SiLaw),

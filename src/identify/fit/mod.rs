@@ -71,7 +71,7 @@ impl Default for FitOptions {
 }
 
 /// 2.5 % and 97.5 % bootstrap percentiles of the parameters (SI).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StatIntervals {
     /// Rs (N).
     pub rs: Option<(f64, f64)>,
@@ -82,7 +82,7 @@ pub struct StatIntervals {
 }
 
 /// What the equation-error fit found in one log (SI).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct EquationFit {
     /// The chosen law (for a never-sticking log Rs is NaN; for a stuck log
     /// everything but the lower bound is NaN).
