@@ -235,21 +235,18 @@ impl FitSet {
     /// Pairs the records with `logs` (also given): for each log, the index
     /// of the record with its `log_sha256`, or None (the log is to be
     /// fitted). A record naming one of the logs (the same file) whose
-    /// `log_sha256` differs from that file is refused.
+    /// `log_sha256` differs from that file is refused, even where another
+    /// record has the file's sha256 (the file was replaced).
     pub fn match_logs(&self, logs: &[PathBuf]) -> Result<Vec<Option<usize>>> {
         logs.iter()
             .map(|log| {
                 let sha = sha256_file(log)?;
-                if let Some(i) = self
+                let changed = self
                     .entries
                     .iter()
-                    .position(|e| e.log_sha256() == Some(sha.as_str()))
-                {
-                    return Ok(Some(i));
-                }
-                let same_file = self.entries.iter().find(|e| same_path(e.log(), log));
-                match same_file {
-                    Some(e) => Err(Error::Input {
+                    .find(|e| same_path(e.log(), log) && e.log_sha256() != Some(sha.as_str()));
+                if let Some(e) = changed {
+                    return Err(Error::Input {
                         path: log.clone(),
                         msg: format!(
                             "differs from the file its fit in {} was made on (log_sha256 {}, this file {}): refit it, or give the log it was fitted on",
@@ -257,9 +254,12 @@ impl FitSet {
                             short(e.log_sha256().unwrap_or("unknown")),
                             short(&sha)
                         ),
-                    }),
-                    None => Ok(None),
+                    });
                 }
+                Ok(self
+                    .entries
+                    .iter()
+                    .position(|e| e.log_sha256() == Some(sha.as_str())))
             })
             .collect()
     }
