@@ -316,3 +316,78 @@ fn validate_with_a_saved_fit_equals_validate_on_the_log() {
         last_line(&out)
     );
 }
+
+/// A plan's `fits =`: the covered log is not refitted and `run` gives the
+/// same result; a log changed since its fit is refused.
+#[test]
+fn a_plans_saved_fits_are_reused_and_a_changed_log_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::copy(data("char_N4.mcap"), dir.join("a.mcap")).unwrap();
+    let out = stickslip(&["fit", "a.mcap", "--out", "fits.json"], dir);
+    assert_eq!(out.status.code(), Some(0), "{}", last_line(&out));
+    std::fs::write(dir.join("plain.toml"), "fit = [\"a.mcap\"]\n").unwrap();
+    std::fs::write(
+        dir.join("reuse.toml"),
+        "fit = [\"a.mcap\"]\nfits = \"fits.json\"\n",
+    )
+    .unwrap();
+    let plain = ok_json(&stickslip(&["run", "plain.toml", "--json"], dir));
+    let reuse = ok_json(&stickslip(&["run", "reuse.toml", "--json"], dir));
+    let strip = |v: &Value| {
+        let mut v = without_times(v);
+        v.as_object_mut().unwrap().remove("plan");
+        v
+    };
+    assert_eq!(strip(&reuse), strip(&plain));
+    assert_eq!(
+        reuse["fits"][0]["log_sha256"],
+        plain["fits"][0]["log_sha256"]
+    );
+    std::fs::copy(data("char_N7.2.mcap"), dir.join("a.mcap")).unwrap();
+    let out = stickslip(&["run", "reuse.toml", "--json"], dir);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        last_line(&out).contains("a.mcap: differs from the file its fit in"),
+        "{}",
+        last_line(&out)
+    );
+}
+
+/// The artifact reads back to the same fit: its record, rebuilt from the
+/// saved state, is the record it was saved from (every float bit for bit).
+#[test]
+fn an_artifact_reads_back_to_the_same_record() {
+    use stickslip::identify::artifact::{FitArtifact, FitEntry};
+    let opts = stickslip::identify::IdentifyOptions {
+        fit: stickslip::identify::FitOptions {
+            bootstrap: 50,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    // A stuck log (NaN in its law) and one that sticks and slips.
+    for path in [data("char_N30.mcap"), data("char_N2.2.mcap")] {
+        let run = stickslip::ingest::read(&path, &Default::default()).unwrap();
+        let fit = stickslip::identify::fit_log(&run, &opts).unwrap();
+        let a = FitArtifact {
+            log: path.clone(),
+            log_sha256: stickslip::identify::artifact::sha256_file(&path).unwrap(),
+            rig: run.rig.clone(),
+            fit,
+        };
+        let rec = a.to_record().unwrap();
+        let text = serde_json::to_string(&rec).unwrap();
+        let back =
+            match stickslip::identify::artifact::entry_of(&serde_json::from_str(&text).unwrap()) {
+                Ok(FitEntry::Fitted(b)) => b,
+                other => panic!("{other:?}"),
+            };
+        assert_eq!(back.rig, a.rig);
+        assert_eq!(back.to_record().unwrap(), rec, "{}", path.display());
+        // Every float of the state (Debug prints the shortest text that
+        // reads back to the same float; NaN as NaN).
+        let bits = |x: &FitArtifact| format!("{:?}", x.fit);
+        assert_eq!(bits(&back), bits(&a));
+    }
+}
