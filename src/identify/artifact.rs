@@ -174,7 +174,7 @@ fn is_sha256(s: &str) -> bool {
 
 /// SHA-256 (hex) of a file, streamed (a long log in constant memory).
 pub fn sha256_file(path: &Path) -> Result<String> {
-    Ok(crate::report::html::input_file(path)?.sha256)
+    Ok(crate::io::sha256_file(path)?.0)
 }
 
 /// The records of a fits file (`{"fits": [...]}` from `fit --out` or
