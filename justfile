@@ -65,3 +65,11 @@ fuzz:
 # loosens the comparison to list numeric changes).
 golden:
     cargo test --release --test golden -- --ignored --test-threads 2
+
+# Run the Slurm recipes of docs/cluster.md (scripts/slurm/*.sbatch, as they
+# are) on a one-node Slurm started and stopped here, and compare with the
+# unsharded results bit for bit (root on Debian; installs slurm-wlm and munge
+# with apt; not part of CI).
+slurm-check:
+    cargo build --release
+    scripts/slurm_check.sh

@@ -16,6 +16,38 @@ use crate::model::LawKind;
 use std::fmt;
 use std::path::PathBuf;
 
+/// Serde for the `&'static str` fields (channel names, units, rig
+/// constants): written as strings; read back interned, each distinct
+/// string leaked once (a handful of names, as saved fit artifacts carry
+/// them).
+/// A name the code spells (`&'static str`; an alias, so serde does not
+/// take it for a string borrowed from its input).
+type StaticStr = &'static str;
+
+mod static_str {
+    use std::collections::HashSet;
+    use std::sync::{Mutex, OnceLock};
+
+    pub fn serialize<S: serde::Serializer>(v: &&'static str, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v)
+    }
+
+    pub fn deserialize<'de, D: serde::Deserializer<'de>>(d: D) -> Result<&'static str, D::Error> {
+        let v: String = serde::Deserialize::deserialize(d)?;
+        static SEEN: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
+        let mut seen = SEEN
+            .get_or_init(|| Mutex::new(HashSet::new()))
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if let Some(s) = seen.get(v.as_str()) {
+            return Ok(s);
+        }
+        let s: &'static str = Box::leak(v.into_boxed_str());
+        seen.insert(s);
+        Ok(s)
+    }
+}
+
 /// Every code [`Warning::code`] gives, each once.
 pub const CODES: &[&str] = &[
     "option_ignored",
@@ -72,12 +104,14 @@ pub const CODES: &[&str] = &[
 ];
 
 /// The largest residual structure named by [`Warning::Inadequate`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WorstStructure {
     /// `x1` or `x2`.
-    pub channel: &'static str,
+    #[serde(with = "static_str")]
+    pub channel: StaticStr,
     /// What the residuals were binned against (`drive phase`, `velocity`, ...).
-    pub against: &'static str,
+    #[serde(with = "static_str")]
+    pub against: StaticStr,
     /// Size of the structure in units of the noise.
     pub effect: f64,
     /// χ² of the bin means per degree of freedom.
@@ -88,7 +122,7 @@ pub struct WorstStructure {
 
 /// One warning with its numbers. `Display` gives the message; [`Self::code`]
 /// its stable code.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[non_exhaustive]
 pub enum Warning {
     // ---- ingest ----
@@ -97,7 +131,8 @@ pub enum Warning {
     /// An optional channel of this quantity is absent (neither a2 nor v2).
     ChannelAbsent {
         /// The quantity's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
     },
     /// No accelerometer channel.
     NoAccelerometer,
@@ -113,12 +148,14 @@ pub enum Warning {
         /// The topic.
         topic: String,
         /// The quantity's name.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
     },
     /// More than 5 % of a channel's samples are null.
     ChannelNulls {
         /// The channel's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
         /// Null samples.
         nulls: usize,
         /// All samples.
@@ -134,7 +171,8 @@ pub enum Warning {
         /// The topic.
         topic: String,
         /// The unit assumed.
-        unit: &'static str,
+        #[serde(with = "static_str")]
+        unit: StaticStr,
     },
     /// The last TDMS segment was not finished by its writer: the bytes of
     /// its incomplete chunk are ignored.
@@ -167,13 +205,15 @@ pub enum Warning {
     /// A channel flat at one end of its range (a saturated sensor).
     Clipped {
         /// The channel's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
         /// At its maximum (else its minimum).
         high: bool,
         /// The level (SI).
         level: f64,
         /// The channel's unit.
-        unit: &'static str,
+        #[serde(with = "static_str")]
+        unit: StaticStr,
         /// Fraction of the samples clipped.
         fraction: f64,
         /// Samples clipped.
@@ -198,7 +238,8 @@ pub enum Warning {
     /// A channel's estimated shift against x1, applied.
     ChannelDelay {
         /// The channel's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
         /// The shift applied beyond the declared one (s; negative: lags).
         shift_s: f64,
         /// 95 % interval of the channel's shift (s; NaN when unknown).
@@ -408,7 +449,8 @@ pub enum Warning {
     /// A rig constant differs between the characteristic log and the sweep.
     SweepRigMismatch {
         /// The constant (`M1`, `M2`, `K1`, `K2`).
-        constant: &'static str,
+        #[serde(with = "static_str")]
+        constant: StaticStr,
         /// The characteristic log's value.
         characteristic: f64,
         /// The sweep's value.
@@ -495,7 +537,8 @@ pub enum Warning {
         /// The log.
         log: PathBuf,
         /// `Rs` or `Rd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
         /// The difference in standard deviations.
         z: f64,
     },
@@ -507,12 +550,14 @@ pub enum Warning {
     /// The logs contradict each other and the data do not say which is off.
     UnresolvedConflict {
         /// `μs` or `μd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
     },
     /// μ without and with the conflicting logs.
     ConflictSetAside {
         /// `μs` or `μd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
         /// μ and its 95 % interval without the conflicting logs.
         robust: (f64, f64, f64),
         /// μ and its 95 % interval with every log.
@@ -526,7 +571,8 @@ pub enum Warning {
     /// A free fit's intercept is significant.
     Intercept {
         /// `μs` or `μd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
         /// The intercept (N).
         intercept_n: f64,
         /// Its 95 % half-width (N).
@@ -549,7 +595,8 @@ pub enum Warning {
     /// A rig constant differs between the logs of a batch.
     BatchRigMismatch {
         /// The constant.
-        constant: &'static str,
+        #[serde(with = "static_str")]
+        constant: StaticStr,
         /// The log that differs.
         log: PathBuf,
         /// Its value.
@@ -1145,12 +1192,13 @@ impl fmt::Display for Warning {
     }
 }
 
-/// Serialized as its message (JSON's `warnings` stays a list of strings;
-/// the codes go beside it as `warning_codes`).
-impl serde::Serialize for Warning {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(self)
-    }
+/// Serialises warnings as their messages: the JSON outputs' `warnings`
+/// lists (`#[serde(serialize_with = ...)]`; the codes go beside them as
+/// `warning_codes`). The derived serde form (a tagged variant with its
+/// numbers) is what saved fit artifacts carry, so a fit read back has the
+/// same warnings, variants and all.
+pub fn as_messages<S: serde::Serializer>(w: &[Warning], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(w.iter().map(|w| w.to_string()))
 }
 
 #[cfg(test)]

@@ -131,6 +131,7 @@
 // Index loops mirror the formulas (several arrays indexed together).
 #![allow(clippy::needless_range_loop)]
 
+pub mod artifact;
 pub mod contact;
 pub mod fit;
 pub mod json;
@@ -316,7 +317,7 @@ const LAG_EVIDENCE_BIC: f64 = 10.0;
 const THRESHOLD_EVIDENCE_BIC: f64 = 10.0;
 
 /// Which estimate a [`LogFit`]'s law and intervals are.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Estimate {
     /// The equation-error fit of the characteristic R(ẋ2).
     EquationError,
@@ -335,7 +336,7 @@ impl Estimate {
 }
 
 /// 95 % intervals of one estimate, in SI and dimensionless.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Intervals {
     /// Rs (N); for a never-sticking log, the bounds.
     pub rs_n: Option<Interval>,
@@ -363,7 +364,7 @@ pub type Interval = (f64, f64);
 /// says which one is *used*: [`LogFit::law`], [`LogFit::rho_s`] etc. and
 /// the flat interval fields (`rs_interval_n`, …) are that estimate's, and
 /// they are what validation and batch read.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct LogFit {
     /// The equation-error fit (point estimates, bootstrap, diagnostics).
     pub fit: EquationFit,
@@ -404,6 +405,9 @@ pub struct LogFit {
     /// Characteristic details (noise, lags, offsets) for reports.
     pub notes: Vec<String>,
     /// Warnings (ingest, contact, fit).
+    // In a saved fit (artifact) the typed variants, named apart from the
+    // JSON outputs' `warnings` (messages, with `warning_codes` beside).
+    #[serde(rename = "warning_variants")]
     pub warnings: Vec<Warning>,
     /// The adequacy verdict of the law used (see [`LogFit::adequate`]).
     pub adequacy: Option<output_error::Adequacy>,
@@ -418,7 +422,7 @@ pub struct LogFit {
 }
 
 /// What a log measured of its friction law.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Measured {
     /// M2 sticks and slips: every parameter of the law is measured.
     StickSlip(SiLaw),

@@ -163,7 +163,7 @@ impl Default for OeOptions {
 }
 
 /// How the drive was simulated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum DriveModel {
     /// The fitted sinusoid, exact engine.
     Harmonic,
@@ -182,7 +182,7 @@ impl DriveModel {
 }
 
 /// One family refined by output error.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct FamilyFit {
     /// The refined law.
     pub law: SiLaw,
@@ -211,7 +211,7 @@ pub struct FamilyFit {
 }
 
 /// What the refinement found.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct OutputErrorFit {
     /// The chosen (or forced) family's refined law.
     pub law: SiLaw,
