@@ -1665,8 +1665,19 @@ mod tests {
     fn every_variant_renders_its_old_message() {
         for (w, old) in examples() {
             assert_eq!(w.to_string(), old, "{w:?}");
-            // And serializes as that message.
-            assert_eq!(serde_json::to_value(&w).unwrap(), old.as_str());
+            // The JSON outputs' `warnings` are the messages.
+            let mut out = Vec::new();
+            as_messages(
+                std::slice::from_ref(&w),
+                &mut serde_json::Serializer::new(&mut out),
+            )
+            .unwrap();
+            let v: serde_json::Value = serde_json::from_slice(&out).unwrap();
+            assert_eq!(v, serde_json::json!([old]));
+            // A saved fit carries the variant with its numbers: read back,
+            // it is the same warning (same code, same message).
+            let back: Warning = serde_json::from_value(serde_json::to_value(&w).unwrap()).unwrap();
+            assert_eq!(back, w);
         }
     }
 
