@@ -29,7 +29,13 @@
 //!   (Savitzky–Golay, degree 4, half-width 1/16 of the drive period), with
 //!   the extremes refined by a parabola through the three samples around
 //!   them — not the raw extremes of noisy samples, which are biased upwards
-//!   by about two noise σ.
+//!   by about two noise σ. A mass that stands still measures 0: where the
+//!   window's spread about a straight line is what its own noise gives
+//!   (95 % test), the extremes would only be the noise's half-range.
+//! * **Error bars**: each amplitude carries its own 95 % error bar (the
+//!   estimator's noise and the x1 or x2 gain budget); the drive's
+//!   uncertainty (its amplitude with the x0 gain, phase, frequency) belongs
+//!   to the prediction's band (`predict`), not here.
 
 use super::ValidateError;
 use crate::identify::smooth::savgol;
@@ -97,12 +103,19 @@ pub struct MeasuredPoint {
     pub amplitude1_m: f64,
     /// A2 (m).
     pub amplitude2_m: f64,
-    /// 95 % measurement uncertainty of A1/A (absolute): the amplitude
-    /// estimator's noise (from the sensor noise measured in the log) and the
-    /// position sensors' gain budget, combined in quadrature.
+    /// 95 % measurement uncertainty of A1/A (absolute), the measured
+    /// value's own error bar: the amplitude estimator's noise (from the
+    /// sensor noise measured in the log) and the x1 sensor's gain budget,
+    /// combined in quadrature. The drive's uncertainty (its amplitude, with
+    /// the x0 gain, phase and frequency) is not here: it is in the
+    /// prediction's band.
     pub amplitude1_u: f64,
-    /// The same for A2/A.
+    /// The same for A2/A (x2's gain).
     pub amplitude2_u: f64,
+    /// 95 % half-width of the amplitude estimator's noise for A1 (m).
+    pub amplitude1_noise_m: f64,
+    /// The same for A2 (m).
+    pub amplitude2_noise_m: f64,
     /// Relative amplitude change between the two halves of the window
     /// (stepped sweeps).
     pub rel_change: Option<f64>,
@@ -155,8 +168,9 @@ pub struct FrcOptions {
     /// Drive periods per point of a continuous sweep.
     pub periods_per_point: usize,
     /// Relative gain uncertainty of each position sensor (a bound,
-    /// rectangular): A_i/A carries the gains of x_i and x0, so its 95 %
-    /// calibration uncertainty is 1.96·√(2/3)·u.
+    /// rectangular): the measured A_i/A carries the gain of x_i in its own
+    /// error bar (95 %: 1.96·u/√3); the drive's (x0) gain is the drive
+    /// amplitude's uncertainty and belongs to the prediction's band.
     pub gain_uncertainty: f64,
 }
 
@@ -465,6 +479,101 @@ fn half_width(period: f64, dt: f64) -> usize {
     ((period / 16.0 / dt).round() as usize).max(3)
 }
 
+/// One window's amplitude (see [`window_amplitude`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Fitted {
+    /// (max − min)/2 (m); 0 where the mass stands still.
+    amp: f64,
+    /// 95 % half-width of the estimator's noise (m).
+    noise95: f64,
+}
+
+/// Whether a signal stands still over [a, b] (a window of whole periods
+/// `period`): the spread of its samples about a straight line (an offset
+/// and a slow drift) is no more than the window's own noise gives, at 95 %.
+/// The noise variance is half the mean square of differences `lag` samples
+/// apart (`lag`: 1/64 of the period, at least 8 samples): that sees the
+/// sensor's noise whatever its colour over a few samples (an interpolated
+/// grid's noise is not white; third differences would underrate it), while
+/// any motion at the drive's time scale adds its own variance to the spread
+/// (a sine of amplitude c adds c²/2) and almost none to those differences.
+/// The threshold 1 + 1.645·√(5/n) is the statistic's 95 % point for n
+/// samples (the spread's variance 2/n and the overlapping differences'
+/// about 3/n).
+fn stands_still(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), period: f64) -> bool {
+    let n = y.len();
+    let idx = |t: f64| ((t - t0) / dt).round();
+    let (ia, ib) = (idx(a), idx(b));
+    if !(ia.is_finite() && ib.is_finite()) || ib < 0.0 || ia >= n as f64 {
+        return false;
+    }
+    let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
+    let w = &y[ia..=ib];
+    let lag = ((period / dt / 64.0).round() as usize).max(8);
+    if w.len() < 4 * lag {
+        return false;
+    }
+    let (mut sx, mut sy, mut m) = (0.0, 0.0, 0usize);
+    for (k, v) in w.iter().enumerate() {
+        if v.is_finite() {
+            sx += k as f64;
+            sy += v;
+            m += 1;
+        }
+    }
+    if m < 16 || 2 * m < w.len() {
+        return false;
+    }
+    let (mx, my) = (sx / m as f64, sy / m as f64);
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for (k, v) in w.iter().enumerate().filter(|(_, v)| v.is_finite()) {
+        let (dx, dy) = (k as f64 - mx, v - my);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    let spread = (syy - if sxx > 0.0 { sxy * sxy / sxx } else { 0.0 }) / (m - 2) as f64;
+    let (mut dd, mut nd) = (0.0, 0usize);
+    for k in lag..w.len() {
+        let d = w[k] - w[k - lag];
+        if d.is_finite() {
+            dd += d * d;
+            nd += 1;
+        }
+    }
+    if nd < 8 {
+        return false;
+    }
+    let noise = 0.5 * dd / nd as f64;
+    spread <= noise * (1.0 + 1.645 * (5.0 / m as f64).sqrt())
+}
+
+/// The measured amplitude over [a, b] (paper eq. 6 made unbiased for a
+/// mass that stands still): (max − min)/2 of the local-polynomial
+/// reconstruction ([`amplitude`], smoothing over 1/16 of `period`), or 0
+/// where the samples are what the sensor's white noise σ = `sigma` gives
+/// about a straight line ([`stands_still`]): the extremes of noisy samples
+/// of a still mass would give the noise's half-range instead. `noise95` is
+/// the estimator's noise ([`estimator_noise`]).
+fn window_amplitude(
+    y: &[f64],
+    dt: f64,
+    t0: f64,
+    window: (f64, f64),
+    period: f64,
+    sigma: f64,
+) -> Option<Fitted> {
+    let half = half_width(period, dt);
+    let raw = amplitude(y, dt, t0, window, half)?;
+    let noise95 = estimator_noise(sigma, half, dt, window.1 - window.0);
+    let amp = if stands_still(y, dt, t0, window, period) {
+        0.0
+    } else {
+        raw
+    };
+    Some(Fitted { amp, noise95 })
+}
+
 /// White-noise σ of a smooth signal sampled densely: from the MAD of its
 /// third differences (a smooth signal's third difference is O((ω·dt)³)
 /// and vanishes against the noise; Var Δ³e = 20σ²).
@@ -499,43 +608,55 @@ fn estimator_noise(sigma: f64, half: usize, dt: f64, win: f64) -> f64 {
     }
 }
 
-/// The grid signals used for amplitudes.
+/// The grid signals used for amplitudes, with their white-noise σ (m).
 struct Grid<'a> {
     t0: f64,
     dt: f64,
     x1: &'a [f64],
     x2: &'a [f64],
+    noise: (f64, f64),
 }
 
-impl Grid<'_> {
+impl<'a> Grid<'a> {
+    /// The grid of a run's resampled x1 and x2 (None: no rows).
+    fn of(run: &'a Run) -> Option<Self> {
+        let rs = &run.resampled;
+        Some(Grid {
+            t0: *rs.t.first()?,
+            dt: 1.0 / rs.rate_hz,
+            x1: &rs.x1,
+            x2: &rs.x2,
+            noise: (noise_level(&rs.x1), noise_level(&rs.x2)),
+        })
+    }
+
     /// The grid's last time (s).
     fn end(&self) -> f64 {
         self.t0 + self.x1.len().saturating_sub(1) as f64 * self.dt
     }
 
-    /// (A1, A2) in metres over a window, smoothing over 1/16 of `period`.
-    fn amplitudes(&self, window: (f64, f64), period: f64) -> Option<(f64, f64)> {
-        let half = half_width(period, self.dt);
+    /// The fitted amplitudes of x1 and x2 over a window of whole drive
+    /// periods of length `period`.
+    fn fitted(&self, window: (f64, f64), period: f64) -> Option<(Fitted, Fitted)> {
         Some((
-            amplitude(self.x1, self.dt, self.t0, window, half)?,
-            amplitude(self.x2, self.dt, self.t0, window, half)?,
+            window_amplitude(self.x1, self.dt, self.t0, window, period, self.noise.0)?,
+            window_amplitude(self.x2, self.dt, self.t0, window, period, self.noise.1)?,
         ))
+    }
+
+    /// (A1, A2) in metres over a window of whole drive periods.
+    fn amplitudes(&self, window: (f64, f64), period: f64) -> Option<(f64, f64)> {
+        self.fitted(window, period).map(|(a, b)| (a.amp, b.amp))
     }
 }
 
-/// A1 and A2 (metres) of a log over an arbitrary window with the same
-/// estimator as [`measure`] (local-polynomial reconstruction over 1/16 of
-/// the drive period `period_s`), e.g. to compare with a reference taken
-/// over other windows. None where x1 or x2 has too few samples there.
+/// A1 and A2 (metres) of a log over an arbitrary window of whole drive
+/// periods `period_s` with the same estimator as [`measure`] (the
+/// half peak-to-peak of the fitted waveform, 0 for a mass that stands
+/// still), e.g. to compare with a reference taken over other windows. None
+/// where x1 or x2 has too few samples there.
 pub fn window_amplitudes(run: &Run, window: (f64, f64), period_s: f64) -> Option<(f64, f64)> {
-    let rs = &run.resampled;
-    let grid = Grid {
-        t0: *rs.t.first()?,
-        dt: 1.0 / rs.rate_hz,
-        x1: &rs.x1,
-        x2: &rs.x2,
-    };
-    grid.amplitudes(window, period_s)
+    Grid::of(run)?.amplitudes(window, period_s)
 }
 
 /// What the stepped and continuous measurements produce; [`measure`]
@@ -558,12 +679,7 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     if rs.t.len() < 16 {
         return Err(bad(run, ValidateError::TooShort));
     }
-    let grid = Grid {
-        t0: rs.t[0],
-        dt: 1.0 / rs.rate_hz,
-        x1: &rs.x1,
-        x2: &rs.x2,
-    };
+    let grid = Grid::of(run).ok_or_else(|| bad(run, ValidateError::TooShort))?;
     let kind = match run.rig.sweep_kind {
         Some(LogSweepKind::Continuous) => SweepKind::Continuous,
         Some(LogSweepKind::Stepped) => SweepKind::Stepped,
@@ -618,19 +734,12 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     let raw_noise = |q: Quantity| raw(run, q).map_or(f64::NAN, |(_, v)| noise_level(&v));
     let noise = (raw_noise(Quantity::X1), raw_noise(Quantity::X2));
     m.noise_m = noise;
-    let cal = 1.96 * (2.0f64 / 3.0).sqrt() * opts.gain_uncertainty;
+    let cal = 1.96 * opts.gain_uncertainty / 3f64.sqrt();
     for p in &mut m.points {
         p.amplitude1 = p.amplitude1_m / a;
         p.amplitude2 = p.amplitude2_m / a;
-        let period = 1.0 / p.frequency_hz;
-        let half = half_width(period, grid.dt);
-        let win = p.window_s.1 - p.window_s.0;
-        let u = |sigma: f64, amp: f64| {
-            let en = estimator_noise(sigma, half, grid.dt, win);
-            (en / a).hypot(cal * amp)
-        };
-        p.amplitude1_u = u(noise.0, p.amplitude1);
-        p.amplitude2_u = u(noise.1, p.amplitude2);
+        p.amplitude1_u = (p.amplitude1_noise_m / a).hypot(cal * p.amplitude1);
+        p.amplitude2_u = (p.amplitude2_noise_m / a).hypot(cal * p.amplitude2);
     }
     Ok(m)
 }
@@ -859,7 +968,7 @@ fn step_point(
         });
         return None;
     }
-    let Some((a1, a2)) = grid.amplitudes(window, period) else {
+    let Some((a1, a2)) = grid.fitted(window, period) else {
         warnings.push(crate::warning::Warning::StepFewSamples {
             step: i1,
             frequency_hz: f,
@@ -897,10 +1006,12 @@ fn step_point(
         window_s: window,
         amplitude1: f64::NAN,
         amplitude2: f64::NAN,
-        amplitude1_m: a1,
-        amplitude2_m: a2,
+        amplitude1_m: a1.amp,
+        amplitude2_m: a2.amp,
         amplitude1_u: f64::NAN,
         amplitude2_u: f64::NAN,
+        amplitude1_noise_m: a1.noise95,
+        amplitude2_noise_m: a2.noise95,
         rel_change,
         settled: rel_change.map(|r| r <= opts.settle_tolerance),
     };
@@ -1123,7 +1234,7 @@ fn sweep_points(
             let t_b = seg_time(seg, c);
             let window = (t_a, t_b);
             let period = (t_b - t_a) / per;
-            if let Some((a1, a2)) = grid.amplitudes(window, period) {
+            if let Some((a1, a2)) = grid.fitted(window, period) {
                 let f = 1.0 / period;
                 points.push(MeasuredPoint {
                     frequency_hz: f,
@@ -1133,10 +1244,12 @@ fn sweep_points(
                     window_s: window,
                     amplitude1: f64::NAN,
                     amplitude2: f64::NAN,
-                    amplitude1_m: a1,
-                    amplitude2_m: a2,
+                    amplitude1_m: a1.amp,
+                    amplitude2_m: a2.amp,
                     amplitude1_u: f64::NAN,
                     amplitude2_u: f64::NAN,
+                    amplitude1_noise_m: a1.noise95,
+                    amplitude2_noise_m: a2.noise95,
                     rel_change: None,
                     settled: None,
                 });
