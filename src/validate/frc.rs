@@ -126,6 +126,26 @@ pub struct MeasuredPoint {
     pub settled: Option<bool>,
 }
 
+/// The drive's measurement uncertainty (1σ each): what the replay band
+/// carries besides the law's (see `predict`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct DriveUncertainty {
+    /// Relative standard uncertainty of the drive amplitude from the data
+    /// (the scatter of the per-step or per-node amplitudes over their
+    /// number, and each fit's noise). The x0 sensor's gain is not here: it
+    /// is drawn with the law (`predict::draw_laws`).
+    pub amplitude_rel: f64,
+    /// Standard uncertainty of the drive phase φ(0) (rad).
+    pub phase_rad: f64,
+    /// Relative standard uncertainty of the drive frequencies (common to
+    /// the plan).
+    pub frequency_rel: f64,
+    /// Standard uncertainty of the drive channel's timing against x1 (s):
+    /// the ingest's delay estimate for x0 (its interval, and the estimate
+    /// itself where it was not applied); 0 where it was not estimated.
+    pub delay_s: f64,
+}
+
 /// The measured frequency response of one sweep log.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredFrc {
@@ -137,6 +157,9 @@ pub struct MeasuredFrc {
     pub drive_amplitude_m: f64,
     /// φ(0): x0(t) ≈ offset + A·sin(φ(t)), φ' = 2πf(t).
     pub drive_phase_rad: f64,
+    /// The drive's measurement uncertainty (amplitude, phase, frequency,
+    /// timing).
+    pub drive_uncertainty: DriveUncertainty,
     /// √(K2/M2) (rad/s).
     pub omega_ref_rad_s: f64,
     /// The drive-frequency plan as run, covering the log.
@@ -664,6 +687,7 @@ pub fn window_amplitudes(run: &Run, window: (f64, f64), period_s: f64) -> Option
 struct Parts {
     drive_amplitude_m: f64,
     drive_phase_rad: f64,
+    drive_uncertainty: DriveUncertainty,
     plan: Vec<PlanSegment>,
     points: Vec<MeasuredPoint>,
     warnings: Vec<crate::warning::Warning>,
@@ -715,6 +739,10 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         direction: direction_of(&freqs),
         drive_amplitude_m: a,
         drive_phase_rad: parts.drive_phase_rad,
+        drive_uncertainty: DriveUncertainty {
+            delay_s: drive_delay_uncertainty(run),
+            ..parts.drive_uncertainty
+        },
         omega_ref_rad_s: run.rig.omega_ref(),
         plan: parts.plan,
         noise_m: (f64::NAN, f64::NAN),
@@ -742,6 +770,53 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         p.amplitude2_u = (p.amplitude2_noise_m / a).hypot(cal * p.amplitude2);
     }
     Ok(m)
+}
+
+/// Standard uncertainty of the drive channel's timing against x1 (s),
+/// from the ingest's delay estimate of x0 (see [`DriveUncertainty`]).
+fn drive_delay_uncertainty(run: &Run) -> f64 {
+    let Some(d) = run.delays.get(Quantity::X0) else {
+        return 0.0;
+    };
+    let half = d.interval_s.map_or(0.0, |[lo, hi]| 0.5 * (hi - lo) / 1.96);
+    let unapplied = if d.applied {
+        0.0
+    } else {
+        d.estimated_s.unwrap_or(0.0)
+    };
+    let u = half.hypot(unapplied);
+    if u.is_finite() {
+        u
+    } else {
+        0.0
+    }
+}
+
+/// The drive's amplitude, phase and frequency uncertainty from its fitted
+/// sinusoids: the amplitude's from the scatter of the per-window
+/// amplitudes `amps` (the median's standard error, 1.2533·σ/√n) and each
+/// fit's noise; the phase's and frequency's from the fit `s` over `n`
+/// samples spanning `span` seconds (least squares of a sinusoid in white
+/// noise: σ_φ = rms·√(2/n)/A, σ_f = √24·rms/(2π·A·span·√n)).
+fn drive_uncertainty(amps: &[f64], s: &Sine, n: usize, span: f64) -> DriveUncertainty {
+    let a = median(amps);
+    let k = amps.len().max(1) as f64;
+    let scatter = if amps.len() >= 3 {
+        1.2533 * crate::stats::mad_sigma(amps) / k.sqrt()
+    } else {
+        0.0
+    };
+    let nf = n.max(8) as f64;
+    let fit = s.rms * (2.0 / nf).sqrt();
+    let fin = |v: f64| if v.is_finite() { v } else { 0.0 };
+    DriveUncertainty {
+        amplitude_rel: fin(scatter.hypot(fit / k.sqrt()) / a),
+        phase_rad: fin(fit / s.amplitude),
+        frequency_rel: fin(24f64.sqrt() * s.rms
+            / (2.0 * PI * s.amplitude * span.max(1e-9) * nf.sqrt())
+            / s.frequency_hz),
+        delay_s: 0.0,
+    }
 }
 
 /// The steps of a stepped sweep: (start time, commanded frequency); a
@@ -821,9 +896,16 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         }
         points.push(point);
     }
+    let first = sines.iter().flatten().next().copied();
+    let drive_uncertainty = first.map_or(DriveUncertainty::default(), |s0| {
+        let (a, b) = bounds[0];
+        let mid = a + 0.5 * (b - a);
+        drive_uncertainty(&amps, &s0, span(td, mid, b).len(), b - mid)
+    });
     Ok(Parts {
         drive_amplitude_m: median(&amps),
         drive_phase_rad,
+        drive_uncertainty,
         plan,
         points,
         warnings,
@@ -1095,9 +1177,19 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
         warnings.push(crate::warning::Warning::DriveShape { rms_m: rms });
     }
     let points = sweep_points(&plan, grid, opts.periods_per_point, omega_ref);
+    let amps: Vec<f64> = fit_nodes.iter().map(|(_, s)| s.amplitude).collect();
+    let w0 = (2.0 / first.frequency_hz).max(1.0);
+    let n0 = span(
+        td,
+        (first.t_ref - 0.5 * w0).max(0.0),
+        first.t_ref + 0.5 * w0,
+    )
+    .len();
+    let drive_uncertainty = drive_uncertainty(&amps, first, n0, w0);
     Ok(Parts {
         drive_amplitude_m,
         drive_phase_rad,
+        drive_uncertainty,
         plan,
         points,
         warnings,
