@@ -523,18 +523,18 @@ struct Fitted {
 /// The threshold 1 + 1.645·√(5/n) is the statistic's 95 % point for n
 /// samples (the spread's variance 2/n and the overlapping differences'
 /// about 3/n).
-fn stands_still(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), period: f64) -> bool {
+fn stands_still(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), period: f64) -> (bool, f64) {
     let n = y.len();
     let idx = |t: f64| ((t - t0) / dt).round();
     let (ia, ib) = (idx(a), idx(b));
     if !(ia.is_finite() && ib.is_finite()) || ib < 0.0 || ia >= n as f64 {
-        return false;
+        return (false, f64::NAN);
     }
     let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
     let w = &y[ia..=ib];
     let lag = ((period / dt / 64.0).round() as usize).max(8);
     if w.len() < 4 * lag {
-        return false;
+        return (false, f64::NAN);
     }
     let (mut sx, mut sy, mut m) = (0.0, 0.0, 0usize);
     for (k, v) in w.iter().enumerate() {
@@ -545,7 +545,7 @@ fn stands_still(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), period: f64) ->
         }
     }
     if m < 16 || 2 * m < w.len() {
-        return false;
+        return (false, f64::NAN);
     }
     let (mx, my) = (sx / m as f64, sy / m as f64);
     let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
@@ -565,19 +565,29 @@ fn stands_still(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), period: f64) ->
         }
     }
     if nd < 8 {
-        return false;
+        return (false, f64::NAN);
     }
     let noise = 0.5 * dd / nd as f64;
-    spread <= noise * (1.0 + 1.645 * (5.0 / m as f64).sqrt())
+    (
+        spread <= noise * (1.0 + 1.645 * (5.0 / m as f64).sqrt()),
+        noise,
+    )
 }
 
-/// The measured amplitude over [a, b] (paper eq. 6 made unbiased for a
-/// mass that stands still): (max − min)/2 of the local-polynomial
-/// reconstruction ([`amplitude`], smoothing over 1/16 of `period`), or 0
-/// where the samples are what the sensor's white noise σ = `sigma` gives
-/// about a straight line ([`stands_still`]): the extremes of noisy samples
-/// of a still mass would give the noise's half-range instead. `noise95` is
-/// the estimator's noise ([`estimator_noise`]).
+/// Replicates of the noise-bias estimate of [`window_amplitude`].
+const BIAS_REPLICATES: u64 = 16;
+
+/// The measured amplitude over [a, b] (paper eq. 6 with the noise's bias
+/// removed): (max − min)/2 of the local-polynomial reconstruction
+/// ([`amplitude`], smoothing over 1/16 of `period`) less the noise's
+/// extreme-value bias, or 0 where the mass stands still
+/// ([`stands_still`]). The bias is what noise of the window's own level
+/// adds to the half-range of the reconstruction: the mean over
+/// [`BIAS_REPLICATES`] replicates of the reconstruction plus white noise of
+/// that level, less the reconstruction's own half-range (a parametric
+/// bootstrap: it sees the waveform, so a sharp extreme gets a small bias, a
+/// small or flat one a larger one). `noise95` is the estimator's noise
+/// ([`estimator_noise`]).
 fn window_amplitude(
     y: &[f64],
     dt: f64,
@@ -589,12 +599,56 @@ fn window_amplitude(
     let half = half_width(period, dt);
     let raw = amplitude(y, dt, t0, window, half)?;
     let noise95 = estimator_noise(sigma, half, dt, window.1 - window.0);
-    let amp = if stands_still(y, dt, t0, window, period) {
-        0.0
-    } else {
-        raw
+    if stands_still(y, dt, t0, window, period).0 {
+        return Some(Fitted { amp: 0.0, noise95 });
+    }
+    let amp = match noise_bias(y, dt, t0, window, half) {
+        Some(b) => (raw - b).max(0.0),
+        None => raw,
     };
     Some(Fitted { amp, noise95 })
+}
+
+/// The noise's bias of [`amplitude`] over `window` (see
+/// [`window_amplitude`]). The noise level is the window's own: the
+/// residual of the reconstruction, whose variance is σ²(1 − w₀) for white
+/// noise (w₀: the smoother's centre weight).
+fn noise_bias(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), half: usize) -> Option<f64> {
+    let n = y.len();
+    let idx = |t: f64| ((t - t0) / dt).round();
+    let (ia, ib) = (idx(a), idx(b));
+    if !(ia.is_finite() && ib.is_finite()) || ib < 0.0 || ia >= n as f64 {
+        return None;
+    }
+    let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
+    let (sa, sb) = (ia.saturating_sub(2 * half + 2), (ib + 2 * half + 3).min(n));
+    let smooth = savgol(&y[sa..sb], dt, half, 4, 0);
+    let t_s = t0 + sa as f64 * dt;
+    let h = half as i64;
+    let w0 = crate::identify::smooth::savgol_weights(-h, h, 4, 0, dt)?[half];
+    let (mut rr, mut nr) = (0.0, 0usize);
+    for k in ia..=ib {
+        let r = y[k] - smooth[k - sa];
+        if r.is_finite() {
+            rr += r * r;
+            nr += 1;
+        }
+    }
+    let sd = (rr / nr.max(1) as f64 / (1.0 - w0)).sqrt();
+    if !(nr >= 8 && sd.is_finite() && sd > 0.0) {
+        return None;
+    }
+    let base = amplitude(&smooth, dt, t_s, (a, b), half)?;
+    let mut rng = crate::stats::Rng::with_stream(0xB1A5, ia as u64);
+    let mut sum = 0.0;
+    let mut z = smooth.clone();
+    for _ in 0..BIAS_REPLICATES {
+        for (zk, sk) in z.iter_mut().zip(&smooth) {
+            *zk = sk + sd * rng.normal();
+        }
+        sum += amplitude(&z, dt, t_s, (a, b), half)?;
+    }
+    Some((sum / BIAS_REPLICATES as f64 - base).max(0.0))
 }
 
 /// White-noise σ of a smooth signal sampled densely: from the MAD of its
