@@ -583,8 +583,8 @@ const BIAS_REPLICATES: u64 = 16;
 /// extreme-value bias, or 0 where the mass stands still
 /// ([`stands_still`]). The bias is what noise of the window's own level
 /// adds to the half-range of the reconstruction: the mean over
-/// [`BIAS_REPLICATES`] replicates of the reconstruction plus white noise of
-/// that level, less the reconstruction's own half-range (a parametric
+/// [`BIAS_REPLICATES`] replicates of the reconstruction plus noise of that
+/// level and colour ([`noise_bias`]), less the reconstruction's own half-range (a parametric
 /// bootstrap: it sees the waveform, so a sharp extreme gets a small bias, a
 /// small or flat one a larger one). `noise95` is the estimator's noise
 /// ([`estimator_noise`]).
@@ -595,25 +595,36 @@ fn window_amplitude(
     window: (f64, f64),
     period: f64,
     sigma: f64,
+    raw: Option<RawNoise<'_>>,
 ) -> Option<Fitted> {
     let half = half_width(period, dt);
-    let raw = amplitude(y, dt, t0, window, half)?;
+    let eq6 = amplitude(y, dt, t0, window, half)?;
     let noise95 = estimator_noise(sigma, half, dt, window.1 - window.0);
     if stands_still(y, dt, t0, window, period).0 {
         return Some(Fitted { amp: 0.0, noise95 });
     }
-    let amp = match noise_bias(y, dt, t0, window, half) {
-        Some(b) => (raw - b).max(0.0),
-        None => raw,
+    let amp = match noise_bias(y, dt, t0, window, half, raw) {
+        Some(b) => (eq6 - b).max(0.0),
+        None => eq6,
     };
     Some(Fitted { amp, noise95 })
 }
 
 /// The noise's bias of [`amplitude`] over `window` (see
-/// [`window_amplitude`]). The noise level is the window's own: the
-/// residual of the reconstruction, whose variance is σ²(1 − w₀) for white
-/// noise (w₀: the smoother's centre weight).
-fn noise_bias(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), half: usize) -> Option<f64> {
+/// [`window_amplitude`]). With the raw channel known (`raw`), the noise is
+/// white noise of its σ at the raw sample times, interpolated onto the grid
+/// as the ingest interpolates (so it has the grid noise's colour);
+/// otherwise white on the grid at the window's own level: the residual of
+/// the reconstruction, whose variance is σ²(1 − w₀) for white noise (w₀:
+/// the smoother's centre weight).
+fn noise_bias(
+    y: &[f64],
+    dt: f64,
+    t0: f64,
+    (a, b): (f64, f64),
+    half: usize,
+    raw: Option<RawNoise<'_>>,
+) -> Option<f64> {
     let n = y.len();
     let idx = |t: f64| ((t - t0) / dt).round();
     let (ia, ib) = (idx(a), idx(b));
@@ -642,9 +653,30 @@ fn noise_bias(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), half: usize) -> O
     let mut rng = crate::stats::Rng::with_stream(0xB1A5, ia as u64);
     let mut sum = 0.0;
     let mut z = smooth.clone();
+    // The raw samples under the slice, with one interval of margin.
+    let grid_t: Vec<f64> = (0..smooth.len()).map(|k| t_s + k as f64 * dt).collect();
+    let raw = raw.and_then(|r| {
+        let (g0, g1) = (grid_t[0], grid_t[grid_t.len() - 1]);
+        let i = r.t.partition_point(|&t| t < g0 - 2.0 * r.dt);
+        let j = r.t.partition_point(|&t| t <= g1 + 2.0 * r.dt);
+        (j > i + 4).then_some((&r.t[i..j], r.dt, r.sigma))
+    });
+    let mut e = Vec::new();
     for _ in 0..BIAS_REPLICATES {
-        for (zk, sk) in z.iter_mut().zip(&smooth) {
-            *zk = sk + sd * rng.normal();
+        match raw {
+            Some((rt, rdt, rs)) => {
+                e.clear();
+                e.extend((0..rt.len()).map(|_| rs * rng.normal()));
+                let g = crate::ingest::interpolate(rt, &e, rdt, &grid_t);
+                for ((zk, sk), gk) in z.iter_mut().zip(&smooth).zip(&g) {
+                    *zk = sk + if gk.is_finite() { *gk } else { 0.0 };
+                }
+            }
+            None => {
+                for (zk, sk) in z.iter_mut().zip(&smooth) {
+                    *zk = sk + sd * rng.normal();
+                }
+            }
         }
         sum += amplitude(&z, dt, t_s, (a, b), half)?;
     }
@@ -692,6 +724,19 @@ struct Grid<'a> {
     x1: &'a [f64],
     x2: &'a [f64],
     noise: (f64, f64),
+    /// The raw channels' sample times and white-noise σ (m), x1 then x2:
+    /// the noise-bias bootstrap draws white noise at the raw samples and
+    /// interpolates it onto the grid as the ingest did, so its colour on the
+    /// grid is the data's.
+    raw: [Option<RawNoise<'a>>; 2],
+}
+
+/// A raw channel's sample times, interval and white-noise σ.
+#[derive(Clone, Copy)]
+struct RawNoise<'a> {
+    t: &'a [f64],
+    dt: f64,
+    sigma: f64,
 }
 
 impl<'a> Grid<'a> {
@@ -704,6 +749,15 @@ impl<'a> Grid<'a> {
             x1: &rs.x1,
             x2: &rs.x2,
             noise: (noise_level(&rs.x1), noise_level(&rs.x2)),
+            raw: [Quantity::X1, Quantity::X2].map(|q| {
+                let c = run.channel(q)?;
+                let sigma = noise_level(&c.v);
+                (sigma.is_finite() && sigma > 0.0 && c.rate_hz > 0.0).then_some(RawNoise {
+                    t: &c.t,
+                    dt: 1.0 / c.rate_hz,
+                    sigma,
+                })
+            }),
         })
     }
 
@@ -716,8 +770,24 @@ impl<'a> Grid<'a> {
     /// periods of length `period`.
     fn fitted(&self, window: (f64, f64), period: f64) -> Option<(Fitted, Fitted)> {
         Some((
-            window_amplitude(self.x1, self.dt, self.t0, window, period, self.noise.0)?,
-            window_amplitude(self.x2, self.dt, self.t0, window, period, self.noise.1)?,
+            window_amplitude(
+                self.x1,
+                self.dt,
+                self.t0,
+                window,
+                period,
+                self.noise.0,
+                self.raw[0],
+            )?,
+            window_amplitude(
+                self.x2,
+                self.dt,
+                self.t0,
+                window,
+                period,
+                self.noise.1,
+                self.raw[1],
+            )?,
         ))
     }
 
