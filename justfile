@@ -52,7 +52,7 @@ studies:
     python3 scripts/adequacy_eval.py target/adequacy-study target/release/stickslip
     cargo test --release --test fit_synth -- --ignored --nocapture
     cargo test --release --test identify_roundtrip -- --ignored --nocapture
-    cargo test --release --test identify_issue14 -- --ignored --nocapture
+    cargo test --release --test identify_other_rigs -- --ignored --nocapture
     cargo test --release --test defects -- --ignored --nocapture
 
 # Mutation-fuzz the ingest parsers and the channel-map parser, 300 s each
@@ -65,3 +65,11 @@ fuzz:
 # loosens the comparison to list numeric changes).
 golden:
     cargo test --release --test golden -- --ignored --test-threads 2
+
+# Run the Slurm recipes of docs/cluster.md (scripts/slurm/*.sbatch, as they
+# are) on a one-node Slurm started and stopped here, and compare with the
+# unsharded results bit for bit (root on Debian; installs slurm-wlm and munge
+# with apt; not part of CI).
+slurm-check:
+    cargo build --release
+    scripts/slurm_check.sh

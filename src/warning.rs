@@ -16,6 +16,38 @@ use crate::model::LawKind;
 use std::fmt;
 use std::path::PathBuf;
 
+/// Serde for the `&'static str` fields (channel names, units, rig
+/// constants): written as strings; read back interned, each distinct
+/// string leaked once (a handful of names, as saved fit artifacts carry
+/// them).
+/// A name the code spells (`&'static str`; an alias, so serde does not
+/// take it for a string borrowed from its input).
+type StaticStr = &'static str;
+
+mod static_str {
+    use std::collections::HashSet;
+    use std::sync::{Mutex, OnceLock};
+
+    pub fn serialize<S: serde::Serializer>(v: &&'static str, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(v)
+    }
+
+    pub fn deserialize<'de, D: serde::Deserializer<'de>>(d: D) -> Result<&'static str, D::Error> {
+        let v: String = serde::Deserialize::deserialize(d)?;
+        static SEEN: OnceLock<Mutex<HashSet<&'static str>>> = OnceLock::new();
+        let mut seen = SEEN
+            .get_or_init(|| Mutex::new(HashSet::new()))
+            .lock()
+            .unwrap_or_else(|e| e.into_inner());
+        if let Some(s) = seen.get(v.as_str()) {
+            return Ok(s);
+        }
+        let s: &'static str = Box::leak(v.into_boxed_str());
+        seen.insert(s);
+        Ok(s)
+    }
+}
+
 /// Every code [`Warning::code`] gives, each once.
 pub const CODES: &[&str] = &[
     "option_ignored",
@@ -42,6 +74,7 @@ pub const CODES: &[&str] = &[
     "short_sticks",
     "contradiction",
     "law_changed",
+    "threshold_not_identified",
     "parsimony",
     "untested",
     "inadequate",
@@ -71,12 +104,14 @@ pub const CODES: &[&str] = &[
 ];
 
 /// The largest residual structure named by [`Warning::Inadequate`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WorstStructure {
     /// `x1` or `x2`.
-    pub channel: &'static str,
+    #[serde(with = "static_str")]
+    pub channel: StaticStr,
     /// What the residuals were binned against (`drive phase`, `velocity`, ...).
-    pub against: &'static str,
+    #[serde(with = "static_str")]
+    pub against: StaticStr,
     /// Size of the structure in units of the noise.
     pub effect: f64,
     /// χ² of the bin means per degree of freedom.
@@ -87,7 +122,7 @@ pub struct WorstStructure {
 
 /// One warning with its numbers. `Display` gives the message; [`Self::code`]
 /// its stable code.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[non_exhaustive]
 pub enum Warning {
     // ---- ingest ----
@@ -96,7 +131,8 @@ pub enum Warning {
     /// An optional channel of this quantity is absent (neither a2 nor v2).
     ChannelAbsent {
         /// The quantity's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
     },
     /// No accelerometer channel.
     NoAccelerometer,
@@ -112,12 +148,14 @@ pub enum Warning {
         /// The topic.
         topic: String,
         /// The quantity's name.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
     },
     /// More than 5 % of a channel's samples are null.
     ChannelNulls {
         /// The channel's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
         /// Null samples.
         nulls: usize,
         /// All samples.
@@ -133,7 +171,8 @@ pub enum Warning {
         /// The topic.
         topic: String,
         /// The unit assumed.
-        unit: &'static str,
+        #[serde(with = "static_str")]
+        unit: StaticStr,
     },
     /// The last TDMS segment was not finished by its writer: the bytes of
     /// its incomplete chunk are ignored.
@@ -166,13 +205,15 @@ pub enum Warning {
     /// A channel flat at one end of its range (a saturated sensor).
     Clipped {
         /// The channel's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
         /// At its maximum (else its minimum).
         high: bool,
         /// The level (SI).
         level: f64,
         /// The channel's unit.
-        unit: &'static str,
+        #[serde(with = "static_str")]
+        unit: StaticStr,
         /// Fraction of the samples clipped.
         fraction: f64,
         /// Samples clipped.
@@ -197,7 +238,8 @@ pub enum Warning {
     /// A channel's estimated shift against x1, applied.
     ChannelDelay {
         /// The channel's name.
-        channel: &'static str,
+        #[serde(with = "static_str")]
+        channel: StaticStr,
         /// The shift applied beyond the declared one (s; negative: lags).
         shift_s: f64,
         /// 95 % interval of the channel's shift (s; NaN when unknown).
@@ -262,6 +304,11 @@ pub enum Warning {
         x2_s: f64,
         /// Its 95 % interval (s).
         x2_interval_s: (f64, f64),
+        /// `None`: fitted because the law without lags did not explain the
+        /// log; `Some(ΔBIC)`: the law without lags explained it to the
+        /// noise, but its residuals followed the velocity or the drive
+        /// phase and the lags lowered the BIC by this much.
+        delta_bic: Option<f64>,
     },
     /// The output-error refinement failed.
     RefinementFailed {
@@ -299,6 +346,19 @@ pub enum Warning {
         output_error: LawKind,
         /// The equation-error law.
         equation_error: LawKind,
+    },
+    /// Another family explains the log almost as well (ΔBIC below 10) but
+    /// puts the breakaway threshold Rs outside the chosen law's interval:
+    /// the interval is widened to hold it.
+    ThresholdNotIdentified {
+        /// The other family.
+        other: LawKind,
+        /// Its BIC minus the chosen one's.
+        delta_bic: f64,
+        /// Its Rs (N).
+        other_rs_n: f64,
+        /// The chosen law's Rs interval before widening (N).
+        interval_n: (f64, f64),
     },
     /// A family's extra parameter is consistent with Coulomb: Coulomb chosen.
     NestedCoulomb {
@@ -389,7 +449,8 @@ pub enum Warning {
     /// A rig constant differs between the characteristic log and the sweep.
     SweepRigMismatch {
         /// The constant (`M1`, `M2`, `K1`, `K2`).
-        constant: &'static str,
+        #[serde(with = "static_str")]
+        constant: StaticStr,
         /// The characteristic log's value.
         characteristic: f64,
         /// The sweep's value.
@@ -476,7 +537,8 @@ pub enum Warning {
         /// The log.
         log: PathBuf,
         /// `Rs` or `Rd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
         /// The difference in standard deviations.
         z: f64,
     },
@@ -488,12 +550,14 @@ pub enum Warning {
     /// The logs contradict each other and the data do not say which is off.
     UnresolvedConflict {
         /// `μs` or `μd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
     },
     /// μ without and with the conflicting logs.
     ConflictSetAside {
         /// `μs` or `μd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
         /// μ and its 95 % interval without the conflicting logs.
         robust: (f64, f64, f64),
         /// μ and its 95 % interval with every log.
@@ -507,7 +571,8 @@ pub enum Warning {
     /// A free fit's intercept is significant.
     Intercept {
         /// `μs` or `μd`.
-        quantity: &'static str,
+        #[serde(with = "static_str")]
+        quantity: StaticStr,
         /// The intercept (N).
         intercept_n: f64,
         /// Its 95 % half-width (N).
@@ -530,7 +595,8 @@ pub enum Warning {
     /// A rig constant differs between the logs of a batch.
     BatchRigMismatch {
         /// The constant.
-        constant: &'static str,
+        #[serde(with = "static_str")]
+        constant: StaticStr,
         /// The log that differs.
         log: PathBuf,
         /// Its value.
@@ -601,6 +667,7 @@ impl Warning {
             ShortSticks { .. } => "short_sticks",
             BoundsContradict { .. } => "contradiction",
             LawChanged { .. } => "law_changed",
+            ThresholdNotIdentified { .. } => "threshold_not_identified",
             NestedCoulomb { .. } => "parsimony",
             Untested { .. } => "untested",
             Inadequate { .. } => "inadequate",
@@ -802,12 +869,22 @@ impl fmt::Display for Warning {
                 x1_interval_s: i1,
                 x2_s: d2,
                 x2_interval_s: i2,
-            } => write!(
-                f,
-                "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
-                 (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",
-                d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
-            ),
+                delta_bic,
+            } => {
+                write!(
+                    f,
+                    "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] ",
+                    d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
+                )?;
+                match delta_bic {
+                    None => f.write_str("(fitted with the law: without these lags it does not explain the log"),
+                    Some(d) => write!(
+                        f,
+                        "(fitted with the law: without them its residuals follow the velocity or the drive phase, and the lags lower the BIC by {d:.0}"
+                    ),
+                }?;
+                f.write_str("; a sensor filter at f_c lags by about 1/(2π·f_c))")
+            }
             RefinementFailed { reason } => write!(
                 f,
                 "output-error refinement not possible ({reason}); the equation-error estimate is used"
@@ -851,6 +928,16 @@ impl fmt::Display for Warning {
                 "the output-error refinement chose the law {} (equation error: {})",
                 output_error.as_str(),
                 equation_error.as_str()
+            ),
+            ThresholdNotIdentified {
+                other,
+                delta_bic,
+                other_rs_n,
+                interval_n: (lo, hi),
+            } => write!(
+                f,
+                "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
+                other.as_str()
             ),
             NestedCoulomb { law } => write!(
                 f,
@@ -1105,12 +1192,13 @@ impl fmt::Display for Warning {
     }
 }
 
-/// Serialized as its message (JSON's `warnings` stays a list of strings;
-/// the codes go beside it as `warning_codes`).
-impl serde::Serialize for Warning {
-    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        s.collect_str(self)
-    }
+/// Serialises warnings as their messages: the JSON outputs' `warnings`
+/// lists (`#[serde(serialize_with = ...)]`; the codes go beside them as
+/// `warning_codes`). The derived serde form (a tagged variant with its
+/// numbers) is what saved fit artifacts carry, so a fit read back has the
+/// same warnings, variants and all.
+pub fn as_messages<S: serde::Serializer>(w: &[Warning], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_seq(w.iter().map(|w| w.to_string()))
 }
 
 #[cfg(test)]
@@ -1271,7 +1359,7 @@ mod tests {
             ),
             (NoBreakaway, "no stick → slip transition could be located".to_string()),
             (
-                PositionDelays { x1_s: z, x1_interval_s: (0.002, 0.003), x2_s: y, x2_interval_s: (-0.005, -0.004) },
+                PositionDelays { x1_s: z, x1_interval_s: (0.002, 0.003), x2_s: y, x2_interval_s: (-0.005, -0.004), delta_bic: None },
                 format!(
                     "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] \
                      (fitted with the law: without these lags it does not explain the log; a sensor filter at f_c lags by about 1/(2π·f_c))",
@@ -1308,6 +1396,13 @@ mod tests {
                 format!(
                     "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {:.4} N, the sliding level below by {:.4} N",
                     x, 1.3
+                ),
+            ),
+            (
+                ThresholdNotIdentified { other: s, delta_bic: 3.25, other_rs_n: 1.5, interval_n: (1.2, 1.3) },
+                format!(
+                    "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {:.1}) with Rs {:.4} N, outside the chosen law's interval [{:.4}, {:.4}] N; the Rs interval is widened to hold it",
+                    s.as_str(), 3.25, 1.5, 1.2, 1.3
                 ),
             ),
             (
@@ -1614,7 +1709,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 71;
+    const VARIANTS: usize = 72;
 
     #[test]
     fn every_code_is_documented() {

@@ -255,6 +255,90 @@ fn positions_overrule_a_velocity_that_says_stuck() {
 
 /// Every bundled log: the keys are there, and no delay or drift warning
 /// fires on these clean logs (a warning on good data is a defect).
+/// Sensors of log019 of the adequacy study (`scripts/adequacy_study.py`,
+/// seed 2026): filters at 143 Hz (x0), 417 Hz (x1), 232 Hz (x2), so x2
+/// lags x1 by about 0.3 ms, below one sample at 2 kHz (not re-stamped).
+const LAGGING_SENSORS: &str = r#"{"x0": {"rate_hz": 2000.0, "noise": 3.6343559006557145e-06, "quant": 2.5e-06, "gain": 1.0016870201117454, "offset": 0.0002775947862091446, "lowpass_hz": 142.60178201105305, "buffer_s": 0.1, "start_offset_ns": null, "jitter_ns": 0, "p_lost_buffer": 0.005, "p_dropout": 0.0002, "dropout_burst_max": 4, "noise_correlation_s": 0.0}, "x1": {"rate_hz": 2000.0, "noise": 6.14841407131401e-06, "quant": 2.5e-06, "gain": 0.9908803954129204, "offset": -0.0019074407558538429, "lowpass_hz": 416.9379867645772, "buffer_s": 0.2, "start_offset_ns": null, "jitter_ns": 2000, "p_lost_buffer": 0.01, "p_dropout": 0.0, "dropout_burst_max": 4, "noise_correlation_s": 0.0}, "x2": {"rate_hz": 2000.0, "noise": 1.8130941568876397e-06, "quant": 1e-06, "gain": 0.9900446190247297, "offset": -0.0011268672627905117, "lowpass_hz": 232.3433739893301, "buffer_s": 0.05, "start_offset_ns": null, "jitter_ns": 0, "p_lost_buffer": 0.0, "p_dropout": 0.0, "dropout_burst_max": 4, "noise_correlation_s": 0.000891076990515427}, "v2": {"rate_hz": 1000.0, "noise": 0.0005675718690061364, "quant": 1e-05, "gain": 1.0007940610432822, "offset": -7.937459099912205e-05, "lowpass_hz": 292.20012965622425, "buffer_s": 0.2, "start_offset_ns": null, "jitter_ns": 10000, "p_lost_buffer": 0.01, "p_dropout": 0.0, "dropout_burst_max": 4, "noise_correlation_s": 0.0}, "a2": null, "normal_force": {"rate_hz": 10.0, "noise": 0.0, "quant": 0.01, "gain": 1.0047078273049337, "offset": -0.01712694197926948, "lowpass_hz": null, "buffer_s": 0.5, "start_offset_ns": null, "jitter_ns": 10000, "p_lost_buffer": 0.01, "p_dropout": 0.0, "dropout_burst_max": 4, "noise_correlation_s": 0.0}}"#;
+
+/// A lag small enough that the law without it passes the adequacy test
+/// (x2 residual 1.24× the noise; structure against velocity z 10.3,
+/// effect 0.48 < 0.5) but large enough to bias it: a Coulomb pad was read
+/// as static/dynamic with Rs 8.5 % high, 6.7 half-widths off. The lags'
+/// signature (significant structure against velocity or drive phase)
+/// makes the fit try them, and the BIC keeps them.
+#[test]
+fn lags_that_leave_the_law_adequate_but_biased_are_fitted() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let sj = dir.path().join("s.json");
+    std::fs::write(&sj, LAGGING_SENSORS).expect("write");
+    let log = dir.path().join("lag.mcap");
+    let truth_rs = 0.464_294_169_184_705_2;
+    let mut synth = bin();
+    synth
+        .arg("synth")
+        .arg("--out")
+        .arg(&log)
+        .arg("--sensors")
+        .arg(&sj);
+    synth.args([
+        "--seed",
+        "119",
+        "--m1-kg",
+        "3",
+        "--m2-kg",
+        "1",
+        "--k1-n-per-m",
+        "200",
+        "--k2-n-per-m",
+        "500",
+        "--d-n-s-per-m",
+        "0.08944271909999159",
+        "--amplitude-m",
+        "0.002",
+        "--frequency-hz",
+        "2.292181908284495",
+        "--normal-force",
+        "2.0",
+        "--rs-n",
+        "0.46429416918470523",
+        "--rd-n",
+        "0.46429416918470523",
+        "--law",
+        "coulomb",
+    ]);
+    let out = synth.output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
+    let fit = &j["fits"][0];
+    let codes: Vec<&str> = fit["warning_codes"]
+        .as_array()
+        .expect("codes")
+        .iter()
+        .filter_map(|c| c.as_str())
+        .collect();
+    assert!(
+        codes.contains(&"position_delay"),
+        "{codes:?}: {}",
+        fit["warnings"]
+    );
+    assert_eq!(fit["law"], "coulomb", "{}", fit["warnings"]);
+    assert_eq!(fit["adequate"], true);
+    let iv = &fit["r_s_interval_n"];
+    assert!(
+        f(&iv[0]) <= truth_rs && truth_rs <= f(&iv[1]),
+        "Rs {} [{}, {}] against {truth_rs}",
+        fit["r_s_n"],
+        iv[0],
+        iv[1]
+    );
+    let lag2 = f(&fit["output_error"]["position_delays_s"][1]);
+    assert!((0.2e-3..0.5e-3).contains(&lag2), "x2 lag {lag2}");
+}
+
 #[test]
 fn bundled_logs_get_no_delay_warning() {
     let mut names: Vec<String> = std::fs::read_dir(data(""))

@@ -74,8 +74,8 @@ fn assert_same(a: &Value, b: &Value, rel: f64, skip: &[&str], what: &str) {
 
 /// What differs by nature between a log and its copy in another format:
 /// the file name and format, the channels' source names (MCAP topics vs
-/// `Group/Channel`), and run times of the fit.
-const NOT_COMPARED: &[&str] = &["log", "format", "source", "seconds"];
+/// `Group/Channel`), the file's sha256 and run times of the fit.
+const NOT_COMPARED: &[&str] = &["log", "format", "source", "log_sha256", "seconds"];
 
 /// The fit keys of the interface (docs/interface.md, `stickslip fit`).
 const FIT_KEYS: &[&str] = &[

@@ -247,6 +247,7 @@ struct BatchOut<'a> {
     setting_tolerance: f64,
     evaluations: usize,
     periods: u64,
+    #[serde(serialize_with = "crate::warning::as_messages")]
     warnings: &'a [crate::warning::Warning],
     /// One stable code per warning (`crate::warning::Warning::code`).
     warning_codes: Vec<&'static str>,

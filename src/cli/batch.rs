@@ -11,6 +11,7 @@
 //! logs are named in `conflicts` and μ is reported with and without them.
 
 use crate::batch::{self as vb, Batch, BatchOptions};
+use crate::identify::artifact::{self, FitEntry, FitSet};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::RigMeta;
 use crate::report::{batch_plot, batch_view, html, views};
@@ -25,8 +26,14 @@ use std::time::Instant;
 #[derive(Debug, Args)]
 pub struct BatchArgs {
     /// Characteristic logs of one pad at several normal forces.
-    #[arg(required = true)]
+    #[arg(required_unless_present = "fits")]
     pub logs: Vec<PathBuf>,
+    /// Reuse the fits in this file (`fit --out` or `merge` of fit parts)
+    /// instead of refitting: its fits join the batch first; a log also
+    /// given is fitted only if no record has its sha256 (a record of the
+    /// same file with another sha256 is refused).
+    #[arg(long, value_name = "FITS.json")]
+    pub fits: Option<PathBuf>,
     /// Write the HTML report (index.html and the figure) into this directory.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -138,7 +145,8 @@ fn write_report(
     batch: Option<&Batch>,
     errors: &[String],
 ) -> crate::Result<PathBuf> {
-    let rd = html::ReportDir::create(dir, &args.logs)?;
+    let inputs: Vec<PathBuf> = args.logs.iter().chain(&args.fits).cloned().collect();
+    let rd = html::ReportDir::create(dir, &inputs)?;
     let mut page = html::Page {
         title: "Normal-force settings of one pad".into(),
         version: env!("CARGO_PKG_VERSION").into(),
@@ -161,8 +169,7 @@ fn write_report(
         });
     }
     page.warnings = errors.to_vec();
-    page.inputs = args
-        .logs
+    page.inputs = inputs
         .iter()
         .filter_map(|p| html::input_file(p).ok())
         .collect();
@@ -209,14 +216,16 @@ fn drop_duplicates(
 /// the batch keys (`null` with an `error` where the batch failed).
 fn batch_json(
     fits: &Fits,
+    shas: &[Option<String>],
     duplicates: &[String],
     result: &crate::Result<Batch>,
 ) -> serde_json::Map<String, Value> {
     let fit_entries: Vec<Value> = fits
         .iter()
-        .map(|(p, r)| match r {
-            Ok((_, f)) => f.to_json(p),
-            Err(e) => json!({"log": p.display().to_string(), "error": e.to_string()}),
+        .zip(shas)
+        .map(|((p, r), sha)| match r {
+            Ok((rig, f)) => artifact::record(f, p, sha.as_deref(), rig),
+            Err(e) => artifact::failed_record(p, sha.as_deref(), &e.to_string()),
         })
         .collect();
     let mut out = serde_json::Map::new();
@@ -277,9 +286,28 @@ fn failure(fits: &Fits, why: Option<&crate::Error>) -> crate::Error {
 /// [`drop_duplicates`], [`batch_json`] and [`failure`].
 pub fn run(args: BatchArgs) -> crate::Result<()> {
     let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
-    super::check_paths(args.logs.iter().map(PathBuf::as_path), &outputs)?;
+    super::check_paths(
+        args.logs.iter().chain(&args.fits).map(PathBuf::as_path),
+        &outputs,
+    )?;
     let t0 = Instant::now();
     let bopts = options(&args)?;
+    // Earlier fits, and which of the logs given they cover.
+    let (saved, covered) = match &args.fits {
+        Some(path) => {
+            let set = FitSet::read(path)?;
+            let covered = set.match_logs(&args.logs)?;
+            (set.entries, covered)
+        }
+        None => (Vec::new(), vec![None; args.logs.len()]),
+    };
+    let to_fit: Vec<PathBuf> = args
+        .logs
+        .iter()
+        .zip(&covered)
+        .filter(|(_, c)| c.is_none())
+        .map(|(p, _)| p.clone())
+        .collect();
     let iopts = IdentifyOptions {
         fit: identify::FitOptions {
             bootstrap: args.bootstrap,
@@ -290,7 +318,7 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
     };
     let show = !args.json && std::io::stderr().is_terminal();
     let bar = if show {
-        let b = ProgressBar::new(args.logs.len() as u64);
+        let b = ProgressBar::new(to_fit.len() as u64);
         b.set_style(
             ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
                 .unwrap_or_else(|_| ProgressStyle::default_bar()),
@@ -303,7 +331,7 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
     // Read every log first: a log that cannot be read or is not a
     // characteristic test stops the batch before any fitting.
     bar.set_message("reading logs");
-    let runs = match crate::pipeline::checks::read_characteristic_logs(&args.logs) {
+    let runs = match crate::pipeline::checks::read_characteristic_logs(&to_fit) {
         Ok(r) => r,
         Err(e) => {
             bar.finish_and_clear();
@@ -312,11 +340,30 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
     };
     bar.set_message("fitting logs");
     let run_refs: Vec<&crate::ingest::Run> = runs.iter().collect();
-    let fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = runs
+    // The saved fits first (in their file's order), then the logs fitted now.
+    let mut fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = Vec::new();
+    let mut shas: Vec<Option<String>> = Vec::new();
+    for e in saved {
+        shas.push(e.log_sha256().map(str::to_string));
+        fits.push(match e {
+            FitEntry::Fitted(a) => (a.log, Ok((a.rig, a.fit))),
+            FitEntry::Failed(f) => (
+                f.log.clone(),
+                Err(crate::Error::Skipped {
+                    path: f.log,
+                    stage: "its saved fit failed",
+                    cause: f.error,
+                }),
+            ),
+        });
+    }
+    for (run, f) in runs
         .iter()
         .zip(identify::fit_runs(&run_refs, &iopts, &|| bar.inc(1)))
-        .map(|(run, f)| (run.source.clone(), f.map(|f| (run.rig.clone(), f))))
-        .collect();
+    {
+        shas.push(artifact::sha256_file(&run.source).ok());
+        fits.push((run.source.clone(), f.map(|f| (run.rig.clone(), f))));
+    }
     let mut errors = Vec::new();
     let mut good: Vec<(PathBuf, LogFit)> = Vec::new();
     let mut rigs: Vec<(PathBuf, RigMeta)> = Vec::new();
@@ -363,7 +410,7 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
     if let Err(e) = &result {
         eprintln!("error: {e}");
     }
-    let mut out = batch_json(&fits, &duplicates, &result);
+    let mut out = batch_json(&fits, &shas, &duplicates, &result);
     if !errors.is_empty() || result.is_err() {
         // A failed command writes no file: print what there is, then fail.
         if args.json {

@@ -42,6 +42,7 @@ struct CharacteristicOut<'a> {
     velocity_noise_m_per_s: f64,
     out: Option<String>,
     bias_n: f64,
+    #[serde(serialize_with = "crate::warning::as_messages")]
     warnings: &'a [crate::warning::Warning],
     /// One stable code per warning (`crate::warning::Warning::code`).
     warning_codes: Vec<&'static str>,

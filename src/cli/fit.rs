@@ -2,6 +2,7 @@
 //! parallel; a bad log gives its `error:` line and an entry with `error`,
 //! the others complete, and the exit status is 1 at the end.
 
+use crate::identify::artifact::{self, FitArtifact};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::io::Output;
 use crate::model::LawKind;
@@ -52,9 +53,47 @@ pub struct FitArgs {
     /// Which estimate is reported as the law (and used downstream).
     #[arg(long, value_enum, default_value_t = EstimateChoice::OutputError)]
     pub estimate: EstimateChoice,
+    /// Fit only slice K of N of the logs (K = 1..N; contiguous, balanced
+    /// slices in the order given); the result records K/N and the sha256
+    /// list of all the logs, for `merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Most shards of a fit (far more than logs one command is given).
+pub const MAX_FIT_SHARDS: usize = 1_000_000;
+
+/// Parses `--shard K/N` of `fit` (1 ≤ K ≤ N ≤ [`MAX_FIT_SHARDS`]).
+pub fn parse_fit_shard(s: &str) -> crate::Result<(usize, usize)> {
+    let parts: Vec<&str> = s.split('/').collect();
+    let nums: Option<(usize, usize)> = match parts.as_slice() {
+        [a, b] => a.trim().parse().ok().zip(b.trim().parse().ok()),
+        _ => None,
+    };
+    let bad = |msg: String| crate::Error::Input {
+        path: PathBuf::from("--shard"),
+        msg,
+    };
+    match nums {
+        Some((_, n)) if n > MAX_FIT_SHARDS => Err(bad(format!(
+            "{s}: at most {MAX_FIT_SHARDS} shards"
+        ))),
+        Some((k, n)) if n >= 1 && (1..=n).contains(&k) => Ok((k, n)),
+        Some((0, n)) if n >= 1 => Err(bad(format!(
+            "must be K/N with 1 <= K <= N, got `{s}`: K is 1-based (a job array numbered from 0 gives K = task id - min task id + 1)"
+        ))),
+        _ => Err(bad(format!("must be K/N with 1 <= K <= N, got `{s}`"))),
+    }
+}
+
+/// The logs of shard K of N among `n` logs: a contiguous slice, the
+/// slices' sizes differing by at most one (some are empty when N > n).
+pub fn shard_range(k: usize, shards: usize, n: usize) -> std::ops::Range<usize> {
+    let at = |i: usize| (i as u128 * n as u128 / shards as u128) as usize;
+    at(k - 1)..at(k)
 }
 
 /// Runs `fit`; `Ok(false)` when some log failed (its error line is printed).
@@ -74,6 +113,17 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
         .map(|p| Output::file("--out", p, super::ext::JSON))
         .collect();
     crate::io::check_outputs(args.logs.iter().map(PathBuf::as_path), &outputs)?;
+    let shard = args.shard.as_deref().map(parse_fit_shard).transpose()?;
+    // Every log's sha256 (a part records the whole list; a log that cannot
+    // be read has none, and its fit fails below).
+    let sha = |p: &PathBuf| identify::artifact::sha256_file(p).ok();
+    let (all_shas, logs): (Vec<Option<String>>, &[PathBuf]) = match shard {
+        Some((k, n)) => (
+            args.logs.iter().map(sha).collect(),
+            &args.logs[shard_range(k, n, args.logs.len())],
+        ),
+        None => (Vec::new(), &args.logs),
+    };
     let opts = IdentifyOptions {
         fit: identify::FitOptions {
             law: args.law.0,
@@ -86,25 +136,41 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
     };
     // Parallel over logs, each panic-guarded (one failing log does not
     // stop the others).
-    let results = identify::fit_logs(&args.logs, &opts, &|| {});
+    let results = identify::fit_logs(logs, &opts, &|| {});
     let mut failed: Vec<String> = Vec::new();
     let mut fits = Vec::new();
-    for (log, r) in args.logs.iter().zip(results) {
-        match r {
-            Ok((_, f)) => {
+    for (log, r) in logs.iter().zip(results) {
+        let log_sha = r.as_ref().ok().and_then(|_| sha(log));
+        match (r, log_sha) {
+            (Ok((rig, f)), Some(log_sha256)) => {
                 if !args.json {
                     eprintln!("{}", summary(log, &f));
                 }
-                fits.push(f.to_json(log));
+                let a = FitArtifact {
+                    log: log.clone(),
+                    log_sha256,
+                    rig,
+                    fit: f,
+                };
+                fits.push(a.to_record()?);
             }
-            Err(e) => {
+            (r, _) => {
+                let e = match r {
+                    Err(e) => e.to_string(),
+                    Ok(_) => format!("{}: cannot be read again for its sha256", log.display()),
+                };
                 eprintln!("error: {e}");
                 failed.push(log.display().to_string());
-                fits.push(json!({"log": log.display().to_string(), "error": e.to_string()}));
+                fits.push(artifact::failed_record(log, sha(log).as_deref(), &e));
             }
         }
     }
-    let out = json!({ "fits": fits });
+    let out = match shard {
+        Some((k, n)) => {
+            json!({ "shard": k, "shards": n, "log_sha256s": all_shas, "fits": fits })
+        }
+        None => json!({ "fits": fits }),
+    };
     if let Some(path) = &args.out {
         super::write_json(path, &out)?;
     }
@@ -114,11 +180,11 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
     // The last line names every log that failed (the contract's one
     // exception to "a failed command writes nothing": the others' fits
     // are written).
-    if !failed.is_empty() && args.logs.len() > 1 {
+    if !failed.is_empty() && logs.len() > 1 {
         eprintln!(
             "error: {} of {} logs failed: {}",
             failed.len(),
-            args.logs.len(),
+            logs.len(),
             failed.join(", ")
         );
     }

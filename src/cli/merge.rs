@@ -1,6 +1,8 @@
 //! `stickslip merge`: joins the partial tables of a sharded sweep
 //! (`sweep --shard K/N --out part-K.parquet`) into the family's table,
-//! exactly as an unsharded run writes it.
+//! exactly as an unsharded run writes it; or the parts of a sharded fit
+//! (`fit --shard K/N --out part-K.json`) into one `{"fits": [...]}` object,
+//! the records in the order of the log list (see [`merge_fits`]).
 
 use crate::io::Output;
 use crate::report::table::FrcRow;
@@ -13,10 +15,10 @@ use std::path::PathBuf;
 /// Arguments of `stickslip merge`.
 #[derive(Debug, Args)]
 pub struct MergeArgs {
-    /// Partial tables (.parquet or .csv).
+    /// Partial tables (.parquet or .csv), or fit parts (.json).
     #[arg(required = true)]
     pub parts: Vec<PathBuf>,
-    /// The merged table (.parquet or .csv).
+    /// The merged table (.parquet or .csv), or the merged fits (.json).
     #[arg(long)]
     pub out: PathBuf,
     /// Also draw the family (.svg or .png).
@@ -31,8 +33,25 @@ pub struct MergeArgs {
     pub json: bool,
 }
 
+fn is_json(p: &std::path::Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("json"))
+}
+
 /// Runs `merge`.
 pub fn run(args: MergeArgs) -> crate::Result<()> {
+    let json_parts = args.parts.iter().filter(|p| is_json(p)).count();
+    if json_parts == args.parts.len() {
+        return merge_fits(&args);
+    }
+    if json_parts > 0 {
+        let p = args.parts.iter().find(|p| is_json(p)).unwrap_or(&args.out);
+        return Err(crate::Error::Input {
+            path: p.clone(),
+            msg: "is a fit part (.json) among sweep tables: merge takes sweep tables or fit parts, not both".into(),
+        });
+    }
     let mut outputs = vec![Output::file("--out", &args.out, super::ext::TABLE)];
     if let Some(p) = &args.plot {
         outputs.push(Output::file("--plot", p, super::ext::FIGURE));
@@ -261,4 +280,167 @@ fn check_complete(
         curves: curves as usize,
         points: points as usize,
     })
+}
+
+/// One fit part as read: its shard, the log list's sha256s, its records.
+struct FitPart {
+    shard: usize,
+    shards: usize,
+    shas: Vec<Option<String>>,
+    fits: Vec<serde_json::Value>,
+}
+
+/// Reads a fit part (`fit --shard K/N --out`).
+fn read_fit_part(p: &std::path::Path) -> crate::Result<FitPart> {
+    let bad = |msg: String| crate::Error::Input {
+        path: p.to_path_buf(),
+        msg,
+    };
+    let not_part = |why: &str| {
+        bad(format!(
+            "not a fit part written by `stickslip fit --shard K/N --out` ({why})"
+        ))
+    };
+    let text = crate::io::paths::read_small_text(
+        p,
+        "fit part",
+        crate::identify::artifact::MAX_FITS_BYTES,
+    )?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| not_part(&e.to_string()))?;
+    let num = |k: &str| v.get(k).and_then(serde_json::Value::as_u64);
+    let (Some(shard), Some(shards)) = (num("shard"), num("shards")) else {
+        return Err(not_part("no `shard` and `shards`"));
+    };
+    if shards == 0 || shard == 0 || shard > shards || shards > super::fit::MAX_FIT_SHARDS as u64 {
+        return Err(not_part(&format!("shard {shard}/{shards}")));
+    }
+    let shas = v
+        .get("log_sha256s")
+        .and_then(serde_json::Value::as_array)
+        .ok_or_else(|| not_part("no `log_sha256s` list"))?
+        .iter()
+        .map(|s| s.as_str().map(str::to_string))
+        .collect();
+    let fits = v
+        .get("fits")
+        .and_then(serde_json::Value::as_array)
+        .ok_or_else(|| not_part("no `fits` list"))?
+        .clone();
+    Ok(FitPart {
+        shard: shard as usize,
+        shards: shards as usize,
+        shas,
+        fits,
+    })
+}
+
+/// Joins the parts of a sharded fit: every part of one log list (the same
+/// N and sha256 list), each shard K/N once, none missing, each part's
+/// records those of its slice (their `log_sha256` in the list's order);
+/// writes `{"fits": [...]}` in the log list's order.
+fn merge_fits(args: &MergeArgs) -> crate::Result<()> {
+    let outputs = vec![Output::file("--out", &args.out, super::ext::JSON)];
+    if args.plot.is_some() {
+        return Err(crate::Error::Input {
+            path: PathBuf::from("--plot"),
+            msg: "draws a sweep family: fit parts have no figure".into(),
+        });
+    }
+    super::check_paths(args.parts.iter().map(PathBuf::as_path), &outputs)?;
+    let parts: Vec<FitPart> = args
+        .parts
+        .iter()
+        .map(|p| read_fit_part(p))
+        .collect::<crate::Result<_>>()?;
+    let first = &parts[0];
+    let mut seen: Vec<Option<usize>> = vec![None; first.shards];
+    for (i, part) in parts.iter().enumerate() {
+        if part.shards != first.shards || part.shas != first.shas {
+            return Err(crate::Error::Input {
+                path: args.parts[i].clone(),
+                msg: format!(
+                    "is shard {}/{} of a list of {} logs, {} shard {}/{} of a list of {} logs: the parts come from different log lists (merge the parts of one `fit --shard` run)",
+                    part.shard,
+                    part.shards,
+                    part.shas.len(),
+                    args.parts[0].display(),
+                    first.shard,
+                    first.shards,
+                    first.shas.len()
+                ),
+            });
+        }
+        if let Some(j) = seen[part.shard - 1].replace(i) {
+            return Err(crate::Error::Input {
+                path: args.parts[i].clone(),
+                msg: format!(
+                    "is shard {}/{} again (also {}): give each shard once",
+                    part.shard,
+                    part.shards,
+                    args.parts[j].display()
+                ),
+            });
+        }
+        let range = super::fit::shard_range(part.shard, part.shards, part.shas.len());
+        let got: Vec<Option<&str>> = part
+            .fits
+            .iter()
+            .map(|f| f.get("log_sha256").and_then(serde_json::Value::as_str))
+            .collect();
+        let want: Vec<Option<&str>> = first.shas[range].iter().map(Option::as_deref).collect();
+        if got != want {
+            return Err(crate::Error::Input {
+                path: args.parts[i].clone(),
+                msg: format!(
+                    "its {} records are not the logs of shard {}/{} of its list ({} logs): an edited part?",
+                    got.len(),
+                    part.shard,
+                    part.shards,
+                    want.len()
+                ),
+            });
+        }
+        for f in &part.fits {
+            crate::identify::artifact::entry_of(f).map_err(|msg| crate::Error::Input {
+                path: args.parts[i].clone(),
+                msg,
+            })?;
+        }
+    }
+    let missing: Vec<String> = seen
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_none())
+        .map(|(k, _)| format!("{}/{}", k + 1, first.shards))
+        .collect();
+    if !missing.is_empty() {
+        return Err(SimError::Unsupported(format!(
+            "incomplete set of shards: {} of {} missing ({}): merge every shard K/N",
+            missing.len(),
+            first.shards,
+            missing.join(", ")
+        ))
+        .into());
+    }
+    let mut ordered: Vec<&FitPart> = parts.iter().collect();
+    ordered.sort_by_key(|p| p.shard);
+    let fits: Vec<serde_json::Value> = ordered
+        .iter()
+        .flat_map(|p| p.fits.iter().cloned())
+        .collect();
+    let failed = fits.iter().filter(|f| f.get("error").is_some()).count();
+    let n = fits.len();
+    super::write_json(&args.out, &json!({ "fits": fits }))?;
+    if args.json {
+        super::print_json(
+            &json!({ "fits": n, "failed": failed, "parts": args.parts.len(), "out": args.out }),
+        )?;
+    } else {
+        eprintln!(
+            "merged {n} fits ({failed} failed) from {} parts into {}",
+            args.parts.len(),
+            args.out.display()
+        );
+    }
+    Ok(())
 }

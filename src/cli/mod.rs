@@ -42,7 +42,7 @@ pub enum Command {
     Ingest(ingest::IngestArgs),
     /// Frequency-response curves and families (paper Figs. 3-5).
     Sweep(sweep::SweepArgs),
-    /// Merge the partial tables of a sharded sweep.
+    /// Merge the partial tables of a sharded sweep, or the parts of a sharded fit.
     Merge(merge::MergeArgs),
     /// Work-precision benchmark of the integrators.
     Bench(bench::BenchArgs),

@@ -61,6 +61,7 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(
         logs.iter()
+            .chain(&plan.fits)
             .map(PathBuf::as_path)
             .chain([args.plan.as_path()]),
         &outputs,

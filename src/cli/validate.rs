@@ -14,9 +14,14 @@ use std::time::Instant;
 /// Arguments of `stickslip validate`.
 #[derive(Debug, Args)]
 pub struct ValidateArgs {
-    /// Characteristic log whose fitted law is validated.
-    #[arg(long)]
-    pub characteristic: PathBuf,
+    /// Characteristic log whose fitted law is validated (with --fit: picks
+    /// the record with its sha256; optional if the file holds one fit).
+    #[arg(long, required_unless_present = "fit")]
+    pub characteristic: Option<PathBuf>,
+    /// Reuse a saved fit (`fit --out` or `merge` of fit parts) instead of
+    /// fitting the characteristic log.
+    #[arg(long, value_name = "FITS.json")]
+    pub fit: Option<PathBuf>,
     /// Sweep log (stepped or continuous) to predict.
     #[arg(long)]
     pub sweep: PathBuf,
@@ -60,11 +65,61 @@ pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
     Ok((ra?, rb?))
 }
 
+/// The saved fit `validate --fit` uses: the record whose `log_sha256` is
+/// the `--characteristic` file's, or the only record.
+fn saved_fit(
+    path: &Path,
+    characteristic: Option<&Path>,
+) -> crate::Result<crate::identify::artifact::FitArtifact> {
+    use crate::identify::artifact::{FitEntry, FitSet};
+    let set = FitSet::read(path)?;
+    let bad = |msg: String| crate::Error::Input {
+        path: path.to_path_buf(),
+        msg,
+    };
+    let i = match characteristic {
+        Some(c) => set.match_logs(&[c.to_path_buf()])?[0].ok_or_else(|| {
+            bad(format!(
+                "holds no fit of {} (no record has its sha256): fit it, or give the log that was fitted",
+                c.display()
+            ))
+        })?,
+        None if set.entries.len() == 1 => 0,
+        None => {
+            return Err(bad(format!(
+                "holds {} fits: name the one to validate with --characteristic LOG",
+                set.entries.len()
+            )))
+        }
+    };
+    match set.entries.into_iter().nth(i) {
+        Some(FitEntry::Fitted(a)) => Ok(*a),
+        Some(FitEntry::Failed(f)) => Err(bad(format!(
+            "records that the fit of {} failed ({}): nothing to validate",
+            f.log.display(),
+            f.error
+        ))),
+        None => Err(bad("holds no fits".into())),
+    }
+}
+
+/// Clap requires one of them; said again rather than assumed.
+fn need_one() -> crate::Error {
+    crate::Error::Input {
+        path: PathBuf::from("--characteristic"),
+        msg: "or --fit is needed".into(),
+    }
+}
+
 /// Runs `validate`.
 pub fn run(args: ValidateArgs) -> crate::Result<()> {
     let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(
-        [args.characteristic.as_path(), args.sweep.as_path()],
+        args.characteristic
+            .iter()
+            .chain(&args.fit)
+            .map(PathBuf::as_path)
+            .chain([args.sweep.as_path()]),
         &outputs,
     )?;
     let t0 = Instant::now();
@@ -73,24 +128,54 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             eprintln!("{msg}");
         }
     };
+    let saved = args
+        .fit
+        .as_deref()
+        .map(|p| saved_fit(p, args.characteristic.as_deref()))
+        .transpose()?;
     say("reading logs");
     let clock = Instant::now();
-    let (char_run, sweep_run) = read_pair(&args.characteristic, &args.sweep)?;
+    let (char_run, sweep_run) = match &args.characteristic {
+        Some(c) => {
+            let (a, b) = read_pair(c, &args.sweep)?;
+            (Some(a), b)
+        }
+        None => (None, ingest::read(&args.sweep, &IngestOptions::default())?),
+    };
     let t_ingest = clock.elapsed().as_secs_f64();
+    let characteristic = args
+        .characteristic
+        .clone()
+        .or_else(|| saved.as_ref().map(|a| a.log.clone()))
+        .unwrap_or_default();
+    let char_rig = match (&saved, &char_run) {
+        (Some(a), _) => a.rig.clone(),
+        (None, Some(r)) => r.rig.clone(),
+        (None, None) => return Err(need_one()),
+    };
     crate::pipeline::checks::refuse_mixed_rigs(
         &[
-            (args.characteristic.clone(), char_run.rig.clone()),
+            (characteristic.clone(), char_rig.clone()),
             (args.sweep.clone(), sweep_run.rig.clone()),
         ],
         args.allow_mixed_rigs,
     )?;
-    say("fitting the friction law");
-    let opts = IdentifyOptions {
-        gain_uncertainty: args.gain_uncertainty,
-        ..IdentifyOptions::default()
-    };
     let clock = Instant::now();
-    let fit = identify::fit_log(&char_run, &opts)?;
+    let fit = match (saved, &char_run) {
+        (Some(a), _) => {
+            say(&format!("using the saved fit of {}", a.log.display()));
+            a.fit
+        }
+        (None, Some(run)) => {
+            say("fitting the friction law");
+            let opts = IdentifyOptions {
+                gain_uncertainty: args.gain_uncertainty,
+                ..IdentifyOptions::default()
+            };
+            identify::fit_log(run, &opts)?
+        }
+        (None, None) => return Err(need_one()),
+    };
     let t_fit = clock.elapsed().as_secs_f64();
     say(&format!(
         "measuring the sweep and predicting it (at most {} laws for the bands)",
@@ -102,26 +187,42 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     vo.predict.steady.max_periods = args.max_periods;
     vo.frc.gain_uncertainty = args.gain_uncertainty;
     let clock = Instant::now();
-    let v = validate::validate(&fit, &char_run, &sweep_run, &vo)?;
+    let v = validate::validate_fit(&fit, &characteristic, &char_rig, &sweep_run, &vo)?;
     let t_validate = clock.elapsed().as_secs_f64();
-    let mut out = v.to_json(&args.characteristic, &args.sweep, &fit);
+    let mut out = v.to_json(&characteristic, &args.sweep, &fit);
     out["stage_seconds"] = json!({"ingest": t_ingest, "fit": t_fit, "validate": t_validate});
     out["seconds"] = json!(t0.elapsed().as_secs_f64());
     if let Some(dir) = &args.report {
-        let inputs = [args.characteristic.clone(), args.sweep.clone()];
+        let inputs: Vec<PathBuf> = args
+            .characteristic
+            .iter()
+            .chain(&args.fit)
+            .chain([&args.sweep])
+            .cloned()
+            .collect();
         let rd = html::ReportDir::create(dir, &inputs)?;
-        let section =
-            sections::validation_section(&rd, &args.characteristic, &args.sweep, &fit, &v)?;
-        let fv = sections::fit_section(&rd, &args.characteristic, &char_run, &fit)?;
+        let section = sections::validation_section(&rd, &characteristic, &args.sweep, &fit, &v)?;
+        // The fit's section draws the characteristic: it needs the log.
+        let fits = match &char_run {
+            Some(run) => vec![sections::fit_section(&rd, &characteristic, run, &fit)?],
+            None => Vec::new(),
+        };
         let page = html::Page {
             title: format!("Validation of {}", args.sweep.display()),
             version: env!("CARGO_PKG_VERSION").into(),
             command: std::env::args().collect::<Vec<_>>().join(" "),
             summary: vec![],
-            warnings: vec![],
+            warnings: match &char_run {
+                Some(_) => vec![],
+                None => vec![format!(
+                    "the fit of {} is from {}; give --characteristic to draw its characteristic",
+                    characteristic.display(),
+                    args.fit.as_deref().unwrap_or(Path::new("?")).display()
+                )],
+            },
             batch: None,
             validations: vec![section],
-            fits: vec![fv],
+            fits,
             inputs: inputs
                 .iter()
                 .map(|p| html::input_file(p))

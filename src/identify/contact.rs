@@ -62,7 +62,7 @@ impl Default for Gains {
 }
 
 /// The sinusoid fitted to the drive channel.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DriveFit {
     /// Measured drive amplitude A (m).
     pub amplitude_m: f64,

@@ -198,6 +198,7 @@ struct FitOut<'a> {
     drive_amplitude_m: f64,
     residual_rms: f64,
     residual_rms_n: f64,
+    #[serde(serialize_with = "crate::warning::as_messages")]
     warnings: &'a [crate::warning::Warning],
     /// One stable code per warning (`crate::warning::Warning::code`).
     warning_codes: Vec<&'static str>,

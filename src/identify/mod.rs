@@ -131,6 +131,7 @@
 // Index loops mirror the formulas (several arrays indexed together).
 #![allow(clippy::needless_range_loop)]
 
+pub mod artifact;
 pub mod contact;
 pub mod fit;
 pub mod json;
@@ -306,8 +307,17 @@ impl Default for IdentifyOptions {
     }
 }
 
+/// BIC evidence (very strong) the lags of x1 and x2 must bring before
+/// they are fitted on a log whose law explains it without them.
+const LAG_EVIDENCE_BIC: f64 = 10.0;
+
+/// Families closer than this in BIC to the chosen one are not told apart
+/// by the log: where they put Rs outside the chosen law's interval, the
+/// interval is widened to hold them (issue 30, item 5).
+const THRESHOLD_EVIDENCE_BIC: f64 = 10.0;
+
 /// Which estimate a [`LogFit`]'s law and intervals are.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Estimate {
     /// The equation-error fit of the characteristic R(ẋ2).
     EquationError,
@@ -326,7 +336,7 @@ impl Estimate {
 }
 
 /// 95 % intervals of one estimate, in SI and dimensionless.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Intervals {
     /// Rs (N); for a never-sticking log, the bounds.
     pub rs_n: Option<Interval>,
@@ -354,7 +364,7 @@ pub type Interval = (f64, f64);
 /// says which one is *used*: [`LogFit::law`], [`LogFit::rho_s`] etc. and
 /// the flat interval fields (`rs_interval_n`, …) are that estimate's, and
 /// they are what validation and batch read.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct LogFit {
     /// The equation-error fit (point estimates, bootstrap, diagnostics).
     pub fit: EquationFit,
@@ -395,6 +405,9 @@ pub struct LogFit {
     /// Characteristic details (noise, lags, offsets) for reports.
     pub notes: Vec<String>,
     /// Warnings (ingest, contact, fit).
+    // In a saved fit (artifact) the typed variants, named apart from the
+    // JSON outputs' `warnings` (messages, with `warning_codes` beside).
+    #[serde(rename = "warning_variants")]
     pub warnings: Vec<Warning>,
     /// The adequacy verdict of the law used (see [`LogFit::adequate`]).
     pub adequacy: Option<output_error::Adequacy>,
@@ -409,7 +422,7 @@ pub struct LogFit {
 }
 
 /// What a log measured of its friction law.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Measured {
     /// M2 sticks and slips: every parameter of the law is measured.
     StickSlip(SiLaw),
@@ -730,7 +743,7 @@ fn refine(
     let u = opts.gain_uncertainty;
     if opts.output_error && !ef.stuck {
         let forced = opts.fit.law;
-        let refine_with = |oe: &output_error::OeOptions| {
+        let refine_with = |oe: &output_error::OeOptions, starts: &[SiLaw], bias: f64| {
             output_error::Refinement::new(
                 &base.contact,
                 &run.resampled.x0,
@@ -738,23 +751,46 @@ fn refine(
                 &run.rig,
                 oe,
             )
-            .and_then(|r| r.run(&ef.candidates, ef.bias_n, forced, u))
+            .and_then(|r| r.run(starts, bias, forced, u))
         };
-        let mut first = refine_with(&opts.oe);
+        let mut first = refine_with(&opts.oe, &ef.candidates, ef.bias_n);
         // Position records that lag the drive (sensor filters, DAQ
-        // channels) leave structured residuals the law cannot explain:
-        // where the law without lags is not adequate, the lags of x1 and
-        // x2 are fitted with it, and kept where that explains the log.
-        // (Fitted on every log they are not neutral: on a lag-free log
-        // with a decreasing law they took 0.2 ms and moved D* by 1.5 %.)
+        // channels) leave residuals that follow the velocity (a lag δ
+        // leaves −δ·ẋ). Where the law without lags is not adequate, or is
+        // but its residuals carry that signature (a significant structure
+        // against velocity or drive phase, however small), the lags of x1
+        // and x2 are fitted with it. An inadequate law gives way to an
+        // adequate lagged one; an adequate law only where the lags lower
+        // the BIC (n_eff·ln S + k·ln n_eff, two more parameters, the
+        // lag-free fit's n_eff) by more than 10. (Fitted on every log the
+        // lags are not neutral: on a lag-free log with a decreasing law the
+        // lagged search ended at a higher cost, D* 1.3 % off.)
         if let (Ok(o), true) = (&first, opts.lag_fallback && !opts.oe.position_delays) {
-            if !o.adequacy.adequate {
+            let signature = o.adequacy.structure.iter().any(|s| s.lag_signature());
+            if !o.adequacy.adequate || signature {
                 let oe = output_error::OeOptions {
                     position_delays: true,
                     ..opts.oe.clone()
                 };
-                if let Ok(o2) = refine_with(&oe) {
-                    if o2.adequacy.adequate {
+                // From the lag-free optima (nested: lags of zero are
+                // feasible, so the search starts where the lag-free one
+                // ended); the equation-error laws where a family has none.
+                let mut starts: Vec<SiLaw> = o.families.iter().map(|f| f.law).collect();
+                starts.extend(
+                    ef.candidates
+                        .iter()
+                        .filter(|c| !starts.iter().any(|s| s.kind == c.kind))
+                        .copied()
+                        .collect::<Vec<_>>(),
+                );
+                if let Ok(o2) = refine_with(&oe, &starts, o.chosen.bias_n) {
+                    let n = o.n_eff.max(2.0);
+                    let k = |f: &output_error::FamilyFit| f.law.kind.family().params().len() as f64;
+                    let delta_bic = n * (o2.chosen.cost / o.chosen.cost).ln()
+                        + (k(&o2.chosen) + 2.0 - k(&o.chosen)) * n.ln();
+                    let keep = o2.adequacy.adequate
+                        && (!o.adequacy.adequate || delta_bic < -LAG_EVIDENCE_BIC);
+                    if keep {
                         let (d1, d2) = o2.chosen.delays_s;
                         let (i1, i2) = o2.chosen.delays_interval_s;
                         warnings.push(Warning::PositionDelays {
@@ -762,6 +798,7 @@ fn refine(
                             x1_interval_s: i1,
                             x2_s: d2,
                             x2_interval_s: i2,
+                            delta_bic: o.adequacy.adequate.then_some(-delta_bic),
                         });
                         first = Ok(o2);
                     }
@@ -918,6 +955,36 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                 rho_d: iv.rho_d,
                 dstar: iv.dstar,
             };
+            // Identifiability of the threshold: a family the data hardly
+            // tell from the chosen one (ΔBIC below 10) that puts Rs
+            // outside its interval widens the interval to hold it (the
+            // union), with a warning.
+            let mut used = used;
+            if let (false, Some(iv)) = (no_stick, used.rs_n) {
+                let (mut lo, mut hi) = iv;
+                for f in o
+                    .families
+                    .iter()
+                    .filter(|f| f.law.kind != o.chosen.law.kind)
+                {
+                    let d = f.bic - o.chosen.bic;
+                    let rs = f.law.rs_n;
+                    if d < THRESHOLD_EVIDENCE_BIC && rs.is_finite() && !(lo..=hi).contains(&rs) {
+                        warnings.push(Warning::ThresholdNotIdentified {
+                            other: f.law.kind,
+                            delta_bic: d,
+                            other_rs_n: rs,
+                            interval_n: iv,
+                        });
+                        lo = lo.min(rs);
+                        hi = hi.max(rs);
+                    }
+                }
+                if (lo, hi) != iv && iv.0 > 0.0 && iv.1 > 0.0 {
+                    used.rs_n = Some((lo, hi));
+                    used.rho_s = used.rho_s.map(|(l, h)| (l * lo / iv.0, h * hi / iv.1));
+                }
+            }
             if o.law.kind != ef.law.kind {
                 warnings.push(Warning::LawChanged {
                     output_error: o.law.kind,

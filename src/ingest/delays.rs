@@ -71,7 +71,7 @@ const MIN_SHIFT_SAMPLES: f64 = 1.0;
 const PRECISION: f64 = 2.0;
 
 /// The delay of one channel.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ChannelDelay {
     /// Which channel.
     pub quantity: Quantity,
@@ -91,7 +91,7 @@ pub struct ChannelDelay {
 
 /// The velocity channel against the derivative of x2:
 /// `v2 = gain·ẋ2(t + shift) + offset + drift·(t − t_mid)`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct VelocityConsistency {
     /// Gain of v2 relative to x2.
     pub gain: f64,
@@ -110,7 +110,7 @@ pub struct VelocityConsistency {
 }
 
 /// What the estimator found and did.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ChannelDelays {
     /// Per present channel among x0, x1, x2, v2, a2 (x1: the reference,
     /// its declared shift only).

@@ -87,6 +87,7 @@ struct RunOut<'a> {
     rig: Value,
     gaps: Vec<GapOut<'a>>,
     setpoints: Vec<SetpointOut>,
+    #[serde(serialize_with = "crate::warning::as_messages")]
     warnings: &'a [crate::warning::Warning],
     /// One stable code per warning (`crate::warning::Warning::code`).
     warning_codes: Vec<&'static str>,

@@ -81,7 +81,9 @@ impl LogFormat {
 }
 
 /// A physical quantity the rig records (one channel each).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize, serde::Deserialize,
+)]
 pub enum Quantity {
     /// x0: shaker pin displacement (m).
     X0,

@@ -39,7 +39,7 @@ const KNOWN: [&str; 15] = [
 ];
 
 /// What kind of test a log records.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum TestKind {
     /// Fixed drive frequency: the friction characteristic is identified from it.
     Characteristic,
@@ -58,7 +58,7 @@ impl TestKind {
 }
 
 /// How a sweep moves through its frequencies.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum SweepKind {
     /// Dwell at each setpoint.
     Stepped,
@@ -77,7 +77,7 @@ impl SweepKind {
 }
 
 /// The rig description of one log, in SI units.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RigMeta {
     /// Format version (always [`FORMAT_VERSION`] once parsed).
     pub format: String,

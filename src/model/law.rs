@@ -207,7 +207,7 @@ impl Family for Stribeck {
 
 /// A friction law in SI: g(v) = Rd + (Rs − Rd)·exp(−(v/v_s)²) + a·v for the
 /// Stribeck type, Rd + a·v (threshold Rs) otherwise.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SiLaw {
     /// Family.
     pub kind: LawKind,

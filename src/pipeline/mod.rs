@@ -10,6 +10,7 @@
 //! [[validate]]
 //! characteristic = "char_N4.mcap"
 //! sweep = "sweep_stepped_N4.mcap"
+//! # fits = "fits.json"   # reuse earlier fits (`fit --out`, `merge`)
 //! ```
 //!
 //! [`Plan::read`] is the plan stage (parse, check, resolve paths);
@@ -57,6 +58,11 @@ pub struct Plan {
     /// Validations.
     #[serde(default)]
     pub validate: Vec<Pair>,
+    /// Earlier fits to reuse (`fit --out` or `merge` of fit parts): a
+    /// characteristic log of the plan whose sha256 one of its records has is
+    /// not refitted.
+    #[serde(default)]
+    pub fits: Option<PathBuf>,
 }
 
 /// Largest plan file (bytes): a plan names logs, it is never this large.
@@ -96,6 +102,7 @@ impl Plan {
         };
         plan.fit.iter_mut().for_each(fix);
         plan.batch.iter_mut().for_each(fix);
+        plan.fits.iter_mut().for_each(fix);
         for v in &mut plan.validate {
             fix(&mut v.characteristic);
             fix(&mut v.sweep);
@@ -234,6 +241,8 @@ pub struct PipelineReport {
     pub batch: Option<crate::Result<Batch>>,
     /// One line per failure (read, fit, validation, batch), each once.
     pub errors: Vec<String>,
+    /// The sha256 of every characteristic log (None: it could not be read).
+    pub log_sha256: BTreeMap<PathBuf, Option<String>>,
 }
 
 /// Runs the plan: reads every log once, fits every characteristic log
@@ -243,6 +252,27 @@ pub struct PipelineReport {
 pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Result<PipelineReport> {
     let logs = plan.logs();
     let chars = plan.characteristic_logs();
+    // Earlier fits: the characteristic logs they cover are not refitted.
+    let mut saved: BTreeMap<PathBuf, std::result::Result<LogFit, String>> = BTreeMap::new();
+    if let Some(path) = &plan.fits {
+        let set = identify::artifact::FitSet::read(path)?;
+        let covered = set.match_logs(&chars)?;
+        for (p, i) in chars.iter().zip(covered) {
+            if let Some(e) = i.and_then(|i| set.entries.get(i)) {
+                saved.insert(
+                    p.clone(),
+                    match e {
+                        identify::artifact::FitEntry::Fitted(a) => Ok(a.fit.clone()),
+                        identify::artifact::FitEntry::Failed(f) => Err(f.error.clone()),
+                    },
+                );
+            }
+        }
+    }
+    let log_sha256: BTreeMap<PathBuf, Option<String>> = chars
+        .par_iter()
+        .map(|p| (p.clone(), identify::artifact::sha256_file(p).ok()))
+        .collect();
     let mut seconds = StageSeconds {
         overlapping: vec!["fit_beside", "validate", "batch"],
         ..StageSeconds::default()
@@ -270,12 +300,32 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     // The logs that were read are fitted (in parallel, panic-guarded);
     // the others keep their read error.
     let fit_some = |logs: &[PathBuf]| -> BTreeMap<PathBuf, crate::Result<LogFit>> {
+        // A saved fit is used as it is; the other logs are fitted.
+        let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = logs
+            .iter()
+            .filter_map(|p| {
+                let f = saved
+                    .get(p)?
+                    .clone()
+                    .map_err(|cause| crate::Error::Skipped {
+                        path: p.clone(),
+                        stage: "its saved fit failed",
+                        cause,
+                    });
+                Some((p.clone(), f))
+            })
+            .collect();
+        progress.advance(fits.len() as u64);
+        let logs: Vec<PathBuf> = logs
+            .iter()
+            .filter(|p| !saved.contains_key(*p))
+            .cloned()
+            .collect();
         let read: Vec<&Run> = logs.iter().filter_map(|p| runs[p].as_ref().ok()).collect();
         let mut fitted =
             identify::fit_runs(&read, &IdentifyOptions::default(), &|| progress.advance(1))
                 .into_iter();
-        let mut fits = BTreeMap::new();
-        for p in logs {
+        for p in &logs {
             // One fit per log read, in order: only a log that was read takes
             // the next fit.
             let f = match &runs[p] {
@@ -380,6 +430,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         validations,
         batch,
         errors,
+        log_sha256,
     })
 }
 
@@ -451,9 +502,15 @@ impl PipelineReport {
         let fit_entries: Vec<Value> = plan
             .characteristic_logs()
             .iter()
-            .map(|p| match &self.fits[p] {
-                Ok(f) => f.to_json(p),
-                Err(e) => json!({"log": p.display().to_string(), "error": e.to_string()}),
+            .map(|p| {
+                let sha = self.log_sha256.get(p).cloned().flatten();
+                match (&self.fits[p], &self.runs[p]) {
+                    (Ok(f), Ok(run)) => identify::artifact::record(f, p, sha.as_deref(), &run.rig),
+                    (Ok(f), Err(_)) => f.to_json(p),
+                    (Err(e), _) => {
+                        identify::artifact::failed_record(p, sha.as_deref(), &e.to_string())
+                    }
+                }
             })
             .collect();
         let val_entries: Vec<Value> = self

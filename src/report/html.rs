@@ -10,7 +10,6 @@
 
 use crate::error::{Error, Result};
 use serde::Serialize;
-use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 const TEMPLATE: &str = include_str!("templates/index.html");
@@ -45,31 +44,13 @@ pub struct InputFile {
     pub sha256: String,
 }
 
-/// Hashes an input file.
+/// Hashes an input file (streamed, see [`crate::io::sha256_file`]).
 pub fn input_file(path: &Path) -> Result<InputFile> {
-    use std::io::Read;
-    let io = |source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    // Streamed: a long log is hashed in constant memory.
-    let mut file = std::fs::File::open(path).map_err(io)?;
-    let mut hasher = Sha256::new();
-    let mut buf = vec![0u8; 1 << 16];
-    let mut len = 0u64;
-    loop {
-        let n = file.read(&mut buf).map_err(io)?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buf[..n]);
-        len += n as u64;
-    }
-    let digest = hasher.finalize();
+    let (sha256, bytes) = crate::io::sha256_file(path)?;
     Ok(InputFile {
         path: path.display().to_string(),
-        bytes: len,
-        sha256: digest.iter().map(|b| format!("{b:02x}")).collect(),
+        bytes,
+        sha256,
     })
 }
 

@@ -67,6 +67,7 @@ struct ValidationOut<'a> {
     score: ScoreOut<'a>,
     draws: usize,
     band_precision: &'a crate::validate::predict::BandPrecision,
+    #[serde(serialize_with = "crate::warning::as_messages")]
     warnings: &'a [crate::warning::Warning],
     /// One stable code per warning (`crate::warning::Warning::code`).
     warning_codes: Vec<&'static str>,

@@ -76,13 +76,31 @@ pub fn validate(
     sweep: &Run,
     opts: &ValidateOptions,
 ) -> Result<Validation> {
+    validate_fit(
+        fit,
+        &characteristic.source,
+        &characteristic.rig,
+        sweep,
+        opts,
+    )
+}
+
+/// [`validate`] with what it reads of the characteristic log given
+/// directly: its path (for messages) and its rig record — e.g. from a saved
+/// fit ([`crate::identify::artifact::FitArtifact`]), without the log.
+pub fn validate_fit(
+    fit: &LogFit,
+    characteristic: &std::path::Path,
+    fit_rig: &RigMeta,
+    sweep: &Run,
+    opts: &ValidateOptions,
+) -> Result<Validation> {
     if fit.stuck() {
         return Err(crate::Error::Validate {
-            path: characteristic.source.clone(),
+            path: characteristic.to_path_buf(),
             source: ValidateError::NeverSlid,
         });
     }
-    let fit_rig = &characteristic.rig;
     let measured = frc::measure(sweep, &opts.frc)?;
     let rig = sweep.rig.clone();
     let mut warnings = Vec::new();

@@ -72,7 +72,7 @@ impl Default for FitOptions {
 }
 
 /// 2.5 % and 97.5 % bootstrap percentiles of the parameters (SI).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StatIntervals {
     /// Rs (N).
     pub rs: Option<(f64, f64)>,
@@ -83,7 +83,7 @@ pub struct StatIntervals {
 }
 
 /// What the equation-error fit found in one log (SI).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct EquationFit {
     /// The chosen law (for a never-sticking log Rs is NaN; for a stuck log
     /// everything but the lower bound is NaN).
@@ -121,6 +121,9 @@ pub struct EquationFit {
     /// also when its breakaway level is not above the slip level).
     pub candidates: Vec<SiLaw>,
     /// Things the user should know.
+    // In a saved fit (artifact) the typed variants, named apart from the
+    // JSON outputs' `warnings` (messages, with `warning_codes` beside).
+    #[serde(rename = "warning_variants")]
     pub warnings: Vec<Warning>,
 }
 

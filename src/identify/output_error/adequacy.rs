@@ -56,7 +56,7 @@ pub const MAX_STRUCTURE_EFFECT: f64 = 0.5;
 pub(super) const STRUCTURE_BINS: usize = 12;
 
 /// How strongly the data prefer the chosen family.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize, serde::Deserialize)]
 pub struct Evidence {
     /// The best other family.
     pub against: LawKind,
@@ -84,7 +84,7 @@ impl Evidence {
 }
 
 /// One structure test: binned residual means against their noise.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, serde::Serialize)]
 pub struct Structure {
     /// `x1` or `x2`.
     pub channel: &'static str,
@@ -99,11 +99,64 @@ pub struct Structure {
     pub effect: f64,
 }
 
+/// The names a structure test can carry (channels, then what the residuals
+/// are binned against).
+const STRUCTURE_NAMES: [&str; 7] = [
+    "x1",
+    "x2",
+    "force",
+    "drive phase",
+    "velocity",
+    "position",
+    "time",
+];
+
+/// A [`Structure`] as saved (a fit artifact), with owned names.
+#[derive(serde::Deserialize)]
+struct SavedStructure {
+    channel: String,
+    against: String,
+    chi2_per_dof: f64,
+    z: f64,
+    effect: f64,
+}
+
+impl<'de> serde::Deserialize<'de> for Structure {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = SavedStructure::deserialize(d)?;
+        let known = |n: &str| {
+            STRUCTURE_NAMES
+                .iter()
+                .find(|k| **k == n)
+                .copied()
+                .ok_or_else(|| {
+                    serde::de::Error::custom(format!("unknown structure test name `{n}`"))
+                })
+        };
+        Ok(Structure {
+            channel: known(&s.channel)?,
+            against: known(&s.against)?,
+            chi2_per_dof: s.chi2_per_dof,
+            z: s.z,
+            effect: s.effect,
+        })
+    }
+}
+
 impl Structure {
     /// Significant (z above [`MAX_STRUCTURE_Z`]) and large (effect above
     /// [`MAX_STRUCTURE_EFFECT`]).
     pub fn flagged(&self) -> bool {
         self.z > MAX_STRUCTURE_Z && self.effect > MAX_STRUCTURE_EFFECT
+    }
+    /// The signature of a position record that lags the drive: a
+    /// significant structure (z above [`MAX_STRUCTURE_Z`], whatever its
+    /// size) of x1's or x2's residuals against the velocity or the drive
+    /// phase (a lag δ leaves −δ·ẋ in the residual).
+    pub fn lag_signature(&self) -> bool {
+        self.z > MAX_STRUCTURE_Z
+            && self.channel != "force"
+            && (self.against == "velocity" || self.against == "drive phase")
     }
     /// Counted in the verdict: the positions' tests are, the force's
     /// (accelerometer) tests are reported only.
@@ -113,7 +166,7 @@ impl Structure {
 }
 
 /// The adequacy verdict of a refined law.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct Adequacy {
     /// RMS residual of x1, x2 over the sensor noise measured in the log
     /// (second differences): ≈ 1 when the law explains the log.

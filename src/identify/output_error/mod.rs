@@ -163,7 +163,7 @@ impl Default for OeOptions {
 }
 
 /// How the drive was simulated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum DriveModel {
     /// The fitted sinusoid, exact engine.
     Harmonic,
@@ -182,7 +182,7 @@ impl DriveModel {
 }
 
 /// One family refined by output error.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct FamilyFit {
     /// The refined law.
     pub law: SiLaw,
@@ -211,7 +211,7 @@ pub struct FamilyFit {
 }
 
 /// What the refinement found.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct OutputErrorFit {
     /// The chosen (or forced) family's refined law.
     pub law: SiLaw,
@@ -693,11 +693,21 @@ impl Refinement {
             return Err(last_err);
         }
         let mut out = self.conclude(&fits, forced, u, t0)?;
-        // A Stribeck pad: none of the simple families explains the log.
-        // The Stribeck family (no closed form: the numerical engine, about
-        // ten times the cost) is refined only then, and competes by the
-        // same criterion.
-        if forced.is_none() && !out.adequacy.adequate {
+        // A Stribeck pad: none of the simple families explains the log, or
+        // the static/dynamic law (the Stribeck family's limit v_s → 0)
+        // does, but x2's residuals follow the velocity or the drive phase
+        // significantly (z > 3.7, whatever the size): a sharp Stribeck drop
+        // is read as a static/dynamic law with Rs 12 % high otherwise. The
+        // Stribeck family (no closed form: the numerical engine, about ten
+        // times the cost) is refined only then, and competes by the same
+        // criterion.
+        let sharp = out.chosen.law.kind == LawKind::StaticDynamic
+            && out
+                .adequacy
+                .structure
+                .iter()
+                .any(|s| s.channel == "x2" && s.lag_signature());
+        if forced.is_none() && (!out.adequacy.adequate || sharp) {
             match self.refine(LawKind::Stribeck, starts, bias, &fits) {
                 Ok(Some(f)) => {
                     fits.push(f);
