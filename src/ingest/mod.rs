@@ -36,6 +36,7 @@ use std::path::{Path, PathBuf};
 
 pub use delays::{ChannelDelay, ChannelDelays, VelocityConsistency};
 pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
+pub(crate) use run::interpolate;
 pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
 
 /// Options of [`read`].

@@ -1,7 +1,10 @@
 //! The validation figure (paper Fig. 10 style): measured amplitudes of a
-//! sweep (settled steps filled, unsettled hollow) against the steady-state
-//! prediction with its 95 % band and the replay with its band, over the two
-//! linear limit curves and η0, η1, η2; a third panel shows the residuals.
+//! sweep (settled steps filled, unsettled hollow) with their own 95 % error
+//! bars (sensor noise and gain), against the steady-state prediction with
+//! its 95 % band and the replay with its band (the law's and the drive's
+//! uncertainty), over the two linear limit curves and η0, η1, η2; a
+//! measured value outside the replay band is ringed; a third panel shows
+//! the residuals.
 
 use super::plot::{colour, plot_err, register_font};
 use crate::error::Result;
@@ -97,6 +100,8 @@ impl Frame {
 struct PanelData<'p> {
     which: usize,
     meas: Vec<f64>,
+    /// The measured values' own 95 % error bars.
+    u: Vec<f64>,
     st: &'p [Option<f64>],
     st_lo: &'p [Option<f64>],
     st_hi: &'p [Option<f64>],
@@ -115,6 +120,22 @@ impl<'p> PanelData<'p> {
                     p.amplitude1
                 } else {
                     p.amplitude2
+                }
+            })
+            .collect();
+        let u: Vec<f64> = frc
+            .points
+            .iter()
+            .map(|p| {
+                let u = if which == 0 {
+                    p.amplitude1_u
+                } else {
+                    p.amplitude2_u
+                };
+                if u.is_finite() {
+                    u
+                } else {
+                    0.0
                 }
             })
             .collect();
@@ -140,6 +161,7 @@ impl<'p> PanelData<'p> {
         PanelData {
             which,
             meas,
+            u,
             st,
             st_lo,
             st_hi,
@@ -290,7 +312,7 @@ fn replay_series(chart: &mut Chart<'_, '_>, f: &Frame, d: &PanelData<'_>) -> Dra
             d.rp[i].map(|v| TriangleMarker::new((etas[i] + dx, v), 5, c_replay.filled()))
         }))
         .map_err(e)?
-        .label("replay of the sweep, 95 % band")
+        .label("replay of the sweep as run, 95 % band (law and drive)")
         .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, c_replay.filled()));
     Ok(())
 }
@@ -304,6 +326,50 @@ fn measured_series(
 ) -> DrawResult {
     let (etas, meas, c_meas) = (&f.etas, &d.meas, f.c_meas);
     let settled = |i: usize| pred.steady_reached.get(i).copied().flatten() == Some(true);
+    // Each measured value's own 95 % error bar, with caps.
+    let cap = 0.002 * (f.hi - f.lo);
+    chart
+        .draw_series(
+            (0..etas.len())
+                .filter(|&i| d.u[i] > 0.0 && meas[i].is_finite())
+                .flat_map(|i| {
+                    let (x, lo, hi) = (etas[i], (meas[i] - d.u[i]).max(0.0), meas[i] + d.u[i]);
+                    [
+                        PathElement::new(vec![(x, lo), (x, hi)], c_meas.stroke_width(1)),
+                        PathElement::new(
+                            vec![(x - cap, lo), (x + cap, lo)],
+                            c_meas.stroke_width(1),
+                        ),
+                        PathElement::new(
+                            vec![(x - cap, hi), (x + cap, hi)],
+                            c_meas.stroke_width(1),
+                        ),
+                    ]
+                }),
+        )
+        .map_err(e)?
+        .label("measured value's own 95 % error bar (sensor noise, gain)")
+        .legend(move |(x, y)| {
+            PathElement::new(
+                vec![(x + 10, y - 7), (x + 10, y + 7)],
+                c_meas.stroke_width(1),
+            )
+        });
+    // Measured values outside the replay band (strict coverage misses).
+    let outside = |i: usize| match (d.rp_lo[i], d.rp_hi[i]) {
+        (Some(l), Some(h)) => meas[i] < l || meas[i] > h,
+        _ => false,
+    };
+    let c_out = RGBColor(200, 30, 30);
+    chart
+        .draw_series(
+            (0..etas.len())
+                .filter(|&i| outside(i))
+                .map(|i| Circle::new((etas[i], meas[i]), 8, c_out.stroke_width(2))),
+        )
+        .map_err(e)?
+        .label("measured value outside the replay band")
+        .legend(move |(x, y)| Circle::new((x + 10, y), 7, c_out.stroke_width(2)));
     chart
         .draw_series(
             (0..etas.len())

@@ -144,7 +144,23 @@ pub fn validation_view(
             ),
         ),
         KeyValue::new(
-            "replay: measured inside the 95 % band, A1 / A2",
+            "replay: robust nrms A1 / A2 (steps not marked sensitive)",
+            format!(
+                "{} / {}",
+                pct(s.replay_nrms_robust_amplitude1),
+                pct(s.replay_nrms_robust_amplitude2)
+            ),
+        ),
+        KeyValue::new(
+            "replay: measured value inside the 95 % band (strict coverage), A1 / A2",
+            format!(
+                "{} / {}",
+                pct(s.replay_coverage_strict_amplitude1),
+                pct(s.replay_coverage_strict_amplitude2)
+            ),
+        ),
+        KeyValue::new(
+            "replay: measured error bar overlaps the 95 % band (loose coverage), A1 / A2",
             format!(
                 "{} / {}",
                 pct(s.replay_coverage_amplitude1),

@@ -29,7 +29,13 @@
 //!   (Savitzky–Golay, degree 4, half-width 1/16 of the drive period), with
 //!   the extremes refined by a parabola through the three samples around
 //!   them — not the raw extremes of noisy samples, which are biased upwards
-//!   by about two noise σ.
+//!   by about two noise σ. A mass that stands still measures 0: where the
+//!   window's spread about a straight line is what its own noise gives
+//!   (95 % test), the extremes would only be the noise's half-range.
+//! * **Error bars**: each amplitude carries its own 95 % error bar (the
+//!   estimator's noise and the x1 or x2 gain budget); the drive's
+//!   uncertainty (its amplitude with the x0 gain, phase, frequency) belongs
+//!   to the prediction's band (`predict`), not here.
 
 use super::ValidateError;
 use crate::identify::smooth::savgol;
@@ -97,12 +103,19 @@ pub struct MeasuredPoint {
     pub amplitude1_m: f64,
     /// A2 (m).
     pub amplitude2_m: f64,
-    /// 95 % measurement uncertainty of A1/A (absolute): the amplitude
-    /// estimator's noise (from the sensor noise measured in the log) and the
-    /// position sensors' gain budget, combined in quadrature.
+    /// 95 % measurement uncertainty of A1/A (absolute), the measured
+    /// value's own error bar: the amplitude estimator's noise (from the
+    /// sensor noise measured in the log) and the x1 sensor's gain budget,
+    /// combined in quadrature. The drive's uncertainty (its amplitude, with
+    /// the x0 gain, phase and frequency) is not here: it is in the
+    /// prediction's band.
     pub amplitude1_u: f64,
-    /// The same for A2/A.
+    /// The same for A2/A (x2's gain).
     pub amplitude2_u: f64,
+    /// 95 % half-width of the amplitude estimator's noise for A1 (m).
+    pub amplitude1_noise_m: f64,
+    /// The same for A2 (m).
+    pub amplitude2_noise_m: f64,
     /// Relative amplitude change between the two halves of the window
     /// (stepped sweeps).
     pub rel_change: Option<f64>,
@@ -111,6 +124,26 @@ pub struct MeasuredPoint {
     /// transient on a lightly damped rig can still hide there: the
     /// prediction's replay makes the final call), `None` if it cannot tell.
     pub settled: Option<bool>,
+}
+
+/// The drive's measurement uncertainty (1σ each): what the replay band
+/// carries besides the law's (see `predict`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct DriveUncertainty {
+    /// Relative standard uncertainty of the drive amplitude from the data
+    /// (the scatter of the per-step or per-node amplitudes over their
+    /// number, and each fit's noise). The x0 sensor's gain is not here: it
+    /// is drawn with the law (`predict::draw_laws`).
+    pub amplitude_rel: f64,
+    /// Standard uncertainty of the drive phase φ(0) (rad).
+    pub phase_rad: f64,
+    /// Relative standard uncertainty of the drive frequencies (common to
+    /// the plan).
+    pub frequency_rel: f64,
+    /// Standard uncertainty of the drive channel's timing against x1 (s):
+    /// the ingest's delay estimate for x0 (its interval, and the estimate
+    /// itself where it was not applied); 0 where it was not estimated.
+    pub delay_s: f64,
 }
 
 /// The measured frequency response of one sweep log.
@@ -124,6 +157,9 @@ pub struct MeasuredFrc {
     pub drive_amplitude_m: f64,
     /// φ(0): x0(t) ≈ offset + A·sin(φ(t)), φ' = 2πf(t).
     pub drive_phase_rad: f64,
+    /// The drive's measurement uncertainty (amplitude, phase, frequency,
+    /// timing).
+    pub drive_uncertainty: DriveUncertainty,
     /// √(K2/M2) (rad/s).
     pub omega_ref_rad_s: f64,
     /// The drive-frequency plan as run, covering the log.
@@ -155,8 +191,9 @@ pub struct FrcOptions {
     /// Drive periods per point of a continuous sweep.
     pub periods_per_point: usize,
     /// Relative gain uncertainty of each position sensor (a bound,
-    /// rectangular): A_i/A carries the gains of x_i and x0, so its 95 %
-    /// calibration uncertainty is 1.96·√(2/3)·u.
+    /// rectangular): the measured A_i/A carries the gain of x_i in its own
+    /// error bar (95 %: 1.96·u/√3); the drive's (x0) gain is the drive
+    /// amplitude's uncertainty and belongs to the prediction's band.
     pub gain_uncertainty: f64,
 }
 
@@ -465,6 +502,187 @@ fn half_width(period: f64, dt: f64) -> usize {
     ((period / 16.0 / dt).round() as usize).max(3)
 }
 
+/// One window's amplitude (see [`window_amplitude`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Fitted {
+    /// (max − min)/2 (m); 0 where the mass stands still.
+    amp: f64,
+    /// 95 % half-width of the estimator's noise (m).
+    noise95: f64,
+}
+
+/// Whether a signal stands still over [a, b] (a window of whole periods
+/// `period`): the spread of its samples about a straight line (an offset
+/// and a slow drift) is no more than the window's own noise gives, at 95 %.
+/// The noise variance is half the mean square of differences `lag` samples
+/// apart (`lag`: 1/64 of the period, at least 8 samples): that sees the
+/// sensor's noise whatever its colour over a few samples (an interpolated
+/// grid's noise is not white; third differences would underrate it), while
+/// any motion at the drive's time scale adds its own variance to the spread
+/// (a sine of amplitude c adds c²/2) and almost none to those differences.
+/// The threshold 1 + 1.645·√(5/n) is the statistic's 95 % point for n
+/// samples (the spread's variance 2/n and the overlapping differences'
+/// about 3/n).
+fn stands_still(y: &[f64], dt: f64, t0: f64, (a, b): (f64, f64), period: f64) -> (bool, f64) {
+    let n = y.len();
+    let idx = |t: f64| ((t - t0) / dt).round();
+    let (ia, ib) = (idx(a), idx(b));
+    if !(ia.is_finite() && ib.is_finite()) || ib < 0.0 || ia >= n as f64 {
+        return (false, f64::NAN);
+    }
+    let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
+    let w = &y[ia..=ib];
+    let lag = ((period / dt / 64.0).round() as usize).max(8);
+    if w.len() < 4 * lag {
+        return (false, f64::NAN);
+    }
+    let (mut sx, mut sy, mut m) = (0.0, 0.0, 0usize);
+    for (k, v) in w.iter().enumerate() {
+        if v.is_finite() {
+            sx += k as f64;
+            sy += v;
+            m += 1;
+        }
+    }
+    if m < 16 || 2 * m < w.len() {
+        return (false, f64::NAN);
+    }
+    let (mx, my) = (sx / m as f64, sy / m as f64);
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for (k, v) in w.iter().enumerate().filter(|(_, v)| v.is_finite()) {
+        let (dx, dy) = (k as f64 - mx, v - my);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    let spread = (syy - if sxx > 0.0 { sxy * sxy / sxx } else { 0.0 }) / (m - 2) as f64;
+    let (mut dd, mut nd) = (0.0, 0usize);
+    for k in lag..w.len() {
+        let d = w[k] - w[k - lag];
+        if d.is_finite() {
+            dd += d * d;
+            nd += 1;
+        }
+    }
+    if nd < 8 {
+        return (false, f64::NAN);
+    }
+    let noise = 0.5 * dd / nd as f64;
+    (
+        spread <= noise * (1.0 + 1.645 * (5.0 / m as f64).sqrt()),
+        noise,
+    )
+}
+
+/// Replicates of the noise-bias estimate of [`window_amplitude`].
+const BIAS_REPLICATES: u64 = 16;
+
+/// The measured amplitude over [a, b] (paper eq. 6 with the noise's bias
+/// removed): (max − min)/2 of the local-polynomial reconstruction
+/// ([`amplitude`], smoothing over 1/16 of `period`) less the noise's
+/// extreme-value bias, or 0 where the mass stands still
+/// ([`stands_still`]). The bias is what noise of the window's own level
+/// adds to the half-range of the reconstruction: the mean over
+/// [`BIAS_REPLICATES`] replicates of the reconstruction plus noise of that
+/// level and colour ([`noise_bias`]), less the reconstruction's own half-range (a parametric
+/// bootstrap: it sees the waveform, so a sharp extreme gets a small bias, a
+/// small or flat one a larger one). `noise95` is the estimator's noise
+/// ([`estimator_noise`]).
+fn window_amplitude(
+    y: &[f64],
+    dt: f64,
+    t0: f64,
+    window: (f64, f64),
+    period: f64,
+    sigma: f64,
+    raw: Option<RawNoise<'_>>,
+) -> Option<Fitted> {
+    let half = half_width(period, dt);
+    let eq6 = amplitude(y, dt, t0, window, half)?;
+    let noise95 = estimator_noise(sigma, half, dt, window.1 - window.0);
+    if stands_still(y, dt, t0, window, period).0 {
+        return Some(Fitted { amp: 0.0, noise95 });
+    }
+    let amp = match noise_bias(y, dt, t0, window, half, raw) {
+        Some(b) => (eq6 - b).max(0.0),
+        None => eq6,
+    };
+    Some(Fitted { amp, noise95 })
+}
+
+/// The noise's bias of [`amplitude`] over `window` (see
+/// [`window_amplitude`]). With the raw channel known (`raw`), the noise is
+/// white noise of its σ at the raw sample times, interpolated onto the grid
+/// as the ingest interpolates (so it has the grid noise's colour);
+/// otherwise white on the grid at the window's own level: the residual of
+/// the reconstruction, whose variance is σ²(1 − w₀) for white noise (w₀:
+/// the smoother's centre weight).
+fn noise_bias(
+    y: &[f64],
+    dt: f64,
+    t0: f64,
+    (a, b): (f64, f64),
+    half: usize,
+    raw: Option<RawNoise<'_>>,
+) -> Option<f64> {
+    let n = y.len();
+    let idx = |t: f64| ((t - t0) / dt).round();
+    let (ia, ib) = (idx(a), idx(b));
+    if !(ia.is_finite() && ib.is_finite()) || ib < 0.0 || ia >= n as f64 {
+        return None;
+    }
+    let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
+    let (sa, sb) = (ia.saturating_sub(2 * half + 2), (ib + 2 * half + 3).min(n));
+    let smooth = savgol(&y[sa..sb], dt, half, 4, 0);
+    let t_s = t0 + sa as f64 * dt;
+    let h = half as i64;
+    let w0 = crate::identify::smooth::savgol_weights(-h, h, 4, 0, dt)?[half];
+    let (mut rr, mut nr) = (0.0, 0usize);
+    for k in ia..=ib {
+        let r = y[k] - smooth[k - sa];
+        if r.is_finite() {
+            rr += r * r;
+            nr += 1;
+        }
+    }
+    let sd = (rr / nr.max(1) as f64 / (1.0 - w0)).sqrt();
+    if !(nr >= 8 && sd.is_finite() && sd > 0.0) {
+        return None;
+    }
+    let base = amplitude(&smooth, dt, t_s, (a, b), half)?;
+    let mut rng = crate::stats::Rng::with_stream(0xB1A5, ia as u64);
+    let mut sum = 0.0;
+    let mut z = smooth.clone();
+    // The raw samples under the slice, with one interval of margin.
+    let grid_t: Vec<f64> = (0..smooth.len()).map(|k| t_s + k as f64 * dt).collect();
+    let raw = raw.and_then(|r| {
+        let (g0, g1) = (grid_t[0], grid_t[grid_t.len() - 1]);
+        let i = r.t.partition_point(|&t| t < g0 - 2.0 * r.dt);
+        let j = r.t.partition_point(|&t| t <= g1 + 2.0 * r.dt);
+        (j > i + 4).then_some((&r.t[i..j], r.dt, r.sigma))
+    });
+    let mut e = Vec::new();
+    for _ in 0..BIAS_REPLICATES {
+        match raw {
+            Some((rt, rdt, rs)) => {
+                e.clear();
+                e.extend((0..rt.len()).map(|_| rs * rng.normal()));
+                let g = crate::ingest::interpolate(rt, &e, rdt, &grid_t);
+                for ((zk, sk), gk) in z.iter_mut().zip(&smooth).zip(&g) {
+                    *zk = sk + if gk.is_finite() { *gk } else { 0.0 };
+                }
+            }
+            None => {
+                for (zk, sk) in z.iter_mut().zip(&smooth) {
+                    *zk = sk + sd * rng.normal();
+                }
+            }
+        }
+        sum += amplitude(&z, dt, t_s, (a, b), half)?;
+    }
+    Some((sum / BIAS_REPLICATES as f64 - base).max(0.0))
+}
+
 /// White-noise σ of a smooth signal sampled densely: from the MAD of its
 /// third differences (a smooth signal's third difference is O((ω·dt)³)
 /// and vanishes against the noise; Var Δ³e = 20σ²).
@@ -499,43 +717,93 @@ fn estimator_noise(sigma: f64, half: usize, dt: f64, win: f64) -> f64 {
     }
 }
 
-/// The grid signals used for amplitudes.
+/// The grid signals used for amplitudes, with their white-noise σ (m).
 struct Grid<'a> {
     t0: f64,
     dt: f64,
     x1: &'a [f64],
     x2: &'a [f64],
+    noise: (f64, f64),
+    /// The raw channels' sample times and white-noise σ (m), x1 then x2:
+    /// the noise-bias bootstrap draws white noise at the raw samples and
+    /// interpolates it onto the grid as the ingest did, so its colour on the
+    /// grid is the data's.
+    raw: [Option<RawNoise<'a>>; 2],
 }
 
-impl Grid<'_> {
+/// A raw channel's sample times, interval and white-noise σ.
+#[derive(Clone, Copy)]
+struct RawNoise<'a> {
+    t: &'a [f64],
+    dt: f64,
+    sigma: f64,
+}
+
+impl<'a> Grid<'a> {
+    /// The grid of a run's resampled x1 and x2 (None: no rows).
+    fn of(run: &'a Run) -> Option<Self> {
+        let rs = &run.resampled;
+        Some(Grid {
+            t0: *rs.t.first()?,
+            dt: 1.0 / rs.rate_hz,
+            x1: &rs.x1,
+            x2: &rs.x2,
+            noise: (noise_level(&rs.x1), noise_level(&rs.x2)),
+            raw: [Quantity::X1, Quantity::X2].map(|q| {
+                let c = run.channel(q)?;
+                let sigma = noise_level(&c.v);
+                (sigma.is_finite() && sigma > 0.0 && c.rate_hz > 0.0).then_some(RawNoise {
+                    t: &c.t,
+                    dt: 1.0 / c.rate_hz,
+                    sigma,
+                })
+            }),
+        })
+    }
+
     /// The grid's last time (s).
     fn end(&self) -> f64 {
         self.t0 + self.x1.len().saturating_sub(1) as f64 * self.dt
     }
 
-    /// (A1, A2) in metres over a window, smoothing over 1/16 of `period`.
-    fn amplitudes(&self, window: (f64, f64), period: f64) -> Option<(f64, f64)> {
-        let half = half_width(period, self.dt);
+    /// The fitted amplitudes of x1 and x2 over a window of whole drive
+    /// periods of length `period`.
+    fn fitted(&self, window: (f64, f64), period: f64) -> Option<(Fitted, Fitted)> {
         Some((
-            amplitude(self.x1, self.dt, self.t0, window, half)?,
-            amplitude(self.x2, self.dt, self.t0, window, half)?,
+            window_amplitude(
+                self.x1,
+                self.dt,
+                self.t0,
+                window,
+                period,
+                self.noise.0,
+                self.raw[0],
+            )?,
+            window_amplitude(
+                self.x2,
+                self.dt,
+                self.t0,
+                window,
+                period,
+                self.noise.1,
+                self.raw[1],
+            )?,
         ))
+    }
+
+    /// (A1, A2) in metres over a window of whole drive periods.
+    fn amplitudes(&self, window: (f64, f64), period: f64) -> Option<(f64, f64)> {
+        self.fitted(window, period).map(|(a, b)| (a.amp, b.amp))
     }
 }
 
-/// A1 and A2 (metres) of a log over an arbitrary window with the same
-/// estimator as [`measure`] (local-polynomial reconstruction over 1/16 of
-/// the drive period `period_s`), e.g. to compare with a reference taken
-/// over other windows. None where x1 or x2 has too few samples there.
+/// A1 and A2 (metres) of a log over an arbitrary window of whole drive
+/// periods `period_s` with the same estimator as [`measure`] (the
+/// half peak-to-peak of the fitted waveform, 0 for a mass that stands
+/// still), e.g. to compare with a reference taken over other windows. None
+/// where x1 or x2 has too few samples there.
 pub fn window_amplitudes(run: &Run, window: (f64, f64), period_s: f64) -> Option<(f64, f64)> {
-    let rs = &run.resampled;
-    let grid = Grid {
-        t0: *rs.t.first()?,
-        dt: 1.0 / rs.rate_hz,
-        x1: &rs.x1,
-        x2: &rs.x2,
-    };
-    grid.amplitudes(window, period_s)
+    Grid::of(run)?.amplitudes(window, period_s)
 }
 
 /// What the stepped and continuous measurements produce; [`measure`]
@@ -543,6 +811,7 @@ pub fn window_amplitudes(run: &Run, window: (f64, f64), period_s: f64) -> Option
 struct Parts {
     drive_amplitude_m: f64,
     drive_phase_rad: f64,
+    drive_uncertainty: DriveUncertainty,
     plan: Vec<PlanSegment>,
     points: Vec<MeasuredPoint>,
     warnings: Vec<crate::warning::Warning>,
@@ -558,12 +827,7 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     if rs.t.len() < 16 {
         return Err(bad(run, ValidateError::TooShort));
     }
-    let grid = Grid {
-        t0: rs.t[0],
-        dt: 1.0 / rs.rate_hz,
-        x1: &rs.x1,
-        x2: &rs.x2,
-    };
+    let grid = Grid::of(run).ok_or_else(|| bad(run, ValidateError::TooShort))?;
     let kind = match run.rig.sweep_kind {
         Some(LogSweepKind::Continuous) => SweepKind::Continuous,
         Some(LogSweepKind::Stepped) => SweepKind::Stepped,
@@ -599,6 +863,10 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         direction: direction_of(&freqs),
         drive_amplitude_m: a,
         drive_phase_rad: parts.drive_phase_rad,
+        drive_uncertainty: DriveUncertainty {
+            delay_s: drive_delay_uncertainty(run),
+            ..parts.drive_uncertainty
+        },
         omega_ref_rad_s: run.rig.omega_ref(),
         plan: parts.plan,
         noise_m: (f64::NAN, f64::NAN),
@@ -618,21 +886,61 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
     let raw_noise = |q: Quantity| raw(run, q).map_or(f64::NAN, |(_, v)| noise_level(&v));
     let noise = (raw_noise(Quantity::X1), raw_noise(Quantity::X2));
     m.noise_m = noise;
-    let cal = 1.96 * (2.0f64 / 3.0).sqrt() * opts.gain_uncertainty;
+    let cal = 1.96 * opts.gain_uncertainty / 3f64.sqrt();
     for p in &mut m.points {
         p.amplitude1 = p.amplitude1_m / a;
         p.amplitude2 = p.amplitude2_m / a;
-        let period = 1.0 / p.frequency_hz;
-        let half = half_width(period, grid.dt);
-        let win = p.window_s.1 - p.window_s.0;
-        let u = |sigma: f64, amp: f64| {
-            let en = estimator_noise(sigma, half, grid.dt, win);
-            (en / a).hypot(cal * amp)
-        };
-        p.amplitude1_u = u(noise.0, p.amplitude1);
-        p.amplitude2_u = u(noise.1, p.amplitude2);
+        p.amplitude1_u = (p.amplitude1_noise_m / a).hypot(cal * p.amplitude1);
+        p.amplitude2_u = (p.amplitude2_noise_m / a).hypot(cal * p.amplitude2);
     }
     Ok(m)
+}
+
+/// Standard uncertainty of the drive channel's timing against x1 (s),
+/// from the ingest's delay estimate of x0 (see [`DriveUncertainty`]).
+fn drive_delay_uncertainty(run: &Run) -> f64 {
+    let Some(d) = run.delays.get(Quantity::X0) else {
+        return 0.0;
+    };
+    let half = d.interval_s.map_or(0.0, |[lo, hi]| 0.5 * (hi - lo) / 1.96);
+    let unapplied = if d.applied {
+        0.0
+    } else {
+        d.estimated_s.unwrap_or(0.0)
+    };
+    let u = half.hypot(unapplied);
+    if u.is_finite() {
+        u
+    } else {
+        0.0
+    }
+}
+
+/// The drive's amplitude, phase and frequency uncertainty from its fitted
+/// sinusoids: the amplitude's from the scatter of the per-window
+/// amplitudes `amps` (the median's standard error, 1.2533·σ/√n) and each
+/// fit's noise; the phase's and frequency's from the fit `s` over `n`
+/// samples spanning `span` seconds (least squares of a sinusoid in white
+/// noise: σ_φ = rms·√(2/n)/A, σ_f = √24·rms/(2π·A·span·√n)).
+fn drive_uncertainty(amps: &[f64], s: &Sine, n: usize, span: f64) -> DriveUncertainty {
+    let a = median(amps);
+    let k = amps.len().max(1) as f64;
+    let scatter = if amps.len() >= 3 {
+        1.2533 * crate::stats::mad_sigma(amps) / k.sqrt()
+    } else {
+        0.0
+    };
+    let nf = n.max(8) as f64;
+    let fit = s.rms * (2.0 / nf).sqrt();
+    let fin = |v: f64| if v.is_finite() { v } else { 0.0 };
+    DriveUncertainty {
+        amplitude_rel: fin(scatter.hypot(fit / k.sqrt()) / a),
+        phase_rad: fin(fit / s.amplitude),
+        frequency_rel: fin(24f64.sqrt() * s.rms
+            / (2.0 * PI * s.amplitude * span.max(1e-9) * nf.sqrt())
+            / s.frequency_hz),
+        delay_s: 0.0,
+    }
 }
 
 /// The steps of a stepped sweep: (start time, commanded frequency); a
@@ -712,9 +1020,16 @@ fn stepped(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions) ->
         }
         points.push(point);
     }
+    let first = sines.iter().flatten().next().copied();
+    let drive_uncertainty = first.map_or(DriveUncertainty::default(), |s0| {
+        let (a, b) = bounds[0];
+        let mid = a + 0.5 * (b - a);
+        drive_uncertainty(&amps, &s0, span(td, mid, b).len(), b - mid)
+    });
     Ok(Parts {
         drive_amplitude_m: median(&amps),
         drive_phase_rad,
+        drive_uncertainty,
         plan,
         points,
         warnings,
@@ -859,7 +1174,7 @@ fn step_point(
         });
         return None;
     }
-    let Some((a1, a2)) = grid.amplitudes(window, period) else {
+    let Some((a1, a2)) = grid.fitted(window, period) else {
         warnings.push(crate::warning::Warning::StepFewSamples {
             step: i1,
             frequency_hz: f,
@@ -897,10 +1212,12 @@ fn step_point(
         window_s: window,
         amplitude1: f64::NAN,
         amplitude2: f64::NAN,
-        amplitude1_m: a1,
-        amplitude2_m: a2,
+        amplitude1_m: a1.amp,
+        amplitude2_m: a2.amp,
         amplitude1_u: f64::NAN,
         amplitude2_u: f64::NAN,
+        amplitude1_noise_m: a1.noise95,
+        amplitude2_noise_m: a2.noise95,
         rel_change,
         settled: rel_change.map(|r| r <= opts.settle_tolerance),
     };
@@ -984,9 +1301,19 @@ fn continuous(run: &Run, td: &[f64], xd: &[f64], grid: &Grid, opts: &FrcOptions)
         warnings.push(crate::warning::Warning::DriveShape { rms_m: rms });
     }
     let points = sweep_points(&plan, grid, opts.periods_per_point, omega_ref);
+    let amps: Vec<f64> = fit_nodes.iter().map(|(_, s)| s.amplitude).collect();
+    let w0 = (2.0 / first.frequency_hz).max(1.0);
+    let n0 = span(
+        td,
+        (first.t_ref - 0.5 * w0).max(0.0),
+        first.t_ref + 0.5 * w0,
+    )
+    .len();
+    let drive_uncertainty = drive_uncertainty(&amps, first, n0, w0);
     Ok(Parts {
         drive_amplitude_m,
         drive_phase_rad,
+        drive_uncertainty,
         plan,
         points,
         warnings,
@@ -1123,7 +1450,7 @@ fn sweep_points(
             let t_b = seg_time(seg, c);
             let window = (t_a, t_b);
             let period = (t_b - t_a) / per;
-            if let Some((a1, a2)) = grid.amplitudes(window, period) {
+            if let Some((a1, a2)) = grid.fitted(window, period) {
                 let f = 1.0 / period;
                 points.push(MeasuredPoint {
                     frequency_hz: f,
@@ -1133,10 +1460,12 @@ fn sweep_points(
                     window_s: window,
                     amplitude1: f64::NAN,
                     amplitude2: f64::NAN,
-                    amplitude1_m: a1,
-                    amplitude2_m: a2,
+                    amplitude1_m: a1.amp,
+                    amplitude2_m: a2.amp,
                     amplitude1_u: f64::NAN,
                     amplitude2_u: f64::NAN,
+                    amplitude1_noise_m: a1.noise95,
+                    amplitude2_noise_m: a2.noise95,
                     rel_change: None,
                     settled: None,
                 });

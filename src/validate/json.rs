@@ -28,8 +28,13 @@ struct Measured<'a> {
     steady_reached: &'a [Option<bool>],
     settled_data: Vec<Option<bool>>,
     rel_change: Vec<Option<f64>>,
+    amplitude1_low: Vec<f64>,
+    amplitude1_high: Vec<f64>,
+    amplitude2_low: Vec<f64>,
+    amplitude2_high: Vec<f64>,
     amplitude1_uncertainty: Vec<f64>,
     amplitude2_uncertainty: Vec<f64>,
+    drive_uncertainty: crate::validate::frc::DriveUncertainty,
     noise_x1_m: f64,
     noise_x2_m: f64,
     window_s: Vec<(f64, f64)>,
@@ -56,6 +61,9 @@ struct ValidationOut<'a> {
     predicted: &'a Predicted,
     replay: &'a Predicted,
     replay_settled: &'a [Option<bool>],
+    /// Per step: sensitive to the measurement's uncertainty? (`null`: not
+    /// assessed).
+    replay_sensitive: &'a [Option<bool>],
     score: ScoreOut<'a>,
     draws: usize,
     band_precision: &'a crate::validate::predict::BandPrecision,
@@ -94,6 +102,17 @@ impl Validation {
                 steady_reached: &p.steady_reached,
                 settled_data: pts.iter().map(|q| q.settled).collect(),
                 rel_change: pts.iter().map(|q| q.rel_change).collect(),
+                amplitude1_low: pts
+                    .iter()
+                    .map(|q| (q.amplitude1 - q.amplitude1_u).max(0.0))
+                    .collect(),
+                amplitude1_high: pts.iter().map(|q| q.amplitude1 + q.amplitude1_u).collect(),
+                amplitude2_low: pts
+                    .iter()
+                    .map(|q| (q.amplitude2 - q.amplitude2_u).max(0.0))
+                    .collect(),
+                amplitude2_high: pts.iter().map(|q| q.amplitude2 + q.amplitude2_u).collect(),
+                drive_uncertainty: m.drive_uncertainty,
                 amplitude1_uncertainty: pts.iter().map(|q| q.amplitude1_u).collect(),
                 amplitude2_uncertainty: pts.iter().map(|q| q.amplitude2_u).collect(),
                 noise_x1_m: m.noise_m.0,
@@ -103,6 +122,7 @@ impl Validation {
             predicted: &p.steady,
             replay: &p.replay,
             replay_settled: &p.replay_settled,
+            replay_sensitive: &p.replay_sensitive,
             score: ScoreOut {
                 score: &p.score,
                 points: pts.len(),

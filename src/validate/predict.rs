@@ -181,6 +181,11 @@ pub struct Score {
     pub replay_nrms_amplitude1: Option<f64>,
     /// nrms of the replay's A2/A.
     pub replay_nrms_amplitude2: Option<f64>,
+    /// nrms of the replay's A1/A over the points not marked sensitive
+    /// ([`Prediction::replay_sensitive`]).
+    pub replay_nrms_robust_amplitude1: Option<f64>,
+    /// The same for A2/A.
+    pub replay_nrms_robust_amplitude2: Option<f64>,
     /// Fraction of points whose measured A1/A, within its own 95 %
     /// measurement uncertainty (sensor noise and gain budget, see
     /// [`super::frc::MeasuredPoint::amplitude1_u`]), lies inside the replay
@@ -215,6 +220,10 @@ pub struct Prediction {
     pub steady_reached: Vec<Option<bool>>,
     /// The replay's own call: replay within tolerance of the steady state.
     pub replay_settled: Vec<Option<bool>>,
+    /// Per point: does the replay hinge on details finer than the
+    /// measurement resolves? `None`: not assessed (every point, for now:
+    /// the robust scores then cover every point).
+    pub replay_sensitive: Vec<Option<bool>>,
     /// Scores.
     pub score: Score,
     /// Laws drawn for the bands.
@@ -268,6 +277,17 @@ fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
 ///
 /// A stuck log has no sliding level: an error (nothing to predict with).
 pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>), PredictError> {
+    let (central, draws) = draw_laws_gains(fit, n, seed)?;
+    Ok((central, draws.into_iter().map(|(l, _)| l).collect()))
+}
+
+/// [`draw_laws`] with each draw's sweep drive-gain factor 1 + e (the
+/// factor its forces carry for the sweep's drive sensor).
+fn draw_laws_gains(
+    fit: &LogFit,
+    n: usize,
+    seed: u64,
+) -> Result<(SiLaw, Vec<(SiLaw, f64)>), PredictError> {
     // A never-sticking log's law carries Rs = Rd (Measured::NeverSticks);
     // the draws take Rs from its bounds.
     let Some(central) = fit.law() else {
@@ -328,8 +348,67 @@ pub fn draw_laws(fit: &LogFit, n: usize, seed: u64) -> Result<(SiLaw, Vec<SiLaw>
         }
         l.rs_n *= sweep_gain;
         l.rd_n *= sweep_gain;
-        out.push(l);
+        out.push((l, sweep_gain));
     }
+    Ok((central, out))
+}
+
+/// One draw of the sweep's drive within its measurement uncertainty,
+/// drawn jointly with a law (one draw = one law and one drive).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DriveDraw {
+    /// Measured over true drive amplitude, A_m/A: the x0 gain (drawn with
+    /// the law, [`draw_laws`]) times the amplitude's statistical error. The
+    /// law's friction levels carry it (ρ = R/(A·K2) with the true A) and the
+    /// predicted A_i/A is divided by it (the rig reads A_i over A_m).
+    pub amplitude_factor: f64,
+    /// Drive phase error (rad).
+    pub phase_rad: f64,
+    /// Relative error of the plan's frequencies.
+    pub frequency_rel: f64,
+    /// Timing error of the drive against x1 (s).
+    pub shift_s: f64,
+}
+
+impl DriveDraw {
+    /// The drive as measured.
+    pub const NOMINAL: DriveDraw = DriveDraw {
+        amplitude_factor: 1.0,
+        phase_rad: 0.0,
+        frequency_rel: 0.0,
+        shift_s: 0.0,
+    };
+}
+
+/// The central law of a fit and `n` joint draws of law and drive: each
+/// law as [`draw_laws`] draws it (same stream, same laws up to the drive's
+/// statistical amplitude factor), each drive from the measured sweep's
+/// [`super::frc::DriveUncertainty`] (normal errors, a stream of its own)
+/// and the law's x0 gain factor.
+pub fn draw_joint(
+    fit: &LogFit,
+    frc: &MeasuredFrc,
+    n: usize,
+    seed: u64,
+) -> Result<(SiLaw, Vec<(SiLaw, DriveDraw)>), PredictError> {
+    let (central, laws) = draw_laws_gains(fit, n, seed)?;
+    let u = frc.drive_uncertainty;
+    let mut rng = Rng::with_stream(seed, 0xD1_17E);
+    let out = laws
+        .into_iter()
+        .map(|(mut l, gain)| {
+            let stat = 1.0 + u.amplitude_rel * rng.normal();
+            l.rs_n *= stat;
+            l.rd_n *= stat;
+            let d = DriveDraw {
+                amplitude_factor: gain * stat,
+                phase_rad: u.phase_rad * rng.normal(),
+                frequency_rel: u.frequency_rel * rng.normal(),
+                shift_s: u.delay_s * rng.normal(),
+            };
+            (l, d)
+        })
+        .collect();
     Ok((central, out))
 }
 
@@ -886,8 +965,47 @@ pub fn predict(
     frc: &MeasuredFrc,
     opts: &PredictOptions,
 ) -> Result<Prediction, PredictError> {
-    let (central, draws) = draw_laws(fit, opts.samples, opts.seed)?;
-    predict_with(&central, &draws, rig, frc, opts)
+    let (central, draws) = draw_joint(fit, frc, opts.samples, opts.seed)?;
+    predict_joint(&central, &draws, rig, frc, opts)
+}
+
+/// A draw's predicted A_i/A as the rig reads them: over the measured drive
+/// amplitude, i.e. divided by the draw's amplitude factor.
+fn divided(a: Amps, d: &DriveDraw) -> Amps {
+    let g = d.amplitude_factor;
+    if g == 1.0 {
+        return a;
+    }
+    a.into_iter()
+        .map(|v| v.map(|(x, y)| (x / g, y / g)))
+        .collect()
+}
+
+/// The schedule of a drawn drive: its phase error added, every frequency
+/// scaled by its relative error.
+fn drawn_schedule(sched: &Schedule, d: &DriveDraw) -> Schedule {
+    if d.phase_rad == 0.0 && d.frequency_rel == 0.0 {
+        return sched.clone();
+    }
+    let k = 1.0 + d.frequency_rel;
+    Schedule {
+        segments: sched
+            .segments
+            .iter()
+            .map(|s| match *s {
+                Segment::Dwell { eta, duration } => Segment::Dwell {
+                    eta: eta * k,
+                    duration,
+                },
+                Segment::Ramp { eta, duration } => Segment::Ramp {
+                    eta: eta * k,
+                    duration,
+                },
+            })
+            .collect(),
+        phase: sched.phase + d.phase_rad,
+        ..sched.clone()
+    }
 }
 
 /// Each point's window in engine time τ and the output step of the replay
@@ -941,10 +1059,26 @@ fn steady_call(
 }
 
 /// Predicts the measured sweep `frc` with the SI law `central`, the band
-/// from the laws `draws` (empty: no band).
+/// from the laws `draws` (empty: no band) with the drive as measured.
 pub fn predict_with(
     central: &SiLaw,
     draws: &[SiLaw],
+    rig: &RigMeta,
+    frc: &MeasuredFrc,
+    opts: &PredictOptions,
+) -> Result<Prediction, PredictError> {
+    let joint: Vec<(SiLaw, DriveDraw)> = draws.iter().map(|l| (*l, DriveDraw::NOMINAL)).collect();
+    predict_joint(central, &joint, rig, frc, opts)
+}
+
+/// Predicts the measured sweep `frc` with the SI law `central`, the band
+/// from joint draws of law and drive (`draws`, see [`draw_joint`]; empty:
+/// no band): each draw's replay runs its own drive (phase, frequencies,
+/// timing of the windows) and its predicted A_i/A, replay and steady
+/// state, is divided by its amplitude factor.
+pub fn predict_joint(
+    central: &SiLaw,
+    draws: &[(SiLaw, DriveDraw)],
     rig: &RigMeta,
     frc: &MeasuredFrc,
     opts: &PredictOptions,
@@ -965,7 +1099,10 @@ pub fn predict_with(
     let Some(model) = to_model(central) else {
         return Err(ValidateError::InvalidLaw.into());
     };
-    let models: Vec<Model> = draws.iter().filter_map(to_model).collect();
+    let (models, drives): (Vec<Model>, Vec<DriveDraw>) = draws
+        .iter()
+        .filter_map(|(l, d)| to_model(l).map(|m| (m, *d)))
+        .unzip();
     if models.len() < draws.len() {
         warnings.push(crate::warning::Warning::InvalidDraws {
             invalid: draws.len() - models.len(),
@@ -984,17 +1121,34 @@ pub fn predict_with(
     } else {
         n_max
     };
-    let replays = |ms: &[Model]| -> Vec<Amps> {
+    let w_ref = frc.omega_ref_rad_s;
+    let replays = |ms: &[Model], ds: &[DriveDraw]| -> Vec<Amps> {
         ms.par_iter()
-            .map(|m| replay_one(m, &sched, &windows, opts))
+            .zip(ds)
+            .map(|(m, d)| {
+                let s = drawn_schedule(&sched, d);
+                let w: Vec<(f64, f64, f64)> = windows
+                    .iter()
+                    .map(|&(a, b, h)| (a + d.shift_s * w_ref, b + d.shift_s * w_ref, h))
+                    .collect();
+                divided(replay_one(m, &s, &w, opts), d)
+            })
             .collect()
     };
     let ((c_steady, mut d_steady), (c_replay, mut d_replay)) = rayon::join(
-        || steady_all(&model, &models[..n0], &etas, opts),
+        || {
+            let (c, d) = steady_all(&model, &models[..n0], &etas, opts);
+            let d = d
+                .into_iter()
+                .zip(&drives)
+                .map(|(a, dr)| divided(a, dr))
+                .collect::<Vec<_>>();
+            (c, d)
+        },
         || {
             rayon::join(
                 || replay_one(&model, &sched, &windows, opts),
-                || replays(&models[..n0]),
+                || replays(&models[..n0], &drives[..n0]),
             )
         },
     );
@@ -1019,8 +1173,14 @@ pub fn predict_with(
     while d_replay.len() < n_max && !band.reached {
         let (lo, hi) = (d_replay.len(), (2 * d_replay.len()).min(n_max));
         let (s, r) = rayon::join(
-            || steady_draws(&models[lo..hi], &c_steady, &etas, opts),
-            || replays(&models[lo..hi]),
+            || {
+                steady_draws(&models[lo..hi], &c_steady, &etas, opts)
+                    .into_iter()
+                    .zip(&drives[lo..hi])
+                    .map(|(a, d)| divided(a, d))
+                    .collect::<Vec<_>>()
+            },
+            || replays(&models[lo..hi], &drives[lo..hi]),
         );
         d_steady.extend(s);
         d_replay.extend(r);
@@ -1048,7 +1208,8 @@ pub fn predict_with(
     let (replay_settled, steady_reached) =
         steady_call(frc, c_replay, c_steady, opts.steady_tolerance);
 
-    let score = score(frc, &steady, &replay, &steady_reached);
+    let replay_sensitive = vec![None; frc.points.len()];
+    let score = score(frc, &steady, &replay, &steady_reached, &replay_sensitive);
     if score.steady_points == 0 {
         warnings.push(crate::warning::Warning::NoSteadyState);
     }
@@ -1059,6 +1220,7 @@ pub fn predict_with(
         replay,
         steady_reached,
         replay_settled,
+        replay_sensitive,
         score,
         draws: d_replay.len(),
         band,
@@ -1072,6 +1234,7 @@ pub fn score(
     steady: &Predicted,
     replay: &Predicted,
     steady_reached: &[Option<bool>],
+    sensitive: &[Option<bool>],
 ) -> Score {
     let m1: Vec<f64> = frc.points.iter().map(|p| p.amplitude1).collect();
     let m2: Vec<f64> = frc.points.iter().map(|p| p.amplitude2).collect();
@@ -1093,6 +1256,11 @@ pub fn score(
     let r1 = pairs(&replay.amplitude1, &m1, &mut all.iter().copied());
     let r2 = pairs(&replay.amplitude2, &m2, &mut all.iter().copied());
     let nrms = |r: Option<f64>, pk: f64| r.filter(|_| pk > 0.0).map(|r| r / pk);
+    let robust: Vec<usize> = (0..m1.len())
+        .filter(|&i| sensitive.get(i).copied().flatten() != Some(true))
+        .collect();
+    let rr1 = pairs(&replay.amplitude1, &m1, &mut robust.iter().copied());
+    let rr2 = pairs(&replay.amplitude2, &m2, &mut robust.iter().copied());
     let (pk1s, pk2s) = (peak(&m1, &settled), peak(&m2, &settled));
     let (pk1, pk2) = (peak(&m1, &all), peak(&m2, &all));
     let argmax = |v: &mut dyn Iterator<Item = (usize, f64)>| {
@@ -1122,6 +1290,8 @@ pub fn score(
         },
         replay_nrms_amplitude1: nrms(rms(&r1), pk1),
         replay_nrms_amplitude2: nrms(rms(&r2), pk2),
+        replay_nrms_robust_amplitude1: nrms(rms(&rr1), peak(&m1, &robust)),
+        replay_nrms_robust_amplitude2: nrms(rms(&rr2), peak(&m2, &robust)),
         replay_coverage_amplitude1: coverage(
             &replay.amplitude1_low,
             &replay.amplitude1_high,
