@@ -269,57 +269,41 @@ const LAGGING_SENSORS: &str = r#"{"x0": {"rate_hz": 2000.0, "noise": 3.634355900
 #[test]
 fn lags_that_leave_the_law_adequate_but_biased_are_fitted() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let sj = dir.path().join("s.json");
-    std::fs::write(&sj, LAGGING_SENSORS).expect("write");
     let log = dir.path().join("lag.mcap");
     let truth_rs = 0.464_294_169_184_705_2;
-    let mut synth = bin();
-    synth
-        .arg("synth")
-        .arg("--out")
-        .arg(&log)
-        .arg("--sensors")
-        .arg(&sj);
-    synth.args([
-        "--seed",
-        "119",
-        "--m1-kg",
-        "3",
-        "--m2-kg",
-        "1",
-        "--k1-n-per-m",
-        "200",
-        "--k2-n-per-m",
-        "500",
-        "--d-n-s-per-m",
-        "0.08944271909999159",
-        "--amplitude-m",
-        "0.002",
-        "--frequency-hz",
-        "2.292181908284495",
-        "--normal-force",
-        "2.0",
-        "--rs-n",
-        "0.46429416918470523",
-        "--rd-n",
-        "0.46429416918470523",
-        "--law",
-        "coulomb",
-    ]);
-    let out = synth.output().expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    common::synth_log(
+        &log,
+        Some(LAGGING_SENSORS),
+        &[
+            "--seed",
+            "119",
+            "--m1-kg",
+            "3",
+            "--m2-kg",
+            "1",
+            "--k1-n-per-m",
+            "200",
+            "--k2-n-per-m",
+            "500",
+            "--d-n-s-per-m",
+            "0.08944271909999159",
+            "--amplitude-m",
+            "0.002",
+            "--frequency-hz",
+            "2.292181908284495",
+            "--normal-force",
+            "2.0",
+            "--rs-n",
+            "0.46429416918470523",
+            "--rd-n",
+            "0.46429416918470523",
+            "--law",
+            "coulomb",
+        ],
     );
     let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
     let fit = &j["fits"][0];
-    let codes: Vec<&str> = fit["warning_codes"]
-        .as_array()
-        .expect("codes")
-        .iter()
-        .filter_map(|c| c.as_str())
-        .collect();
+    let codes = common::codes_of(fit);
     assert!(
         codes.contains(&"position_delay"),
         "{codes:?}: {}",

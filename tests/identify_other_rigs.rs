@@ -592,11 +592,10 @@ fn short_stick_repeatability() {
 fn a_sharp_stribeck_pad_is_not_read_as_static_dynamic() {
     let dir = tempfile::tempdir().expect("tempdir");
     let log = dir.path().join("sharp.mcap");
-    let out = bin()
-        .arg("synth")
-        .arg("--out")
-        .arg(&log)
-        .args([
+    common::synth_log(
+        &log,
+        None,
+        &[
             "--seed",
             "1",
             "--m1-kg",
@@ -617,13 +616,7 @@ fn a_sharp_stribeck_pad_is_not_read_as_static_dynamic() {
             "0.38",
             "--stribeck-velocity-m-per-s",
             "0.001",
-        ])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
     );
     let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
     let fit = &j["fits"][0];
@@ -649,16 +642,11 @@ const LOG035_SENSORS: &str = r#"{"x0": {"rate_hz": 2000.0, "noise": 4.6344569139
 #[test]
 fn an_unidentified_threshold_widens_the_interval_and_says_so() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let sj = dir.path().join("s.json");
-    std::fs::write(&sj, LOG035_SENSORS).expect("write");
     let log = dir.path().join("l035.mcap");
-    let out = bin()
-        .arg("synth")
-        .arg("--out")
-        .arg(&log)
-        .arg("--sensors")
-        .arg(&sj)
-        .args([
+    common::synth_log(
+        &log,
+        Some(LOG035_SENSORS),
+        &[
             "--seed",
             "135",
             "--m1-kg",
@@ -683,22 +671,11 @@ fn an_unidentified_threshold_widens_the_interval_and_says_so() {
             "0.4857591193985702",
             "--law",
             "coulomb",
-        ])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        ],
     );
     let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
     let fit = &j["fits"][0];
-    let codes: Vec<&str> = fit["warning_codes"]
-        .as_array()
-        .expect("codes")
-        .iter()
-        .filter_map(|c| c.as_str())
-        .collect();
+    let codes = common::codes_of(fit);
     assert!(codes.contains(&"threshold_not_identified"), "{codes:?}");
     assert_eq!(fit["law"], "coulomb");
     let iv = &fit["r_s_interval_n"];

@@ -209,21 +209,7 @@ fn check_shards(
             });
         }
     }
-    let missing: Vec<String> = seen
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| s.is_none())
-        .map(|(k, _)| format!("{}/{}", k + 1, first.shards))
-        .collect();
-    if !missing.is_empty() {
-        return Err(SimError::Unsupported(format!(
-            "incomplete set of shards: {} of {} missing ({}): merge every shard K/N",
-            missing.len(),
-            first.shards,
-            missing.join(", ")
-        ))
-        .into());
-    }
+    all_shards_present(&seen, first.shards)?;
     Ok(Some((first.curves, first.points)))
 }
 
@@ -407,21 +393,7 @@ fn merge_fits(args: &MergeArgs) -> crate::Result<()> {
             })?;
         }
     }
-    let missing: Vec<String> = seen
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| s.is_none())
-        .map(|(k, _)| format!("{}/{}", k + 1, first.shards))
-        .collect();
-    if !missing.is_empty() {
-        return Err(SimError::Unsupported(format!(
-            "incomplete set of shards: {} of {} missing ({}): merge every shard K/N",
-            missing.len(),
-            first.shards,
-            missing.join(", ")
-        ))
-        .into());
-    }
+    all_shards_present(&seen, first.shards)?;
     let mut ordered: Vec<&FitPart> = parts.iter().collect();
     ordered.sort_by_key(|p| p.shard);
     let fits: Vec<serde_json::Value> = ordered
@@ -443,4 +415,25 @@ fn merge_fits(args: &MergeArgs) -> crate::Result<()> {
         );
     }
     Ok(())
+}
+
+/// Refuses an incomplete set of shards, naming every missing K/N (`seen`
+/// holds one entry per shard, `None` where no part had it).
+fn all_shards_present<T>(seen: &[Option<T>], shards: usize) -> Result<(), crate::Error> {
+    let missing: Vec<String> = seen
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.is_none())
+        .map(|(k, _)| format!("{}/{}", k + 1, shards))
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(SimError::Unsupported(format!(
+        "incomplete set of shards: {} of {} missing ({}): merge every shard K/N",
+        missing.len(),
+        shards,
+        missing.join(", ")
+    ))
+    .into())
 }

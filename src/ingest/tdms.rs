@@ -743,13 +743,13 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
                 .filter(|e| matches!(e.3, Timing::Table))
                 .map(|e| e.1.name.as_str())
                 .collect();
-            return Err(IngestError::invalid(
-                &map_path,
-                format!(
-                    "[columns] lacks the entry `time`, needed for {} (no waveform properties wf_increment/wf_start_time)",
-                    names.join(", ")
-                ),
-            ));
+            // Named by the log: its channels lack the waveform properties
+            // (a map that is fine for an intact file meets a damaged one).
+            return Err(bad(format!(
+                "{} carries no waveform properties (wf_increment/wf_start_time), and the channel map {} has no [columns] entry `time` for a table channel",
+                names.join(", "),
+                map_path.display()
+            )));
         };
         let tobj = find(tspec, "time")?;
         let group = tobj.name.split('/').next().unwrap_or("");

@@ -54,3 +54,29 @@ pub fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
         .and_then(|s| s.parse().ok())
         .unwrap_or(default)
 }
+
+/// The `warning_codes` of a JSON object (empty when it has none).
+pub fn codes_of(v: &Value) -> Vec<&str> {
+    v["warning_codes"]
+        .as_array()
+        .map(|a| a.iter().filter_map(Value::as_str).collect())
+        .unwrap_or_default()
+}
+
+/// Runs `stickslip synth --out LOG` with `args` (and `--sensors SENSORS`
+/// written into LOG's folder when given); panics with stderr on failure.
+pub fn synth_log(log: &Path, sensors: Option<&str>, args: &[&str]) {
+    let mut cmd = bin();
+    cmd.arg("synth").arg("--out").arg(log);
+    if let Some(s) = sensors {
+        let sj = log.with_extension("sensors.json");
+        std::fs::write(&sj, s).expect("write the sensors file");
+        cmd.arg("--sensors").arg(sj);
+    }
+    let out = cmd.args(args).output().expect("runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
