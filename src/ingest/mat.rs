@@ -643,7 +643,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
                 )));
             }
             let dt_s = median_interval(&time).unwrap_or(f64::NAN);
-            csv::check_rate(&map_path, tspec, dt_s)?;
+            csv::check_rate(&map_path, tspec, dt_s).map_err(|e| in_log(path, e))?;
             Some((tspec, time, dt_s))
         }
         None => None,
@@ -680,7 +680,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         });
     }
     super::tdms::check_finite_times(path, &channels)?;
-    csv::check_drive_amplitude(&map_path, &cmap, &channels)?;
+    csv::check_drive_amplitude(&map_path, &cmap, &channels).map_err(|e| in_log(path, e))?;
     let setpoints = match &cmap.setpoint_hz {
         Some(spec) => {
             let v = vector(&vars, spec, "setpoint_hz", &map_path).map_err(bad)?;
@@ -703,6 +703,12 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         warnings: Vec::new(),
         declared_shifts: super::tdms::declared(&cmap),
     })
+}
+
+/// A map check that failed on this file's data (a damaged file can put
+/// its rate or drive amplitude out of range): named by the log first.
+fn in_log(path: &Path, e: IngestError) -> IngestError {
+    IngestError::invalid(path, e.to_string())
 }
 
 #[cfg(test)]

@@ -784,7 +784,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             )));
         }
         let dt_s = median_interval(&time).unwrap_or(f64::NAN);
-        csv::check_rate(&map_path, tspec, dt_s)?;
+        csv::check_rate(&map_path, tspec, dt_s).map_err(|e| in_log(path, e))?;
         // The absolute time of the first row when the channel holds
         // timestamps (to line it up with waveforms).
         let first_stamp = if is_stamp {
@@ -881,7 +881,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         }
     }
     check_finite_times(path, &channels)?;
-    csv::check_drive_amplitude(&map_path, &cmap, &channels)?;
+    csv::check_drive_amplitude(&map_path, &cmap, &channels).map_err(|e| in_log(path, e))?;
     // Tables start at their first row (as CSV logs); waveforms at the
     // earliest sample of any channel.
     let origin = match &table {
@@ -928,6 +928,12 @@ pub(crate) fn check_finite_times(path: &Path, channels: &[RawChannel]) -> Result
 /// The declared shifts of a map's channel entries.
 pub(crate) fn declared(cmap: &ChannelMap) -> Vec<(Quantity, f64)> {
     cmap.channels.iter().map(|(q, s)| (*q, s.shift_s)).collect()
+}
+
+/// A map check that failed on this file's data (a damaged file can put
+/// its rate or drive amplitude out of range): named by the log first.
+fn in_log(path: &Path, e: IngestError) -> IngestError {
+    IngestError::invalid(path, e.to_string())
 }
 
 #[cfg(test)]
