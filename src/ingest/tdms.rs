@@ -185,6 +185,25 @@ impl<'a> Cur<'a> {
     }
 }
 
+/// The value of a numeric TDMS data type `t` (integers, single and
+/// double; the extended-unit forms 0x19/0x1A) from its little-endian bytes
+/// `b` (at least [`type_size`] long); `None` for any other type.
+fn number(t: u32, b: &[u8]) -> Option<f64> {
+    Some(match t {
+        1 => b[0] as i8 as f64,
+        5 => b[0] as f64,
+        2 => i16::from_le_bytes([b[0], b[1]]) as f64,
+        6 => u16::from_le_bytes([b[0], b[1]]) as f64,
+        3 => le_u32(b, 0) as i32 as f64,
+        7 => le_u32(b, 0) as f64,
+        4 => le_u64(b, 0) as i64 as f64,
+        8 => le_u64(b, 0) as f64,
+        9 | 0x19 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        10 | 0x1A => f64::from_bits(le_u64(b, 0)),
+        _ => return None,
+    })
+}
+
 fn le_u32(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]])
 }
@@ -224,19 +243,12 @@ fn split_path(path: &str) -> Option<Vec<String>> {
 
 /// Reads a property value of type `t`.
 fn read_prop(c: &mut Cur, t: u32) -> Result<Prop, String> {
+    // A boolean property (0x21) reads as its byte.
     let num = |b: &[u8]| -> f64 {
-        match t {
-            1 => b[0] as i8 as f64,
-            5 | 0x21 => b[0] as f64,
-            2 => i16::from_le_bytes([b[0], b[1]]) as f64,
-            6 => u16::from_le_bytes([b[0], b[1]]) as f64,
-            3 => le_u32(b, 0) as i32 as f64,
-            7 => le_u32(b, 0) as f64,
-            4 => le_u64(b, 0) as i64 as f64,
-            8 => le_u64(b, 0) as f64,
-            9 | 0x19 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-            10 | 0x1A => f64::from_bits(le_u64(b, 0)),
-            _ => f64::NAN,
+        if t == 0x21 {
+            b[0] as f64
+        } else {
+            number(t, b).unwrap_or(f64::NAN)
         }
     };
     match t {
@@ -576,23 +588,14 @@ fn decode(buf: &[u8], obj: &Object, time_origin: Option<i128>) -> Result<Vec<f64
             for i in 0..p.count {
                 let at = base + i * p.stride;
                 let b = &buf[at..at + type_size(p.dtype).unwrap_or(0)];
-                let v = match p.dtype {
-                    1 => b[0] as i8 as f64,
-                    5 => b[0] as f64,
-                    2 => i16::from_le_bytes([b[0], b[1]]) as f64,
-                    6 => u16::from_le_bytes([b[0], b[1]]) as f64,
-                    3 => le_u32(b, 0) as i32 as f64,
-                    7 => le_u32(b, 0) as f64,
-                    4 => le_u64(b, 0) as i64 as f64,
-                    8 => le_u64(b, 0) as f64,
-                    9 | 0x19 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
-                    10 | 0x1A => f64::from_bits(le_u64(b, 0)),
-                    T_TIMESTAMP => {
+                let v = match (p.dtype, number(p.dtype, b)) {
+                    (_, Some(v)) => v,
+                    (T_TIMESTAMP, None) => {
                         let ts = ((le_u64(b, 8) as i64 as i128) << 64) + le_u64(b, 0) as i128;
                         let o = *origin.get_or_insert(ts);
                         ticks_to_s(ts - o)
                     }
-                    other => {
+                    (other, None) => {
                         return Err(format!(
                             "channel {:?} holds {} data, not numbers",
                             obj.name,
