@@ -46,34 +46,22 @@ fn other_rig(dir: &Path) -> (Value, Value) {
         "4.5",
     ];
     let (ch, sw) = (dir.join("char.mcap"), dir.join("sweep.mcap"));
-    let ok = bin()
-        .args(["synth", "--seed", "21", "--out"])
-        .arg(&ch)
-        .args(rig)
-        .output()
-        .unwrap();
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
-    );
-    let ok = bin()
-        .args(["synth", "--seed", "22", "--test", "stepped"])
-        .args([
+    let with_rig =
+        |extra: &[&'static str]| -> Vec<&str> { extra.iter().chain(rig.iter()).copied().collect() };
+    common::synth_log(&ch, None, &with_rig(&["--seed", "21"]));
+    common::synth_log(
+        &sw,
+        None,
+        &with_rig(&[
+            "--seed",
+            "22",
+            "--test",
+            "stepped",
             "--setpoints-hz",
             "0.9,1.3,1.7,2.1,2.5,2.9,3.4",
             "--dwell-s",
             "12",
-        ])
-        .arg("--out")
-        .arg(&sw)
-        .args(rig)
-        .output()
-        .unwrap();
-    assert!(
-        ok.status.success(),
-        "{}",
-        String::from_utf8_lossy(&ok.stderr)
+        ]),
     );
     let truth: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("truth.json")).unwrap()).unwrap();

@@ -80,3 +80,23 @@ pub fn synth_log(log: &Path, sensors: Option<&str>, args: &[&str]) {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// The rig of the adequacy study's first family (`scripts/adequacy_study.py`:
+/// M1 3 kg, M2 1 kg, K1 200 N/m, K2 500 N/m, drive 2 mm, 2 N) as `synth`
+/// arguments; a test adds seed, frequency and pad.
+pub const STUDY_RIG: [&str; 14] = [
+    "--m1-kg",
+    "3",
+    "--m2-kg",
+    "1",
+    "--k1-n-per-m",
+    "200",
+    "--k2-n-per-m",
+    "500",
+    "--d-n-s-per-m",
+    "0.08944271909999159",
+    "--amplitude-m",
+    "0.002",
+    "--normal-force",
+    "2.0",
+];
