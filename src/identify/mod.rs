@@ -766,7 +766,7 @@ fn refine(
         // lags are not neutral: on a lag-free log with a decreasing law the
         // lagged search ended at a higher cost, D* 1.3 % off.)
         if let (Ok(o), true) = (&first, opts.lag_fallback && !opts.oe.position_delays) {
-            let signature = o.adequacy.structure.iter().any(|s| s.lag_signature());
+            let signature = o.adequacy.structure.iter().any(|s| s.follows_the_motion());
             if !o.adequacy.adequate || signature {
                 let oe = output_error::OeOptions {
                     position_delays: true,

@@ -149,11 +149,12 @@ impl Structure {
     pub fn flagged(&self) -> bool {
         self.z > MAX_STRUCTURE_Z && self.effect > MAX_STRUCTURE_EFFECT
     }
-    /// The signature of a position record that lags the drive: a
-    /// significant structure (z above [`MAX_STRUCTURE_Z`], whatever its
+    /// A significant structure (z above [`MAX_STRUCTURE_Z`], whatever its
     /// size) of x1's or x2's residuals against the velocity or the drive
-    /// phase (a lag δ leaves −δ·ẋ in the residual).
-    pub fn lag_signature(&self) -> bool {
+    /// phase: the signature of a position record that lags the drive (a
+    /// lag δ leaves −δ·ẋ in the residual), and in x2 of a friction drop
+    /// sharper than the law has (the Stribeck screen).
+    pub fn follows_the_motion(&self) -> bool {
         self.z > MAX_STRUCTURE_Z
             && self.channel != "force"
             && (self.against == "velocity" || self.against == "drive phase")

@@ -706,7 +706,7 @@ impl Refinement {
                 .adequacy
                 .structure
                 .iter()
-                .any(|s| s.channel == "x2" && s.lag_signature());
+                .any(|s| s.channel == "x2" && s.follows_the_motion());
         if forced.is_none() && (!out.adequacy.adequate || sharp) {
             match self.refine(LawKind::Stribeck, starts, bias, &fits) {
                 Ok(Some(f)) => {
