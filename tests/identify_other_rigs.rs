@@ -627,6 +627,12 @@ fn a_sharp_stribeck_pad_is_not_read_as_static_dynamic() {
     assert!(f(&iv[0]) <= 0.5 && 0.5 <= f(&iv[1]), "Rs {rs} {iv}");
     assert!((rs / 0.5 - 1.0).abs() < 0.03, "Rs {rs}");
     assert!((rd / 0.38 - 1.0).abs() < 0.03, "Rd {rd}");
+    // The law used is reported in `stribeck` with its v_s (it was null when
+    // the Stribeck law came from the output-error refinement); the drop is
+    // resolved (v_s well above the 0.06 mm/s gained in one sample).
+    let vs = f(&fit["stribeck"]["v_s_m_per_s"]);
+    assert_eq!(fit["stribeck"]["r_s_n"], fit["r_s_n"]);
+    assert!((vs / 0.001 - 1.0).abs() < 0.3, "v_s {vs}");
 }
 
 /// Sensors of log035 of the adequacy study (`scripts/adequacy_study.py`,

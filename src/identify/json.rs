@@ -305,7 +305,14 @@ impl LogFit {
             residual_rms_n: e.residual_rms_n,
             warnings: &self.warnings,
             warning_codes: crate::warning::codes(&self.warnings),
-            stribeck: e.stribeck.as_ref().map(|l| self.law_out(l)),
+            // The Stribeck law used when it is the estimate (its v_s is
+            // nowhere else at the top level), else the equation-error
+            // Stribeck fit when one was made.
+            stribeck: law
+                .as_ref()
+                .filter(|l| l.kind == super::LawKind::Stribeck)
+                .or(e.stribeck.as_ref())
+                .map(|l| self.law_out(l)),
             simple_law: e.simple.as_ref().map(|l| self.law_out(l)),
             criteria: criteria(&e.criteria),
             estimate: self.estimate.as_str(),
