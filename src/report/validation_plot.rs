@@ -99,6 +99,8 @@ impl Frame {
 /// their 95 % bands.
 struct PanelData<'p> {
     which: usize,
+    /// Steps whose replay is sensitive to its measured start.
+    sensitive: Vec<bool>,
     meas: Vec<f64>,
     /// The measured values' own 95 % error bars.
     u: Vec<f64>,
@@ -160,6 +162,11 @@ impl<'p> PanelData<'p> {
         };
         PanelData {
             which,
+            sensitive: pred
+                .replay_sensitive
+                .iter()
+                .map(|s| *s == Some(true))
+                .collect(),
             meas,
             u,
             st,
@@ -184,6 +191,11 @@ fn draw(title: &str, frc: &MeasuredFrc, pred: &Prediction, root: &Area<'_>) -> D
     residual_panel(&bottom, &f, frc, pred)
 }
 
+/// Rows of the legend without the sensitive steps' row.
+const LEGEND_ROWS: usize = 10;
+/// Width of the legend box (px, its longest label at 13 px).
+const LEGEND_WIDTH_PX: f64 = 440.0;
+
 /// One amplitude panel: axes, limit curves, steady state, replay, measured
 /// points and (on the first panel) the legend.
 fn amplitude_panel(
@@ -201,7 +213,32 @@ fn amplitude_panel(
         .chain(d.rp_hi.iter().flatten().copied())
         .filter(|v| v.is_finite())
         .fold(0.0f64, f64::max);
-    let ymax = (data_max * 1.15).max(0.5);
+    let mut ymax = (data_max * 1.15).max(0.5);
+    if d.which == 0 {
+        // The legend (upper right) must not cover a point: raise the top
+        // until the values under the legend's box stay below it.
+        let (w_px, h_px) = panel.dim_in_pixel();
+        let plot_w = (w_px as f64 - 55.0 - 24.0).max(100.0);
+        let plot_h = (h_px as f64 - 40.0 - 24.0).max(100.0);
+        let rows = LEGEND_ROWS + usize::from(d.sensitive.iter().any(|&s| s));
+        let hf = ((rows as f64 * 19.0 + 16.0) / plot_h).min(0.7);
+        let x0 = hi - (LEGEND_WIDTH_PX / plot_w).min(0.9) * (hi - lo);
+        let under = (0..f.etas.len())
+            .filter(|&i| f.etas[i] >= x0)
+            .flat_map(|i| {
+                [
+                    Some(d.meas[i] + d.u[i]),
+                    d.st_hi[i],
+                    d.rp_hi[i],
+                    d.rp[i],
+                    d.st[i],
+                ]
+            })
+            .flatten()
+            .filter(|v| v.is_finite())
+            .fold(0.0f64, f64::max);
+        ymax = ymax.max(1.04 * under / (1.0 - hf));
+    }
     let mut chart = ChartBuilder::on(panel)
         .margin(12)
         .x_label_area_size(40)
@@ -314,6 +351,18 @@ fn replay_series(chart: &mut Chart<'_, '_>, f: &Frame, d: &PanelData<'_>) -> Dra
         .map_err(e)?
         .label("replay of the sweep as run, 95 % band (law and drive)")
         .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, c_replay.filled()));
+    // Sensitive steps: the replay hinges on its measured start (the band
+    // holds the ensemble's range).
+    if d.sensitive.iter().any(|&s| s) {
+        let c_sens = RGBColor(230, 140, 0);
+        chart
+            .draw_series((0..etas.len()).filter(|&i| d.sensitive[i]).filter_map(|i| {
+                d.rp[i].map(|v| Cross::new((etas[i] + dx, v), 7, c_sens.stroke_width(2)))
+            }))
+            .map_err(e)?
+            .label("replay sensitive to its measured start (band holds the spread)")
+            .legend(move |(x, y)| Cross::new((x + 10, y), 6, c_sens.stroke_width(2)));
+    }
     Ok(())
 }
 

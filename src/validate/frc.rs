@@ -169,6 +169,9 @@ pub struct MeasuredFrc {
     pub noise_m: (f64, f64),
     /// One per step (stepped) or drive period (continuous).
     pub points: Vec<MeasuredPoint>,
+    /// The rig's state at each step's start as measured (stepped sweeps;
+    /// see [`super::sensitive::start_states`]).
+    pub start_states: Vec<Option<super::sensitive::StartState>>,
     /// Things the user should know.
     pub warnings: Vec<crate::warning::Warning>,
 }
@@ -871,6 +874,7 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         plan: parts.plan,
         noise_m: (f64::NAN, f64::NAN),
         points: parts.points,
+        start_states: Vec::new(),
         warnings: parts.warnings,
     };
     let nominal = run.rig.drive_amplitude_m;
@@ -893,6 +897,7 @@ pub fn measure(run: &Run, opts: &FrcOptions) -> Result<MeasuredFrc> {
         p.amplitude1_u = (p.amplitude1_noise_m / a).hypot(cal * p.amplitude1);
         p.amplitude2_u = (p.amplitude2_noise_m / a).hypot(cal * p.amplitude2);
     }
+    m.start_states = super::sensitive::start_states(run, &m);
     Ok(m)
 }
 

@@ -64,6 +64,8 @@ struct ValidationOut<'a> {
     /// Per step: sensitive to the measurement's uncertainty? (`null`: not
     /// assessed).
     replay_sensitive: &'a [Option<bool>],
+    /// Per step: the assessment behind `replay_sensitive`.
+    replay_sensitivity: &'a [Option<crate::validate::sensitive::Sensitivity>],
     score: ScoreOut<'a>,
     draws: usize,
     band_precision: &'a crate::validate::predict::BandPrecision,
@@ -123,6 +125,7 @@ impl Validation {
             replay: &p.replay,
             replay_settled: &p.replay_settled,
             replay_sensitive: &p.replay_sensitive,
+            replay_sensitivity: &p.replay_sensitivity,
             score: ScoreOut {
                 score: &p.score,
                 points: pts.len(),

@@ -114,6 +114,9 @@ pub struct PredictOptions {
     /// per period a smooth extremum is within (2π/48)⁴/384 ≈ 8e-7 relative,
     /// far below any rig's noise).
     pub samples_per_period: u32,
+    /// Assess which steps are sensitive ([`super::sensitive`]; about
+    /// 29 re-runs of each step).
+    pub sensitivity: bool,
 }
 
 impl Default for PredictOptions {
@@ -137,6 +140,7 @@ impl Default for PredictOptions {
             band_max_periods: 2_000,
             band_unsettled_periods: 200,
             samples_per_period: 48,
+            sensitivity: true,
         }
     }
 }
@@ -221,9 +225,12 @@ pub struct Prediction {
     /// The replay's own call: replay within tolerance of the steady state.
     pub replay_settled: Vec<Option<bool>>,
     /// Per point: does the replay hinge on details finer than the
-    /// measurement resolves? `None`: not assessed (every point, for now:
-    /// the robust scores then cover every point).
+    /// measurement resolves? `None`: not assessed (continuous sweeps,
+    /// steps without a measured start state, or `sensitivity` off).
     pub replay_sensitive: Vec<Option<bool>>,
+    /// The assessment behind `replay_sensitive` (see
+    /// [`super::sensitive`]).
+    pub replay_sensitivity: Vec<Option<super::sensitive::Sensitivity>>,
     /// Scores.
     pub score: Score,
     /// Laws drawn for the bands.
@@ -449,7 +456,7 @@ pub fn schedule(frc: &MeasuredFrc) -> Result<Schedule, PredictError> {
 /// Records (max − min)/2 of ζ1 and ζ2 over a list of windows (τ), sampling
 /// the exact trajectory and refining each interior extremum with the cubic
 /// Hermite interpolant of the two bracketing samples.
-struct Windows {
+pub(super) struct Windows {
     /// (τ start, τ end, sample spacing) per window, in time order.
     windows: Vec<(f64, f64, f64)>,
     /// Current window and sample index.
@@ -461,7 +468,7 @@ struct Windows {
 }
 
 impl Windows {
-    fn new(windows: Vec<(f64, f64, f64)>) -> Self {
+    pub(super) fn new(windows: Vec<(f64, f64, f64)>) -> Self {
         let n = windows.len();
         Self {
             windows,
@@ -480,7 +487,12 @@ impl Windows {
         }
     }
 
-    fn amplitudes(&self) -> Vec<Option<(f64, f64)>> {
+    /// Per window: [min ζ1, max ζ1, min ζ2, max ζ2] (±∞ where empty).
+    pub(super) fn extremes(&self) -> &[[f64; 4]] {
+        &self.ext
+    }
+
+    pub(super) fn amplitudes(&self) -> Vec<Option<(f64, f64)>> {
         self.ext
             .iter()
             .map(|e| {
@@ -1208,7 +1220,36 @@ pub fn predict_joint(
     let (replay_settled, steady_reached) =
         steady_call(frc, c_replay, c_steady, opts.steady_tolerance);
 
-    let replay_sensitive = vec![None; frc.points.len()];
+    // Sensitive steps: ensembles from each step's measured start; a
+    // sensitive step's band also holds the ensemble's range.
+    let replay_sensitivity = if opts.sensitivity {
+        super::sensitive::assess(&model, &sched, frc, &windows, opts)
+    } else {
+        vec![None; frc.points.len()]
+    };
+    let replay_sensitive: Vec<Option<bool>> = replay_sensitivity
+        .iter()
+        .map(|s| s.map(|s| s.sensitive))
+        .collect();
+    for (i, s) in replay_sensitivity.iter().enumerate() {
+        let Some(s) = s.filter(|s| s.sensitive) else {
+            continue;
+        };
+        let widen = |lo: &mut Option<f64>, hi: &mut Option<f64>, (a, b): (f64, f64)| {
+            *lo = Some(lo.map_or(a, |l| l.min(a)));
+            *hi = Some(hi.map_or(b, |h| h.max(b)));
+        };
+        widen(
+            &mut replay.amplitude1_low[i],
+            &mut replay.amplitude1_high[i],
+            s.range1,
+        );
+        widen(
+            &mut replay.amplitude2_low[i],
+            &mut replay.amplitude2_high[i],
+            s.range2,
+        );
+    }
     let score = score(frc, &steady, &replay, &steady_reached, &replay_sensitive);
     if score.steady_points == 0 {
         warnings.push(crate::warning::Warning::NoSteadyState);
@@ -1221,6 +1262,7 @@ pub fn predict_joint(
         steady_reached,
         replay_settled,
         replay_sensitive,
+        replay_sensitivity,
         score,
         draws: d_replay.len(),
         band,
