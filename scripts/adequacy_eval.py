@@ -23,12 +23,18 @@ for name, fam, *_ in rows:
         miss_rs=m_rs, miss_rd=m_rd, nr=(ad.get('noise_ratio_x1'), ad.get('noise_ratio_x2')),
         flagged=[(x['channel'], x['against'], round(x['z'], 1), round(x['effect'], 2)) for x in ad.get('structure', []) if x['channel'] != 'force' and x['z'] > 3.7 and x['effect'] > 0.5],
         inflation=ad.get('interval_inflation')))
-n = len(res); adq = sum(r['adequate'] for r in res)
+json.dump(res, open(f'{OUT}/eval.json', 'w'), indent=1)
+n = len(res); adq = sum(bool(r['adequate']) for r in res)
+for r in res:
+    if r['adequate'] is None:
+        print('  no verdict:', r['log'], r['fam'], '->', r['law'], 'stuck', r['stuck'], 'never_sticks', r['never_sticks'])
 big = [r for r in res if max(r['miss_rs'] or 0, r['miss_rd'] or 0) > 2]
 unflagged = [r for r in big if r['adequate']]
 cov_rs = [r['miss_rs'] <= 1 for r in res if r['miss_rs'] is not None]
 cov_rd = [r['miss_rd'] <= 1 for r in res if r['miss_rd'] is not None]
 fam_ok = sum(1 for r in res if r['law'] == r['fam'])
+nrs = sorted(max(v for v in r['nr'] if v is not None) for r in res if any(v is not None for v in r['nr']))
+print(f'largest noise ratios (x1 or x2): {[round(v, 3) for v in nrs[-5:]]}')
 print(f'logs {n}: adequate {adq} ({100*adq/n:.0f} %); family right {fam_ok}; Rs covered {sum(cov_rs)}/{len(cov_rs)}, Rd covered {sum(cov_rd)}/{len(cov_rd)}; misses > 2 half-widths {len(big)}, of them adequate (unflagged) {len(unflagged)}')
 for r in res:
     if not r['adequate'] or max(r['miss_rs'] or 0, r['miss_rd'] or 0) > 1:
