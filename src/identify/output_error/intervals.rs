@@ -3,6 +3,42 @@
 
 use super::*;
 
+/// The inverse of a small matrix, column by column.
+fn inverse(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+    let p = hm.len();
+    let cols = (0..p)
+        .map(|k| {
+            let mut e = vec![0.0; p];
+            e[k] = 1.0;
+            solve_small(hm, &e)
+        })
+        .collect::<Option<Vec<_>>>()?;
+    // H is symmetric: its inverse is too, so columns serve as rows.
+    Some(cols)
+}
+
+/// The inverse of a symmetric positive semi-definite matrix whose
+/// parameters differ widely in scale (a Stribeck velocity in m/s beside
+/// forces in N: diagonal entries 3e5 to 6e19, past the pivot test of
+/// [`solve_small`]): D⁻¹·(D⁻¹HD⁻¹)⁻¹·D⁻¹ with D = √diag H. Used only where
+/// the plain inverse fails, so well-scaled fits keep their bits.
+fn inverse_equilibrated(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
+    let p = hm.len();
+    let d: Vec<f64> = (0..p).map(|k| hm[k][k].sqrt()).collect();
+    if d.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        return None;
+    }
+    let scaled: Vec<Vec<f64>> = (0..p)
+        .map(|a| (0..p).map(|b| hm[a][b] / (d[a] * d[b])).collect())
+        .collect();
+    let inv = inverse(&scaled)?;
+    Some(
+        (0..p)
+            .map(|a| (0..p).map(|b| inv[a][b] / (d[a] * d[b])).collect())
+            .collect(),
+    )
+}
+
 impl Refinement {
     /// Sandwich intervals over segments plus the calibration budget.
     pub(super) fn intervals(
@@ -144,13 +180,7 @@ impl Refinement {
                 }
             }
         }
-        let hinv: Vec<Vec<f64>> = (0..p)
-            .map(|k| {
-                let mut e = vec![0.0; p];
-                e[k] = 1.0;
-                solve_small(&hm, &e)
-            })
-            .collect::<Option<Vec<_>>>()?;
+        let hinv = inverse(&hm).or_else(|| inverse_equilibrated(&hm))?;
         let used = g.iter().filter(|v| v.iter().any(|x| *x != 0.0)).count();
         if used <= p + 1 {
             return None;
@@ -237,5 +267,36 @@ impl Refinement {
             }
         }
         Some(var_cal)
+    }
+}
+
+#[cfg(test)]
+mod inverse_tests {
+    use super::*;
+
+    #[test]
+    fn a_badly_scaled_normal_matrix_is_inverted_after_equilibration() {
+        // Parameters of scales 1 and 1e10 (a force beside a Stribeck
+        // velocity): H = D·C·D with C well conditioned.
+        let c = [[2.0, 0.5, 0.2], [0.5, 1.5, 0.3], [0.2, 0.3, 1.0]];
+        let d = [1.0, 1e10, 3.0];
+        let h: Vec<Vec<f64>> = (0..3)
+            .map(|a| (0..3).map(|b| d[a] * c[a][b] * d[b]).collect())
+            .collect();
+        assert!(inverse(&h).is_none(), "the plain pivot test refuses it");
+        let inv = inverse_equilibrated(&h).expect("equilibrated");
+        // Against D⁻¹·C⁻¹·D⁻¹ (C⁻¹ of the well-conditioned C).
+        let cv: Vec<Vec<f64>> = c.iter().map(|r| r.to_vec()).collect();
+        let ci = inverse(&cv).unwrap();
+        for a in 0..3 {
+            for b in 0..3 {
+                let want = ci[a][b] / (d[a] * d[b]);
+                assert!(
+                    (inv[a][b] / want - 1.0).abs() < 1e-12,
+                    "({a},{b}) {} {want}",
+                    inv[a][b]
+                );
+            }
+        }
     }
 }

@@ -719,7 +719,16 @@ impl Refinement {
                 Ok(Some(f)) if out.adequacy.adequate && !self.resolves_drop(&f) => {}
                 Ok(Some(f)) => {
                     fits.push(f);
-                    out = self.conclude(&fits, forced, u, t0)?;
+                    // A Stribeck optimum whose intervals cannot be formed
+                    // must not sink the simple families' result.
+                    match self.conclude(&fits, forced, u, t0) {
+                        Ok(o) => out = o,
+                        Err(e) => {
+                            fits.pop();
+                            out.notes
+                                .push(crate::warning::Warning::StribeckFailed { reason: e });
+                        }
+                    }
                 }
                 Ok(None) => {}
                 Err(e) => out.notes.push(crate::warning::Warning::StribeckFailed {
