@@ -250,10 +250,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
                 rho_s: law.rho_s(),
                 rho_d: law.rho_d(),
                 slope: law.slope(),
-                v_s: match law {
-                    crate::model::Law::Stribeck { v_s, .. } => Some(*v_s),
-                    _ => None,
-                },
+                v_s: law.v_s(),
                 stop_below: s.model.stop_below,
                 direction: s.direction.as_str().to_string(),
                 eta: v.eta,

@@ -1,6 +1,8 @@
-//! The Stribeck velocity by variable projection: for a given v_s the law
-//! is linear in (b, Rd, Rs − Rd, a), so v_s is found by a coarse scan and a
-//! golden-section search over log v_s of the profiled residual sum.
+//! The velocity scale v_s of a family that has one (the Stribeck velocity)
+//! by variable projection: for a given v_s the law is linear in its
+//! coefficients (for the Stribeck type b, Rd, Rs − Rd, a), so v_s is found
+//! by a coarse scan and a golden-section search over log v_s of the
+//! profiled residual sum.
 
 use super::basis;
 use super::slip::{rss, Sample};
@@ -8,11 +10,12 @@ use crate::identify::smooth::Normal;
 use crate::model::LawKind;
 use crate::stats::golden_section;
 
-/// The Stribeck velocity (m/s) the slip samples resolve, if any: None where
+/// The velocity scale (m/s) of family `kind` the slip samples resolve, if
+/// any: None where
 /// the speeds span less than a factor 4 above `u_min` (the hysteresis
 /// threshold), or where the optimum sits at the scanned range's edge (not
 /// a peak the data resolve).
-pub(super) fn stribeck_velocity(samples: &[Sample], u_min: f64) -> Option<f64> {
+pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> Option<f64> {
     let umax = samples.iter().map(|s| s.u).fold(0.0, f64::max);
     let umin = u_min.max(1e-9);
     if umax <= 4.0 * umin {
@@ -20,12 +23,12 @@ pub(super) fn stribeck_velocity(samples: &[Sample], u_min: f64) -> Option<f64> {
     }
     let cost = |lv: f64| {
         let vs = lv.exp();
-        let mut ne = Normal::new(basis(LawKind::Stribeck, &samples[0], vs).len());
+        let mut ne = Normal::new(basis(kind, &samples[0], vs).len());
         for smp in samples {
-            ne.add(&basis(LawKind::Stribeck, smp, vs), smp.r, 1.0);
+            ne.add(&basis(kind, smp, vs), smp.r, 1.0);
         }
         match ne.solve() {
-            Some(c) => rss(samples, &c, None, LawKind::Stribeck, vs),
+            Some(c) => rss(samples, &c, None, kind, vs),
             None => f64::INFINITY,
         }
     };
@@ -42,6 +45,6 @@ pub(super) fn stribeck_velocity(samples: &[Sample], u_min: f64) -> Option<f64> {
     }
     let step = (b - a) / m as f64;
     let lv = golden_section((best.0 - step).max(a), (best.0 + step).min(b), 30, cost);
-    // At the bounds it is not a Stribeck peak the data resolve.
+    // At the bounds it is not a scale the data resolve.
     (lv > a + 0.5 * step && lv < b - 0.5 * step).then(|| lv.exp())
 }
