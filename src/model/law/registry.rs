@@ -6,6 +6,8 @@
 pub(super) mod coulomb;
 #[path = "decreasing.rs"]
 pub(super) mod decreasing;
+#[path = "exponential.rs"]
+mod exponential;
 #[path = "static_dynamic.rs"]
 pub(super) mod static_dynamic;
 #[path = "stribeck.rs"]
@@ -19,4 +21,5 @@ pub(super) static REGISTRY: &[LawKind] = &[
     LawKind::Decreasing,
     LawKind::StaticDynamic,
     LawKind::Stribeck,
+    LawKind(&exponential::Exponential),
 ];
