@@ -5,7 +5,8 @@
 //! profiled residual sum.
 
 use super::basis;
-use super::slip::{rss, Sample};
+use super::slip::{rss_rows, Sample};
+use super::Row;
 use crate::identify::smooth::Normal;
 use crate::model::LawKind;
 use crate::stats::golden_section;
@@ -21,14 +22,20 @@ pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> O
     if umax <= 4.0 * umin {
         return None;
     }
+    // The regressors at one v_s, evaluated once for the normal equations
+    // and the residual sum (one call of the family's basis per sample).
+    let rows = std::cell::RefCell::new(Vec::<Row>::with_capacity(samples.len()));
     let cost = |lv: f64| {
         let vs = lv.exp();
-        let mut ne = Normal::new(basis(kind, &samples[0], vs).len());
-        for smp in samples {
-            ne.add(&basis(kind, smp, vs), smp.r, 1.0);
+        let mut rows = rows.borrow_mut();
+        rows.clear();
+        rows.extend(samples.iter().map(|smp| basis(kind, smp, vs)));
+        let mut ne = Normal::new(rows[0].len());
+        for (smp, x) in samples.iter().zip(rows.iter()) {
+            ne.add(x, smp.r, 1.0);
         }
         match ne.solve() {
-            Some(c) => rss(samples, &c, None, kind, vs),
+            Some(c) => rss_rows(samples, &rows, &c, None),
             None => f64::INFINITY,
         }
     };

@@ -40,7 +40,7 @@ pub(super) fn n_params(kind: LawKind) -> usize {
 
 impl Problem<'_> {
     /// Unpacks θ = [law…, bias, g1, g2] (the law's parameters as its
-    /// [`crate::model::Family`] orders them).
+    /// [`crate::model::LawFamily`] orders them).
     pub(super) fn unpack(&self, th: &[f64]) -> (SiLaw, f64, f64, f64) {
         let family = self.kind.family();
         let k = family.params().len();
