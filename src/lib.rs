@@ -40,8 +40,9 @@
 //!   validations and the batch side by side) giving a
 //!   [`pipeline::PipelineReport`] with its JSON and report.
 //! * [`model`]: the dimensionless absorber (m, k, D), the rig's constants,
-//!   drives, and the one friction-law vocabulary ([`model::LawKind`],
-//!   [`model::Family`], [`model::SiLaw`], [`model::Law`], [`model::Scales`]).
+//!   drives, and the friction laws: one [`model::LawFamily`] per family,
+//!   registered by name ([`model::LawKind`]), with [`model::SiLaw`],
+//!   [`model::Law`] and [`model::Scales`].
 //! * [`synth`]: a virtual rig writing logs with known truth from the simulator.
 //! * `cli` (feature `cli`, on by default): the command-line layer (parse,
 //!   call the doors, print); `cargo build --lib --no-default-features`

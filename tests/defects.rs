@@ -54,6 +54,7 @@ fn pad(rs_n: f64, rd_n: f64) -> FrictionSpec {
         rd_n,
         slope_n_s_per_m: 0.0,
         stribeck_velocity_m_per_s: None,
+        law: None,
     }
 }
 

@@ -62,6 +62,7 @@ fn config(rig: TestRig, seed: u64) -> SynthConfig {
             rd_n: 0.34 * n,
             slope_n_s_per_m: 0.0,
             stribeck_velocity_m_per_s: None,
+            law: None,
         },
         normal_force_n: n,
         test: TestSpec::Characteristic {

@@ -389,7 +389,8 @@ fn stribeck_tends_to_static_dynamic_as_vs_shrinks() {
     assert!(exact.steady);
     let mut errs = Vec::new();
     for vs in [0.1, 0.03, 0.01] {
-        let st = model(Law::Stribeck {
+        let st = model(Law::Shaped {
+            kind: stickslip::model::LawKind::Stribeck,
             rho_s: 0.5,
             rho_d: 0.3,
             slope: 0.0,

@@ -82,6 +82,7 @@ fn random_case(seed: u64) -> (SynthConfig, String) {
             rd_n: rd,
             slope_n_s_per_m: slope,
             stribeck_velocity_m_per_s: None,
+            law: None,
         },
         normal_force_n: normal,
         test: TestSpec::Characteristic {
@@ -340,6 +341,7 @@ fn synth_repeatability_study() {
             rd_n: 1.36,
             slope_n_s_per_m: 0.0,
             stribeck_velocity_m_per_s: None,
+            law: None,
         };
         let log = synth::generate(&cfg).expect("generate");
         let path = dir.path().join(format!("r{seed}.mcap"));

@@ -75,6 +75,7 @@ fn pad(rs_n: f64, rd_n: f64) -> FrictionSpec {
         rd_n,
         slope_n_s_per_m: 0.0,
         stribeck_velocity_m_per_s: None,
+        law: None,
     }
 }
 
@@ -119,6 +120,7 @@ const SHORT_STICK_PAD: FrictionSpec = FrictionSpec {
     rd_n: 0.816,
     slope_n_s_per_m: 0.0,
     stribeck_velocity_m_per_s: None,
+    law: None,
 };
 
 /// Short sticks at reversal (about 7 % of the time, 10–20 ms each), no
@@ -201,6 +203,7 @@ fn a_wrong_law_is_flagged_and_its_intervals_carry_the_misfit() {
         rd_n: 0.6,
         slope_n_s_per_m: 0.5,
         stribeck_velocity_m_per_s: Some(0.008),
+        law: None,
     };
     let cfg = config(other_rig(), friction, 2.2, sensors(5, 4e-4, true), 5);
     let (f, _) = fit(&cfg, dir.path(), Some(LawKind::Coulomb), false);
@@ -316,6 +319,7 @@ fn study_case(seed: u64) -> (SynthConfig, bool, String) {
                 rd_n: rd,
                 slope_n_s_per_m: slope,
                 stribeck_velocity_m_per_s: vs,
+                law: None,
             },
             f_hz,
             sensors(seed, v_noise, accel),

@@ -557,7 +557,8 @@ fn suspect_scenarios_end_cleanly() {
             4.0,
             1.0,
             0.005,
-            Law::Stribeck {
+            Law::Shaped {
+                kind: stickslip::model::LawKind::Stribeck,
                 rho_s: 0.5,
                 rho_d: 0.02,
                 slope: 0.0,
@@ -653,7 +654,8 @@ fn suspect_scenarios_end_cleanly() {
             rho_d: 0.4,
             slope: 0.0,
         },
-        Law::Stribeck {
+        Law::Shaped {
+            kind: stickslip::model::LawKind::Stribeck,
             rho_s: 0.3,
             rho_d: 0.4,
             slope: 0.0,

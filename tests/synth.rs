@@ -257,6 +257,7 @@ fn ideal(format: LogFormat, rs_n: f64, rd_n: f64) -> SynthConfig {
         rd_n,
         slope_n_s_per_m: 0.0,
         stribeck_velocity_m_per_s: None,
+        law: None,
     };
     c.test = TestSpec::Characteristic {
         frequency_hz: 1.72,

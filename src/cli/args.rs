@@ -1,7 +1,33 @@
 //! Option groups shared by several subcommands.
 
-use crate::model::{Absorber, Law, Model};
+use crate::model::{Absorber, Law, LawKind, Model};
 use clap::Args;
+
+/// The parser of a family name among `kinds` (the help and the error list
+/// the names).
+fn kind_parser(
+    kinds: impl Iterator<Item = LawKind>,
+) -> impl clap::builder::TypedValueParser<Value = LawKind> {
+    use clap::builder::TypedValueParser;
+    let names: Vec<&'static str> = kinds.map(LawKind::as_str).collect();
+    clap::builder::PossibleValuesParser::new(names)
+        .map(|s: String| LawKind::parse(&s).expect("a registered name"))
+}
+
+/// The parser of a registered family's name.
+pub fn law_kind() -> impl clap::builder::TypedValueParser<Value = LawKind> {
+    kind_parser(LawKind::all().iter().copied())
+}
+
+/// The parser of the name of a family with a velocity scale.
+pub fn shaped_law_kind() -> impl clap::builder::TypedValueParser<Value = LawKind> {
+    kind_parser(
+        LawKind::all()
+            .iter()
+            .copied()
+            .filter(|k| k.family().has_velocity_scale()),
+    )
+}
 
 /// Parser of a relative gain uncertainty: a finite fraction in [0, 0.5).
 pub fn gain_fraction(s: &str) -> Result<f64, String> {
@@ -53,9 +79,14 @@ pub struct ShapeArgs {
     /// Slope D* of the characteristic (ignored where rho_s = 0: no friction).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub slope: f64,
-    /// Stribeck velocity v_s: makes the law ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
+    /// Velocity scale v_s of a law that has one: with the default
+    /// `--law stribeck`, ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
     #[arg(long = "v-s", allow_hyphen_values = true)]
     pub v_s: Option<f64>,
+    /// Family of a law with a velocity scale (needs --v-s; default
+    /// stribeck). An affine law is given by --rho-d and --slope.
+    #[arg(long = "law", value_parser = shaped_law_kind(), requires = "v_s")]
+    pub law: Option<LawKind>,
     /// Interrupt when the sliding friction falls below F·rho_s.
     #[arg(long = "stop-below", allow_hyphen_values = true)]
     pub stop_below: Option<f64>,
@@ -73,24 +104,19 @@ impl ShapeArgs {
             None if rho_s.is_finite() => rho_s,
             None => 0.0,
         };
-        let law = match self.v_s {
-            None => Law::Linear {
-                rho_s,
-                rho_d,
-                slope,
-            },
-            Some(v_s) if rho_s > 0.0 => Law::Stribeck {
-                rho_s,
-                rho_d,
-                slope,
-                v_s,
-            },
-            Some(_) => Law::Linear {
-                rho_s,
-                rho_d,
-                slope,
-            },
+        let linear = Law::Linear {
+            rho_s,
+            rho_d,
+            slope,
         };
+        // The parser admits only families with a velocity scale, and
+        // --law only with --v-s.
+        let shaped = self.law.unwrap_or(LawKind::Stribeck);
+        let law = match self.v_s {
+            Some(v_s) if rho_s > 0.0 => Law::of(shaped, rho_s, rho_d, slope, Some(v_s)),
+            _ => None,
+        }
+        .unwrap_or(linear);
         let model = Model {
             absorber: Absorber {
                 m: self.m,

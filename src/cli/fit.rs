@@ -17,7 +17,7 @@ pub struct LawPick(pub Option<LawKind>);
 /// The `--law` parser: `auto` or a [`LawKind`] name (the help and the
 /// error list the names).
 pub fn law_pick() -> impl clap::builder::TypedValueParser<Value = LawPick> {
-    let names = std::iter::once("auto").chain(LawKind::ALL.map(LawKind::as_str));
+    let names = std::iter::once("auto").chain(LawKind::all().iter().map(|k| k.as_str()));
     use clap::builder::TypedValueParser;
     clap::builder::PossibleValuesParser::new(names).map(|s: String| LawPick(LawKind::parse(&s)))
 }

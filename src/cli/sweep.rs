@@ -165,9 +165,16 @@ fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> 
         };
         let model = args.shape.model(rs, rd)?;
         if model.law.affine().is_none() {
-            return Err(bad(
-                "sweep needs an affine law (coulomb, decreasing, static-dynamic) for now".into(),
-            ));
+            let affine: Vec<&str> = crate::model::LawKind::all()
+                .iter()
+                .filter(|k| !k.family().has_velocity_scale())
+                .map(|k| k.as_str())
+                .collect();
+            return Err(bad(format!(
+                "sweep needs an affine law ({}) for now; the {} law is predicted over a sweep by `validate` (numerical engine)",
+                affine.join(", "),
+                model.law.name()
+            )));
         }
         for &d in &directions {
             specs.push(CurveSpec {
@@ -250,10 +257,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
                 rho_s: law.rho_s(),
                 rho_d: law.rho_d(),
                 slope: law.slope(),
-                v_s: match law {
-                    crate::model::Law::Stribeck { v_s, .. } => Some(*v_s),
-                    _ => None,
-                },
+                v_s: law.v_s(),
                 stop_below: s.model.stop_below,
                 direction: s.direction.as_str().to_string(),
                 eta: v.eta,

@@ -57,7 +57,7 @@ pub struct SynthArgs {
     )]
     pub normal_force: f64,
     /// Friction law family.
-    #[arg(long, value_enum, default_value_t = LawKind::StaticDynamic)]
+    #[arg(long, default_value = "static-dynamic", value_parser = super::args::law_kind())]
     pub law: LawKind,
     /// Static friction coefficient (Rs = mu_s·N unless --rs-n).
     #[arg(long = "mu-s", default_value_t = 0.42, allow_hyphen_values = true)]
@@ -74,7 +74,8 @@ pub struct SynthArgs {
     /// Slope a of the characteristic (N s/m; decreasing: default −3).
     #[arg(long = "slope-n-s-per-m", allow_hyphen_values = true)]
     pub slope: Option<f64>,
-    /// Stribeck velocity vs (m/s; stribeck only).
+    /// Velocity scale v_s (m/s) of a law that has one (stribeck,
+    /// exponential); the option keeps its name.
     #[arg(
         long = "stribeck-velocity-m-per-s",
         default_value_t = 0.005,
@@ -277,32 +278,12 @@ impl SynthArgs {
         let n = self.normal_force;
         let rs = self.rs_n.unwrap_or(self.mu_s * n);
         let rd_given = self.rd_n.unwrap_or(self.mu_d * n);
-        match self.law {
-            LawKind::Coulomb => FrictionSpec {
-                rs_n: rs,
-                rd_n: rs,
-                slope_n_s_per_m: 0.0,
-                stribeck_velocity_m_per_s: None,
-            },
-            LawKind::Decreasing => FrictionSpec {
-                rs_n: rs,
-                rd_n: rs,
-                slope_n_s_per_m: self.slope.unwrap_or(-3.0),
-                stribeck_velocity_m_per_s: None,
-            },
-            LawKind::StaticDynamic => FrictionSpec {
-                rs_n: rs,
-                rd_n: rd_given,
-                slope_n_s_per_m: self.slope.unwrap_or(0.0),
-                stribeck_velocity_m_per_s: None,
-            },
-            LawKind::Stribeck => FrictionSpec {
-                rs_n: rs,
-                rd_n: rd_given,
-                slope_n_s_per_m: self.slope.unwrap_or(0.0),
-                stribeck_velocity_m_per_s: Some(self.v_s),
-            },
-        }
+        FrictionSpec::from_si(
+            &self
+                .law
+                .family()
+                .synth_law(rs, rd_given, self.slope, self.v_s),
+        )
     }
 
     /// The test the rig runs.

@@ -22,7 +22,7 @@ mod drive;
 mod law;
 
 pub use drive::{Drive, Schedule, ScheduleError, Segment};
-pub use law::{Coulomb, Decreasing, Family, Law, LawKind, Scales, SiLaw, StaticDynamic, Stribeck};
+pub use law::{Law, LawFamily, LawFamily as Family, LawKind, Optimum, Scales, Selection, SiLaw};
 
 /// A number as a person reads it: plain where short, else in exponent form
 /// (1e308, not three hundred digits).
@@ -274,7 +274,8 @@ mod tests {
                 rho_d: 0.3,
                 slope: f64::INFINITY,
             },
-            Law::Stribeck {
+            Law::Shaped {
+                kind: LawKind::Stribeck,
                 rho_s: 0.3,
                 rho_d: 0.2,
                 slope: 0.0,

@@ -104,12 +104,7 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
 
 /// The sliding friction of a law at velocity v (signed).
 fn law_force(l: &SiLaw, v: f64) -> f64 {
-    let u = v.abs();
-    let mut g = l.rd_n + l.slope_n_s_per_m * u;
-    if let Some(vs) = l.vs_m_per_s {
-        g += (l.rs_n - l.rd_n) * (-(u / vs).powi(2)).exp();
-    }
-    g * v.signum()
+    l.sliding_n(v.abs()) * v.signum()
 }
 
 type DrawResult = std::result::Result<(), String>;

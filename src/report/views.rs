@@ -254,9 +254,9 @@ pub fn law_text(l: &crate::model::Law) -> String {
         l.rho_d(),
         l.slope()
     );
-    match l {
-        crate::model::Law::Stribeck { v_s, .. } => format!("{base}, v_s = {v_s:.4}"),
-        _ => base,
+    match l.v_s() {
+        Some(v_s) => format!("{base}, v_s = {v_s:.4}"),
+        None => base,
     }
 }
 

@@ -32,7 +32,7 @@ use super::linalg::C64;
 use super::monodromy::Monodromy;
 use super::phase::{absorber, LinearPhase, Projection, Sampler};
 use super::SimError;
-use crate::model::{Law, Model};
+use crate::model::Model;
 use std::cell::{Cell, RefCell};
 use std::f64::consts::PI;
 use std::sync::{Arc, OnceLock};
@@ -304,15 +304,18 @@ impl Sim {
     pub fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
         model.validate().map_err(SimError::Param)?;
         crate::model::validate_eta(eta).map_err(SimError::Param)?;
-        let (rho_d, slope) = match model.law {
-            Law::Linear { rho_d, slope, .. } => (rho_d, slope),
-            Law::Stribeck { .. } => {
-                return Err(SimError::Unsupported(
-                    "the exact engine needs an affine friction law (coulomb, decreasing, static-dynamic); \
-                     the stribeck law needs the numerical integrator"
-                        .into(),
-                ))
-            }
+        let Some((rho_d, slope)) = model.law.affine() else {
+            let affine: Vec<&str> = crate::model::LawKind::all()
+                .iter()
+                .filter(|k| !k.family().has_velocity_scale())
+                .map(|k| k.as_str())
+                .collect();
+            return Err(SimError::Unsupported(format!(
+                "the exact engine needs an affine friction law ({}); \
+                 the {} law needs the numerical integrator",
+                affine.join(", "),
+                model.law.name()
+            )));
         };
         let ab = &model.absorber;
         let stick = LinearPhase::new(absorber::stick_matrix(ab), absorber::stick_input(ab), eta)
@@ -1161,6 +1164,7 @@ fn extremum_newton<E: Fn(f64) -> Jet<4>>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Law;
 
     /// ζ1 = cos t + 0.3 sin(2.7t + 0.4) (fastest rate 2.7) and
     /// ζ2 = 0.5 cos(0.6t + 1), with their derivatives.

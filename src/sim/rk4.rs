@@ -12,7 +12,7 @@ use super::engine::{
 };
 use super::events;
 use super::SimError;
-use crate::model::{Law, Model};
+use crate::model::Model;
 use std::f64::consts::PI;
 
 /// The paper's RK4 integrator with step `h` (dimensionless time).
@@ -45,13 +45,10 @@ impl Rk4 {
                 "RK4 step H = {h} is unstable for this model: its fastest mode has eta = {omega_max:.4}, and RK4 needs H <= 2*sqrt(2)/eta = {h_max:.4}: give a smaller --step (accuracy wants far less)"
             )));
         }
-        let (rho_d, slope) = match model.law {
-            Law::Linear { rho_d, slope, .. } => (rho_d, slope),
-            Law::Stribeck { .. } => {
-                return Err(SimError::Unsupported(
-                    "rk4 supports affine laws only".into(),
-                ))
-            }
+        let Some((rho_d, slope)) = model.law.affine() else {
+            return Err(SimError::Unsupported(
+                "rk4 supports affine laws only".into(),
+            ));
         };
         let thr = model.interrupt_level();
         let v_interrupt = if rho_d < thr {

@@ -3,6 +3,7 @@
 //! [`SynthConfig`] with its checks.
 
 use super::*;
+use crate::model::{LawKind, SiLaw};
 
 /// Rig constants in SI.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -72,39 +73,49 @@ impl RigSpec {
     }
 }
 
-/// Family of a friction law as the truth files spell it (`static_dynamic`,
-/// plus `linear` for any other affine law). Test data keep their spelling;
-/// everything else speaks [`crate::model::LawKind`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+/// Family of a friction law as the truth files spell it (a registered
+/// family's name with `_` for `-`, e.g. `static_dynamic`, plus `linear` for
+/// any other affine law). Test data keep their spelling; everything else
+/// speaks [`crate::model::LawKind`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LawFamily {
-    /// Rd = Rs, a = 0.
-    Coulomb,
-    /// Rd = Rs, a < 0.
-    Decreasing,
-    /// Rd < Rs, a = 0.
-    StaticDynamic,
-    /// Rd + (Rs − Rd)·exp(−(v/vs)²) + a·v.
-    Stribeck,
+    /// A registered family.
+    Law(LawKind),
     /// Any other affine law Rd + a·v.
     Linear,
 }
 
 impl LawFamily {
-    /// The family's name.
-    pub fn as_str(self) -> &'static str {
+    /// The family's name in truth files.
+    pub fn as_str(self) -> String {
         match self {
-            LawFamily::Coulomb => "coulomb",
-            LawFamily::Decreasing => "decreasing",
-            LawFamily::StaticDynamic => "static_dynamic",
-            LawFamily::Stribeck => "stribeck",
-            LawFamily::Linear => "linear",
+            LawFamily::Law(k) => k.as_str().replace('-', "_"),
+            LawFamily::Linear => "linear".into(),
         }
     }
 }
 
-/// A friction law in SI: sliding magnitude g(v) = Rd + a·v
-/// (+ (Rs − Rd)·exp(−(v/vs)²) with a Stribeck velocity), static threshold Rs.
+impl Serialize for LawFamily {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.as_str())
+    }
+}
+
+impl<'de> Deserialize<'de> for LawFamily {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        if s == "linear" {
+            return Ok(LawFamily::Linear);
+        }
+        LawKind::parse(&s.replace('_', "-"))
+            .map(LawFamily::Law)
+            .ok_or_else(|| serde::de::Error::custom(format!("unknown law family `{s}`")))
+    }
+}
+
+/// A friction law in SI: sliding magnitude g(v) of its family, static
+/// threshold Rs. A serde adapter: the behaviour is the family's
+/// ([`crate::model::LawFamily`]).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct FrictionSpec {
     /// Static threshold Rs (N).
@@ -113,21 +124,45 @@ pub struct FrictionSpec {
     pub rd_n: f64,
     /// Slope a of the characteristic (N s/m).
     pub slope_n_s_per_m: f64,
-    /// Stribeck velocity vs (m/s), if any.
+    /// Velocity scale v_s (m/s) of a family that has one (the Stribeck
+    /// velocity; the key keeps its name).
     pub stribeck_velocity_m_per_s: Option<f64>,
+    /// The family of a law with a velocity scale (None: the Stribeck type
+    /// where a velocity is given, as configurations written before the
+    /// family registry mean; else the affine family the values give).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub law: Option<LawKind>,
 }
 
 impl FrictionSpec {
+    /// The spec of an SI law; the family is named only where it has a
+    /// velocity scale and the values alone would read as another family.
+    pub fn from_si(l: &SiLaw) -> Self {
+        let mut spec = Self {
+            rs_n: l.rs_n,
+            rd_n: l.rd_n,
+            slope_n_s_per_m: l.slope_n_s_per_m,
+            stribeck_velocity_m_per_s: l.vs_m_per_s,
+            law: None,
+        };
+        if l.kind.family().has_velocity_scale() && spec.family() != LawFamily::Law(l.kind) {
+            spec.law = Some(l.kind);
+        }
+        spec
+    }
+
     /// The family this law belongs to.
     pub fn family(&self) -> LawFamily {
-        if self.stribeck_velocity_m_per_s.is_some() {
-            LawFamily::Stribeck
+        if let Some(k) = self.law {
+            LawFamily::Law(k)
+        } else if self.stribeck_velocity_m_per_s.is_some() {
+            LawFamily::Law(LawKind::Stribeck)
         } else if self.rd_n == self.rs_n && self.slope_n_s_per_m == 0.0 {
-            LawFamily::Coulomb
+            LawFamily::Law(LawKind::Coulomb)
         } else if self.rd_n == self.rs_n && self.slope_n_s_per_m < 0.0 {
-            LawFamily::Decreasing
+            LawFamily::Law(LawKind::Decreasing)
         } else if self.rd_n < self.rs_n && self.slope_n_s_per_m == 0.0 {
-            LawFamily::StaticDynamic
+            LawFamily::Law(LawKind::StaticDynamic)
         } else {
             LawFamily::Linear
         }
@@ -135,23 +170,22 @@ impl FrictionSpec {
 
     /// The dimensionless law for the rig, with forces divided by A·K2 for
     /// amplitude `a_m` and velocities by A·ω (unchecked: the model checks
-    /// it).
+    /// it; a family with a velocity scale but none given has v_s = NaN).
     pub fn law(&self, rig: &RigSpec, a_m: f64) -> Law {
         let s = Scales::from_rig(&rig.constants(), a_m);
         let (rho_s, rho_d) = (self.rs_n / s.force_n, self.rd_n / s.force_n);
         let slope = self.slope_n_s_per_m / s.slope_n_s_per_m;
-        match self.stribeck_velocity_m_per_s {
-            None => Law::Linear {
-                rho_s,
-                rho_d,
-                slope,
-            },
-            Some(vs) => Law::Stribeck {
-                rho_s,
-                rho_d,
-                slope,
-                v_s: vs / s.velocity_m_per_s,
-            },
+        let linear = Law::Linear {
+            rho_s,
+            rho_d,
+            slope,
+        };
+        match self.family() {
+            LawFamily::Law(k) => {
+                let vs = self.stribeck_velocity_m_per_s.unwrap_or(f64::NAN);
+                Law::of(k, rho_s, rho_d, slope, Some(vs / s.velocity_m_per_s)).unwrap_or(linear)
+            }
+            LawFamily::Linear => linear,
         }
     }
 
@@ -170,6 +204,11 @@ impl FrictionSpec {
         }
         if let Some(vs) = self.stribeck_velocity_m_per_s {
             positive("Stribeck velocity", vs)?;
+        }
+        if let Some(k) = self.law {
+            if k.family().has_velocity_scale() && self.stribeck_velocity_m_per_s.is_none() {
+                return Err(bad(format!("the {k} law needs a velocity scale")));
+            }
         }
         Ok(())
     }
@@ -432,6 +471,7 @@ impl SynthConfig {
                 rd_n: 0.34 * n,
                 slope_n_s_per_m: 0.0,
                 stribeck_velocity_m_per_s: None,
+                law: None,
             },
             normal_force_n: n,
             test: TestSpec::characteristic(),

@@ -158,10 +158,7 @@ pub(super) fn truth(
             "rho_s": law_nom.rho_s(), "rho_d": law_nom.rho_d(), "Dstar": law_nom.slope(),
             "rho_s_true_amplitude": model.law.rho_s(),
             "rho_d_true_amplitude": model.law.rho_d(),
-            "v_s_dimensionless_true_amplitude": match model.law {
-                Law::Stribeck { v_s, .. } => num(v_s),
-                Law::Linear { .. } => Value::Null,
-            },
+            "v_s_dimensionless_true_amplitude": model.law.v_s().map_or(Value::Null, num),
         },
         "drive_amplitude_true_m": a_true,
         "drive_amplitude_nominal_m": a_nom,

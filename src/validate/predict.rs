@@ -38,7 +38,7 @@ use super::frc::{MeasuredFrc, SweepKind};
 use super::ValidateError;
 use crate::identify::{Estimate, LogFit};
 use crate::ingest::RigMeta;
-use crate::model::{Absorber, Law, LawKind, Model, Scales, Schedule, Segment, SiLaw};
+use crate::model::{Absorber, Law, Model, Scales, Schedule, Segment, SiLaw};
 use crate::sim::engine::{Event, Init, Observer};
 use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
@@ -322,13 +322,13 @@ fn draw_laws_gains(
             fit.slope_interval_n_s_per_m,
         )
     };
-    let tied = matches!(central.kind, LawKind::Coulomb | LawKind::Decreasing);
+    let tied = central.kind.family().tied_threshold();
     let mut rng = Rng::new(seed);
     let mut out = Vec::with_capacity(n);
     for _ in 0..n {
         let mut l = central;
         l.rd_n = split_normal(&mut rng, central.rd_n, rd_iv).max(0.0);
-        l.slope_n_s_per_m = if central.slope_n_s_per_m == 0.0 && central.kind != LawKind::Decreasing
+        l.slope_n_s_per_m = if central.slope_n_s_per_m == 0.0 && !central.kind.family().free_slope()
         {
             0.0
         } else {

@@ -9,7 +9,6 @@ use super::select::Cand;
 use super::slip::Sample;
 use super::{basis, offset_at, FitOptions, StatIntervals};
 use crate::identify::smooth::Normal;
-use crate::model::LawKind;
 use crate::stats::{median, quantile, Rng};
 
 /// 2.5 % and 97.5 % bootstrap percentiles of Rs, Rd and a of `chosen`
@@ -51,21 +50,21 @@ pub(super) fn bootstrap(
         }
         let Some(cf) = ne.solve() else { continue };
         let rd = cf[1];
-        let (rs, a) = match chosen.kind {
-            LawKind::Coulomb => (rd, 0.0),
-            LawKind::Decreasing => (rd, cf[2]),
-            LawKind::StaticDynamic => {
-                if fd.is_empty() {
-                    continue;
-                }
-                let v: Vec<f64> = fd
-                    .iter()
-                    .map(|k| k.f - k.dir * offset_at(&cf, k.k1, k.k2))
-                    .collect();
-                (median(&v), 0.0)
+        let family = chosen.kind.family();
+        let breakaway = if family.rs_from_breakaways() {
+            if fd.is_empty() {
+                continue;
             }
-            LawKind::Stribeck => (cf[1] + cf[2], cf[3]),
+            let v: Vec<f64> = fd
+                .iter()
+                .map(|k| k.f - k.dir * offset_at(&cf, k.k1, k.k2))
+                .collect();
+            median(&v)
+        } else {
+            f64::NAN
         };
+        let rs = family.ee_rs(&cf, breakaway);
+        let a = family.ee_law(&cf, rs, chosen.vs).slope_n_s_per_m;
         rs_b.push(rs);
         rd_b.push(rd);
         a_b.push(a);

@@ -41,13 +41,13 @@ mod bootstrap;
 mod bounds;
 mod select;
 mod slip;
-mod stribeck;
+mod velocity;
 
 use super::contact::Contact;
 use super::segment::Segmentation;
 use slip::Sample;
 
-use crate::model::{LawKind, SiLaw};
+use crate::model::{LawKind, Selection, SiLaw};
 use crate::warning::Warning;
 
 /// Options of the equation-error fit.
@@ -134,14 +134,10 @@ pub struct EquationFit {
 /// bias nor the law can take, so the slip data identify it ("what the
 /// physics gives for free"); only a common scale of both remains, and that
 /// stays in the calibration budget.
+/// The law's terms are its family's ([`crate::model::LawFamily::basis`]).
 fn basis(kind: LawKind, smp: &Sample, vs: f64) -> Row {
-    let (s, u) = (smp.s, smp.u);
-    let (k1, k2) = (smp.k1, smp.k2);
-    match kind {
-        LawKind::Coulomb | LawKind::StaticDynamic => Row([1.0, s, k1, k2, 0.0, 0.0], 4),
-        LawKind::Decreasing => Row([1.0, s, s * u, k1, k2, 0.0], 5),
-        LawKind::Stribeck => Row([1.0, s, s * (-(u / vs).powi(2)).exp(), s * u, k1, k2], 6),
-    }
+    let (x, n) = kind.family().basis(smp.s, smp.u, smp.k1, smp.k2, vs);
+    Row(x, n)
 }
 
 /// One row of regressors, on the stack (at most six).
@@ -190,12 +186,28 @@ pub fn fit(
     }
     let brks = bounds::breakaways(c, seg, &gauge);
     let never_sticks = seg.never_sticks();
-    let want_stribeck = matches!(opts.law, None | Some(LawKind::Stribeck)) && !never_sticks;
-    let stribeck_vs = want_stribeck
-        .then(|| stribeck::stribeck_velocity(&samples, seg.hi))
-        .flatten();
+    // The families of `--law auto`, and the one asked for; a family with a
+    // velocity scale only where the log sticks and the scale is resolved.
+    let kinds: Vec<(LawKind, f64)> = crate::model::LawKind::all()
+        .iter()
+        .copied()
+        .filter(|&k| match k.family().selection() {
+            Selection::Simple => true,
+            Selection::Rescue { .. } => opts.law.is_none() || opts.law == Some(k),
+            Selection::OnRequest => opts.law == Some(k),
+        })
+        .filter_map(|k| {
+            if !k.family().has_velocity_scale() {
+                return Some((k, 1.0));
+            }
+            if never_sticks {
+                return None;
+            }
+            velocity::velocity_scale(k, &samples, seg.hi).map(|vs| (k, vs))
+        })
+        .collect();
 
-    let cands = select::candidates(&samples, stribeck_vs);
+    let cands = select::candidates(&samples, &kinds);
     let Some(richest) = cands.last() else {
         return Err(super::IdentifyError::Undetermined);
     };
@@ -215,20 +227,19 @@ pub fn fit(
     let mut law = to_law(chosen);
     // Reported only when chosen (or asked for): otherwise it is a candidate
     // the criterion rejected, not a result.
-    let stribeck = cands
-        .iter()
-        .find(|c| c.kind == LawKind::Stribeck && chosen_kind == LawKind::Stribeck)
-        .map(to_law);
-    let simple = if chosen_kind == LawKind::Stribeck {
+    // A rescue family (the Stribeck type) chosen: no simple law fits.
+    let rescued = matches!(chosen_kind.family().selection(), Selection::Rescue { .. });
+    let stribeck = rescued.then(|| to_law(chosen));
+    let simple = if rescued {
         let mut simple_crit: Vec<(LawKind, f64)> = criteria
             .iter()
             .copied()
-            .filter(|(k, _)| *k != LawKind::Stribeck)
+            .filter(|(k, _)| k.family().selection() == Selection::Simple)
             .collect();
         simple_crit.sort_by(|a, b| a.1.total_cmp(&b.1));
         let k = simple_crit[0].0;
         warnings.push(Warning::NoSimpleLaw {
-            stribeck_velocity_m_per_s: stribeck_vs,
+            stribeck_velocity_m_per_s: Some(chosen.vs),
             best: k,
         });
         cands.iter().find(|c| c.kind == k).map(to_law)
@@ -323,12 +334,13 @@ pub(crate) fn fit_forced(
         return full(&opts);
     }
     let never_sticks = seg.never_sticks();
-    let stribeck_vs = (kind == LawKind::Stribeck && !never_sticks)
-        .then(|| stribeck::stribeck_velocity(&samples, seg.hi))
+    let velocity_scale = kind.family().has_velocity_scale();
+    let scale = (velocity_scale && !never_sticks)
+        .then(|| velocity::velocity_scale(kind, &samples, seg.hi))
         .flatten();
-    let vs = stribeck_vs.unwrap_or(1.0);
-    if kind == LawKind::Stribeck && stribeck_vs.is_none() {
-        return full(&opts); // no Stribeck candidate: fit chooses by BIC
+    let vs = scale.unwrap_or(1.0);
+    if velocity_scale && scale.is_none() {
+        return full(&opts); // no candidate of this family: fit chooses by BIC
     }
     let Some((coef, w, res)) = slip::irls(&samples, kind, vs) else {
         return full(&opts);

@@ -19,25 +19,16 @@ pub(super) struct Cand {
     pub w: Vec<f64>,
     /// Residuals.
     pub res: Vec<f64>,
-    /// The Stribeck velocity it was fitted with (1.0 where unused).
+    /// The velocity scale it was fitted with (1.0 where unused).
     pub vs: f64,
 }
 
-/// The candidates: Coulomb, decreasing, static-dynamic, and the Stribeck
-/// type where a Stribeck velocity was resolved; each fitted by IRLS.
-pub(super) fn candidates(samples: &[Sample], stribeck_vs: Option<f64>) -> Vec<Cand> {
-    let mut kinds = vec![
-        LawKind::Coulomb,
-        LawKind::Decreasing,
-        LawKind::StaticDynamic,
-    ];
-    if stribeck_vs.is_some() {
-        kinds.push(LawKind::Stribeck);
-    }
-    let vs = stribeck_vs.unwrap_or(1.0);
+/// The candidates: each family of `kinds` with its velocity scale (1.0
+/// where unused), fitted by IRLS.
+pub(super) fn candidates(samples: &[Sample], kinds: &[(LawKind, f64)]) -> Vec<Cand> {
     kinds
-        .into_iter()
-        .filter_map(|kind| {
+        .iter()
+        .filter_map(|&(kind, vs)| {
             irls(samples, kind, vs).map(|(coef, w, res)| Cand {
                 kind,
                 coef,
@@ -49,26 +40,29 @@ pub(super) fn candidates(samples: &[Sample], stribeck_vs: Option<f64>) -> Vec<Ca
         .collect()
 }
 
-/// Rs of a candidate: the median breakaway level (bias and gain terms
-/// removed; robust to a mislocated breakaway or a spike) for static-dynamic,
-/// g(0+) for the Stribeck type, the slip level otherwise.
+/// Rs of a candidate ([`crate::model::LawFamily::ee_rs`]): for a family
+/// whose threshold is the breakaway level, the median breakaway level (bias
+/// and gain terms removed; robust to a mislocated breakaway or a spike).
 pub(super) fn rs_of(cand: &Cand, brks: &[Brk]) -> f64 {
-    match cand.kind {
-        LawKind::StaticDynamic => median(
+    let family = cand.kind.family();
+    let breakaway = if family.rs_from_breakaways() {
+        median(
             &brks
                 .iter()
                 .map(|k| k.f - k.dir * offset_at(&cand.coef, k.k1, k.k2))
                 .collect::<Vec<_>>(),
-        ),
-        LawKind::Stribeck => cand.coef[1] + cand.coef[2],
-        _ => cand.coef[1],
-    }
+        )
+    } else {
+        f64::NAN
+    };
+    family.ee_rs(&cand.coef, breakaway)
 }
 
 /// BIC of each admissible candidate: its slip part with `n_eff` effective
 /// samples, plus its breakaway part (one observation per transition)
-/// where the log sticks. Static-dynamic needs Rs > Rd, the Stribeck type a
-/// peak: otherwise they are not candidates.
+/// where the log sticks. A family's coefficients must be the family's
+/// ([`crate::model::LawFamily::ee_admissible`]: static-dynamic needs
+/// Rs > Rd, the Stribeck type a peak): otherwise it is no candidate.
 pub(super) fn criteria(
     cands: &[Cand],
     samples: &[Sample],
@@ -78,22 +72,12 @@ pub(super) fn criteria(
 ) -> Vec<(LawKind, f64)> {
     let mut criteria = Vec::new();
     for cand in cands {
-        // Static > dynamic is the family's definition: a breakaway level at
-        // or below the slip level is not this family.
-        if cand.kind == LawKind::StaticDynamic
-            && rs_of(cand, brks).partial_cmp(&cand.coef[1]) != Some(std::cmp::Ordering::Greater)
-        {
+        let family = cand.kind.family();
+        if !family.ee_admissible(&cand.coef, rs_of(cand, brks)) {
             continue;
         }
-        // Likewise the Stribeck type needs a peak (ρs > ρd): a dip or a
-        // vanishing peak is a simple law with an idle extra term.
-        if cand.kind == LawKind::Stribeck
-            && cand.coef[2].partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-        {
-            continue;
-        }
-        // The Stribeck velocity is fitted too (profiled by the scan).
-        let k_slip = cand.coef.len() + usize::from(cand.kind == LawKind::Stribeck);
+        // A velocity scale is fitted too (profiled by the scan).
+        let k_slip = cand.coef.len() + usize::from(family.has_velocity_scale());
         let rss = rss(samples, &cand.coef, Some(&cand.w), cand.kind, cand.vs);
         let wsum: f64 = cand.w.iter().sum();
         let mut crit = bic(
@@ -108,7 +92,7 @@ pub(super) fn criteria(
                 .iter()
                 .map(|k| (k.f - k.dir * offset_at(&cand.coef, k.k1, k.k2) - rs).powi(2))
                 .sum();
-            let kb = usize::from(cand.kind == LawKind::StaticDynamic);
+            let kb = usize::from(family.rs_from_breakaways());
             let m = brks.len();
             crit += bic(rss_b, m, m as f64, kb);
         }
@@ -128,8 +112,9 @@ pub(super) fn best_kind(criteria: &[(LawKind, f64)]) -> LawKind {
 
 /// The family reported: the one asked for where it could be fitted (a
 /// warning where not), else the least BIC. In a never-sticking log Rs is
-/// not observed, so static-dynamic cannot be told from Coulomb: the choice
-/// is among the slip-only families.
+/// not observed, so a family whose threshold is the breakaway level
+/// (static-dynamic) cannot be told from Coulomb: the choice is among the
+/// slip-only families.
 pub(super) fn choose(
     asked: Option<LawKind>,
     cands: &[Cand],
@@ -146,7 +131,7 @@ pub(super) fn choose(
         }
         None => best_kind(criteria),
     };
-    if never_sticks && chosen == LawKind::StaticDynamic && asked.is_none() {
+    if never_sticks && chosen.family().rs_from_breakaways() && asked.is_none() {
         LawKind::Coulomb
     } else {
         chosen
@@ -155,18 +140,7 @@ pub(super) fn choose(
 
 /// The SI law a candidate stands for.
 pub(super) fn to_law(cand: &Cand, brks: &[Brk]) -> SiLaw {
-    let rs = rs_of(cand, brks);
-    let (rs_n, slope, vs) = match cand.kind {
-        LawKind::Coulomb => (cand.coef[1], 0.0, None),
-        LawKind::Decreasing => (cand.coef[1], cand.coef[2], None),
-        LawKind::StaticDynamic => (rs, 0.0, None),
-        LawKind::Stribeck => (rs, cand.coef[3], Some(cand.vs)),
-    };
-    SiLaw {
-        kind: cand.kind,
-        rs_n,
-        rd_n: cand.coef[1],
-        slope_n_s_per_m: slope,
-        vs_m_per_s: vs,
-    }
+    cand.kind
+        .family()
+        .ee_law(&cand.coef, rs_of(cand, brks), cand.vs)
 }

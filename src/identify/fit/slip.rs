@@ -133,6 +133,19 @@ pub(super) fn rss(
         .sum()
 }
 
+/// [`rss`] with the regressors `rows` of the samples already evaluated.
+pub(super) fn rss_rows(samples: &[Sample], rows: &[Row], coef: &[f64], w: Option<&[f64]>) -> f64 {
+    samples
+        .iter()
+        .zip(rows)
+        .enumerate()
+        .map(|(k, (smp, x))| {
+            let wi = w.map_or(1.0, |w| w[k]);
+            wi * (smp.r - x.iter().zip(coef).map(|(a, b)| a * b).sum::<f64>()).powi(2)
+        })
+        .sum()
+}
+
 /// Robust (Huber IRLS) fit of one slip model; returns coefficients, final
 /// weights and residuals.
 pub(super) fn irls(

@@ -123,11 +123,9 @@ impl Refinement {
         let mut jac = vec![vec![0.0; p]; 2 * m];
         for j in 0..p {
             let h = if j < kl {
-                match (kind, j) {
-                    (LawKind::Decreasing, 1) | (LawKind::Stribeck, 2) => 0.02,
-                    (LawKind::Stribeck, 3) => 0.01 * law.vs_m_per_s.unwrap_or(0.0),
-                    _ => 2e-3 * law.rd_n.abs().max(1e-2),
-                }
+                kind.family()
+                    .oe_jac_step(j, &law)
+                    .unwrap_or(2e-3 * law.rd_n.abs().max(1e-2))
             } else if j == kl {
                 2e-3 * law.rd_n.abs().max(1e-2)
             } else {

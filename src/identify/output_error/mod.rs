@@ -118,7 +118,7 @@ use super::smooth::{savgol, solve_small};
 use super::Intervals;
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Drive, Law, Model};
-use crate::model::{LawKind, SiLaw};
+use crate::model::{LawKind, Selection, SiLaw};
 use crate::sim::engine::{Init, Mode, Observer, Sim};
 use crate::sim::numeric::{NumericOptions, NumericSim};
 use crate::sim::Status;
@@ -568,12 +568,7 @@ impl Refinement {
         };
         let mut th = kind.family().pack(&start);
         let rs_step = 0.01 * l.rs_n.abs().max(f);
-        let mut step = match kind {
-            LawKind::Coulomb => vec![0.01 * f],
-            LawKind::Decreasing => vec![0.01 * f, 0.3],
-            LawKind::StaticDynamic => vec![rs_step, 0.01 * f],
-            LawKind::Stribeck => vec![rs_step, 0.01 * f, 0.3, 0.1 * th[3]],
-        };
+        let mut step = kind.family().oe_steps(&th, f, rs_step);
         th.extend([bias, 1.0, 1.0]);
         step.extend([0.01 * f, 0.003, 0.003]);
         (th, step)
@@ -675,11 +670,11 @@ impl Refinement {
         let mut fits: Vec<Refined> = Vec::new();
         let kinds: Vec<LawKind> = match forced {
             Some(k) => vec![k],
-            None => vec![
-                LawKind::Coulomb,
-                LawKind::Decreasing,
-                LawKind::StaticDynamic,
-            ],
+            None => LawKind::all()
+                .iter()
+                .copied()
+                .filter(|k| k.family().selection() == Selection::Simple)
+                .collect(),
         };
         let mut last_err = String::from("no family to refine");
         for kind in kinds {
@@ -701,48 +696,53 @@ impl Refinement {
         // Stribeck family (no closed form: the numerical engine, about ten
         // times the cost) is refined only then, and competes by the same
         // criterion.
-        let sharp = out.chosen.law.kind == LawKind::StaticDynamic
-            && out
-                .adequacy
-                .structure
-                .iter()
-                .any(|s| s.channel == "x2" && s.follows_the_motion());
-        if forced.is_none() && (!out.adequacy.adequate || sharp) {
-            match self.refine(LawKind::Stribeck, starts, bias, &fits) {
-                // Screened in by an adequate static/dynamic law, the
-                // Stribeck family must show the drop it claims: with a
-                // Stribeck velocity the log cannot tell from a step it is
-                // the static/dynamic law plus a slope, which then only
-                // absorbs sensor effects (on static/dynamic truths with
-                // lags fitted: v_s 1e-8 m/s, a spurious slope, ΔBIC 44
-                // and 115, Rs intervals missing).
-                Ok(Some(f)) if out.adequacy.adequate && !self.resolves_drop(&f) => {}
-                Ok(Some(f)) => {
-                    fits.push(f);
-                    // A Stribeck optimum whose intervals cannot be formed
-                    // must not sink the simple families' result.
-                    match self.conclude(&fits, forced, u, t0) {
-                        Ok(o) => out = o,
-                        Err(e) => {
-                            fits.pop();
-                            out.notes
-                                .push(crate::warning::Warning::StribeckFailed { reason: e });
+        let follows = out
+            .adequacy
+            .structure
+            .iter()
+            .any(|s| s.channel == "x2" && s.follows_the_motion());
+        for &rescue in LawKind::all() {
+            let Selection::Rescue { limit } = rescue.family().selection() else {
+                continue;
+            };
+            let sharp = out.chosen.law.kind == limit && follows;
+            if forced.is_none() && (!out.adequacy.adequate || sharp) {
+                match self.refine(rescue, starts, bias, &fits) {
+                    // Screened in by an adequate limit law, the family must
+                    // show the drop it claims: with a characteristic
+                    // velocity the log cannot tell from a step it is the
+                    // limit law plus a slope, which then only absorbs
+                    // sensor effects (on static/dynamic truths with lags
+                    // fitted: v_s 1e-8 m/s, a spurious slope, ΔBIC 44 and
+                    // 115, Rs intervals missing).
+                    Ok(Some(f)) if out.adequacy.adequate && !self.resolves_drop(&f) => {}
+                    Ok(Some(f)) => {
+                        fits.push(f);
+                        // An optimum whose intervals cannot be formed must
+                        // not sink the simple families' result.
+                        match self.conclude(&fits, forced, u, t0) {
+                            Ok(o) => out = o,
+                            Err(e) => {
+                                fits.pop();
+                                out.notes
+                                    .push(crate::warning::Warning::StribeckFailed { reason: e });
+                            }
                         }
                     }
+                    Ok(None) => {}
+                    Err(e) => out.notes.push(crate::warning::Warning::StribeckFailed {
+                        reason: e.to_string(),
+                    }),
                 }
-                Ok(None) => {}
-                Err(e) => out.notes.push(crate::warning::Warning::StribeckFailed {
-                    reason: e.to_string(),
-                }),
             }
         }
         Ok(out)
     }
 
-    /// True when a refined Stribeck law's drop is resolved by the log: its
-    /// Stribeck velocity exceeds the speed the slider gains within one
+    /// True when a refined shaped law's drop is resolved by the log: its
+    /// characteristic velocity v_s exceeds the speed the slider gains within one
     /// sample after breakaway, |Rs − Rd|/M2·dt (a narrower drop happens
-    /// between two samples, a step to the data). Other families: true.
+    /// between two samples, a step to the data). Laws without v_s: true.
     fn resolves_drop(&self, f: &Refined) -> bool {
         let law = f.kind.family().unpack(&f.th);
         let Some(vs) = law.vs_m_per_s else {
@@ -763,73 +763,33 @@ impl Refinement {
         fits: &[Refined],
     ) -> Result<Option<Refined>, String> {
         let optimum = |k: LawKind| fits.iter().find(|f| f.kind == k).map(|f| f.th.clone());
-        let coulomb = optimum(LawKind::Coulomb);
-        let sd = optimum(LawKind::StaticDynamic);
+        let family = kind.family();
         let law = match starts.iter().find(|l| l.kind == kind) {
             Some(l) => *l,
             // No equation-error start (a never-sticking segmentation, or
             // no Stribeck law there): from the simpler families' optima.
-            None => match (kind, &coulomb, &sd) {
-                (LawKind::StaticDynamic, Some(tc), _) => SiLaw {
-                    kind,
-                    rs_n: 1.1 * tc[0],
-                    rd_n: tc[0],
-                    slope_n_s_per_m: 0.0,
-                    vs_m_per_s: None,
-                },
-                (LawKind::Stribeck, _, Some(ts)) => SiLaw {
-                    kind,
-                    rs_n: ts[0],
-                    rd_n: ts[1],
-                    slope_n_s_per_m: 0.0,
-                    vs_m_per_s: Some(0.1 * self.data.a * self.rig.omega),
-                },
-                _ => return Ok(None),
+            None => match family.oe_fallback(&optimum, self.data.a, self.rig.omega) {
+                Some(l) => l,
+                None => return Ok(None),
             },
         };
         let (th_ee, step) = Self::start(kind, &law, bias);
-        // Nested starts: the richer families also start from the
-        // Coulomb optimum (their law at its boundary, and with the
-        // equation-error law's extra parameter), so a richer family
-        // never ends worse than the simpler one it contains.
+        // Nested starts: the richer families also start from the optima
+        // of the simpler ones they contain (their law at its boundary, and
+        // with the equation-error law's extra parameter), so a richer
+        // family never ends worse than the simpler one it contains.
         let mut cands = vec![th_ee.clone()];
-        if let Some(tc) = &coulomb {
-            let r = tc[0];
-            let nuis = &tc[1..];
-            let mut push = |law: &[f64]| {
-                let mut t = law.to_vec();
-                t.extend_from_slice(nuis);
-                cands.push(t);
-            };
-            match kind {
-                LawKind::Decreasing => {
-                    push(&[r, 0.0]);
-                    push(&[r, th_ee[1]]);
-                }
-                LawKind::StaticDynamic => {
-                    push(&[r, r]);
-                    push(&[th_ee[0], th_ee[1]]);
-                }
-                _ => {}
-            }
-        }
-        if let (LawKind::StaticDynamic, Some(tc)) = (kind, &coulomb) {
+        let va = self.data.a * self.rig.omega;
+        cands.extend(family.oe_nested(&th_ee, &optimum, va));
+        if family.oe_threshold_screen() {
             // Short sticks at reversal hide in a narrow basin of the
             // threshold (the sticks appear only above the reversal
             // force): the best of a screen of thresholds above the
             // Coulomb level is one more start.
-            if let Some(g) = self.screen_thresholds(tc) {
+            if let Some(g) =
+                optimum(LawKind::Coulomb).and_then(|tc| self.screen_thresholds(kind, &tc))
+            {
                 cands.push(g);
-            }
-        }
-        if let (LawKind::Stribeck, Some(ts)) = (kind, &sd) {
-            // From the static-dynamic optimum, with Stribeck velocities
-            // from 3 % to 30 % of the drive's velocity scale A·ω.
-            let va = self.data.a * self.rig.omega;
-            for f in [0.03, 0.1, 0.3] {
-                let mut t = vec![ts[0], ts[1], 0.0, f * va];
-                t.extend_from_slice(&ts[2..]);
-                cands.push(t);
             }
         }
         let (th, cost, it, proj) = self.minimise(kind, &cands, &step)?;
@@ -984,13 +944,10 @@ impl Refinement {
         // its nested value (D* = 0; ρs = ρd) is not supported by the data.
         if forced.is_none() && families[best].law.kind != LawKind::Coulomb {
             let l = families[best].law;
-            let nested = match l.kind {
-                LawKind::Decreasing => intervals
-                    .slope_n_s_per_m
-                    .is_some_and(|(lo, hi)| lo <= 0.0 && 0.0 <= hi),
-                LawKind::StaticDynamic => intervals.rs_n.is_some_and(|(lo, _)| lo <= l.rd_n),
-                _ => false,
-            };
+            let nested =
+                l.kind
+                    .family()
+                    .nests_coulomb(&l, intervals.rs_n, intervals.slope_n_s_per_m);
             if let Some(c) = fits.iter().position(|f| f.kind == LawKind::Coulomb) {
                 if nested {
                     notes.push(crate::warning::Warning::NestedCoulomb { law: l.kind });
@@ -1043,12 +1000,13 @@ impl Refinement {
         })
     }
 
-    /// The best static-dynamic start on a grid of thresholds ρs above and
+    /// The best start of `kind` (parameters [Rs, Rd]: the static-dynamic
+    /// family, which asks for it) on a grid of thresholds ρs above and
     /// sliding levels ρd at or below the Coulomb optimum `tc` (θ of the
     /// Coulomb family), costs taken with the start-state projection of the
     /// Coulomb optimum (one simulation of the log per grid point).
-    fn screen_thresholds(&self, tc: &[f64]) -> Option<Vec<f64>> {
-        let prob = self.problem(&self.data, LawKind::StaticDynamic);
+    fn screen_thresholds(&self, kind: LawKind, tc: &[f64]) -> Option<Vec<f64>> {
+        let prob = self.problem(&self.data, kind);
         let r = tc[0];
         let mut base = vec![r, r];
         base.extend_from_slice(&tc[1..]);
@@ -1153,6 +1111,7 @@ mod tests {
                 rd_n: rd,
                 slope_n_s_per_m: 0.0,
                 stribeck_velocity_m_per_s: None,
+                law: None,
             },
             12.0,
         );
@@ -1185,6 +1144,7 @@ mod tests {
             rd_n: 1.2,
             slope_n_s_per_m: -3.0,
             stribeck_velocity_m_per_s: None,
+            law: None,
         };
         let (_, run) = ideal_run(friction, 6.0);
         let ch = crate::identify::characteristic(&run, &Gains::default()).expect("contact");
@@ -1229,6 +1189,7 @@ mod tests {
                 rd_n: rd,
                 slope_n_s_per_m: a,
                 stribeck_velocity_m_per_s: None,
+                law: None,
             });
             assert_eq!(
                 fit.estimate,

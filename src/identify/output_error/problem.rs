@@ -40,7 +40,7 @@ pub(super) fn n_params(kind: LawKind) -> usize {
 
 impl Problem<'_> {
     /// Unpacks θ = [law…, bias, g1, g2] (the law's parameters as its
-    /// [`crate::model::Family`] orders them).
+    /// [`crate::model::LawFamily`] orders them).
     pub(super) fn unpack(&self, th: &[f64]) -> (SiLaw, f64, f64, f64) {
         let family = self.kind.family();
         let k = family.params().len();
@@ -85,31 +85,18 @@ impl Problem<'_> {
         // Rd > Rs is outside the family: simulated at Rd = Rs, penalised.
         let excess = (rd - rs).max(0.0);
         let (rho_s, rho_d, slope) = (rs.max(rd), rd.min(rs.max(rd)), law.slope_n_s_per_m / ss);
-        let law = match law.vs_m_per_s {
-            Some(vs) if self.kind == LawKind::Stribeck => {
-                if vs.is_nan() || vs <= 0.0 {
-                    return None;
-                }
-                Law::Stribeck {
-                    rho_s,
-                    rho_d,
-                    slope,
-                    v_s: vs / (d.a * rig.omega),
-                }
-            }
-            _ => Law::Linear {
-                rho_s,
-                rho_d,
-                slope,
-            },
-        };
+        if law.vs_m_per_s.is_some_and(|vs| vs.is_nan() || vs <= 0.0) {
+            return None;
+        }
+        let v_s = law.vs_m_per_s.map(|vs| vs / (d.a * rig.omega));
+        let law = self.kind.family().law(rho_s, rho_d, slope, v_s)?;
         let model = Model {
             absorber: rig.absorber,
             law,
             stop_below: None,
         };
         // The exact engine where the law is linear in each phase; the
-        // numerical engine (same event logic) for a Stribeck law.
+        // numerical engine (same event logic) for a shaped law.
         // Both set up once per parameter vector; each segment only sets
         // the drive's phase.
         let eta = 2.0 * PI * d.freq / rig.omega;

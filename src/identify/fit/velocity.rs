@@ -1,0 +1,57 @@
+//! The velocity scale v_s of a family that has one (the Stribeck velocity)
+//! by variable projection: for a given v_s the law is linear in its
+//! coefficients (for the Stribeck type b, Rd, Rs − Rd, a), so v_s is found
+//! by a coarse scan and a golden-section search over log v_s of the
+//! profiled residual sum.
+
+use super::basis;
+use super::slip::{rss_rows, Sample};
+use super::Row;
+use crate::identify::smooth::Normal;
+use crate::model::LawKind;
+use crate::stats::golden_section;
+
+/// The velocity scale (m/s) of family `kind` the slip samples resolve, if
+/// any: None where
+/// the speeds span less than a factor 4 above `u_min` (the hysteresis
+/// threshold), or where the optimum sits at the scanned range's edge (not
+/// a peak the data resolve).
+pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> Option<f64> {
+    let umax = samples.iter().map(|s| s.u).fold(0.0, f64::max);
+    let umin = u_min.max(1e-9);
+    if umax <= 4.0 * umin {
+        return None;
+    }
+    // The regressors at one v_s, evaluated once for the normal equations
+    // and the residual sum (one call of the family's basis per sample).
+    let rows = std::cell::RefCell::new(Vec::<Row>::with_capacity(samples.len()));
+    let cost = |lv: f64| {
+        let vs = lv.exp();
+        let mut rows = rows.borrow_mut();
+        rows.clear();
+        rows.extend(samples.iter().map(|smp| basis(kind, smp, vs)));
+        let mut ne = Normal::new(rows[0].len());
+        for (smp, x) in samples.iter().zip(rows.iter()) {
+            ne.add(x, smp.r, 1.0);
+        }
+        match ne.solve() {
+            Some(c) => rss_rows(samples, &rows, &c, None),
+            None => f64::INFINITY,
+        }
+    };
+    let (a, b) = ((0.5 * umin).ln(), (0.5 * umax).ln());
+    // Coarse scan, then golden section around the best point.
+    let m = 24;
+    let mut best = (a, f64::INFINITY);
+    for k in 0..=m {
+        let lv = a + (b - a) * k as f64 / m as f64;
+        let f = cost(lv);
+        if f < best.1 {
+            best = (lv, f);
+        }
+    }
+    let step = (b - a) / m as f64;
+    let lv = golden_section((best.0 - step).max(a), (best.0 + step).min(b), 30, cost);
+    // At the bounds it is not a scale the data resolve.
+    (lv > a + 0.5 * step && lv < b - 0.5 * step).then(|| lv.exp())
+}
