@@ -71,6 +71,12 @@ pub enum Error {
         /// What failed, e.g. "2 of 5 logs could not be fitted (a.mcap, b.mcap)".
         what: String,
     },
+    /// SIGINT or SIGTERM came while the outputs were being renamed into
+    /// place: every rename was undone (exit 130).
+    #[error(
+        "interrupted; the outputs being written were removed and the files they replaced restored"
+    )]
+    Interrupted,
 }
 
 /// Result with the crate's [`Error`].
