@@ -643,10 +643,18 @@ fn cases() -> Vec<Case> {
             says: "device",
         },
         Case {
-            name: "ingest of a 2 GB (sparse) CSV: refused before any read",
+            name: "ingest of a CSV padded (sparsely) to 2 GB: refused at the padding's first MB",
             inputs: &[MAP],
             setup: &[("sparse:char_N2.2.csv|2000000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
             args: &["ingest", "big.csv"],
+            code: 1,
+            says: "not a row of a table",
+        },
+        Case {
+            name: "fit of a CSV of 6 million rows (empty): over the budget, refused before any column",
+            inputs: &[MAP],
+            setup: &[("newlines:char_N2.2.csv|6000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
+            args: &["fit", "big.csv"],
             code: 1,
             says: "split it",
         },
@@ -812,6 +820,15 @@ fn setup(dir: &Path, c: &Case) {
             std::fs::copy(data(src), &p).unwrap();
             let f = std::fs::OpenOptions::new().write(true).open(&p).unwrap();
             f.set_len(n.parse().unwrap()).unwrap();
+        } else if let Some(spec) = kind.strip_prefix("newlines:") {
+            // SRC|N: a dataset file's preamble and header, then N empty lines.
+            let (src, n) = spec.split_once('|').unwrap();
+            let text = std::fs::read_to_string(data(src)).unwrap();
+            let head: Vec<&str> = text.lines().take_while(|l| l.starts_with('#')).collect();
+            let header = text.lines().nth(head.len()).unwrap();
+            let n: usize = n.parse().unwrap();
+            let body = format!("{}\n{header}\n{}", head.join("\n"), "\n".repeat(n));
+            std::fs::write(&p, body).unwrap();
         } else if let Some(src) = kind.strip_prefix("zerocsv:") {
             // A CSV log with every data column but time set to 0.
             std::fs::write(
