@@ -651,9 +651,9 @@ fn cases() -> Vec<Case> {
             says: "not a row of a table",
         },
         Case {
-            name: "fit of a CSV of 6 million rows (empty): over the budget, refused before any column",
+            name: "fit of a CSV of 8 million rows (empty): over the budget, refused before any column",
             inputs: &[MAP],
-            setup: &[("newlines:char_N2.2.csv|6000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
+            setup: &[("newlines:char_N2.2.csv|8000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
             args: &["fit", "big.csv"],
             code: 1,
             says: "split it",

@@ -865,6 +865,17 @@ fn refine(
 /// ~200 lines because the intervals of both estimates share the budget's
 /// closures with the contradiction checks.
 pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
+    // Refused before any copy when the fit cannot stay within the budget.
+    if run.samples() as u64 > crate::limits::MAX_FIT_SAMPLES {
+        return Err(Error::Identify {
+            path: run.source.clone(),
+            source: IdentifyError::TooLong {
+                samples: run.samples(),
+                duration_s: run.duration_s(),
+                rate_hz: run.resampled.rate_hz,
+            },
+        });
+    }
     let base = characteristic(run, &Gains::default())?;
     let mut ef = fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|source| {
         Error::Identify {

@@ -505,11 +505,12 @@ fn check_unique_columns(
 const MAX_DATA_LINE: usize = 1 << 20;
 
 /// Memory the ingest of a CSV log takes per data row and mapped column
-/// (bytes; measured: see `docs/measurements.md`, issue 29): the column
-/// (8), each channel's own time stamps (8), its resampled column and the
-/// grid (8 + 8), the delay estimate's smoothed copies and the second grid
-/// built when delays are applied.
-pub const CSV_BYTES_PER_VALUE: u64 = 56;
+/// (bytes, all copies counted: the column, each channel's own time stamps,
+/// the resampled grid and columns, the channel-delay estimate's smoothed
+/// signals). Measured: a 7-column 1 kHz log of 3600 s (3.6 million rows)
+/// peaked at 912 MB (36 bytes per value), of 7200 s at 1.84 GB; rounded
+/// up (`docs/measurements.md`, issue 29).
+pub const CSV_BYTES_PER_VALUE: u64 = 38;
 
 /// The data rows of a CSV log (upper bound: every line after the header),
 /// counted before any column is allocated; refuses a line longer than
