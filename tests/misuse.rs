@@ -656,7 +656,7 @@ fn cases() -> Vec<Case> {
             setup: &[("newlines:char_N2.2.csv|8000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
             args: &["fit", "big.csv"],
             code: 1,
-            says: "split it",
+            says: "split the log into shorter ones",
         },
         Case {
             name: "synth with K2 = 1e12 N/m",

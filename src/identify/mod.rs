@@ -581,7 +581,13 @@ pub fn fit_logs(
         .par_iter()
         .map(|p| {
             let r = guarded(p, || {
-                let run = crate::ingest::read(p, &crate::ingest::IngestOptions::default())?;
+                // A CSV log too long to fit is refused before its columns
+                // are read.
+                let ingest = crate::ingest::IngestOptions {
+                    max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+                    ..Default::default()
+                };
+                let run = crate::ingest::read(p, &ingest)?;
                 let f = fit_log(&run, opts)?;
                 Ok((run.rig, f))
             });

@@ -304,7 +304,11 @@ fn read_preamble(path: &Path) -> Result<Head, IngestError> {
 }
 
 /// Reads a DAQ CSV export with its channel map (`map`, or the default).
-pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
+pub(crate) fn read(
+    path: &Path,
+    map: Option<&Path>,
+    max_samples: Option<u64>,
+) -> Result<RawLog, IngestError> {
     let (map_path, cmap) = read_map(path, map, MapKind::Csv)?;
     let Some(time_spec) = cmap.time.clone() else {
         return Err(IngestError::invalid(
@@ -340,7 +344,13 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     let mut specs: Vec<(&ColumnSpec, &str)> = vec![(&time_spec, "time")];
     specs.extend(cmap.channels.iter().map(|(q, s)| (s, q.name())));
     specs.extend(cmap.setpoint_hz.iter().map(|s| (s, "setpoint_hz")));
-    let table = read_table(path, &map_path, (preamble, sep), &names, &specs)?;
+    let table = read_table(
+        path,
+        &map_path,
+        (preamble, sep, max_samples),
+        &names,
+        &specs,
+    )?;
     let mut columns = table.columns.into_iter();
     let time = columns.next().expect("the time column");
     let dt_s = median_interval(&time).unwrap_or(f64::NAN);
@@ -608,7 +618,7 @@ struct Table {
 fn read_table(
     path: &Path,
     map_path: &Path,
-    (preamble, sep): (usize, u8),
+    (preamble, sep, max_samples): (usize, u8, Option<u64>),
     names: &[String],
     specs: &[(&ColumnSpec, &str)],
 ) -> Result<Table, IngestError> {
@@ -636,6 +646,17 @@ fn read_table(
         return Err(IngestError::invalid(
             path,
             "no data: the CSV has no data rows",
+        ));
+    }
+    if let Some(max) = max_samples.filter(|m| rows as u64 > *m) {
+        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "{rows} data rows: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
+                crate::limits::human(rows as f64 * per as f64),
+                crate::limits::budget_text()
+            ),
         ));
     }
     let per_row = CSV_BYTES_PER_VALUE * specs.len() as u64;
@@ -881,7 +902,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             body.push_str(&format!("{:.3},{i},{x1},2,3\n", i as f64 * 0.001));
         }
         let csv = write_csv(dir.path(), &body);
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
         let x0 = raw
             .channels
@@ -910,7 +931,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             body.push_str(&format!("{:.3},1,2,3,4\n", i as f64 * 0.001));
         }
         let csv = write_csv(dir.path(), &body.replace('\n', "\r\n"));
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         assert_eq!(raw.rig.m1_kg, 8.0);
         let v2 = raw
             .channels
@@ -938,7 +959,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let csv = write_csv(dir.path(), &body);
         let map = format!("{MAP}setpoint_hz = {{ name = \"f_set\" }}\n");
         std::fs::write(dir.path().join("log.map.toml"), map).expect("map");
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         let sp: Vec<(f64, f64)> = raw
             .setpoints
             .iter()
@@ -963,7 +984,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             ));
         }
         let csv = write_csv(dir.path(), &body);
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
         let x0 = raw
             .channels
@@ -979,11 +1000,11 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let dir = tempfile::tempdir().expect("tempdir");
         let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
         let csv = write_csv(dir.path(), &format!("{head}0,1,2,2,3,4\n"));
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("\"x1 [mm]\" appears 2 times"), "{e}");
         let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
         let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,2,3,4,5,6\n"));
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("line 13"), "{e}");
     }
 
@@ -997,7 +1018,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let csv = dir.path().join("log.csv");
         std::fs::write(&csv, body).expect("write");
         std::fs::write(dir.path().join("log.map.toml"), MAP).expect("map");
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("log.csv") && e.contains("line 13"), "{e}");
     }
 
@@ -1015,7 +1036,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             body.push_str(&format!("{:.3},1,2,{x2},3\n", i as f64 * 0.001));
         }
         let csv = write_csv(dir.path(), &body);
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         // 10 preamble lines, a header, then data row 13 is line 24.
         assert!(
             e.contains("line 24") && e.contains("x2 [mm]") && e.contains("1.2.7e"),
@@ -1028,16 +1049,16 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let dir = tempfile::tempdir().expect("tempdir");
         let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
         let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,NaN,3,4\n"));
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("NaN") && e.contains("x1 [mm]"), "{e}");
         let csv = write_csv(
             dir.path(),
             &format!("{head}0,1,2,3,4\n0.002,1,2,3,4\n0.001,1,2,3,4\n"),
         );
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("non-monotonic time"), "{e}");
         std::fs::remove_file(dir.path().join("log.map.toml")).expect("rm");
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("log.csv") && e.contains("log.map.toml"), "{e}");
     }
 }

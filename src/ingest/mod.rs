@@ -45,6 +45,10 @@ pub struct IngestOptions {
     /// Channel map of a CSV, TDMS or MAT log (default: `NAME.map.toml`
     /// beside the log).
     pub map: Option<PathBuf>,
+    /// Samples the caller can hold (the fit's budget): a CSV log with more
+    /// data rows is refused after they are counted, before any column is
+    /// read (`None`: the ingest's own budget only).
+    pub max_samples: Option<u64>,
 }
 
 /// The log formats [`read`] understands, chosen by file extension.
@@ -440,7 +444,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     }
     let mut raw = match format {
         LogFormat::Mcap => mcap::read(path)?,
-        LogFormat::Csv => csv::read(path, opts.map.as_deref())?,
+        LogFormat::Csv => csv::read(path, opts.map.as_deref(), opts.max_samples)?,
         LogFormat::Parquet => parquet::read(path)?,
         LogFormat::Tdms => tdms::read(path, opts.map.as_deref())?,
         LogFormat::Mat => mat::read(path, opts.map.as_deref())?,
