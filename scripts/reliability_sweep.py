@@ -259,7 +259,7 @@ def cases():
         # refused with the numbers after the ingest.
         c.append(case("hang", "ingest of a two-hour 1 kHz CSV (7.2 million rows, 380 MB)", ["ingest", "long.csv", "--json"],
                       [("tiled", "long.csv", 360)], ok=True))
-        c.append(case("hang", "fit of a two-hour 1 kHz CSV: refused after the ingest", FIT + ["long.csv"],
+        c.append(case("hang", "fit of a two-hour 1 kHz CSV: refused before its columns are read", FIT + ["long.csv"],
                       [("tiled", "long.csv", 360)], says="split the log"))  # refused before the columns are read
     c.append(case("hang", "ingest of a CSV with a 50 MB line (error line cut)", ["ingest", "long.csv"],
                   [("longline", "long.csv", 50_000_000), ("copyas", MAP, "long.map.toml")], says=""))
