@@ -845,6 +845,18 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
 "#;
 
     #[test]
+    fn splits_quoted_fields_and_short_rows() {
+        assert_eq!(split_fields("1,2.5,x", b','), ["1", "2.5", "x"]);
+        assert_eq!(
+            split_fields("\"0,5\";2;\"a\"\"b\"", b';'),
+            ["0,5", "2", "a\"\"b"]
+        );
+        assert_eq!(split_fields("1,,", b','), ["1", "", ""]);
+        assert_eq!(split_fields("", b','), [""]);
+        assert_eq!(split_fields("\"open", b','), ["open"]);
+    }
+
+    #[test]
     fn parses_a_map() {
         let m = parse_map(Path::new("m.toml"), MAP).expect("valid map");
         assert_eq!(m.time.as_ref().map(|t| t.name.as_str()), Some("t [s]"));
