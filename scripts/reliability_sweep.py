@@ -245,8 +245,22 @@ def cases():
                                                         "sparse": "bytes", "binary": "sensor"}[kind]))
     for size in ["400000000", "2000000000", "12000000000"]:
         for cmd in [["ingest"], FIT, ["characteristic"]]:
-            c.append(case("hang", f"{cmd[0]} of a {int(size) / 1e9:g} GB CSV", cmd + ["big.csv"],
-                          [("sparse", "big.csv", size), ("copyas", MAP, "big.map.toml")], says="split it"))
+            # Streamed: the padding's first line over 1 MB is refused.
+            c.append(case("hang", f"{cmd[0]} of a CSV padded to {int(size) / 1e9:g} GB", cmd + ["big.csv"],
+                          [("sparse", "big.csv", size), ("copyas", MAP, "big.map.toml")], says="not a row of a table"))
+    for rows in [8_000_000, 20_000_000]:
+        for cmd in [["ingest"], FIT]:
+            # Rows counted before any column: over the budget, refused.
+            c.append(case("hang", f"{cmd[0]} of a CSV of {rows / 1e6:g} million (empty) rows", cmd + ["big.csv"],
+                          [("emptyrows", "big.csv", rows), ("copyas", MAP, "big.map.toml")], says="into shorter logs" if cmd == ["ingest"] else "split the log"))
+    if os.environ.get("SWEEP_LONG"):
+        # Long logs (issue 29; SWEEP_LONG=1, about 1 min and 400 MB of disk
+        # each): a two-hour 1 kHz CSV is ingested (under 2 GB), its fit is
+        # refused with the numbers after the ingest.
+        c.append(case("hang", "ingest of a two-hour 1 kHz CSV (7.2 million rows, 380 MB)", ["ingest", "long.csv", "--json"],
+                      [("tiled", "long.csv", 360)], ok=True))
+        c.append(case("hang", "fit of a two-hour 1 kHz CSV: refused before its columns are read", FIT + ["long.csv"],
+                      [("tiled", "long.csv", 360)], says="split the log"))  # refused before the columns are read
     c.append(case("hang", "ingest of a CSV with a 50 MB line (error line cut)", ["ingest", "long.csv"],
                   [("longline", "long.csv", 50_000_000), ("copyas", MAP, "long.map.toml")], says=""))
     for n in ["100000", "1000000", "18446744073709551615"]:
@@ -412,6 +426,22 @@ def setup(d, c):
             with open(p, "wb") as f:
                 f.write(open(os.path.join(DATA, CSV), "rb").read())
                 f.truncate(int(step[2]))
+        elif op == "emptyrows":
+            lines = open(os.path.join(DATA, CSV)).read().split("\n")
+            head = [l for l in lines if l.startswith("#")]
+            with open(p, "w") as f:
+                f.write("\n".join(head + [lines[len(head)]]) + "\n" + "\n" * step[2])
+            shutil.copy(os.path.join(DATA, MAP), os.path.join(d, name[:-4] + ".map.toml"))
+        elif op == "tiled":
+            # The bundled CSV's rows step[2] times, 20 s later each time.
+            lines = open(os.path.join(DATA, CSV)).read().rstrip("\n").split("\n")
+            head = [l for l in lines if l.startswith("#")]
+            rows = [l.split(",", 1) for l in lines[len(head) + 1:]]
+            with open(p, "w") as f:
+                f.write("\n".join(head + [lines[len(head)]]) + "\n")
+                for k in range(step[2]):
+                    f.write("".join(f"{float(t) + 20 * k:.3f},{r}\n" for t, r in rows))
+            shutil.copy(os.path.join(DATA, MAP), os.path.join(d, name[:-4] + ".map.toml"))
         elif op == "longline":
             with open(p, "w") as f:
                 f.write(open(os.path.join(DATA, CSV)).read())

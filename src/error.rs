@@ -71,6 +71,12 @@ pub enum Error {
         /// What failed, e.g. "2 of 5 logs could not be fitted (a.mcap, b.mcap)".
         what: String,
     },
+    /// SIGINT or SIGTERM came while the outputs were being renamed into
+    /// place: every rename was undone (exit 130).
+    #[error(
+        "interrupted; the outputs being written were removed and the files they replaced restored"
+    )]
+    Interrupted,
 }
 
 /// Result with the crate's [`Error`].
@@ -101,6 +107,16 @@ pub enum IdentifyError {
     /// The fit panicked (a bug): the log is reported, the others go on.
     #[error("internal error while fitting this log")]
     Internal,
+    /// The fit of this many samples would not fit the memory budget.
+    #[error("{samples} samples ({duration_s:.0} s at {rate_hz} Hz): fitting takes about {} ({} bytes per sample), over {}: at most {} samples ({:.0} s at this rate) are fitted; split the log into shorter ones", crate::limits::human(*.samples as f64 * crate::limits::FIT_BYTES_PER_SAMPLE as f64), crate::limits::FIT_BYTES_PER_SAMPLE, crate::limits::budget_text(), crate::limits::MAX_FIT_SAMPLES, crate::limits::MAX_FIT_SAMPLES as f64 / .rate_hz)]
+    TooLong {
+        /// Samples of the log's common grid.
+        samples: usize,
+        /// Its duration (s).
+        duration_s: f64,
+        /// Its rate (Hz).
+        rate_hz: f64,
+    },
 }
 
 /// Why a sweep could not be validated (the door, [`crate::validate::validate`], names the

@@ -27,6 +27,17 @@ pub const FAMILY_POINT_BYTES: u64 = 1200;
 /// (about 1.67 million).
 pub const MAX_FAMILY_POINTS: u64 = MEMORY_BUDGET_BYTES / FAMILY_POINT_BYTES;
 
+/// Memory the fit of one log takes per sample of its common grid (bytes,
+/// all copies counted: the run, the contact signals, the equation-error
+/// and output-error fits, the calibration re-fits). Measured on a 7-column
+/// 1 kHz CSV log: 600 s peaked at 425 MB, 1200 s at 761 MB (560 bytes per
+/// sample above about 90 MB); rounded up (`docs/measurements.md`, issue 29).
+pub const FIT_BYTES_PER_SAMPLE: u64 = 600;
+
+/// Most samples one log may have to be fitted within [`MEMORY_BUDGET_BYTES`]
+/// (3.33 million: 55 min at 1 kHz).
+pub const MAX_FIT_SAMPLES: u64 = MEMORY_BUDGET_BYTES / FIT_BYTES_PER_SAMPLE;
+
 /// Checks a family of `curves` × `points` steady states (and `shards`
 /// slices of it) against the budget: `Err` says what is too large, with
 /// the numbers and what to change.

@@ -466,6 +466,7 @@ fn csv_map_shift_is_honoured() {
     std::fs::write(&unshifted, map.replace(", shift_s = -0.004", "")).expect("write");
     let opts = IngestOptions {
         map: Some(unshifted.clone()),
+        ..IngestOptions::default()
     };
     let plain = ingest::read(&data(file), &opts).expect("csv without shift");
     let shifted = ingest::read(&data(file), &IngestOptions::default()).expect("csv");

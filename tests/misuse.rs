@@ -643,12 +643,20 @@ fn cases() -> Vec<Case> {
             says: "device",
         },
         Case {
-            name: "ingest of a 2 GB (sparse) CSV: refused before any read",
+            name: "ingest of a CSV padded (sparsely) to 2 GB: refused at the padding's first MB",
             inputs: &[MAP],
             setup: &[("sparse:char_N2.2.csv|2000000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
             args: &["ingest", "big.csv"],
             code: 1,
-            says: "split it",
+            says: "not a row of a table",
+        },
+        Case {
+            name: "fit of a CSV of 8 million rows (empty): over the budget, refused before any column",
+            inputs: &[MAP],
+            setup: &[("newlines:char_N2.2.csv|8000000", "big.csv"), ("symlink:char_N2.2.map.toml", "big.map.toml")],
+            args: &["fit", "big.csv"],
+            code: 1,
+            says: "split the log into shorter ones",
         },
         Case {
             name: "synth with K2 = 1e12 N/m",
@@ -812,6 +820,15 @@ fn setup(dir: &Path, c: &Case) {
             std::fs::copy(data(src), &p).unwrap();
             let f = std::fs::OpenOptions::new().write(true).open(&p).unwrap();
             f.set_len(n.parse().unwrap()).unwrap();
+        } else if let Some(spec) = kind.strip_prefix("newlines:") {
+            // SRC|N: a dataset file's preamble and header, then N empty lines.
+            let (src, n) = spec.split_once('|').unwrap();
+            let text = std::fs::read_to_string(data(src)).unwrap();
+            let head: Vec<&str> = text.lines().take_while(|l| l.starts_with('#')).collect();
+            let header = text.lines().nth(head.len()).unwrap();
+            let n: usize = n.parse().unwrap();
+            let body = format!("{}\n{header}\n{}", head.join("\n"), "\n".repeat(n));
+            std::fs::write(&p, body).unwrap();
         } else if let Some(src) = kind.strip_prefix("zerocsv:") {
             // A CSV log with every data column but time set to 0.
             std::fs::write(
@@ -1150,4 +1167,76 @@ fn full_disk_leaves_nothing_behind() {
         let _ = std::fs::remove_file(disk.dir.join("out.json"));
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// SIGINT during the final renames (issue 29): the process sends itself
+/// SIGINT after the k-th of the two renames of `simulate --events
+/// --trajectory` (a debug-build failpoint, `STICKSLIP_FAILPOINT`, that
+/// waits until the handler has recorded the signal: no timing involved)
+/// and must undo both: exit 130, `error: interrupted`, the replaced events
+/// file holds the user's bytes, the new trajectory is gone, no temporary
+/// or backup is left. Without the failpoint the same run writes both.
+#[test]
+fn sigint_during_the_final_renames_undoes_them_all() {
+    let run = |dir: &Path, failpoint: Option<&str>| {
+        let mut cmd = bin();
+        cmd.args(SIM)
+            .args([
+                "--periods",
+                "20",
+                "--events",
+                "e.csv",
+                "--trajectory",
+                "t.csv",
+            ])
+            .current_dir(dir)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped());
+        if let Some(f) = failpoint {
+            cmd.env("STICKSLIP_FAILPOINT", f);
+        }
+        let out = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(!err.contains("panicked"), "{err}");
+        (out.status.code(), err)
+    };
+    let list = |dir: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    for k in ["1", "2"] {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        std::fs::write(dir.join("e.csv"), b"the user's events").unwrap();
+        let (code, err) = run(dir, Some(&format!("interrupt-after-rename:{k}")));
+        let last = err
+            .lines()
+            .rev()
+            .find(|l| !l.trim().is_empty())
+            .unwrap_or("");
+        assert_eq!(code, Some(130), "after rename {k}: {err}");
+        assert!(last.starts_with("error: interrupted"), "{last}");
+        assert_eq!(
+            std::fs::read(dir.join("e.csv")).unwrap(),
+            b"the user's events",
+            "after rename {k}"
+        );
+        assert_eq!(list(dir), ["e.csv"], "after rename {k}");
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::fs::write(dir.join("e.csv"), b"the user's events").unwrap();
+    let (code, err) = run(dir, None);
+    assert_eq!(code, Some(0), "{err}");
+    assert_eq!(list(dir), ["e.csv", "t.csv"]);
+    assert_ne!(
+        std::fs::read(dir.join("e.csv")).unwrap(),
+        b"the user's events"
+    );
 }

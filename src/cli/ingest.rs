@@ -37,6 +37,7 @@ pub fn run(args: IngestArgs) -> crate::Result<()> {
     )?;
     let opts = IngestOptions {
         map: args.map.clone(),
+        ..IngestOptions::default()
     };
     let run = ingest::read(&args.log, &opts)?;
     if let Some(out) = &args.out {

@@ -111,6 +111,10 @@ pub fn main() -> ExitCode {
     };
     match result {
         Ok(()) => code,
+        Err(e @ crate::Error::Interrupted) => {
+            eprintln!("error: {e}");
+            ExitCode::from(130)
+        }
         Err(e) => {
             // One line, whatever the source's message holds (polars puts
             // hints on lines of their own).
@@ -149,9 +153,14 @@ fn clip_line(line: &str) -> std::borrow::Cow<'_, str> {
 
 /// On SIGINT or SIGTERM: remove the temporary files being written (an
 /// interrupted job leaves no partial output) and the report directory it
-/// created, say so, exit 130.
+/// created, say so, exit 130. Once the final renames have begun, the
+/// interrupt is only recorded: the write transaction undoes the renames
+/// and the command exits 130 itself (see `crate::io::txn`).
 fn install_signal_cleanup() {
     let _ = ctrlc::set_handler(|| {
+        if !crate::io::txn::on_interrupt() {
+            return;
+        }
         crate::io::remove_live_temps();
         crate::io::txn::remove_created_dirs();
         eprintln!("error: interrupted; the outputs being written were removed");

@@ -581,7 +581,13 @@ pub fn fit_logs(
         .par_iter()
         .map(|p| {
             let r = guarded(p, || {
-                let run = crate::ingest::read(p, &crate::ingest::IngestOptions::default())?;
+                // A CSV log too long to fit is refused before its columns
+                // are read.
+                let ingest = crate::ingest::IngestOptions {
+                    max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+                    ..Default::default()
+                };
+                let run = crate::ingest::read(p, &ingest)?;
                 let f = fit_log(&run, opts)?;
                 Ok((run.rig, f))
             });
@@ -865,6 +871,17 @@ fn refine(
 /// ~200 lines because the intervals of both estimates share the budget's
 /// closures with the contradiction checks.
 pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
+    // Refused before any copy when the fit cannot stay within the budget.
+    if run.samples() as u64 > crate::limits::MAX_FIT_SAMPLES {
+        return Err(Error::Identify {
+            path: run.source.clone(),
+            source: IdentifyError::TooLong {
+                samples: run.samples(),
+                duration_s: run.duration_s(),
+                rate_hz: run.resampled.rate_hz,
+            },
+        });
+    }
     let base = characteristic(run, &Gains::default())?;
     let mut ef = fit::fit(&base.contact, &base.segmentation, &opts.fit).map_err(|source| {
         Error::Identify {

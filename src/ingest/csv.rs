@@ -2,13 +2,15 @@
 //! row, one row per sample on a common time base, and a TOML channel map that
 //! says which column holds which quantity (with scale to SI and time shift).
 //!
-//! The preamble is parsed here; polars reads the table (every column as text,
-//! so that a malformed number can be reported with its line and column).
+//! The preamble is parsed here, then the table is streamed line by line
+//! into the mapped columns only (f64, allocated once at the row count a
+//! first pass found): a long log takes the memory of its columns, not a
+//! multiple of its file size. A malformed number is reported with its line
+//! and column.
 
 use super::rig::RigMeta;
 use super::run::{median_interval, Setpoint};
 use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
-use polars::prelude::*;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::io::{BufRead, Read};
@@ -243,13 +245,6 @@ fn detect_separator(header: &str) -> u8 {
     b','
 }
 
-/// Splits a line into fields (naively: quotes only stripped, not parsed).
-fn naive_fields(line: &str, sep: u8) -> Vec<String> {
-    line.split(sep as char)
-        .map(|f| f.trim().trim_matches('"').trim().to_string())
-        .collect()
-}
-
 /// Reads the `#key,value` preamble and the header line.
 fn read_preamble(path: &Path) -> Result<Head, IngestError> {
     let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
@@ -308,45 +303,12 @@ fn read_preamble(path: &Path) -> Result<Head, IngestError> {
     })
 }
 
-/// The first line (1-based) of a file for which `hit(line_number, bytes)`
-/// holds, reading line by line with the preamble's line-length cap.
-fn first_line_where(path: &Path, mut hit: impl FnMut(usize, &[u8]) -> bool) -> Option<usize> {
-    let file = std::fs::File::open(path).ok()?;
-    let mut reader = std::io::BufReader::new(file);
-    let mut buf = Vec::new();
-    let mut line = 0;
-    loop {
-        buf.clear();
-        let n = (&mut reader)
-            .take(MAX_PREAMBLE_LINE as u64)
-            .read_until(b'\n', &mut buf)
-            .ok()?;
-        if n == 0 {
-            return None;
-        }
-        line += 1;
-        if hit(line, &buf) {
-            return Some(line);
-        }
-    }
-}
-
-/// The first data line with more fields than the header (naive count), to
-/// point at the spot when the table reader refuses ragged rows.
-fn first_ragged_line(path: &Path, skip: usize, sep: u8, fields: usize) -> Option<usize> {
-    first_line_where(path, |line, buf| {
-        line > skip + 1 && buf.iter().filter(|&&b| b == sep).count() + 1 > fields
-    })
-}
-
-/// The first line of a file that is not valid UTF-8, if any (to point at
-/// the spot when the table reader refuses the file).
-fn first_non_utf8_line(path: &Path) -> Option<usize> {
-    first_line_where(path, |_, buf| std::str::from_utf8(buf).is_err())
-}
-
 /// Reads a DAQ CSV export with its channel map (`map`, or the default).
-pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
+pub(crate) fn read(
+    path: &Path,
+    map: Option<&Path>,
+    max_samples: Option<u64>,
+) -> Result<RawLog, IngestError> {
     let (map_path, cmap) = read_map(path, map, MapKind::Csv)?;
     let Some(time_spec) = cmap.time.clone() else {
         return Err(IngestError::invalid(
@@ -373,26 +335,30 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         )
     })?;
     let sep = detect_separator(&header);
-    let names = naive_fields(&header, sep);
+    let names: Vec<String> = split_fields(&header, sep)
+        .into_iter()
+        .map(|f| f.trim().trim_matches('"').trim().to_string())
+        .collect();
     check_unique_columns(path, &cmap, &names)?;
-    let df = read_table(path, preamble, sep, names.len())?;
-    let table = Table {
+    // The columns read: time, the channels in map order, the set point.
+    let mut specs: Vec<(&ColumnSpec, &str)> = vec![(&time_spec, "time")];
+    specs.extend(cmap.channels.iter().map(|(q, s)| (s, q.name())));
+    specs.extend(cmap.setpoint_hz.iter().map(|s| (s, "setpoint_hz")));
+    let table = read_table(
         path,
-        map_path: &map_path,
-        df: &df,
-        names: &names,
-        sep,
-        // File line of data row i (0-based): preamble, header, then one
-        // line per row.
-        first_data_line: preamble + 2,
-    };
-    let time = table.time(&time_spec)?;
+        &map_path,
+        (preamble, sep, max_samples),
+        &names,
+        &specs,
+    )?;
+    let mut columns = table.columns.into_iter();
+    let time = columns.next().expect("the time column");
     let dt_s = median_interval(&time).unwrap_or(f64::NAN);
     check_rate(&map_path, &time_spec, dt_s)?;
     let t0 = time[0] + time_spec.shift_s;
     let mut channels = Vec::new();
     for (q, spec) in &cmap.channels {
-        let v = table.column(spec, q.name())?;
+        let v = columns.next().expect("one column per channel");
         let t = time
             .iter()
             .map(|t| t + time_spec.shift_s + spec.shift_s - t0)
@@ -408,7 +374,7 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     check_drive_amplitude(&map_path, &cmap, &channels)?;
     let setpoints = match &cmap.setpoint_hz {
         Some(spec) => {
-            let v = table.column(spec, "setpoint_hz")?;
+            let v = columns.next().expect("the set-point column");
             setpoints(path, spec, &time, &v, (time_spec.shift_s, t0))?
         }
         None => Vec::new(),
@@ -543,63 +509,129 @@ fn check_unique_columns(
     Ok(())
 }
 
-/// The data table (every column as text: we parse the numbers), with the
-/// offending line named where the table reader refuses the file.
+/// Longest data line accepted (bytes): a DAQ row is well under a kilobyte;
+/// a longer "line" is not a row of the table (a padded or binary file),
+/// refused before more of it is read.
+const MAX_DATA_LINE: usize = 1 << 20;
+
+/// Memory the ingest of a CSV log takes per data row and mapped column
+/// (bytes, all copies counted: the column, each channel's own time stamps,
+/// the resampled grid and columns, the channel-delay estimate's smoothed
+/// signals). Measured: a 7-column 1 kHz log of 3600 s (3.6 million rows)
+/// peaked at 912 MB (36 bytes per value), of 7200 s at 1.84 GB; rounded
+/// up (`docs/measurements.md`, issue 29).
+pub const CSV_BYTES_PER_VALUE: u64 = 38;
+
+/// The data rows of a CSV log (upper bound: every line after the header),
+/// counted before any column is allocated; refuses a line longer than
+/// [`MAX_DATA_LINE`] (naming it) without reading further.
+fn count_rows(path: &Path, skip: usize) -> Result<usize, IngestError> {
+    let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+    let mut buf = Vec::new();
+    let (mut line, mut rows) = (0usize, 0usize);
+    loop {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_DATA_LINE as u64 + 1)
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| IngestError::io(path, e))?;
+        if n == 0 {
+            return Ok(rows);
+        }
+        line += 1;
+        if n > MAX_DATA_LINE {
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "line {line} is longer than {MAX_DATA_LINE} bytes: not a row of a table (a padded or binary file?)"
+                ),
+            ));
+        }
+        if line > skip + 1 {
+            rows += 1;
+        }
+    }
+}
+
+/// Splits a line into its fields: `sep`-separated; a field that starts
+/// with `"` runs to its closing quote (the separator may occur inside) and
+/// is given without the quotes.
+fn split_fields(line: &str, sep: u8) -> Vec<&str> {
+    let mut out = Vec::new();
+    split_into(line, sep, &mut out);
+    out.into_iter().map(|(a, b)| &line[a..b]).collect()
+}
+
+/// [`split_fields`] as byte ranges of `line`, into a reused vector.
+fn split_into(line: &str, sep: u8, out: &mut Vec<(usize, usize)>) {
+    out.clear();
+    let b = line.as_bytes();
+    let mut i = 0;
+    loop {
+        if b.get(i) == Some(&b'"') {
+            // Quoted: to the closing quote ("" is a quote inside), then to
+            // the separator.
+            let start = i + 1;
+            let mut j = start;
+            let end = loop {
+                match b.get(j) {
+                    None => break j,
+                    Some(&b'"') if b.get(j + 1) == Some(&b'"') => j += 2,
+                    Some(&b'"') => break j,
+                    Some(_) => j += 1,
+                }
+            };
+            out.push((start, end.min(b.len())));
+            match b[end.min(b.len())..].iter().position(|&c| c == sep) {
+                Some(k) => i = end + k + 1,
+                None => return,
+            }
+        } else {
+            match b[i..].iter().position(|&c| c == sep) {
+                Some(k) => {
+                    out.push((i, i + k));
+                    i += k + 1;
+                }
+                None => {
+                    out.push((i, b.len()));
+                    return;
+                }
+            }
+        }
+    }
+}
+
+/// The mapped columns of a CSV log's data table.
+struct Table {
+    /// One per spec, in the order asked, in SI (scaled; empty cells NaN).
+    columns: Vec<Vec<f64>>,
+}
+
+/// Streams the data table (after `preamble` lines and the header) into
+/// the columns of `specs` (spec, the quantity it is mapped to). Checks
+/// first that every mapped column is in the header and that the rows fit
+/// the memory budget; then refuses a line that is not UTF-8 or has more
+/// fields than the header, a cell that is not a finite number (with its
+/// line and column), and a time column with an empty cell, going backwards
+/// or of one row.
 fn read_table(
     path: &Path,
-    preamble: usize,
-    sep: u8,
-    fields: usize,
-) -> Result<DataFrame, IngestError> {
-    let df = CsvReadOptions::default()
-        .map_parse_options(|o| o.with_separator(sep))
-        .with_has_header(true)
-        .with_skip_lines(preamble)
-        .with_infer_schema_length(Some(0))
-        .with_raise_if_empty(true)
-        .try_into_reader_with_file_path(Some(path.to_path_buf()))
-        .and_then(|r| r.finish())
-        .map_err(|e| {
-            let at = match first_non_utf8_line(path) {
-                Some(l) => format!(" (line {l} is not UTF-8 text)"),
-                None => first_ragged_line(path, preamble, sep, fields).map_or(String::new(), |l| {
-                    format!(" (line {l} has more fields than the header)")
-                }),
-            };
-            IngestError::invalid(path, format!("unreadable CSV table: {e}{at}"))
-        })?;
-    if df.height() == 0 {
-        return Err(IngestError::invalid(
-            path,
-            "no data: the CSV has no data rows",
-        ));
-    }
-    Ok(df)
-}
-
-/// The data table of a CSV log with what its error messages name.
-struct Table<'a> {
-    path: &'a Path,
-    map_path: &'a Path,
-    df: &'a DataFrame,
-    names: &'a [String],
-    sep: u8,
-    first_data_line: usize,
-}
-
-impl Table<'_> {
-    /// One mapped column in SI (scaled; empty cells NaN), refusing cells
-    /// that are not finite numbers with their line.
-    fn column(&self, spec: &ColumnSpec, what: &str) -> Result<Vec<f64>, IngestError> {
-        let path = self.path;
-        let col = self.df.column(&spec.name).map_err(|_| {
+    map_path: &Path,
+    (preamble, sep, max_samples): (usize, u8, Option<u64>),
+    names: &[String],
+    specs: &[(&ColumnSpec, &str)],
+) -> Result<Table, IngestError> {
+    let mut index = Vec::with_capacity(specs.len());
+    for (spec, what) in specs {
+        let k = names.iter().position(|n| *n == spec.name).ok_or_else(|| {
             IngestError::invalid(
                 path,
                 format!(
                     "column {:?} (mapped to {what} by {}) is not in the CSV header ({})",
                     spec.name,
-                    self.map_path.display(),
-                    self.names
+                    map_path.display(),
+                    names
                         .iter()
                         .map(|n| format!("{n:?}"))
                         .collect::<Vec<_>>()
@@ -607,81 +639,164 @@ impl Table<'_> {
                 ),
             )
         })?;
-        let strs = col
-            .str()
-            .map_err(|e| IngestError::invalid(path, format!("column {:?}: {e}", spec.name)))?;
-        let mut out = Vec::with_capacity(strs.len());
-        for (i, cell) in strs.iter().enumerate() {
-            let cell = cell.map(str::trim).unwrap_or("");
-            if cell.is_empty() {
-                out.push(f64::NAN);
-                continue;
-            }
-            let line = self.first_data_line + i;
-            let parsed = match cell.parse::<f64>() {
-                // A `;`- or tab-separated export may write decimal commas.
-                Err(_) if self.sep != b',' && cell.contains(',') => cell.replace(',', ".").parse(),
-                other => other,
+        index.push(k);
+    }
+    let rows = count_rows(path, preamble)?;
+    if rows == 0 {
+        return Err(IngestError::invalid(
+            path,
+            "no data: the CSV has no data rows",
+        ));
+    }
+    if let Some(max) = max_samples.filter(|m| rows as u64 > *m) {
+        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "{rows} data rows: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
+                crate::limits::human(rows as f64 * per as f64),
+                crate::limits::budget_text()
+            ),
+        ));
+    }
+    let per_row = CSV_BYTES_PER_VALUE * specs.len() as u64;
+    if !crate::limits::fits(rows as u64, per_row) {
+        let max_rows = crate::limits::MEMORY_BUDGET_BYTES / per_row;
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "{rows} data rows x {} mapped columns would take about {} in memory ({CSV_BYTES_PER_VALUE} bytes per value read), over {}: at most {max_rows} rows with these columns; split it into shorter logs",
+                specs.len(),
+                crate::limits::human(rows as f64 * per_row as f64),
+                crate::limits::budget_text()
+            ),
+        ));
+    }
+    let mut columns: Vec<Vec<f64>> = specs.iter().map(|_| Vec::with_capacity(rows)).collect();
+    // The first bad cell of each column (line, data row, cell, finite?):
+    // reported in column order, time first, as a column-wise reader would.
+    let mut bad: Vec<Option<(usize, usize, String, bool)>> = vec![None; specs.len()];
+    let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
+    let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+    let mut buf = Vec::new();
+    let mut fields = Vec::new();
+    let mut line = 0usize;
+    let unreadable =
+        |msg: String| IngestError::invalid(path, format!("unreadable CSV table: {msg}"));
+    while columns[0].len() < rows {
+        buf.clear();
+        let n = (&mut reader)
+            .take(MAX_DATA_LINE as u64 + 1)
+            .read_until(b'\n', &mut buf)
+            .map_err(|e| IngestError::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        line += 1;
+        if line <= preamble + 1 {
+            continue;
+        }
+        if n > MAX_DATA_LINE {
+            return Err(unreadable(format!(
+                "line {line} is longer than {MAX_DATA_LINE} bytes"
+            )));
+        }
+        let text = std::str::from_utf8(&buf)
+            .map_err(|_| unreadable(format!("line {line} is not UTF-8 text")))?;
+        let text = text.strip_suffix('\n').unwrap_or(text);
+        let text = text.strip_suffix('\r').unwrap_or(text);
+        split_into(text, sep, &mut fields);
+        if fields.len() > names.len() {
+            return Err(unreadable(format!(
+                "line {line} has more fields than the header ({} > {})",
+                fields.len(),
+                names.len()
+            )));
+        }
+        let row = columns[0].len();
+        for (c, ((spec, _), &k)) in specs.iter().zip(&index).enumerate() {
+            // A row with fewer fields than the header: the rest are empty.
+            let cell = fields.get(k).map_or("", |&(a, b)| text[a..b].trim());
+            let value = if cell.is_empty() {
+                f64::NAN
+            } else {
+                let parsed = match cell.parse::<f64>() {
+                    // A `;`- or tab-separated export may write decimal commas.
+                    Err(_) if sep != b',' && cell.contains(',') => cell.replace(',', ".").parse(),
+                    other => other,
+                };
+                match parsed {
+                    Ok(v) if v.is_finite() => v * spec.scale(),
+                    other => {
+                        if bad[c].is_none() {
+                            bad[c] = Some((line, row + 1, cell.to_string(), other.is_ok()));
+                        }
+                        f64::NAN
+                    }
+                }
             };
-            let v: f64 = parsed.map_err(|_| {
-                IngestError::invalid(
-                    path,
-                    format!(
-                        "line {line} (data row {}), column {:?}: {cell:?} is not a number",
-                        i + 1,
-                        spec.name
-                    ),
-                )
-            })?;
-            if !v.is_finite() {
-                return Err(IngestError::invalid(
-                    path,
-                    format!(
-                        "line {line} (data row {}), column {:?}: {cell:?} is not a finite number",
-                        i + 1,
-                        spec.name
-                    ),
-                ));
-            }
-            out.push(v * spec.scale());
+            columns[c].push(value);
         }
-        Ok(out)
     }
+    for (c, b) in bad.iter().enumerate() {
+        if let Some((line, row, cell, parsed)) = b {
+            let what = if *parsed {
+                "is not a finite number"
+            } else {
+                "is not a number"
+            };
+            return Err(IngestError::invalid(
+                path,
+                format!(
+                    "line {line} (data row {row}), column {:?}: {cell:?} {what}",
+                    specs[c].0.name
+                ),
+            ));
+        }
+        if c == 0 {
+            check_time(path, specs[0].0, &columns[0], preamble + 2)?;
+        }
+    }
+    Ok(Table { columns })
+}
 
-    /// The time column: no empty cell, strictly increasing, two rows at
-    /// least.
-    fn time(&self, spec: &ColumnSpec) -> Result<Vec<f64>, IngestError> {
-        let time = self.column(spec, "time")?;
-        if let Some(i) = time.iter().position(|t| t.is_nan()) {
-            return Err(IngestError::invalid(
-                self.path,
-                format!(
-                    "line {}, column {:?}: empty time cell",
-                    self.first_data_line + i,
-                    spec.name
-                ),
-            ));
-        }
-        if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
-            return Err(IngestError::invalid(
-                self.path,
-                format!(
-                    "non-monotonic time: line {}, column {:?}: {} s does not follow {} s",
-                    self.first_data_line + i + 1,
-                    spec.name,
-                    time[i + 1],
-                    time[i]
-                ),
-            ));
-        }
-        if time.len() < 2 {
-            return Err(IngestError::invalid(
-                self.path,
-                "too little data: the CSV has a single data row",
-            ));
-        }
-        Ok(time)
+/// The time column: no empty cell, strictly increasing, two rows at
+/// least (`first_data_line`: the file line of data row 0).
+fn check_time(
+    path: &Path,
+    spec: &ColumnSpec,
+    time: &[f64],
+    first_data_line: usize,
+) -> Result<(), IngestError> {
+    if let Some(i) = time.iter().position(|t| t.is_nan()) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "line {}, column {:?}: empty time cell",
+                first_data_line + i,
+                spec.name
+            ),
+        ));
     }
+    if let Some(i) = time.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "non-monotonic time: line {}, column {:?}: {} s does not follow {} s",
+                first_data_line + i + 1,
+                spec.name,
+                time[i + 1],
+                time[i]
+            ),
+        ));
+    }
+    if time.len() < 2 {
+        return Err(IngestError::invalid(
+            path,
+            "too little data: the CSV has a single data row",
+        ));
+    }
+    Ok(())
 }
 
 /// The drive set points of a set-point column: one per change of its
@@ -728,6 +843,18 @@ x1   = { name = "x1 [mm]", scale = 0.001 }
 x2   = { name = "x2 [mm]", scale = 0.001 }
 v2   = { name = "v2 [mm/s]", scale = 0.001 }
 "#;
+
+    #[test]
+    fn splits_quoted_fields_and_short_rows() {
+        assert_eq!(split_fields("1,2.5,x", b','), ["1", "2.5", "x"]);
+        assert_eq!(
+            split_fields("\"0,5\";2;\"a\"\"b\"", b';'),
+            ["0,5", "2", "a\"\"b"]
+        );
+        assert_eq!(split_fields("1,,", b','), ["1", "", ""]);
+        assert_eq!(split_fields("", b','), [""]);
+        assert_eq!(split_fields("\"open", b','), ["open"]);
+    }
 
     #[test]
     fn parses_a_map() {
@@ -787,7 +914,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             body.push_str(&format!("{:.3},{i},{x1},2,3\n", i as f64 * 0.001));
         }
         let csv = write_csv(dir.path(), &body);
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
         let x0 = raw
             .channels
@@ -816,7 +943,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             body.push_str(&format!("{:.3},1,2,3,4\n", i as f64 * 0.001));
         }
         let csv = write_csv(dir.path(), &body.replace('\n', "\r\n"));
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         assert_eq!(raw.rig.m1_kg, 8.0);
         let v2 = raw
             .channels
@@ -844,7 +971,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let csv = write_csv(dir.path(), &body);
         let map = format!("{MAP}setpoint_hz = {{ name = \"f_set\" }}\n");
         std::fs::write(dir.path().join("log.map.toml"), map).expect("map");
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         let sp: Vec<(f64, f64)> = raw
             .setpoints
             .iter()
@@ -869,7 +996,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             ));
         }
         let csv = write_csv(dir.path(), &body);
-        let raw = read(&csv, None).expect("reads");
+        let raw = read(&csv, None, None).expect("reads");
         assert_eq!(raw.rig.notes.as_deref(), Some("a, b #c"));
         let x0 = raw
             .channels
@@ -885,11 +1012,11 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let dir = tempfile::tempdir().expect("tempdir");
         let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
         let csv = write_csv(dir.path(), &format!("{head}0,1,2,2,3,4\n"));
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("\"x1 [mm]\" appears 2 times"), "{e}");
         let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
         let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,2,3,4,5,6\n"));
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("line 13"), "{e}");
     }
 
@@ -903,7 +1030,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let csv = dir.path().join("log.csv");
         std::fs::write(&csv, body).expect("write");
         std::fs::write(dir.path().join("log.map.toml"), MAP).expect("map");
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("log.csv") && e.contains("line 13"), "{e}");
     }
 
@@ -921,7 +1048,7 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
             body.push_str(&format!("{:.3},1,2,{x2},3\n", i as f64 * 0.001));
         }
         let csv = write_csv(dir.path(), &body);
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         // 10 preamble lines, a header, then data row 13 is line 24.
         assert!(
             e.contains("line 24") && e.contains("x2 [mm]") && e.contains("1.2.7e"),
@@ -934,16 +1061,16 @@ v2   = { name = "v2 [mm/s]", scale = 0.001 }
         let dir = tempfile::tempdir().expect("tempdir");
         let head = format!("{PREAMBLE}t [s],drive [mm],x1 [mm],x2 [mm],v2 [mm/s]\n");
         let csv = write_csv(dir.path(), &format!("{head}0,1,2,3,4\n0.001,1,NaN,3,4\n"));
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("NaN") && e.contains("x1 [mm]"), "{e}");
         let csv = write_csv(
             dir.path(),
             &format!("{head}0,1,2,3,4\n0.002,1,2,3,4\n0.001,1,2,3,4\n"),
         );
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("non-monotonic time"), "{e}");
         std::fs::remove_file(dir.path().join("log.map.toml")).expect("rm");
-        let e = read(&csv, None).unwrap_err().to_string();
+        let e = read(&csv, None, None).unwrap_err().to_string();
         assert!(e.contains("log.csv") && e.contains("log.map.toml"), "{e}");
     }
 }

@@ -417,12 +417,20 @@ fn physics_shifts(
 ) -> (Option<Shift>, Option<Shift>) {
     let dt = pre.dt;
     let sm = |y: &[f64]| gauss_smooth(y, sigma);
-    let x1s = sm(&r.x1);
-    let x1d = deriv(&x1s, dt);
-    let x1dd = deriv(&x1d, dt);
+    // M1's side of the equation without x2's damping term, once (the same
+    // sum as term by term below: a long log holds two columns fewer).
+    let x1_side: Vec<f64> = {
+        let (m1, k1, k2, d) = (rig.m1_kg, rig.k1_n_per_m, rig.k2_n_per_m, rig.d_n_s_per_m);
+        let x1s = sm(&r.x1);
+        let x1d = deriv(&x1s, dt);
+        let x1dd = deriv(&x1d, dt);
+        (0..r.len())
+            .map(|i| m1 * x1dd[i] + d * x1d[i] + (k1 + k2) * x1s[i])
+            .collect()
+    };
     let x0s0 = sm(&r.x0);
     let x2s0 = sm(&r.x2);
-    let (m1, k1, k2, d) = (rig.m1_kg, rig.k1_n_per_m, rig.k2_n_per_m, rig.d_n_s_per_m);
+    let (k1, k2, d) = (rig.k1_n_per_m, rig.k2_n_per_m, rig.d_n_s_per_m);
     let ones = vec![1.0; r.len()];
     let (mut s0, mut s2) = (0.0, 0.0);
     let mut last: Option<(Shift, Option<Shift>)> = None;
@@ -431,13 +439,17 @@ fn physics_shifts(
         let x2s = shift_grid(&x2s0, dt, s2);
         let x0d = deriv(&x0s, dt);
         let x2d = deriv(&x2s, dt);
-        let y: Vec<f64> = (0..r.len())
-            .map(|i| m1 * x1dd[i] + d * x1d[i] + (k1 + k2) * x1s[i] - d * x2d[i])
-            .collect();
-        let kx0: Vec<f64> = x0s.iter().map(|v| k1 * v).collect();
-        let kx0d: Vec<f64> = x0d.iter().map(|v| k1 * v).collect();
-        let kx2: Vec<f64> = x2s.iter().map(|v| k2 * v).collect();
-        let kx2d: Vec<f64> = x2d.iter().map(|v| k2 * v).collect();
+        let y: Vec<f64> = (0..r.len()).map(|i| x1_side[i] - d * x2d[i]).collect();
+        // The scaled columns in the buffers of the signals they scale (a
+        // long log holds four columns fewer; the same products).
+        let scaled = |mut v: Vec<f64>, k: f64| {
+            v.iter_mut().for_each(|x| *x *= k);
+            v
+        };
+        let kx0 = scaled(x0s, k1);
+        let kx0d = scaled(x0d, k1);
+        let kx2 = scaled(x2s, k2);
+        let kx2d = scaled(x2d, k2);
         let mut cols: Vec<&[f64]> = vec![&kx0, &kx0d, &kx2];
         if x2_moves {
             cols.push(&kx2d);
@@ -542,6 +554,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
     let x2s = gauss_smooth(&r.x2, sigma);
     let x2d = deriv(&x2s, dt);
     let x2_moves = moves(&r.x2, &x2s);
+    drop(x2s);
     let x0_moves = moves(&r.x0, &gauss_smooth(&r.x0, sigma));
     let (sh0, sh2) = if x0_moves {
         physics_shifts(r, rig, &pre, sigma, x2_moves)

@@ -45,6 +45,10 @@ pub struct IngestOptions {
     /// Channel map of a CSV, TDMS or MAT log (default: `NAME.map.toml`
     /// beside the log).
     pub map: Option<PathBuf>,
+    /// Samples the caller can hold (the fit's budget): a CSV log with more
+    /// data rows is refused after they are counted, before any column is
+    /// read (`None`: the ingest's own budget only).
+    pub max_samples: Option<u64>,
 }
 
 /// The log formats [`read`] understands, chosen by file extension.
@@ -220,12 +224,6 @@ pub enum ContentError {
     /// The file is empty.
     #[error("file is empty")]
     Empty,
-    /// A CSV log too large to read within the memory budget.
-    #[error("is {bytes} bytes; reading a CSV log takes about {CSV_MEMORY_FACTOR} times its size in memory ({}), over {}: CSV logs up to {} bytes are read; split it into shorter logs", crate::limits::human(*.bytes as f64 * CSV_MEMORY_FACTOR as f64), crate::limits::budget_text(), crate::limits::MEMORY_BUDGET_BYTES / CSV_MEMORY_FACTOR)]
-    CsvTooLarge {
-        /// The file's size.
-        bytes: u64,
-    },
     /// Two channels carry one quantity.
     #[error("two channels carry {quantity} ({first} and {second})")]
     DuplicateQuantity {
@@ -426,13 +424,6 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     if meta.len() == 0 {
         return Err(IngestError::content(path, ContentError::Empty));
     }
-    if format == LogFormat::Csv && meta.len() > MAX_CSV_BYTES {
-        // Refused before any read: the CSV reader holds the whole table.
-        return Err(IngestError::content(
-            path,
-            ContentError::CsvTooLarge { bytes: meta.len() },
-        ));
-    }
     let held = match format {
         LogFormat::Tdms => Some(("TDMS", tdms::MAX_TDMS_BYTES)),
         LogFormat::Mat => Some(("MAT", mat::MAX_MAT_BYTES)),
@@ -453,7 +444,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     }
     let mut raw = match format {
         LogFormat::Mcap => mcap::read(path)?,
-        LogFormat::Csv => csv::read(path, opts.map.as_deref())?,
+        LogFormat::Csv => csv::read(path, opts.map.as_deref(), opts.max_samples)?,
         LogFormat::Parquet => parquet::read(path)?,
         LogFormat::Tdms => tdms::read(path, opts.map.as_deref())?,
         LogFormat::Mat => mat::read(path, opts.map.as_deref())?,
@@ -505,14 +496,6 @@ fn check_signal(path: &Path, run: &Run) -> Result<(), IngestError> {
         ContentError::NoSignal { channels: flat },
     ))
 }
-
-/// Memory a CSV log takes while read, in multiples of its size (a 2 GB
-/// CSV peaked at 12 GB).
-pub const CSV_MEMORY_FACTOR: u64 = 6;
-
-/// Largest CSV log read: what fits the memory budget at
-/// [`CSV_MEMORY_FACTOR`] (333 MB).
-pub const MAX_CSV_BYTES: u64 = crate::limits::MEMORY_BUDGET_BYTES / CSV_MEMORY_FACTOR;
 
 /// Parses and checks a CSV channel map (the TOML text of `NAME.map.toml`)
 /// without reading a log, as [`read`] does before the table; `path` names

@@ -13,12 +13,50 @@
 //! Shared files that several runs update (`truth.json`) are read and
 //! written under a lock on their directory ([`lock_beside`]) that the
 //! transaction holds until its renames are done.
+//!
+//! Interrupts (SIGINT/SIGTERM): the signal handler asks [`on_interrupt`]
+//! what to do. While the command works (before [`commit`]) the handler
+//! removes the temporaries and exits at once (130). Once the renames have
+//! begun, the handler only records the interrupt: the rename phase is a
+//! critical section, and [`commit`] checks the record before each rename
+//! and once more after the last; if it is set, every rename done so far is
+//! undone (each replaced file restored from its hard link, each new file
+//! removed), the temporaries and created directories are removed and
+//! [`commit`] returns [`Error::Interrupted`] (exit 130). An interrupt that
+//! comes after that last check is too late to undo anything: the command
+//! has written every output and exits as it would have.
 
 use super::TempPath;
 use crate::error::{Error, Result};
 use std::fs::File;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering::SeqCst};
 use std::sync::Mutex;
+
+/// Where the process stands for an interrupt (see the module docs).
+static PHASE: AtomicU8 = AtomicU8::new(WORKING);
+/// The command works: an interrupt removes the temporaries and exits.
+const WORKING: u8 = 0;
+/// The renames are under way: an interrupt is only recorded.
+const RENAMING: u8 = 1;
+/// The signal handler is removing the temporaries and exiting: no rename
+/// may start.
+const EXITING: u8 = 2;
+/// Every output is in place: an interrupt is too late to undo anything.
+const COMMITTED: u8 = 3;
+/// Whether an interrupt came.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// For the signal handler: records the interrupt and says whether the
+/// handler should remove the temporaries and exit now (`true`: the command
+/// is still working), or leave it to [`commit`] (`false`: the renames are
+/// under way and will be undone, or are all done).
+pub fn on_interrupt() -> bool {
+    INTERRUPTED.store(true, SeqCst);
+    PHASE
+        .compare_exchange(WORKING, EXITING, SeqCst, SeqCst)
+        .is_ok()
+}
 
 /// One file written to its temporary, waiting for the rename.
 struct Pending {
@@ -55,6 +93,8 @@ fn state() -> std::sync::MutexGuard<'static, Option<State>> {
 /// runs). Outputs committed from now on are renamed by [`commit`].
 pub fn begin() {
     *state() = Some(State::default());
+    INTERRUPTED.store(false, SeqCst);
+    PHASE.store(WORKING, SeqCst);
 }
 
 /// Opens a transaction that only this thread's outputs join (for tests).
@@ -64,6 +104,8 @@ fn begin_in_thread() {
         thread: Some(std::thread::current().id()),
         ..State::default()
     });
+    INTERRUPTED.store(false, SeqCst);
+    PHASE.store(WORKING, SeqCst);
 }
 
 /// The open transaction, if this thread's outputs join it.
@@ -176,19 +218,41 @@ fn backup_path(dest: &Path) -> Result<TempPath> {
 
 /// Renames every pending file into place (see the module docs): a
 /// replaced file is kept as a hard link until all renames have succeeded,
-/// and restored if one fails. Closes the transaction.
+/// and restored if one fails or an interrupt comes before the last check.
+/// Closes the transaction.
 pub fn commit() -> Result<()> {
     let Some(mut st) = state().take() else {
         return Ok(());
     };
+    // From here an interrupt is only recorded; if the handler is already
+    // removing the temporaries, it exits the process: wait for that.
+    if PHASE
+        .compare_exchange(WORKING, RENAMING, SeqCst, SeqCst)
+        .is_err()
+    {
+        drop(st);
+        loop {
+            std::thread::park();
+        }
+    }
     let pending = std::mem::take(&mut st.pending);
     let mut done: Vec<(PathBuf, Option<TempPath>)> = Vec::new();
     let mut failure = None;
     let mut rest = pending.into_iter();
     for p in rest.by_ref() {
+        if INTERRUPTED.load(SeqCst) {
+            failure = Some(Error::Interrupted);
+            break;
+        }
         let backup = match std::fs::symlink_metadata(&p.dest) {
             Ok(m) if m.is_file() => {
-                let b = backup_path(&p.dest)?;
+                let b = match backup_path(&p.dest) {
+                    Ok(b) => b,
+                    Err(e) => {
+                        failure = Some(e);
+                        break;
+                    }
+                };
                 if let Err(source) = std::fs::hard_link(&p.dest, b.path()) {
                     failure = Some(Error::Io {
                         path: p.target.clone(),
@@ -209,6 +273,15 @@ pub fn commit() -> Result<()> {
         }
         p.tmp.keep();
         done.push((p.dest, backup));
+        after_rename(done.len());
+    }
+    // The commit point: an interrupt recorded up to here undoes every
+    // rename; one after it finds the phase COMMITTED and changes nothing.
+    if failure.is_none() {
+        PHASE.store(COMMITTED, SeqCst);
+        if INTERRUPTED.load(SeqCst) {
+            failure = Some(Error::Interrupted);
+        }
     }
     // Temporaries not renamed are dropped (removed) here.
     drop(rest);
@@ -236,10 +309,45 @@ pub fn commit() -> Result<()> {
             remove_created(&st.created_dirs);
             forget_created();
             drop(st);
+            PHASE.store(COMMITTED, SeqCst);
             Err(e)
         }
     }
 }
+
+/// Called after the `n`-th rename of [`commit`]: where tests put an
+/// interrupt between two renames. Unit tests record one directly; in debug
+/// builds `STICKSLIP_FAILPOINT=interrupt-after-rename:N` makes the process
+/// send itself SIGINT after the N-th rename and wait until its handler has
+/// recorded it (the integration rows of `tests/misuse.rs`). Release builds
+/// have neither.
+fn after_rename(n: usize) {
+    #[cfg(test)]
+    if TEST_INTERRUPT_AFTER.load(SeqCst) == n {
+        assert!(!on_interrupt(), "the renames are under way: only recorded");
+    }
+    #[cfg(debug_assertions)]
+    if let Ok(v) = std::env::var("STICKSLIP_FAILPOINT") {
+        let at = v
+            .strip_prefix("interrupt-after-rename:")
+            .and_then(|k| k.parse::<usize>().ok());
+        if at == Some(n) {
+            let _ = std::process::Command::new("kill")
+                .args(["-INT", &std::process::id().to_string()])
+                .status();
+            let t0 = std::time::Instant::now();
+            while !INTERRUPTED.load(SeqCst) && t0.elapsed().as_secs() < 60 {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+        }
+    }
+    let _ = n;
+}
+
+/// The rename after which a unit test records an interrupt (0: none).
+#[cfg(test)]
+static TEST_INTERRUPT_AFTER: std::sync::atomic::AtomicUsize =
+    std::sync::atomic::AtomicUsize::new(0);
 
 /// Abandons the open transaction: removes its temporaries and the
 /// directories it created.
@@ -309,6 +417,72 @@ mod tests {
         names.sort();
         assert_eq!(names, ["a.csv", "b.csv"], "no temporary or backup left");
         assert!(!active());
+    }
+
+    /// The names in `d`, sorted.
+    fn names(d: &Path) -> Vec<String> {
+        let mut v: Vec<_> = std::fs::read_dir(d)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+
+    /// An interrupt recorded after the k-th of three renames (every k,
+    /// the last included: before the commit point) undoes them all: the
+    /// two replaced files hold their old bytes, the new file and the
+    /// created directory are gone, no temporary or backup is left, and the
+    /// handler was told not to exit (the transaction honours the
+    /// interrupt). Deterministic: the interrupt is injected between the
+    /// renames, not timed.
+    #[test]
+    fn an_interrupt_between_renames_undoes_every_rename() {
+        let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+        for k in 1..=3 {
+            let t = tempfile::tempdir().unwrap();
+            let d = t.path();
+            let (a, b) = (d.join("a.csv"), d.join("b.svg"));
+            std::fs::write(&a, b"old a").unwrap();
+            std::fs::write(&b, b"old b").unwrap();
+            begin_in_thread();
+            let rep = d.join("rep");
+            create_dir(&rep).unwrap();
+            let c = rep.join("c.json");
+            super::super::write_atomic(&a, b"new a").unwrap();
+            super::super::write_atomic(&b, b"new b").unwrap();
+            super::super::write_atomic(&c, b"new c").unwrap();
+            TEST_INTERRUPT_AFTER.store(k, SeqCst);
+            let r = commit();
+            TEST_INTERRUPT_AFTER.store(0, SeqCst);
+            assert!(matches!(r, Err(Error::Interrupted)), "k = {k}: {r:?}");
+            assert_eq!(std::fs::read(&a).unwrap(), b"old a", "k = {k}");
+            assert_eq!(std::fs::read(&b).unwrap(), b"old b", "k = {k}");
+            assert_eq!(names(d), ["a.csv", "b.svg"], "k = {k}");
+            assert!(!active());
+        }
+    }
+
+    /// The handler's decision by phase: exit at once while the command
+    /// works; only record once the renames have begun or are done (an
+    /// interrupt after the commit point changes nothing).
+    #[test]
+    fn the_handler_exits_only_before_the_renames() {
+        let _g = SERIAL.lock().unwrap_or_else(|p| p.into_inner());
+        let t = tempfile::tempdir().unwrap();
+        let a = t.path().join("a.csv");
+        begin_in_thread();
+        super::super::write_atomic(&a, b"new").unwrap();
+        commit().unwrap();
+        assert!(!on_interrupt(), "after the commit point: too late, no exit");
+        assert_eq!(std::fs::read(&a).unwrap(), b"new");
+        begin_in_thread();
+        assert!(on_interrupt(), "while working: the handler exits");
+        // (The handler would now remove the temporaries and exit; reset.)
+        abort();
+        PHASE.store(WORKING, SeqCst);
+        INTERRUPTED.store(false, SeqCst);
     }
 
     #[test]
