@@ -34,11 +34,15 @@ pub(super) const MIN_STICK_FRACTION: f64 = 0.005;
 
 /// Largest residual/noise ratio of an adequate law. The noise is measured
 /// past its correlation length (`identify::noise`): the right law leaves
-/// 0.93–1.03 of it on the bundled logs and 0.94–1.21 on 60 synth logs of
-/// four rigs with filtered, interpolated sensors (docs/measurements.md).
-/// (Second differences of neighbours, used before, read interpolated or
-/// filtered noise low: the right law then showed 1.2–1.7.)
-pub const MAX_NOISE_RATIO: f64 = 2.0;
+/// 0.93–1.03 of it on the bundled logs, at most 1.16 on 60 synth logs of
+/// four rigs with filtered, interpolated sensors (with the lags it fits),
+/// at most 1.085 on the 163 sticking logs of the 200-case round trip, and
+/// keeps 40 clean logs of the defects study adequate. 2.0 until session
+/// 16: a hardening coupling spring then hid behind fitted position lags at
+/// 1.4–1.7× the noise (docs/measurements.md). (Second differences of
+/// neighbours, used before, read interpolated or filtered noise low: the
+/// right law then showed 1.2–1.7.)
+pub const MAX_NOISE_RATIO: f64 = 1.4;
 
 /// Largest standardised structure statistic of an adequate law (the
 /// Wilson–Hilferty z of a binned χ²; 3.7 ≈ p = 1e-4 per test, about 1e-3

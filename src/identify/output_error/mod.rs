@@ -69,7 +69,7 @@
 //!   nested value gives way to Coulomb. A threshold the segmentation did
 //!   not see must beat every stick-free family by more than 10.
 //! * **Adequacy** ([`Adequacy`]): the chosen law's residuals against the
-//!   sensor noise (ratio ≤ 2) and binned against drive phase, velocity,
+//!   sensor noise (ratio ≤ 1.4) and binned against drive phase, velocity,
 //!   position and time (flagged when z > 3.7 and the structure exceeds half
 //!   the noise); an inadequate law's statistical half-widths are multiplied
 //!   by the misfit.
