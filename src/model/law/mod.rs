@@ -71,8 +71,8 @@ pub enum Selection {
 pub type Optimum<'a> = &'a dyn Fn(LawKind) -> Option<Vec<f64>>;
 
 /// One friction-law family. Parameter vectors are SI, in the order of
-/// [`LawFamily::params`]. The dimensionless methods (`decay`, `sliding_with`,
-/// `jet_with`, `slope_with`) are used only for a non-affine family (they
+/// [`LawFamily::params`]. The dimensionless methods (`decay`, `jet_with`,
+/// `slope_with`) are used only for a non-affine family (they
 /// are what the numerical engine calls within slip phases); an affine
 /// family is integrated in closed form from [`Law::Linear`].
 pub trait LawFamily: Sync + Send {
@@ -113,11 +113,6 @@ pub trait LawFamily: Sync + Send {
     fn decay(&self, v: f64, v_s: f64) -> f64 {
         let _ = (v, v_s);
         1.0
-    }
-    /// g(v) with the decay `ex` at v.
-    fn sliding_with(&self, rho_s: f64, rho_d: f64, slope: f64, v_s: f64, v: f64, ex: f64) -> f64 {
-        let _ = (rho_s, v_s, ex);
-        rho_d + slope * v
     }
     /// (g, dg/dv, d²g/dv²) with the decay `ex` at v.
     #[allow(clippy::too_many_arguments)]
@@ -435,9 +430,11 @@ pub enum Law {
         /// Slope D* = a/√(K2·M2) of the characteristic.
         slope: f64,
     },
-    /// A law of family `kind` with a velocity scale (g(0+) = ρs).
+    /// A law of family `kind` with a velocity scale:
+    /// g(v) = ρd + (ρs − ρd)·φ(v) + D*·v with the family's decay φ
+    /// ([`LawFamily::decay`], φ(0) = 1, so g(0+) = ρs).
     Shaped {
-        /// The family (its [`LawFamily::sliding_with`] and friends).
+        /// The family (its [`LawFamily::decay`] and derivatives).
         kind: LawKind,
         /// Static threshold ρs = g(0+).
         rho_s: f64,
@@ -537,12 +534,11 @@ impl Law {
         match *self {
             Law::Linear { rho_d, slope, .. } => rho_d + slope * v,
             Law::Shaped {
-                kind,
                 rho_s,
                 rho_d,
                 slope,
-                v_s,
-            } => kind.0.sliding_with(rho_s, rho_d, slope, v_s, v, ex),
+                ..
+            } => rho_d + (rho_s - rho_d) * ex + slope * v,
         }
     }
 

@@ -57,10 +57,6 @@ impl LawFamily for Stribeck {
         (-r * r).exp()
     }
     #[inline]
-    fn sliding_with(&self, rho_s: f64, rho_d: f64, slope: f64, _v_s: f64, v: f64, ex: f64) -> f64 {
-        rho_d + (rho_s - rho_d) * ex + slope * v
-    }
-    #[inline]
     fn jet_with(
         &self,
         rho_s: f64,
@@ -86,13 +82,13 @@ impl LawFamily for Stribeck {
     fn si_sliding(&self, l: &SiLaw, u: f64) -> f64 {
         let mut g = l.rd_n + l.slope_n_s_per_m * u;
         if let Some(vs) = l.vs_m_per_s {
-            g += (l.rs_n - l.rd_n) * (-(u / vs).powi(2)).exp();
+            g += (l.rs_n - l.rd_n) * self.decay(u, vs);
         }
         g
     }
     /// For given v_s the law is linear in (b, Rd, Rs − Rd, a).
     fn basis(&self, s: f64, u: f64, k1: f64, k2: f64, vs: f64) -> ([f64; 6], usize) {
-        ([1.0, s, s * (-(u / vs).powi(2)).exp(), s * u, k1, k2], 6)
+        ([1.0, s, s * self.decay(u, vs), s * u, k1, k2], 6)
     }
     /// g(0+) = Rd + (Rs − Rd).
     fn ee_rs(&self, coef: &[f64], _breakaway: f64) -> f64 {
