@@ -141,20 +141,12 @@ fn mean_over(t: &[f64], x: &[f64], (a, b): (f64, f64)) -> Option<f64> {
 }
 
 /// Median and standard error of the median (1.2533·sd/√n) of `v`.
-fn median_se(mut v: Vec<f64>) -> Option<(f64, f64)> {
+fn median_se(v: Vec<f64>) -> Option<(f64, f64)> {
     if v.is_empty() {
         return None;
     }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let med = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    };
-    let mean = v.iter().sum::<f64>() / n as f64;
-    let sd = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n.max(2) - 1) as f64).sqrt();
-    Some((med, 1.2533 * sd / (n as f64).sqrt()))
+    let se = 1.2533 * sample_sd(&v) / (v.len() as f64).sqrt();
+    Some((crate::stats::median(&v), se))
 }
 
 /// The measured state at each step's start (`None` for a continuous sweep,
