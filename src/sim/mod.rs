@@ -3,7 +3,9 @@
 //!
 //! * [`phase`]: closed-form propagation of one stick or slip phase;
 //! * [`events`]: bracketing and refinement of switching events;
-//! * [`engine`]: the event loop and its switching logic (derivation there);
+//! * [`event_loop`]: the one event loop of every integrator and the
+//!   switching logic (derivation there);
+//! * [`engine`]: the exact engine (closed-form phases) as its stepper;
 //! * [`linear`]: closed forms of the two linear limits (ρs = 0, ρs = ∞);
 //! * [`monodromy`]: the Jacobian of the period map for Newton shooting;
 //! * [`steady`]: amplitudes (paper eq. 6), steady-state and period-n
@@ -16,6 +18,7 @@
 
 pub mod dopri;
 pub mod engine;
+pub mod event_loop;
 pub mod events;
 pub mod linalg;
 pub mod linear;
@@ -45,4 +48,77 @@ pub enum SimError {
     /// A drive schedule that gives no drives.
     #[error(transparent)]
     Schedule(#[from] crate::model::ScheduleError),
+}
+
+/// The integrator for one model and drive, chosen in one place
+/// ([`Engine::new`]): the exact engine for a harmonic drive and a law
+/// that is affine in each phase, the numerical engine for every other law
+/// or drive. Both run through the one event loop ([`event_loop`]).
+#[derive(Debug, Clone)]
+pub enum Engine {
+    /// The exact engine and its harmonic drive's phase and amplitude.
+    Exact {
+        /// The engine (set up for the drive's η).
+        sim: Box<Sim>,
+        /// The drive's phase φ in `amplitude·cos(ητ + φ)`.
+        phase: f64,
+        /// The drive's amplitude.
+        amplitude: f64,
+    },
+    /// The numerical engine.
+    Numeric(numeric::NumericSim),
+}
+
+impl Engine {
+    /// The engine for `model` driven by `drive` (`opts`: the numerical
+    /// engine's tolerances, where it is the one).
+    pub fn new(
+        model: &crate::model::Model,
+        drive: crate::model::Drive,
+        opts: numeric::NumericOptions,
+    ) -> Result<Self, SimError> {
+        match drive {
+            crate::model::Drive::Harmonic {
+                eta,
+                phase,
+                amplitude,
+            } if model.law.affine().is_some() => Ok(Engine::Exact {
+                sim: Box::new(Sim::new(model, eta)?),
+                phase,
+                amplitude,
+            }),
+            other => Ok(Engine::Numeric(numeric::NumericSim::new(
+                model, other, opts,
+            )?)),
+        }
+    }
+
+    /// Integrates `duration` from `init` (τ from the run's start).
+    pub fn run<O: Observer>(&self, init: Init, duration: f64, obs: &mut O) -> RunEnd {
+        match self {
+            Engine::Exact {
+                sim,
+                phase,
+                amplitude,
+            } => sim.run_span(init, *phase, *amplitude, duration, obs),
+            Engine::Numeric(sim) => sim.run(init, duration, obs),
+        }
+    }
+
+    /// [`Engine::run`] with a harmonic drive's phase set to `phase` (the
+    /// set-up kept); `None` for other drives.
+    pub fn run_at_phase<O: Observer>(
+        &self,
+        init: Init,
+        phase: f64,
+        duration: f64,
+        obs: &mut O,
+    ) -> Option<RunEnd> {
+        match self {
+            Engine::Exact { sim, amplitude, .. } => {
+                Some(sim.run_span(init, phase, *amplitude, duration, obs))
+            }
+            Engine::Numeric(sim) => Some(sim.with_phase(phase)?.run(init, duration, obs)),
+        }
+    }
 }

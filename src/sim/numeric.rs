@@ -13,10 +13,7 @@
 //! derivatives for the switching functions' curvature.
 
 use super::dopri::Dopri5;
-use super::engine::{
-    apply, switch, track_extremum, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd,
-    Status, MAX_EVENTS_PER_PERIOD, MAX_INSTANT_SWITCHES,
-};
+use super::event_loop::{self, Advance, Init, Mode, Observer, RunEnd, Stepper, Watch};
 use super::events::{self, EventFn, Jet, Switch};
 use super::{linalg, phase::absorber, SimError};
 use crate::model::{Drive, Model};
@@ -390,247 +387,216 @@ impl NumericSim {
     /// Integrates from `init` over `duration`. With a harmonic drive the
     /// observer's period callbacks come every forcing period; trajectory
     /// samples come at the times the observer asks for.
-    ///
-    /// Why this stays one function (≈190 lines): it is the step loop of the
-    /// numerical engine (the sampled-drive fits and the synthetic rig run
-    /// it over whole logs). Its state — `x`, `mode`, the time `t`, period
-    /// `n`, step size `h`, the derivative `f0` carried between steps (FSAL),
-    /// the pending sample, the event and chatter counters, `stick_time`, the
-    /// period statistics and the event window — lives in locals the
-    /// optimiser keeps in registers; the event search gets a monomorphised
-    /// dense-output closure per step. Splitting the step or the switch
-    /// handling out would thread a dozen mutable values and the observer
-    /// through each call and turn the early returns into status plumbing.
     pub fn run<O: Observer>(&self, init: Init, duration: f64, obs: &mut O) -> RunEnd {
         let period = match self.drive {
             Drive::Harmonic { eta, .. } => Some(2.0 * std::f64::consts::PI / eta),
             _ => None,
         };
-        let mut mode = if self.model.law.is_frictionless() {
-            Mode::Slip { dir: 1.0 }
-        } else if self.model.law.is_always_stuck() {
-            Mode::Stick { z2: init.x[2] }
-        } else {
-            init.mode
+        let (periods, tail) = match period {
+            Some(p) => event_loop::split_span(duration, p),
+            None => (0, duration),
         };
-        let mut x = init.x;
-        if let Mode::Stick { z2 } = mode {
-            x[2] = z2;
-            x[3] = 0.0;
+        let mut st = Numeric {
+            sim: self,
+            period,
+            memo: Memo::new(),
+            h: self.ode.h_max * 0.1,
+            f0: [0.0; 4],
+            carry: None,
+        };
+        event_loop::run(&mut st, init, periods, tail, obs)
+    }
+}
+
+/// The numerical engine as a [`Stepper`]: one Dormand–Prince step per
+/// advance, with the step size and the derivative at the step's start
+/// (FSAL) carried between steps, and the jet at the last step's end.
+struct Numeric<'a> {
+    sim: &'a NumericSim,
+    period: Option<f64>,
+    memo: Memo,
+    /// The next step's size.
+    h: f64,
+    /// The derivative at the next step's start.
+    f0: [f64; 4],
+    /// The jet at the next step's start where the last step ended there
+    /// without an event.
+    carry: Option<Jet<4>>,
+}
+
+impl Numeric<'_> {
+    /// Absolute time τ of (n, s).
+    #[inline]
+    fn tau(&self, n: u64, s: f64) -> f64 {
+        match self.period {
+            Some(p) => n as f64 * p + s,
+            None => s,
         }
-        let extremes = obs.wants_extremes();
-        let mut pending = obs.next_sample();
-        let (mut t, mut n, mut events, mut stick_time) = (0.0f64, 0u64, 0u64, 0.0);
-        let mut stats = PeriodStats::new_at(&x);
-        let mut h = self.ode.h_max * 0.1;
-        let memo = Memo::new();
-        let mut f0 = self.rhs(mode, t, &x, &memo);
-        let mut instant = 0u32;
-        let mut carry: Option<Jet<4>> = None;
-        // Events are counted per forcing period (per 2π/fastest drive
-        // frequency for other drives), as in the exact engine.
-        let window = period.unwrap_or(2.0 * std::f64::consts::PI / self.drive.fastest());
-        let (mut window_end, mut window_events) = (window, 0u64);
-        let end = |t: f64, n: u64, x: [f64; 4], mode: Mode, status, events, stick_time| RunEnd {
-            status,
-            periods: n,
-            tau: t,
-            x,
-            mode,
-            events,
-            stick_time,
+    }
+}
+
+/// Whether `t` is within rounding of `boundary`.
+#[inline]
+fn at_boundary(t: f64, boundary: f64) -> bool {
+    boundary - t <= 4.0 * f64::EPSILON * boundary.abs().max(1.0)
+}
+
+impl Stepper for Numeric<'_> {
+    fn model(&self) -> &Model {
+        &self.sim.model
+    }
+
+    fn period(&self) -> Option<f64> {
+        self.period
+    }
+
+    /// Events are counted per 2π/(the drive's fastest frequency).
+    fn window(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.sim.drive.fastest()
+    }
+
+    fn begin(&mut self, mode: Mode, x: &[f64; 4], n: u64, s: f64, first: bool) {
+        let t = self.tau(n, s);
+        self.f0 = self.sim.rhs(mode, t, x, &self.memo);
+        self.carry = None;
+        if first {
+            self.h = self.sim.ode.h_max * 0.1;
+        }
+    }
+
+    /// One accepted step (to the boundary at most) and the first event on
+    /// its dense output.
+    fn advance<O: Observer + ?Sized>(
+        &mut self,
+        mode: Mode,
+        x: &[f64; 4],
+        n: u64,
+        s: f64,
+        s_end: f64,
+        watch: &mut Watch<'_, O>,
+    ) -> Advance {
+        let sim = self.sim;
+        let t = self.tau(n, s);
+        let boundary = self.tau(n, s_end);
+        if at_boundary(t, boundary) {
+            if t != boundary {
+                self.carry = None; // the step ended within rounding of it
+            }
+            return Advance::Moved {
+                delta: 0.0,
+                x: *x,
+                end: true,
+            };
+        }
+        let memo = &self.memo;
+        // Dormand–Prince's last two stages (and the FSAL derivative) share
+        // the time t + h with the jet at the step's end: the drive there is
+        // evaluated once (with its rate, for the jet). The stages within the
+        // step take a harmonic drive from its phasor at t (the last step's
+        // end: no transcendental), with the polynomial degree of the
+        // attempt's step h set at its first stage (t + h/5: every stage is
+        // within η·h).
+        let (anchor, eta) = match sim.drive {
+            Drive::Harmonic { eta, phase, .. } => (memo.phasor(eta, phase, t), eta),
+            _ => ((0.0, 0.0), f64::NAN),
         };
-        loop {
-            // The next stop: the end of the current forcing period, or of the run.
-            let period_end = period
-                .map(|p| (n + 1) as f64 * p)
-                .filter(|&e| e <= duration);
-            let boundary = period_end.unwrap_or(duration);
-            if boundary - t <= 4.0 * f64::EPSILON * boundary.abs().max(1.0) {
-                if t != boundary {
-                    carry = None; // the step ended within rounding of it
+        let deg = Cell::new(None);
+        let f = |stage: usize, tt: f64, y: &[f64; 4]| {
+            let z0 = if stage >= 6 {
+                memo.drive(&sim.drive, tt).0
+            } else {
+                let d = tt - t;
+                if stage == 2 {
+                    deg.set(cis_degree(eta * d * 5.0));
                 }
-                t = boundary;
-                stats.add(x[0], x[2]);
-                while let Some(ts) = pending {
-                    if ts > t * (1.0 + 8.0 * f64::EPSILON) {
+                Memo::position_near(&sim.drive, anchor, deg.get(), tt, d)
+            };
+            sim.rhs_at(mode, z0, y, memo)
+        };
+        let Some((step, h_next)) = sim.ode.step(&f, t, x, &self.f0, self.h, boundary) else {
+            return Advance::Failed(format!("step size underflow at tau = {t}"));
+        };
+        let (t0, x0) = (t, *x);
+        // The state at offset d in the step (dense output).
+        let state = |d: f64| {
+            let mut y = if d == 0.0 {
+                x0
+            } else if d == step.h {
+                step.y1
+            } else {
+                step.eval(d)
+            };
+            if let Mode::Stick { z2 } = mode {
+                y[2] = z2;
+                y[3] = 0.0;
+            }
+            y
+        };
+        // The jet at the step's start is the last step's end jet (same
+        // mode, time and state) unless an event intervened.
+        let carry = self.carry;
+        let eval = |d: f64| match carry {
+            Some(j) if d == 0.0 => j,
+            _ => sim.jet(mode, t0 + d, state(d), memo),
+        };
+        let (fns, nf) = sim.switches(mode, memo);
+        // Samples within the step: the drive from the phasor at t0.
+        let deg = cis_degree(eta * step.h);
+        let (hit, jb) = events::first_event(
+            &eval,
+            eval,
+            &fns[..nf],
+            step.h,
+            step.h,
+            t0 + step.h,
+            |a, ja, b, jb| {
+                watch.extremes(&eval, a, ja, b, jb);
+                while let Some(ts) = watch.pending() {
+                    if ts > t0 + b {
                         break;
                     }
-                    let j = self.jet(mode, t, x, &memo);
-                    obs.sample(ts, &x, &j.dx);
-                    pending = obs.next_sample();
+                    // State and rate only (no second derivative).
+                    let d = (ts - t0).max(a);
+                    let y = state(d);
+                    let z0 = Memo::position_near(&sim.drive, anchor, deg, t0 + d, d);
+                    watch.deliver(ts, &y, &sim.rhs_at(mode, z0, &y, memo));
                 }
-                if period_end.is_some() {
-                    n += 1;
-                    let flow = obs.period(n, &x, mode, &stats);
-                    stats = PeriodStats::new_at(&x);
-                    if flow == Flow::Stop {
-                        return end(t, n, x, mode, Status::Stopped, events, stick_time);
-                    }
+            },
+        );
+        match hit {
+            None => {
+                let t1 = t0 + step.h;
+                let end = at_boundary(t1, boundary);
+                self.carry = if end && t1 != boundary {
+                    None
+                } else {
+                    Some(jb)
+                };
+                self.f0 = step.f1;
+                self.h = h_next;
+                Advance::Moved {
+                    delta: step.h,
+                    x: jb.x,
+                    end,
                 }
-                if boundary >= duration {
-                    return end(t, n, x, mode, Status::Completed, events, stick_time);
-                }
-                continue;
             }
-            // Dormand–Prince's last two stages (and the FSAL derivative)
-            // share the time t + h with the jet at the step's end: the
-            // drive there is evaluated once (with its rate, for the jet).
-            // The stages within the step take a harmonic drive from its
-            // phasor at t (the last step's end: no transcendental), with
-            // the polynomial degree of the attempt's step h set at its
-            // first stage (t + h/5: every stage is within η·h).
-            let (anchor, eta) = match self.drive {
-                Drive::Harmonic { eta, phase, .. } => (memo.phasor(eta, phase, t), eta),
-                _ => ((0.0, 0.0), f64::NAN),
-            };
-            let deg = Cell::new(None);
-            let f = |stage: usize, tt: f64, y: &[f64; 4]| {
-                let z0 = if stage >= 6 {
-                    memo.drive(&self.drive, tt).0
-                } else {
-                    let d = tt - t;
-                    if stage == 2 {
-                        deg.set(cis_degree(eta * d * 5.0));
-                    }
-                    Memo::position_near(&self.drive, anchor, deg.get(), tt, d)
-                };
-                self.rhs_at(mode, z0, y, &memo)
-            };
-            let Some((step, h_next)) = self.ode.step(&f, t, &x, &f0, h, boundary) else {
-                return end(
-                    t,
-                    n,
-                    x,
-                    mode,
-                    Status::Chatter(format!("step size underflow at tau = {t}")),
-                    events,
-                    stick_time,
-                );
-            };
-            let t0 = t;
-            let x0 = x;
-            // The state at offset d in the step (dense output).
-            let state = |d: f64| {
-                let mut y = if d == 0.0 {
-                    x0
-                } else if d == step.h {
-                    step.y1
-                } else {
-                    step.eval(d)
-                };
-                if let Mode::Stick { z2 } = mode {
-                    y[2] = z2;
-                    y[3] = 0.0;
-                }
-                y
-            };
-            // The jet at the step's start is the last step's end jet (same
-            // mode, time and state) unless an event intervened.
-            let eval = |d: f64| match carry {
-                Some(j) if d == 0.0 => j,
-                _ => self.jet(mode, t0 + d, state(d), &memo),
-            };
-            let (fns, nf) = self.switches(mode, &memo);
-            // Samples within the step: the drive from the phasor at t0.
-            let deg = cis_degree(eta * step.h);
-            let (hit, jb) = events::first_event(
-                &eval,
-                eval,
-                &fns[..nf],
-                step.h,
-                step.h,
-                t0 + step.h,
-                |a, ja, b, jb| {
-                    if extremes {
-                        track_extremum(&eval, &mut stats, a, ja, b, jb);
-                    }
-                    while let Some(ts) = pending {
-                        if ts > t0 + b {
-                            break;
-                        }
-                        // State and rate only (no second derivative).
-                        let d = (ts - t0).max(a);
-                        let y = state(d);
-                        let z0 = Memo::position_near(&self.drive, anchor, deg, t0 + d, d);
-                        obs.sample(ts, &y, &self.rhs_at(mode, z0, &y, &memo));
-                        pending = obs.next_sample();
-                    }
-                },
-            );
-            match hit {
-                None => {
-                    if let Mode::Stick { .. } = mode {
-                        stick_time += step.h;
-                        stats.stick_time += step.h;
-                    }
-                    t = t0 + step.h;
-                    x = jb.x;
-                    carry = Some(jb);
-                    f0 = step.f1;
-                    h = h_next;
-                    instant = 0;
-                }
-                Some(hit) => {
-                    instant = if hit.delta == 0.0 { instant + 1 } else { 0 };
-                    if instant > MAX_INSTANT_SWITCHES {
-                        let why = format!("{instant} switches at one instant (tau = {t})");
-                        return end(t, n, x, mode, Status::Chatter(why), events, stick_time);
-                    }
-                    if let Mode::Stick { .. } = mode {
-                        stick_time += hit.delta;
-                        stats.stick_time += hit.delta;
-                    }
-                    t = t0 + hit.delta;
-                    carry = None;
-                    let (z0, _, _) = memo.drive(&self.drive, t);
-                    match apply(
-                        switch(&self.model, mode, hit.which, &hit.jet.x, z0, t),
-                        t,
-                        obs,
-                        &mut events,
-                    ) {
-                        Applied::Stop { x: xi, why } => {
-                            return end(
-                                t,
-                                n,
-                                xi,
-                                mode,
-                                Status::Interrupted(why),
-                                events,
-                                stick_time,
-                            );
-                        }
-                        Applied::Go { x: xn, mode: next } => {
-                            x = xn;
-                            mode = next;
-                            stats.add(x[0], x[2]);
-                            f0 = self.rhs(mode, t, &x, &memo);
-                            h = h.min(h_next).max(self.ode.h_max * 1e-3);
-                            if t >= window_end {
-                                window_end = ((t / window).floor() + 1.0) * window;
-                                window_events = 0;
-                            }
-                            window_events += 1;
-                            if window_events > MAX_EVENTS_PER_PERIOD {
-                                let why = format!(
-                                    "more than {MAX_EVENTS_PER_PERIOD} events in one forcing period at tau = {t}"
-                                );
-                                return end(
-                                    t,
-                                    n,
-                                    x,
-                                    mode,
-                                    Status::Chatter(why),
-                                    events,
-                                    stick_time,
-                                );
-                            }
-                        }
-                    }
+            Some(hit) => {
+                self.h = self.h.min(h_next).max(sim.ode.h_max * 1e-3);
+                Advance::Hit {
+                    delta: hit.delta,
+                    which: hit.which,
+                    x: hit.jet.x,
                 }
             }
         }
+    }
+
+    fn drive(&self, n: u64, s: f64) -> f64 {
+        self.memo.drive(&self.sim.drive, self.tau(n, s)).0
+    }
+
+    fn rate(&self, mode: Mode, x: &[f64; 4], n: u64, s: f64) -> [f64; 4] {
+        self.sim.jet(mode, self.tau(n, s), *x, &self.memo).dx
     }
 }
 

@@ -4,12 +4,9 @@
 //! switching function with a shorter step until the switching function is
 //! zero. Written directly from the equations of motion, independently of the
 //! exact engine's matrices, so it cross-checks them; the switching decisions
-//! are the same physics ([`super::engine::after_slip`]). Errors are O(H⁴).
+//! are the same physics ([`super::event_loop::after_slip`]). Errors are O(H⁴).
 
-use super::engine::{
-    apply, net_force, switch, Applied, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status,
-    MAX_EVENTS_PER_PERIOD, MAX_INSTANT_SWITCHES,
-};
+use super::event_loop::{self, net_force, Advance, Init, Mode, Observer, RunEnd, Stepper, Watch};
 use super::events;
 use super::SimError;
 use crate::model::Model;
@@ -122,181 +119,123 @@ impl Rk4 {
 
     /// Integrates `periods` forcing periods (same observer protocol as the
     /// exact engine, without extremum location: amplitudes from step points).
-    ///
-    /// Why this stays one function (≈170 lines): it is one fixed-step loop
-    /// per forcing period with the sign-change search and the switch inline
-    /// (the work-precision study times it against the exact engine, so its
-    /// cost must be the loop's, not call overhead). Its state — `x`, `mode`,
-    /// the offset `s`, `fresh`, the counters `events`, `period_events` and
-    /// `instant`, `stick_time` and the period statistics — lives in locals;
-    /// splitting the step or the event handling out would thread about nine
-    /// mutable values and the observer through each call.
     pub fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
-        let t = 2.0 * PI / self.eta;
-        let mut mode = if self.model.law.is_frictionless() {
-            Mode::Slip { dir: 1.0 }
-        } else {
-            init.mode
+        let mut st = Stepping {
+            rk: self,
+            period: 2.0 * PI / self.eta,
+            fresh: true,
         };
-        let mut x = init.x;
-        if let Mode::Stick { z2 } = mode {
-            x[2] = z2;
-            x[3] = 0.0;
-        }
-        let (mut events, mut stick_time) = (0u64, 0.0);
-        let mut fresh = true;
-        let mut instant = 0u32;
-        for n in 0..periods {
-            let mut s = 0.0;
-            let mut period_events = 0u64;
-            let mut st = PeriodStats {
-                min: [x[0], x[2]],
-                max: [x[0], x[2]],
-                stick_time: 0.0,
-            };
-            while s < t {
-                let dt = self.h.min(t - s);
-                let x1 = self.step(mode, s, &x, dt);
-                let h0 = self.switching(mode, &x);
-                let h1 = self.switching(mode, &x1);
-                // Earliest sign change (a function on its boundary at a fresh
-                // phase start counts as positive: it leaves the boundary).
-                let mut best: Option<(f64, usize)> = None;
-                for i in 0..2 {
-                    let pos0 = h0[i] > 0.0 || (fresh && h0[i] == 0.0);
-                    if pos0 && h1[i] <= 0.0 {
-                        let f = |d: f64| {
-                            let y = self.step(mode, s, &x, d);
-                            let dy = self.rhs(mode, s + d, &y);
-                            let g = self.switching(mode, &y)[i];
-                            let dg = match (mode, i) {
-                                (Mode::Stick { .. }, _) => {
-                                    let df = dy[0] + self.model.absorber.damping * dy[1];
-                                    if i == 0 {
-                                        -df
-                                    } else {
-                                        df
-                                    }
-                                }
-                                (Mode::Slip { dir }, 0) => dir * dy[3],
-                                (Mode::Slip { dir }, _) => -dir * dy[3],
-                            };
-                            (g, dg, 0.0)
-                        };
-                        // Bracket start: a point where the function is > 0.
-                        let mut lo = 0.0;
-                        if h0[i] <= 0.0 {
-                            lo = dt;
-                            for _ in 0..60 {
-                                lo *= 0.5;
-                                if f(lo).0 > 0.0 {
-                                    break;
-                                }
+        event_loop::run(&mut st, init, periods, 0.0, obs)
+    }
+}
+
+/// RK4 as a [`Stepper`]: one fixed step per advance (shortened to the
+/// boundary), the step containing a sign change re-integrated with a
+/// shorter step until the switching function is zero.
+struct Stepping<'a> {
+    rk: &'a Rk4,
+    period: f64,
+    /// A phase has just begun: a switching function on its boundary counts
+    /// as positive (it leaves the boundary).
+    fresh: bool,
+}
+
+impl Stepper for Stepping<'_> {
+    fn model(&self) -> &Model {
+        &self.rk.model
+    }
+
+    fn period(&self) -> Option<f64> {
+        Some(self.period)
+    }
+
+    fn begin(&mut self, _mode: Mode, _x: &[f64; 4], _n: u64, _s: f64, _first: bool) {
+        self.fresh = true;
+    }
+
+    fn advance<O: Observer + ?Sized>(
+        &mut self,
+        mode: Mode,
+        x: &[f64; 4],
+        _n: u64,
+        s: f64,
+        s_end: f64,
+        watch: &mut Watch<'_, O>,
+    ) -> Advance {
+        let rk = self.rk;
+        let left = s_end - s;
+        let dt = rk.h.min(left);
+        let x1 = rk.step(mode, s, x, dt);
+        let h0 = rk.switching(mode, x);
+        let h1 = rk.switching(mode, &x1);
+        // Earliest sign change (a function on its boundary at a fresh phase
+        // start counts as positive: it leaves the boundary).
+        let mut best: Option<(f64, usize)> = None;
+        for i in 0..2 {
+            let pos0 = h0[i] > 0.0 || (self.fresh && h0[i] == 0.0);
+            if pos0 && h1[i] <= 0.0 {
+                let f = |d: f64| {
+                    let y = rk.step(mode, s, x, d);
+                    let dy = rk.rhs(mode, s + d, &y);
+                    let g = rk.switching(mode, &y)[i];
+                    let dg = match (mode, i) {
+                        (Mode::Stick { .. }, _) => {
+                            let df = dy[0] + rk.model.absorber.damping * dy[1];
+                            if i == 0 {
+                                -df
+                            } else {
+                                df
                             }
                         }
-                        let r = if f(lo).0 > 0.0 {
-                            events::refine(f, lo, dt, t, f64::NAN)
-                        } else {
-                            0.0
-                        };
-                        if best.is_none_or(|(b, _)| r < b) {
-                            best = Some((r, i));
+                        (Mode::Slip { dir }, 0) => dir * dy[3],
+                        (Mode::Slip { dir }, _) => -dir * dy[3],
+                    };
+                    (g, dg, 0.0)
+                };
+                // Bracket start: a point where the function is > 0.
+                let mut lo = 0.0;
+                if h0[i] <= 0.0 {
+                    lo = dt;
+                    for _ in 0..60 {
+                        lo *= 0.5;
+                        if f(lo).0 > 0.0 {
+                            break;
                         }
                     }
                 }
-                fresh = false;
-                let Some((d, which)) = best else {
-                    if matches!(mode, Mode::Stick { .. }) {
-                        stick_time += dt;
-                        st.stick_time += dt;
-                    }
-                    x = x1;
-                    s += dt;
-                    st.min = [st.min[0].min(x[0]), st.min[1].min(x[2])];
-                    st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
-                    continue;
-                };
-                // The guards of the exact engine: zero-length phases
-                // repeating at one instant, events piling up in a period.
-                instant = if d == 0.0 { instant + 1 } else { 0 };
-                period_events += 1;
-                let why = if instant > MAX_INSTANT_SWITCHES {
-                    Some(format!(
-                        "{instant} switches at one instant (tau = {})",
-                        n as f64 * t + s
-                    ))
-                } else if period_events > MAX_EVENTS_PER_PERIOD {
-                    Some(format!(
-                        "more than {MAX_EVENTS_PER_PERIOD} events in one forcing period at tau = {}",
-                        n as f64 * t + s
-                    ))
+                let r = if f(lo).0 > 0.0 {
+                    events::refine(f, lo, dt, self.period, f64::NAN)
                 } else {
-                    None
+                    0.0
                 };
-                if let Some(why) = why {
-                    return RunEnd {
-                        status: Status::Chatter(why),
-                        periods: n,
-                        tau: n as f64 * t + s,
-                        x,
-                        mode,
-                        events,
-                        stick_time,
-                    };
+                if best.is_none_or(|(b, _)| r < b) {
+                    best = Some((r, i));
                 }
-                if matches!(mode, Mode::Stick { .. }) {
-                    stick_time += d;
-                    st.stick_time += d;
-                }
-                x = self.step(mode, s, &x, d);
-                s += d;
-                let tau = n as f64 * t + s;
-                match apply(
-                    switch(&self.model, mode, which, &x, (self.eta * s).cos(), tau),
-                    tau,
-                    obs,
-                    &mut events,
-                ) {
-                    Applied::Stop { x: xi, why } => {
-                        return RunEnd {
-                            status: Status::Interrupted(why),
-                            periods: n,
-                            tau,
-                            x: xi,
-                            mode,
-                            events,
-                            stick_time,
-                        };
-                    }
-                    Applied::Go { x: xn, mode: next } => {
-                        x = xn;
-                        mode = next;
-                    }
-                }
-                st.min = [st.min[0].min(x[0]), st.min[1].min(x[2])];
-                st.max = [st.max[0].max(x[0]), st.max[1].max(x[2])];
-                fresh = true;
-            }
-            if obs.period(n + 1, &x, mode, &st) == Flow::Stop {
-                return RunEnd {
-                    status: Status::Stopped,
-                    periods: n + 1,
-                    tau: (n + 1) as f64 * t,
-                    x,
-                    mode,
-                    events,
-                    stick_time,
-                };
             }
         }
-        RunEnd {
-            status: Status::Completed,
-            periods,
-            tau: periods as f64 * t,
-            x,
-            mode,
-            events,
-            stick_time,
+        self.fresh = false;
+        match best {
+            None => {
+                watch.point(&x1);
+                Advance::Moved {
+                    delta: dt,
+                    x: x1,
+                    end: dt == left,
+                }
+            }
+            Some((d, which)) => Advance::Hit {
+                delta: d,
+                which,
+                x: rk.step(mode, s, x, d),
+            },
         }
+    }
+
+    fn drive(&self, _n: u64, s: f64) -> f64 {
+        (self.rk.eta * s).cos()
+    }
+
+    fn rate(&self, mode: Mode, x: &[f64; 4], _n: u64, s: f64) -> [f64; 4] {
+        self.rk.rhs(mode, s, x)
     }
 }

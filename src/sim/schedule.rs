@@ -2,10 +2,11 @@
 //! (exact engine, closed form per segment, continuous phase) and frequency
 //! ramps (numerical engine), with the state and contact mode carried across.
 
-use super::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Sim, Status};
-use super::numeric::{NumericOptions, NumericSim};
+use super::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, RunEnd, Status};
+use super::numeric::NumericOptions;
+use super::Engine;
 use super::SimError;
-use crate::model::{Drive, Model, Schedule};
+use crate::model::{Model, Schedule};
 
 /// Shifts the times an inner observer sees by the segment's start, and
 /// tells it which segment runs.
@@ -68,16 +69,7 @@ pub fn run_schedule<O: SegmentObserver>(
     for (i, (t0, drive, dur)) in drives.into_iter().enumerate() {
         obs.segment(i, t0, &state.x);
         let mut off = Offset { inner: obs, t0 };
-        let end = match drive {
-            Drive::Harmonic {
-                eta,
-                phase,
-                amplitude,
-            } if model.law.affine().is_some() => {
-                Sim::new(model, eta)?.run_span(state, phase, amplitude, dur, &mut off)
-            }
-            other => NumericSim::new(model, other, opts)?.run(state, dur, &mut off),
-        };
+        let end = Engine::new(model, drive, opts)?.run(state, dur, &mut off);
         events += end.events;
         stick_time += end.stick_time;
         periods += end.periods;
@@ -119,7 +111,9 @@ mod tests {
     fn split_dwell_equals_one_run() {
         let m = model();
         let t = 2.0 * std::f64::consts::PI / 0.6;
-        let one = Sim::new(&m, 0.6).unwrap().run(Init::rest(), 20, &mut ());
+        let one = crate::sim::Sim::new(&m, 0.6)
+            .unwrap()
+            .run(Init::rest(), 20, &mut ());
         let s = Schedule {
             segments: vec![
                 Segment::Dwell {

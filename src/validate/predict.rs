@@ -661,7 +661,7 @@ fn shown_part(sched: &Schedule, windows: &[(f64, f64, f64)]) -> Schedule {
 struct Continuation<'m> {
     model: &'m Model,
     state: Init,
-    engine: Option<crate::sim::Sim>,
+    engine: Option<crate::sim::sweep::SweepEngine>,
     out: Vec<Option<(f64, f64)>>,
 }
 

@@ -100,22 +100,20 @@ impl Problem<'_> {
         // Both set up once per parameter vector; each segment only sets
         // the drive's phase.
         let eta = 2.0 * PI * d.freq / rig.omega;
-        let (sim, numeric) = match (d.drive, law) {
-            (DriveModel::Harmonic, Law::Linear { .. }) => (Some(Sim::new(&model, eta).ok()?), None),
-            (DriveModel::Harmonic, _) => {
+        let engine = match d.drive {
+            DriveModel::Harmonic => {
                 let drive = Drive::Harmonic {
                     eta,
                     phase: 0.0,
                     amplitude: 1.0,
                 };
-                (None, Some(NumericSim::new(&model, drive, NUMERIC).ok()?))
+                Some(Engine::new(&model, drive, NUMERIC).ok()?)
             }
-            (DriveModel::Sampled, _) => (None, None),
+            DriveModel::Sampled => None,
         };
         let (p1, p2) = self.offsets(bias, g1, g2);
         Some(Ctx {
-            sim,
-            numeric,
+            engine,
             model,
             rs: rs.max(rd),
             g: (g1, g2),
@@ -452,10 +450,9 @@ pub(super) struct Refined {
 
 /// The model and offsets of one parameter vector.
 pub(super) struct Ctx {
-    /// The exact engine (harmonic drive, linear law).
-    pub(super) sim: Option<Sim>,
-    /// The numerical engine (harmonic drive, Stribeck law), drive phase 0.
-    pub(super) numeric: Option<NumericSim>,
+    /// The engine of a harmonic drive (drive phase 0; exact for a linear
+    /// law, numerical for a shaped one); `None` for a sampled drive.
+    pub(super) engine: Option<Engine>,
     pub(super) model: Model,
     /// Static threshold used (dimensionless).
     pub(super) rs: f64,
@@ -614,15 +611,9 @@ impl Segments<'_> {
         let dur = (d.t[end] - d.t[i]) * w;
         let phase = 2.0 * PI * d.freq * d.t[i] - d.phase;
         let simulate = |obs: &mut Collect| -> Option<Status> {
-            Some(match (&cx.sim, d.drive) {
-                (Some(sim), _) => sim.run_span(init, phase, 1.0, dur, obs).status,
-                (None, DriveModel::Harmonic) => {
-                    cx.numeric
-                        .as_ref()?
-                        .with_phase(phase)?
-                        .run(init, dur, obs)
-                        .status
-                }
+            Some(match (&cx.engine, d.drive) {
+                (Some(engine), _) => engine.run_at_phase(init, phase, dur, obs)?.status,
+                (None, DriveModel::Harmonic) => return None,
                 (None, DriveModel::Sampled) => {
                     let hi = (end + 3).min(d.x0.len());
                     let values: Vec<f64> = d.x0[i..hi].iter().map(|x| x / d.a).collect();
