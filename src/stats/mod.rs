@@ -30,6 +30,15 @@ pub fn normal_quantile(p: f64) -> f64 {
     }
 }
 
+/// Sample standard deviation (0 for fewer than two values).
+pub fn sample_sd(v: &[f64]) -> f64 {
+    if v.len() < 2 {
+        return 0.0;
+    }
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+}
+
 /// Median of the finite values (NaN if none).
 pub fn median(v: &[f64]) -> f64 {
     let mut w: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();

@@ -9,14 +9,15 @@
 //! * `predict`: the steady-state prediction at the measured η and the replay
 //!   of the sweep as it was run, each with a 95 % band from the fit's
 //!   uncertainty; the score against the measured response.
-//! * `sensitive`: the steps whose replay hinges on details finer than the
-//!   measurement resolves (ensembles from each step's measured start).
+//! * `sensitive` (within `predict`): the steps whose replay hinges on
+//!   details finer than the measurement resolves (ensembles from each
+//!   step's measured start, [`frc::start_states`]).
 
 pub mod frc;
 pub use crate::error::ValidateError;
 mod json;
 pub mod predict;
-pub mod sensitive;
+pub use predict::sensitive;
 
 use crate::identify::LogFit;
 use crate::ingest::{RigMeta, Run};
