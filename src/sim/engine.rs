@@ -201,8 +201,8 @@ impl Sim {
 
     /// Integrates `periods` forcing periods from `init`, reporting to `obs`.
     pub fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
-        let mut st = Exact::new(self, C64::new(1.0, 0.0));
-        event_loop::run(&mut st, init, periods, 0.0, obs)
+        let st = Exact::new(self, C64::new(1.0, 0.0));
+        event_loop::run(st, init, periods, 0.0, obs)
     }
 
     /// Integrates a span of length `duration` of the drive
@@ -218,8 +218,8 @@ impl Sim {
         obs: &mut O,
     ) -> RunEnd {
         let (full, tail) = event_loop::split_span(duration, self.period);
-        let mut st = Exact::new(self, C64::from_polar(amplitude, phase));
-        event_loop::run(&mut st, init, full, tail, obs)
+        let st = Exact::new(self, C64::from_polar(amplitude, phase));
+        event_loop::run(st, init, full, tail, obs)
     }
 
     /// Time derivative of the state in `mode` at period offset s.

@@ -558,7 +558,7 @@ fn extremum_newton<E: Fn(f64) -> Jet<4>>(
 }
 
 /// How one advance of a [`Stepper`] ended.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) enum Advance {
     /// No event within `delta` of the advance's start, at state `x`; `end`:
     /// the boundary it was given is reached (to rounding).
@@ -580,8 +580,13 @@ pub(crate) enum Advance {
         /// State at the event.
         x: [f64; 4],
     },
-    /// The integrator cannot go on (the reason, for [`Status::Chatter`]).
-    Failed(String),
+    /// The integrator's step size underflowed at τ = `tau` (reported as
+    /// [`Status::Chatter`]). (No message here: the advance stays `Copy`,
+    /// with no drop glue in the loop.)
+    Underflow {
+        /// Where.
+        tau: f64,
+    },
 }
 
 /// What the loop lends a stepper during one advance: the observer's
@@ -685,6 +690,16 @@ pub(crate) trait Stepper {
         s_end: f64,
         watch: &mut Watch<'_, O>,
     ) -> Advance;
+    /// The time τ of (n, s), as events, messages and the run's end report
+    /// it: n·T + s (s without a period). A stepper that keeps its own clock
+    /// (the numerical engine's is absolute, so that its memoised drive
+    /// values hit) returns it.
+    fn now(&self, n: u64, s: f64) -> f64 {
+        match self.period() {
+            Some(t) => n as f64 * t + s,
+            None => s,
+        }
+    }
     /// The drive's position ζ0 at (n, s).
     fn drive(&self, n: u64, s: f64) -> f64;
     /// The state's rate in `mode` at (n, s).
@@ -701,7 +716,7 @@ pub(crate) trait Stepper {
 /// the observer's period callbacks and final samples. Its state stays in
 /// locals; the stepper is monomorphised into it.
 pub(crate) fn run<S: Stepper, O: Observer>(
-    st: &mut S,
+    mut st: S,
     init: Init,
     periods: u64,
     tail: f64,
@@ -722,10 +737,6 @@ pub(crate) fn run<S: Stepper, O: Observer>(
     }
     let period = st.period();
     let t = period.unwrap_or(f64::INFINITY);
-    let tau_of = |n: u64, s: f64| match period {
-        Some(t) => n as f64 * t + s,
-        None => s,
-    };
     let extremes = obs.wants_extremes();
     let mut pending = obs.next_sample();
     let (mut n, mut s) = (0u64, 0.0f64);
@@ -760,7 +771,9 @@ pub(crate) fn run<S: Stepper, O: Observer>(
         );
         let stuck = matches!(mode, Mode::Stick { .. });
         match step {
-            Advance::Failed(why) => break Status::Chatter(why),
+            Advance::Underflow { tau } => {
+                break Status::Chatter(format!("step size underflow at tau = {tau}"))
+            }
             Advance::Moved { delta, x: xe, end } => {
                 if stuck {
                     stick_time += delta;
@@ -799,7 +812,7 @@ pub(crate) fn run<S: Stepper, O: Observer>(
                     break Status::Chatter(format!(
                         "{} switches at one instant (tau = {})",
                         instant,
-                        tau_of(n, s)
+                        st.now(n, s)
                     ));
                 }
                 if stuck {
@@ -807,7 +820,7 @@ pub(crate) fn run<S: Stepper, O: Observer>(
                     stats.stick_time += delta;
                 }
                 s += delta;
-                let tau = tau_of(n, s);
+                let tau = st.now(n, s);
                 let sw = switch_with(&model, mode, which, &hx, || st.drive(n, s), tau);
                 match apply(sw, tau, obs, &mut events) {
                     Applied::Stop { x: xi, why } => {
@@ -837,7 +850,7 @@ pub(crate) fn run<S: Stepper, O: Observer>(
     };
     if status == Status::Completed {
         // A sample requested exactly at the end (up to rounding).
-        let tau_end = tau_of(n, s);
+        let tau_end = st.now(n, s);
         while let Some(ts) = pending {
             if ts > tau_end * (1.0 + 8.0 * f64::EPSILON) {
                 break;
@@ -850,7 +863,7 @@ pub(crate) fn run<S: Stepper, O: Observer>(
     RunEnd {
         status,
         periods: n,
-        tau: tau_of(n, s),
+        tau: st.now(n, s),
         x,
         mode,
         events,

@@ -396,24 +396,31 @@ impl NumericSim {
             Some(p) => event_loop::split_span(duration, p),
             None => (0, duration),
         };
-        let mut st = Numeric {
+        let st = Numeric {
             sim: self,
             period,
-            memo: Memo::new(),
-            h: self.ode.h_max * 0.1,
-            f0: [0.0; 4],
-            carry: None,
+            st: NumState {
+                memo: Memo::new(),
+                h: self.ode.h_max * 0.1,
+                f0: [0.0; 4],
+                carry: None,
+                t: 0.0,
+            },
         };
-        event_loop::run(&mut st, init, periods, tail, obs)
+        event_loop::run(st, init, periods, tail, obs)
     }
 }
 
 /// The numerical engine as a [`Stepper`]: one Dormand–Prince step per
-/// advance, with the step size and the derivative at the step's start
-/// (FSAL) carried between steps, and the jet at the last step's end.
+/// advance, with the state carried between steps in [`NumState`].
 struct Numeric<'a> {
     sim: &'a NumericSim,
     period: Option<f64>,
+    st: NumState,
+}
+
+/// What the numerical engine carries from one step to the next.
+struct NumState {
     memo: Memo,
     /// The next step's size.
     h: f64,
@@ -422,15 +429,22 @@ struct Numeric<'a> {
     /// The jet at the next step's start where the last step ended there
     /// without an event.
     carry: Option<Jet<4>>,
+    /// Absolute time τ of the current state: t₀ + h after a step, the
+    /// event's time after a hit, the boundary at one (the loop's (n, s) is
+    /// the same time rounded otherwise; the memo's drive values and the
+    /// reported times use this one).
+    t: f64,
 }
 
 impl Numeric<'_> {
-    /// Absolute time τ of (n, s).
+    /// Absolute time τ of offset `s_end` in period n: (n + 1)·T for a
+    /// period's end.
     #[inline]
-    fn tau(&self, n: u64, s: f64) -> f64 {
+    fn boundary(&self, n: u64, s_end: f64) -> f64 {
         match self.period {
-            Some(p) => n as f64 * p + s,
-            None => s,
+            Some(p) if s_end == p => (n + 1) as f64 * p,
+            Some(p) => n as f64 * p + s_end,
+            None => s_end,
         }
     }
 }
@@ -455,13 +469,17 @@ impl Stepper for Numeric<'_> {
         2.0 * std::f64::consts::PI / self.sim.drive.fastest()
     }
 
-    fn begin(&mut self, mode: Mode, x: &[f64; 4], n: u64, s: f64, first: bool) {
-        let t = self.tau(n, s);
-        self.f0 = self.sim.rhs(mode, t, x, &self.memo);
-        self.carry = None;
+    fn begin(&mut self, mode: Mode, x: &[f64; 4], _n: u64, _s: f64, first: bool) {
         if first {
-            self.h = self.sim.ode.h_max * 0.1;
+            self.st.h = self.sim.ode.h_max * 0.1;
+            self.st.t = 0.0;
         }
+        self.st.f0 = self.sim.rhs(mode, self.st.t, x, &self.st.memo);
+        self.st.carry = None;
+    }
+
+    fn now(&self, _n: u64, _s: f64) -> f64 {
+        self.st.t
     }
 
     /// One accepted step (to the boundary at most) and the first event on
@@ -471,24 +489,52 @@ impl Stepper for Numeric<'_> {
         mode: Mode,
         x: &[f64; 4],
         n: u64,
-        s: f64,
+        _s: f64,
         s_end: f64,
         watch: &mut Watch<'_, O>,
     ) -> Advance {
-        let sim = self.sim;
-        let t = self.tau(n, s);
-        let boundary = self.tau(n, s_end);
+        let boundary = self.boundary(n, s_end);
+        self.sim.step(&mut self.st, mode, x, boundary, watch)
+    }
+
+    fn drive(&self, _n: u64, _s: f64) -> f64 {
+        self.st.memo.drive(&self.sim.drive, self.st.t).0
+    }
+
+    fn rate(&self, mode: Mode, x: &[f64; 4], _n: u64, _s: f64) -> [f64; 4] {
+        self.sim.jet(mode, self.st.t, *x, &self.st.memo).dx
+    }
+}
+
+impl NumericSim {
+    /// One accepted step of [`Numeric`] from `st` (to the absolute time
+    /// `boundary` at most) and the first event on its dense output. (A
+    /// method of the engine so that its model and drive are a `&self`
+    /// the optimiser may keep in registers across the libm calls of the
+    /// law and the drive.)
+    #[inline(always)]
+    fn step<O: Observer + ?Sized>(
+        &self,
+        st: &mut NumState,
+        mode: Mode,
+        x: &[f64; 4],
+        boundary: f64,
+        watch: &mut Watch<'_, O>,
+    ) -> Advance {
+        let sim = self;
+        let t = st.t;
         if at_boundary(t, boundary) {
             if t != boundary {
-                self.carry = None; // the step ended within rounding of it
+                st.carry = None; // the step ended within rounding of it
             }
+            st.t = boundary;
             return Advance::Moved {
                 delta: 0.0,
                 x: *x,
                 end: true,
             };
         }
-        let memo = &self.memo;
+        let memo = &st.memo;
         // Dormand–Prince's last two stages (and the FSAL derivative) share
         // the time t + h with the jet at the step's end: the drive there is
         // evaluated once (with its rate, for the jet). The stages within the
@@ -513,8 +559,8 @@ impl Stepper for Numeric<'_> {
             };
             sim.rhs_at(mode, z0, y, memo)
         };
-        let Some((step, h_next)) = sim.ode.step(&f, t, x, &self.f0, self.h, boundary) else {
-            return Advance::Failed(format!("step size underflow at tau = {t}"));
+        let Some((step, h_next)) = sim.ode.step(&f, t, x, &st.f0, st.h, boundary) else {
+            return Advance::Underflow { tau: t };
         };
         let (t0, x0) = (t, *x);
         // The state at offset d in the step (dense output).
@@ -534,9 +580,9 @@ impl Stepper for Numeric<'_> {
         };
         // The jet at the step's start is the last step's end jet (same
         // mode, time and state) unless an event intervened.
-        let carry = self.carry;
+        let carry = &st.carry;
         let eval = |d: f64| match carry {
-            Some(j) if d == 0.0 => j,
+            Some(j) if d == 0.0 => *j,
             _ => sim.jet(mode, t0 + d, state(d), memo),
         };
         let (fns, nf) = sim.switches(mode, memo);
@@ -567,13 +613,14 @@ impl Stepper for Numeric<'_> {
             None => {
                 let t1 = t0 + step.h;
                 let end = at_boundary(t1, boundary);
-                self.carry = if end && t1 != boundary {
+                st.carry = if end && t1 != boundary {
                     None
                 } else {
                     Some(jb)
                 };
-                self.f0 = step.f1;
-                self.h = h_next;
+                st.t = if end { boundary } else { t1 };
+                st.f0 = step.f1;
+                st.h = h_next;
                 Advance::Moved {
                     delta: step.h,
                     x: jb.x,
@@ -581,7 +628,8 @@ impl Stepper for Numeric<'_> {
                 }
             }
             Some(hit) => {
-                self.h = self.h.min(h_next).max(sim.ode.h_max * 1e-3);
+                st.t = t0 + hit.delta;
+                st.h = st.h.min(h_next).max(sim.ode.h_max * 1e-3);
                 Advance::Hit {
                     delta: hit.delta,
                     which: hit.which,
@@ -589,14 +637,6 @@ impl Stepper for Numeric<'_> {
                 }
             }
         }
-    }
-
-    fn drive(&self, n: u64, s: f64) -> f64 {
-        self.memo.drive(&self.sim.drive, self.tau(n, s)).0
-    }
-
-    fn rate(&self, mode: Mode, x: &[f64; 4], n: u64, s: f64) -> [f64; 4] {
-        self.sim.jet(mode, self.tau(n, s), *x, &self.memo).dx
     }
 }
 

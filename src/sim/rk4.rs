@@ -120,12 +120,12 @@ impl Rk4 {
     /// Integrates `periods` forcing periods (same observer protocol as the
     /// exact engine, without extremum location: amplitudes from step points).
     pub fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
-        let mut st = Stepping {
+        let st = Stepping {
             rk: self,
             period: 2.0 * PI / self.eta,
             fresh: true,
         };
-        event_loop::run(&mut st, init, periods, 0.0, obs)
+        event_loop::run(st, init, periods, 0.0, obs)
     }
 }
 
