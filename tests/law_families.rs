@@ -159,24 +159,57 @@ fn exponential_is_simulated_numerically() {
     assert!(!rk4.status.success());
     let err = String::from_utf8_lossy(&rk4.stderr);
     assert!(err.contains("affine"), "{err}");
-    // `sweep` (continuation of periodic states) needs an affine law and
-    // says so by the family's name.
-    let sweep = bin()
-        .args([
-            "sweep",
-            "--rho-s",
-            "0.7",
-            "--rho-d-ratio",
-            "0.6",
-            "--v-s",
-            "0.1",
-        ])
-        .args(["--law", "exponential", "--points", "3", "--json"])
-        .output()
-        .expect("runs");
-    assert!(!sweep.status.success());
-    let err = String::from_utf8_lossy(&sweep.stderr);
-    assert!(err.contains("the exponential law"), "{err}");
+}
+
+/// `sweep` marches a shaped law's steady states on the numerical engine.
+/// Reference: an exponential pad with v_s = 10⁶ slides at ρs − (ρs − ρd)·v/v_s,
+/// within 3e-7 of Coulomb friction at ρs for the speeds here (|ζ2'| < 2), so
+/// its steady amplitudes must match the exact engine's Coulomb curve (which
+/// shoots) to the numerical engine's accuracy; and a pad with a real drop
+/// (v_s = 0.1) sticks and slips at every point it settles.
+#[test]
+fn exponential_is_swept_numerically() {
+    let sweep = |extra: &[&str]| {
+        json_of(
+            bin()
+                .args(["sweep", "--rho-s", "0.7", "--points", "4"])
+                .args(["--eta-min", "0.5", "--eta-max", "1.4", "--from-rest"])
+                .args(extra)
+                .arg("--json"),
+        )
+    };
+    let flat = sweep(&["--rho-d", "0.45", "--v-s", "1e6", "--law", "exponential"]);
+    let coulomb = sweep(&[]);
+    let (cf, cc) = (&flat["curves"][0], &coulomb["curves"][0]);
+    let mut compared = 0;
+    for i in 0..4 {
+        if cf["steady"][i] != true || cc["steady"][i] != true {
+            continue;
+        }
+        for key in ["amplitude1", "amplitude2"] {
+            let (a, b) = (f(&cf[key][i]), f(&cc[key][i]));
+            assert!(
+                (a - b).abs() <= 1e-5 * b.abs().max(0.1),
+                "{key}[{i}]: exponential v_s = 1e6 {a}, Coulomb {b}"
+            );
+        }
+        compared += 1;
+    }
+    assert!(compared >= 3, "{flat} {coulomb}");
+    let shaped = sweep(&["--rho-d", "0.45", "--v-s", "0.1", "--law", "exponential"]);
+    let c = &shaped["curves"][0];
+    let mut settled = 0;
+    for i in 0..4 {
+        if c["steady"][i] == true {
+            settled += 1;
+            let (a1, sf) = (f(&c["amplitude1"][i]), f(&c["stick_fraction"][i]));
+            assert!(
+                a1.is_finite() && a1 > 0.0 && (0.0..=1.0).contains(&sf),
+                "{c}"
+            );
+        }
+    }
+    assert!(settled >= 3, "{c}");
 }
 
 /// A stepped sweep of an exponential pad, predicted with the law fitted by

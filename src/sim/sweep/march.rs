@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::model::Model;
-use crate::sim::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, Sim, Status};
+use crate::sim::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, Status};
 use crate::sim::monodromy::Monodromy;
 use crate::sim::steady::{merge_back, Tracker, MAX_PERIOD_MULTIPLE, RING};
 use crate::sim::SimError;
@@ -32,9 +32,8 @@ pub(super) fn march_to_steady_extremes(
 ) -> Result<(Point, Init), SimError> {
     let t = 2.0 * std::f64::consts::PI / eta;
     let mut unit = ();
-    let sim = &eng.sim;
     let mut w = Walk {
-        sim,
+        sim: &eng.marcher,
         shooting: &eng.shooting,
         tr: Tracker::new(&mut unit, cfg.tol, true),
         start: init,
@@ -120,8 +119,9 @@ pub(super) fn march_to_steady_extremes(
             && cfg.max_periods > EARLY_MIN
         {
             w.tangent = eng
-                .shooting
-                .get(sim)
+                .marcher
+                .exact()
+                .and_then(|sim| eng.shooting.get(sim))
                 .map(|m| Tangent::new(m, eta, t, w.state.mode));
         }
         // Without ranges, the last block locates extremes only over the
@@ -342,7 +342,7 @@ impl Observer for Offset<'_, '_, '_> {
 /// periods from the start state, watched on the section by `tr`; `used`
 /// counts every integrated period (shooting's trial periods too).
 pub(super) struct Walk<'s, 'a> {
-    sim: &'s Sim,
+    sim: &'s Marcher,
     /// Shooting's variational set-up for the model.
     shooting: &'s MonodromyCache,
     tr: Tracker<'a, ()>,
@@ -458,7 +458,9 @@ impl Walk<'_, '_> {
         };
         let end = self.sim.run(from, w, &mut rec);
         self.used += end.periods;
-        debug_assert_eq!(Some(end.x), self.tr.section(0).map(|s| s.0));
+        // The exact engine repeats the trajectory bit for bit; the
+        // numerical one restarts its step size, so to its tolerance.
+        debug_assert!(self.sim.exact().is_none() || Some(end.x) == self.tr.section(0).map(|s| s.0));
         merge_back(rec.stats[..rec.n].iter().rev())
     }
 
@@ -484,8 +486,12 @@ impl Walk<'_, '_> {
             return Shot::Rejected;
         };
         let mut used = 0;
+        // (Shooting needs the exact engine's variational equations.)
+        let Some(sim) = self.sim.exact() else {
+            return Shot::Rejected;
+        };
         let shot = shoot(
-            self.sim,
+            sim,
             self.shooting,
             self.state.x,
             self.state.mode,

@@ -81,7 +81,8 @@ use march::march_to_steady;
 use march::march_to_steady_extremes;
 use shoot::{shoot, MonodromyCache};
 
-use super::engine::{net_force, Init, Mode, PeriodStats, Sim, Status};
+use super::engine::{net_force, Init, Mode, Observer, PeriodStats, RunEnd, Sim, Status};
+use super::numeric::{NumericOptions, NumericSim};
 use super::SimError;
 use crate::model::Model;
 
@@ -235,12 +236,62 @@ pub fn steady_state(
     steady_state_with(&mut None, model, eta, init, cfg)
 }
 
-/// The exact engine a sweep carries from one η to the next
-/// ([`steady_state_with`]): retuned by [`Sim::at_eta`], with shooting's
-/// variational set-up (which does not depend on η) kept.
+/// The integrator a steady state is marched with: the exact engine for a
+/// law that is affine in each phase, the numerical engine (harmonic drive
+/// of phase 0, amplitude 1) for a shaped one. Both report periods to the
+/// same observers; shooting and the Lyapunov tangent need the exact one.
+// (The exact variant is the large one and the common one: boxing it would
+// allocate at every η of a sweep.)
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone)]
+pub(super) enum Marcher {
+    /// The exact engine.
+    Exact(Sim),
+    /// The numerical engine and the forcing period.
+    Numeric(NumericSim, f64),
+}
+
+impl Marcher {
+    /// The integrator for `model` at η.
+    fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
+        if model.law.affine().is_some() {
+            return Ok(Marcher::Exact(Sim::new(model, eta)?));
+        }
+        crate::model::validate_eta(eta)?;
+        let drive = crate::model::Drive::Harmonic {
+            eta,
+            phase: 0.0,
+            amplitude: 1.0,
+        };
+        let sim = NumericSim::new(model, drive, NumericOptions::default())?;
+        Ok(Marcher::Numeric(sim, 2.0 * std::f64::consts::PI / eta))
+    }
+
+    /// Integrates `periods` forcing periods from `init`.
+    pub(super) fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
+        match self {
+            Marcher::Exact(sim) => sim.run(init, periods, obs),
+            Marcher::Numeric(sim, t) => sim.run(init, periods as f64 * t, obs),
+        }
+    }
+
+    /// The exact engine, where it is the one.
+    pub(super) fn exact(&self) -> Option<&Sim> {
+        match self {
+            Marcher::Exact(sim) => Some(sim),
+            Marcher::Numeric(..) => None,
+        }
+    }
+}
+
+/// The engine a sweep carries from one η to the next
+/// ([`steady_state_with`]): the exact engine retuned by [`Sim::at_eta`],
+/// with shooting's variational set-up (which does not depend on η) kept;
+/// for a shaped law the numerical engine.
 #[derive(Debug, Clone)]
 pub struct SweepEngine {
-    sim: Sim,
+    model: Model,
+    marcher: Marcher,
     shooting: MonodromyCache,
 }
 
@@ -248,14 +299,16 @@ impl SweepEngine {
     /// The engine for `model` at η (a sweep's first point).
     pub fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
         Ok(Self {
-            sim: Sim::new(model, eta)?,
+            model: *model,
+            marcher: Marcher::new(model, eta)?,
             shooting: MonodromyCache::default(),
         })
     }
 
-    /// The exact engine.
-    pub fn sim(&self) -> &Sim {
-        &self.sim
+    /// The exact engine (`None` for a shaped law, which the numerical
+    /// engine integrates).
+    pub fn sim(&self) -> Option<&Sim> {
+        self.marcher.exact()
     }
 }
 
@@ -279,9 +332,10 @@ pub fn steady_state_with(
             "the period budget (max_periods) must be at least 1".into(),
         ));
     }
-    let eng = match engine.as_ref() {
-        Some(e) if e.sim.model() == model => SweepEngine {
-            sim: e.sim.at_eta(eta)?,
+    let eng = match engine.as_ref().map(|e| (e, e.marcher.exact())) {
+        Some((e, Some(sim))) if e.model == *model => SweepEngine {
+            model: *model,
+            marcher: Marcher::Exact(sim.at_eta(eta)?),
             shooting: e.shooting.clone(),
         },
         _ => SweepEngine::new(model, eta)?,
