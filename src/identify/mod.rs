@@ -843,6 +843,97 @@ fn refine(
     (output_error, no_stick)
 }
 
+/// The normal force (the channel's median, else the rig's constant) and
+/// the drive's η, with the warnings on a force that is negative or zero
+/// and on a drive whose amplitude or frequency disagrees with the metadata.
+fn force_and_drive_checks(
+    run: &Run,
+    base: &Characteristic,
+    warnings: &mut Vec<Warning>,
+) -> (f64, f64) {
+    let normal_force_n = run
+        .resampled
+        .normal_force
+        .as_ref()
+        .map(|v| crate::stats::median(v))
+        .filter(|v| v.is_finite())
+        .unwrap_or(run.rig.normal_force_n);
+    if normal_force_n < 0.0 {
+        warnings.push(Warning::NormalForceNegative { normal_force_n });
+    } else if normal_force_n == 0.0 {
+        warnings.push(Warning::NormalForceZero);
+    }
+    let eta = 2.0 * std::f64::consts::PI * base.contact.drive.frequency_hz / run.rig.omega_ref();
+    let rel = base.contact.drive.amplitude_m / run.rig.drive_amplitude_m - 1.0;
+    if rel.abs() > 0.005 {
+        warnings.push(Warning::DriveAmplitude {
+            measured_m: base.contact.drive.amplitude_m,
+            nominal_m: run.rig.drive_amplitude_m,
+        });
+    }
+    if let Some(meta) = base.contact.drive.metadata_frequency_hz {
+        let measured = base.contact.drive.frequency_hz;
+        warnings.push(Warning::DriveFrequency {
+            metadata_hz: meta,
+            measured_hz: measured,
+            tolerance: contact::DRIVE_FREQUENCY_TOLERANCE,
+        });
+    }
+    (normal_force_n, eta)
+}
+
+/// The equation-error fit's 95 % intervals (each quantity's statistical
+/// interval widened by its calibration part, `1.96·√var`; `fs` and `ss`
+/// scale forces and slopes to ρ and D*), the reversal bound on Rs of a log
+/// that never sticks (with its calibration part) and the lower bound on Rs.
+fn equation_error_intervals(
+    ef: &EquationFit,
+    q0: &[f64; 8],
+    var: &[f64; 8],
+    fs: f64,
+    ss: f64,
+) -> (Intervals, Option<f64>, Option<f64>) {
+    let cal = |k: usize| 1.96 * var[k].sqrt();
+    let combine = |est: f64, stat: Option<(f64, f64)>, scale: f64, k: usize| -> Option<Interval> {
+        if !est.is_finite() {
+            return None;
+        }
+        let (lo, hi) = stat.map_or((0.0, 0.0), |(l, h)| {
+            ((est - l / scale).max(0.0), (h / scale - est).max(0.0))
+        });
+        let c = cal(k);
+        Some((est - lo.hypot(c), est + hi.hypot(c)))
+    };
+    let rd_iv = combine(q0[1], ef.stat.rd, 1.0, 1);
+    let rho_d_iv = combine(q0[4], ef.stat.rd, fs, 4);
+    // Never sticking: Rs ≥ Rd (its interval's low end), Rs ≤ the reversal bound.
+    let ub = ef.rs_upper_bound_n.map(|b| b + cal(7));
+    // An interval is never inverted: bounds that contradict each other
+    // give none (and a contradiction, below).
+    let bounds = |rd: Option<Interval>| match (rd, ub) {
+        (Some((lo, _)), Some(ub)) if lo <= ub => Some((lo, ub)),
+        _ => None,
+    };
+    let equation_error = Intervals {
+        rs_n: if ef.never_sticks {
+            bounds(rd_iv)
+        } else {
+            combine(q0[0], ef.stat.rs, 1.0, 0)
+        },
+        rd_n: rd_iv,
+        slope_n_s_per_m: combine(q0[2], ef.stat.slope, 1.0, 2),
+        rho_s: if ef.never_sticks {
+            bounds(rd_iv).map(|(l, h)| (l / fs, h / fs))
+        } else {
+            combine(q0[3], ef.stat.rs, fs, 3)
+        },
+        rho_d: rho_d_iv,
+        dstar: combine(q0[5], ef.stat.slope, ss, 5),
+    };
+    let rs_lower_bound_n = ef.rs_lower_bound_n.map(|lb| (lb - cal(6)).max(0.0));
+    (equation_error, ub, rs_lower_bound_n)
+}
+
 /// Fits the friction law of one characteristic log with 95 % intervals
 /// (bootstrap over periods combined with the calibration budget).
 ///
@@ -898,45 +989,14 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     // Calibration budget: re-run with each sensor's gain at +u, same law.
     let u = opts.gain_uncertainty;
     let var = calibration_variance(run, &base, &ef, opts, &q0);
-    let cal = |k: usize| 1.96 * var[k].sqrt();
     let fs = a * k2;
-    let combine = |est: f64, stat: Option<(f64, f64)>, scale: f64, k: usize| -> Option<Interval> {
-        if !est.is_finite() {
-            return None;
-        }
-        let (lo, hi) = stat.map_or((0.0, 0.0), |(l, h)| {
-            ((est - l / scale).max(0.0), (h / scale - est).max(0.0))
-        });
-        let c = cal(k);
-        Some((est - lo.hypot(c), est + hi.hypot(c)))
-    };
-    let rd_iv = combine(q0[1], ef.stat.rd, 1.0, 1);
-    let rho_d_iv = combine(q0[4], ef.stat.rd, fs, 4);
-    // Never sticking: Rs ≥ Rd (its interval's low end), Rs ≤ the reversal bound.
-    let ub = ef.rs_upper_bound_n.map(|b| b + cal(7));
+    let (equation_error, ub, rs_lower_bound_n) = equation_error_intervals(&ef, &q0, &var, fs, ss);
     // An interval is never inverted: bounds that contradict each other
     // give none (and a contradiction, below).
     let bounds = |rd: Option<Interval>| match (rd, ub) {
         (Some((lo, _)), Some(ub)) if lo <= ub => Some((lo, ub)),
         _ => None,
     };
-    let equation_error = Intervals {
-        rs_n: if ef.never_sticks {
-            bounds(rd_iv)
-        } else {
-            combine(q0[0], ef.stat.rs, 1.0, 0)
-        },
-        rd_n: rd_iv,
-        slope_n_s_per_m: combine(q0[2], ef.stat.slope, 1.0, 2),
-        rho_s: if ef.never_sticks {
-            bounds(rd_iv).map(|(l, h)| (l / fs, h / fs))
-        } else {
-            combine(q0[3], ef.stat.rs, fs, 3)
-        },
-        rho_d: rho_d_iv,
-        dstar: combine(q0[5], ef.stat.slope, ss, 5),
-    };
-    let rs_lower_bound_n = ef.rs_lower_bound_n.map(|lb| (lb - cal(6)).max(0.0));
 
     let mut warnings = run.warnings.clone();
     warnings.extend(base.contact.warnings.iter().cloned());
@@ -1054,34 +1114,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     } else {
         Measured::StickSlip(law)
     };
-    let normal_force_n = run
-        .resampled
-        .normal_force
-        .as_ref()
-        .map(|v| crate::stats::median(v))
-        .filter(|v| v.is_finite())
-        .unwrap_or(rig.normal_force_n);
-    if normal_force_n < 0.0 {
-        warnings.push(Warning::NormalForceNegative { normal_force_n });
-    } else if normal_force_n == 0.0 {
-        warnings.push(Warning::NormalForceZero);
-    }
-    let eta = 2.0 * std::f64::consts::PI * base.contact.drive.frequency_hz / rig.omega_ref();
-    let rel = base.contact.drive.amplitude_m / rig.drive_amplitude_m - 1.0;
-    if rel.abs() > 0.005 {
-        warnings.push(Warning::DriveAmplitude {
-            measured_m: base.contact.drive.amplitude_m,
-            nominal_m: rig.drive_amplitude_m,
-        });
-    }
-    if let Some(meta) = base.contact.drive.metadata_frequency_hz {
-        let measured = base.contact.drive.frequency_hz;
-        warnings.push(Warning::DriveFrequency {
-            metadata_hz: meta,
-            measured_hz: measured,
-            tolerance: contact::DRIVE_FREQUENCY_TOLERANCE,
-        });
-    }
+    let (normal_force_n, eta) = force_and_drive_checks(run, &base, &mut warnings);
     let notes = characteristic_notes(&base, &ef);
     Ok(LogFit {
         normal_force_n,
