@@ -508,10 +508,7 @@ impl Stepper for Numeric<'_> {
 
 impl NumericSim {
     /// One accepted step of [`Numeric`] from `st` (to the absolute time
-    /// `boundary` at most) and the first event on its dense output. (A
-    /// method of the engine so that its model and drive are a `&self`
-    /// the optimiser may keep in registers across the libm calls of the
-    /// law and the drive.)
+    /// `boundary` at most) and the first event on its dense output.
     #[inline(always)]
     fn step<O: Observer + ?Sized>(
         &self,
