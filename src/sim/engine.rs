@@ -205,6 +205,20 @@ impl Sim {
         event_loop::run(st, init, periods, 0.0, obs)
     }
 
+    /// Integrates `periods` whole forcing periods of the drive
+    /// `amplitude·cos(ητ + phase)` from `init`.
+    pub fn run_periods<O: Observer>(
+        &self,
+        init: Init,
+        phase: f64,
+        amplitude: f64,
+        periods: u64,
+        obs: &mut O,
+    ) -> RunEnd {
+        let st = Exact::new(self, C64::from_polar(amplitude, phase));
+        event_loop::run(st, init, periods, 0.0, obs)
+    }
+
     /// Integrates a span of length `duration` of the drive
     /// `amplitude·cos(ητ + phase)` (τ from the span's start): whole periods,
     /// then the remainder. Period callbacks come at whole periods from the

@@ -105,6 +105,39 @@ impl Engine {
         }
     }
 
+    /// Integrates `periods` whole forcing periods from `init` (period
+    /// callbacks at each; a drive without a period runs `periods` spans of
+    /// 2π/(its fastest frequency), without callbacks).
+    pub fn run_periods<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
+        match self {
+            Engine::Exact {
+                sim,
+                phase,
+                amplitude,
+            } => sim.run_periods(init, *phase, *amplitude, periods, obs),
+            Engine::Numeric(sim) => {
+                let t = sim.forcing_period().unwrap_or(sim.event_window());
+                sim.run(init, periods as f64 * t, obs)
+            }
+        }
+    }
+
+    /// The model integrated.
+    pub fn model(&self) -> &crate::model::Model {
+        match self {
+            Engine::Exact { sim, .. } => sim.model(),
+            Engine::Numeric(sim) => sim.model(),
+        }
+    }
+
+    /// The exact engine, where it is the one.
+    pub fn exact(&self) -> Option<&Sim> {
+        match self {
+            Engine::Exact { sim, .. } => Some(sim),
+            Engine::Numeric(_) => None,
+        }
+    }
+
     /// [`Engine::run`] with a harmonic drive's phase set to `phase` (the
     /// set-up kept); `None` for other drives.
     pub fn run_at_phase<O: Observer>(

@@ -262,6 +262,25 @@ impl NumericSim {
         })
     }
 
+    /// The model integrated.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The forcing period of a harmonic drive (`None` for other drives).
+    pub fn forcing_period(&self) -> Option<f64> {
+        match self.drive {
+            Drive::Harmonic { eta, .. } => Some(2.0 * std::f64::consts::PI / eta),
+            _ => None,
+        }
+    }
+
+    /// 2π/(the drive's fastest frequency): the span per which events are
+    /// counted without a forcing period.
+    pub fn event_window(&self) -> f64 {
+        2.0 * std::f64::consts::PI / self.drive.fastest()
+    }
+
     /// The same engine with its harmonic drive's phase set to `phase`,
     /// keeping the per-model set-up (modal rates, step bound); `None` for
     /// other drives.
@@ -464,9 +483,8 @@ impl Stepper for Numeric<'_> {
         self.period
     }
 
-    /// Events are counted per 2π/(the drive's fastest frequency).
     fn window(&self) -> f64 {
-        2.0 * std::f64::consts::PI / self.sim.drive.fastest()
+        self.sim.event_window()
     }
 
     fn begin(&mut self, mode: Mode, x: &[f64; 4], _n: u64, _s: f64, first: bool) {

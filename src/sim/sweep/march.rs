@@ -33,7 +33,7 @@ pub(super) fn march_to_steady_extremes(
     let t = 2.0 * std::f64::consts::PI / eta;
     let mut unit = ();
     let mut w = Walk {
-        sim: &eng.marcher,
+        sim: &eng.engine,
         shooting: &eng.shooting,
         tr: Tracker::new(&mut unit, cfg.tol, true),
         start: init,
@@ -119,7 +119,7 @@ pub(super) fn march_to_steady_extremes(
             && cfg.max_periods > EARLY_MIN
         {
             w.tangent = eng
-                .marcher
+                .engine
                 .exact()
                 .and_then(|sim| eng.shooting.get(sim))
                 .map(|m| Tangent::new(m, eta, t, w.state.mode));
@@ -342,7 +342,7 @@ impl Observer for Offset<'_, '_, '_> {
 /// periods from the start state, watched on the section by `tr`; `used`
 /// counts every integrated period (shooting's trial periods too).
 pub(super) struct Walk<'s, 'a> {
-    sim: &'s Marcher,
+    sim: &'s Engine,
     /// Shooting's variational set-up for the model.
     shooting: &'s MonodromyCache,
     tr: Tracker<'a, ()>,
@@ -385,7 +385,7 @@ impl Walk<'_, '_> {
             extremes: self.exact_from.is_some(),
             tangent: self.tangent.as_mut(),
         };
-        let end = self.sim.run(self.state, n, &mut off);
+        let end = self.sim.run_periods(self.state, n, &mut off);
         self.dwell += end.periods;
         self.used += end.periods;
         self.state = Init {
@@ -417,7 +417,7 @@ impl Walk<'_, '_> {
             .expect("the detector has seen at least 2p periods");
         let extra = (p as u64 - self.dwell % p as u64) % p as u64;
         if extra > 0 {
-            let end = self.sim.run(self.state, extra, &mut ());
+            let end = self.sim.run_periods(self.state, extra, &mut ());
             self.used += end.periods;
             self.dwell += end.periods;
             self.state = Init {
@@ -456,7 +456,7 @@ impl Walk<'_, '_> {
             stats: [PeriodStats::new_at(&from.x); RING],
             n: 0,
         };
-        let end = self.sim.run(from, w, &mut rec);
+        let end = self.sim.run_periods(from, w, &mut rec);
         self.used += end.periods;
         // The exact engine repeats the trajectory bit for bit; the
         // numerical one restarts its step size, so to its tolerance.
@@ -548,7 +548,7 @@ impl Walk<'_, '_> {
             x: sh.x,
             mode: sh.mode,
         };
-        let e = self.sim.run(start, p as u64, &mut orbit);
+        let e = self.sim.run_periods(start, p as u64, &mut orbit);
         self.used += e.periods;
         let (Some(st), true) = (orbit.stats, matches!(e.status, Status::Completed)) else {
             return Shot::Rejected;

@@ -81,9 +81,11 @@ use march::march_to_steady;
 use march::march_to_steady_extremes;
 use shoot::{shoot, MonodromyCache};
 
-use super::engine::{net_force, Init, Mode, Observer, PeriodStats, RunEnd, Sim, Status};
-use super::numeric::{NumericOptions, NumericSim};
+use super::engine::{net_force, Init, Mode, PeriodStats, Sim, Status};
+use super::numeric::NumericOptions;
+use super::Engine;
 use super::SimError;
+use crate::model::Drive;
 use crate::model::Model;
 
 /// How each η of a curve starts.
@@ -236,71 +238,31 @@ pub fn steady_state(
     steady_state_with(&mut None, model, eta, init, cfg)
 }
 
-/// The integrator a steady state is marched with: the exact engine for a
-/// law that is affine in each phase, the numerical engine (harmonic drive
-/// of phase 0, amplitude 1) for a shaped one. Both report periods to the
-/// same observers; shooting and the Lyapunov tangent need the exact one.
-// (The exact variant is the large one and the common one: boxing it would
-// allocate at every η of a sweep.)
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone)]
-pub(super) enum Marcher {
-    /// The exact engine.
-    Exact(Sim),
-    /// The numerical engine and the forcing period.
-    Numeric(NumericSim, f64),
-}
-
-impl Marcher {
-    /// The integrator for `model` at η.
-    fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
-        if model.law.affine().is_some() {
-            return Ok(Marcher::Exact(Sim::new(model, eta)?));
-        }
-        crate::model::validate_eta(eta)?;
-        let drive = crate::model::Drive::Harmonic {
-            eta,
-            phase: 0.0,
-            amplitude: 1.0,
-        };
-        let sim = NumericSim::new(model, drive, NumericOptions::default())?;
-        Ok(Marcher::Numeric(sim, 2.0 * std::f64::consts::PI / eta))
-    }
-
-    /// Integrates `periods` forcing periods from `init`.
-    pub(super) fn run<O: Observer>(&self, init: Init, periods: u64, obs: &mut O) -> RunEnd {
-        match self {
-            Marcher::Exact(sim) => sim.run(init, periods, obs),
-            Marcher::Numeric(sim, t) => sim.run(init, periods as f64 * t, obs),
-        }
-    }
-
-    /// The exact engine, where it is the one.
-    pub(super) fn exact(&self) -> Option<&Sim> {
-        match self {
-            Marcher::Exact(sim) => Some(sim),
-            Marcher::Numeric(..) => None,
-        }
-    }
-}
-
 /// The engine a sweep carries from one η to the next
-/// ([`steady_state_with`]): the exact engine retuned by [`Sim::at_eta`],
-/// with shooting's variational set-up (which does not depend on η) kept;
-/// for a shaped law the numerical engine.
+/// ([`steady_state_with`]): the exact engine (retuned by [`Sim::at_eta`],
+/// with shooting's variational set-up, which does not depend on η, kept)
+/// or, for a law with a velocity scale, the numerical engine; chosen by
+/// [`Engine::new`] for a harmonic drive of phase 0 and amplitude 1.
 #[derive(Debug, Clone)]
 pub struct SweepEngine {
-    model: Model,
-    marcher: Marcher,
+    engine: Engine,
     shooting: MonodromyCache,
+}
+
+/// The sweep's drive at η.
+fn unit_drive(eta: f64) -> Drive {
+    Drive::Harmonic {
+        eta,
+        phase: 0.0,
+        amplitude: 1.0,
+    }
 }
 
 impl SweepEngine {
     /// The engine for `model` at η (a sweep's first point).
     pub fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
         Ok(Self {
-            model: *model,
-            marcher: Marcher::new(model, eta)?,
+            engine: Engine::new(model, unit_drive(eta), NumericOptions::default())?,
             shooting: MonodromyCache::default(),
         })
     }
@@ -308,7 +270,7 @@ impl SweepEngine {
     /// The exact engine (`None` for a shaped law, which the numerical
     /// engine integrates).
     pub fn sim(&self) -> Option<&Sim> {
-        self.marcher.exact()
+        self.engine.exact()
     }
 }
 
@@ -332,11 +294,17 @@ pub fn steady_state_with(
             "the period budget (max_periods) must be at least 1".into(),
         ));
     }
-    let eng = match engine.as_ref().map(|e| (e, e.marcher.exact())) {
-        Some((e, Some(sim))) if e.model == *model => SweepEngine {
-            model: *model,
-            marcher: Marcher::Exact(sim.at_eta(eta)?),
-            shooting: e.shooting.clone(),
+    let eng = match engine.as_ref() {
+        Some(e) if e.engine.model() == model => match e.engine.exact() {
+            Some(sim) => SweepEngine {
+                engine: Engine::Exact {
+                    sim: Box::new(sim.at_eta(eta)?),
+                    phase: 0.0,
+                    amplitude: 1.0,
+                },
+                shooting: e.shooting.clone(),
+            },
+            None => SweepEngine::new(model, eta)?,
         },
         _ => SweepEngine::new(model, eta)?,
     };
