@@ -29,11 +29,13 @@ fn laws() -> Vec<(&'static str, Model)> {
         rho_s: rs,
         rho_d: 0.5 * rs,
         slope: 0.0,
+        minus: None,
     };
     let dec = |rs: f64| Law::Linear {
         rho_s: rs,
         rho_d: rs,
         slope: -0.04,
+        minus: None,
     };
     vec![
         ("coulomb 0.1", model(Law::coulomb(0.1), None)),
@@ -126,6 +128,7 @@ fn decreasing_law_at_0_29_from_rest_is_period_3() {
             rho_s: 0.375,
             rho_d: 0.375,
             slope: -0.04,
+            minus: None,
         },
         Some(0.5),
     );
@@ -202,6 +205,7 @@ fn continuation_equals_time_march_of_the_plan_full_grid() {
                 rho_s: 1.0,
                 rho_d: 0.5,
                 slope: 0.0,
+                minus: None,
             },
             None,
         ),
@@ -361,6 +365,7 @@ fn other_absorber_laws() -> Vec<(&'static str, Model)> {
         rho_s,
         rho_d,
         slope,
+        minus: None,
     };
     vec![
         (
@@ -412,6 +417,7 @@ fn early_stop_counterexample_settles_by_default() {
             rho_s: 0.8,
             rho_d: 0.48,
             slope: 0.0,
+            minus: None,
         },
         stop_below: None,
     };

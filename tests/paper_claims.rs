@@ -139,6 +139,7 @@ fn fig5_static_above_dynamic_shifts_suppression_up() {
                 rho_s: rs,
                 rho_d: 0.5 * rs,
                 slope: 0.0,
+                minus: None,
             },
             None,
         )
@@ -164,6 +165,7 @@ fn fig4_decreasing_law_interrupts_at_peaks() {
                 rho_s: rs,
                 rho_d: rs,
                 slope: -0.04,
+                minus: None,
             },
             Some(0.5),
         )
@@ -190,6 +192,7 @@ fn policies_find_different_stable_states() {
             rho_s: 0.6,
             rho_d: 0.3,
             slope: 0.0,
+            minus: None,
         },
         None,
     );

@@ -77,7 +77,7 @@ proptest! {
         let slope = if rs == 0.0 { slope.abs() } else { slope };
         let model = Model {
             absorber: Absorber { m: lm.exp(), k: lk.exp(), damping: d },
-            law: Law::Linear { rho_s: rs, rho_d: frac * rs, slope },
+            law: Law::Linear { rho_s: rs, rho_d: frac * rs, slope, minus: None },
             stop_below: None,
         };
         let eta = leta.exp();

@@ -102,6 +102,7 @@ fn edges_of_the_parameter_space() {
                     rho_s: 0.5,
                     rho_d: 0.25,
                     slope: 0.0,
+                    minus: None,
                 },
             ),
             0.6,
@@ -137,6 +138,7 @@ fn negative_slip_damping_interrupts() {
             rho_s: 0.3,
             rho_d: 0.3,
             slope: -0.05,
+            minus: None,
         },
     );
     let (status, _) = check(m, 0.45, 100_000);
@@ -156,6 +158,7 @@ fn long_run_invariants() {
                 rho_s: 0.5,
                 rho_d: 0.25,
                 slope: 0.0,
+                minus: None,
             },
             0.6,
         ),
@@ -164,6 +167,7 @@ fn long_run_invariants() {
                 rho_s: 0.375,
                 rho_d: 0.375,
                 slope: -0.04,
+                minus: None,
             },
             0.9,
         ),
@@ -227,6 +231,7 @@ fn edge_families_do_not_depend_on_thread_count() {
                 rho_s: 0.6,
                 rho_d: 0.3,
                 slope: 0.0,
+                minus: None,
             },
         ),
         Model {
@@ -239,6 +244,7 @@ fn edge_families_do_not_depend_on_thread_count() {
                     rho_s: 0.3,
                     rho_d: 0.3,
                     slope: -0.05,
+                    minus: None,
                 },
             )
         },
@@ -563,6 +569,7 @@ fn suspect_scenarios_end_cleanly() {
                 rho_d: 0.02,
                 slope: 0.0,
                 v_s,
+                minus: None,
             },
         )
     };
@@ -575,6 +582,7 @@ fn suspect_scenarios_end_cleanly() {
                 rho_s: rs,
                 rho_d: rs,
                 slope: -0.005,
+                minus: None,
             },
         )
     };
@@ -653,6 +661,7 @@ fn suspect_scenarios_end_cleanly() {
             rho_s: 0.3,
             rho_d: 0.4,
             slope: 0.0,
+            minus: None,
         },
         Law::Shaped {
             kind: stickslip::model::LawKind::Stribeck,
@@ -660,6 +669,7 @@ fn suspect_scenarios_end_cleanly() {
             rho_d: 0.4,
             slope: 0.0,
             v_s: 0.01,
+            minus: None,
         },
     ] {
         let m = model(4.0, 1.0, 0.005, law);
@@ -913,11 +923,13 @@ fn energy_balance(periods: u64) {
         rho_s: 0.375,
         rho_d: 0.375,
         slope: -0.04,
+        minus: None,
     };
     let static_dynamic = Law::Linear {
         rho_s: 0.5,
         rho_d: 0.25,
         slope: 0.0,
+        minus: None,
     };
     for (law, eta) in [
         (Law::coulomb(0.375), 0.6),

@@ -134,6 +134,7 @@ pub(super) fn worst_model(
             rho_s,
             rho_d: rho_d.min(rho_s),
             slope: 0.0,
+            minus: None,
         },
         stop_below: None,
     };

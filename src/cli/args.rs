@@ -1,6 +1,6 @@
 //! Option groups shared by several subcommands.
 
-use crate::model::{Absorber, Law, LawKind, Model};
+use crate::model::{Absorber, Law, LawKind, Levels, Model};
 use clap::Args;
 
 /// The parser of a family name among `kinds` (the help and the error list
@@ -87,9 +87,19 @@ pub struct ShapeArgs {
     /// stribeck). An affine law is given by --rho-d and --slope.
     #[arg(long = "law", value_parser = shaped_law_kind(), requires = "v_s")]
     pub law: Option<LawKind>,
-    /// Interrupt when the sliding friction falls below F·rho_s.
+    /// Interrupt when the sliding friction falls below F·rho_s (of the
+    /// current sliding direction).
     #[arg(long = "stop-below", allow_hyphen_values = true)]
     pub stop_below: Option<f64>,
+    /// Direction-dependent friction: the static threshold for sliding in
+    /// the negative direction (default: rho-s, which then holds for the
+    /// positive direction only).
+    #[arg(long = "rho-s-minus", allow_hyphen_values = true)]
+    pub rho_s_minus: Option<f64>,
+    /// The dynamic level for sliding in the negative direction (default:
+    /// rho-s-minus where it is given, else rho-d).
+    #[arg(long = "rho-d-minus", allow_hyphen_values = true)]
+    pub rho_d_minus: Option<f64>,
 }
 
 impl ShapeArgs {
@@ -108,6 +118,7 @@ impl ShapeArgs {
             rho_s,
             rho_d,
             slope,
+            minus: None,
         };
         // The parser admits only families with a velocity scale, and
         // --law only with --v-s.
@@ -117,6 +128,15 @@ impl ShapeArgs {
             _ => None,
         }
         .unwrap_or(linear);
+        let minus = match (self.rho_s_minus, self.rho_d_minus) {
+            (None, None) => None,
+            (Some(rs), rd) => Some(Levels {
+                rho_s: rs,
+                rho_d: rd.unwrap_or(if rs.is_finite() { rs } else { 0.0 }),
+            }),
+            (None, Some(rd)) => Some(Levels { rho_s, rho_d: rd }),
+        };
+        let law = law.with_minus(minus);
         let model = Model {
             absorber: Absorber {
                 m: self.m,

@@ -247,6 +247,8 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
                 slope: law.slope(),
                 v_s: law.v_s(),
                 stop_below: s.model.stop_below,
+                rho_s_minus: law.minus().map(|l| l.rho_s),
+                rho_d_minus: law.minus().map(|l| l.rho_d),
                 direction: s.direction.as_str().to_string(),
                 eta: v.eta,
                 amplitude1: v.amplitude1,
@@ -335,6 +337,11 @@ struct CurveOut<'a> {
     rho_s: f64,
     rho_d: f64,
     slope: f64,
+    /// ρs⁻, ρd⁻ of a direction-dependent law (absent when symmetric).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rho_s_minus: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    rho_d_minus: Option<f64>,
     direction: &'a str,
     eta: Vec<f64>,
     amplitude1: Vec<Option<f64>>,
@@ -377,6 +384,8 @@ fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
                 rho_s: h.rho_s,
                 rho_d: h.rho_d,
                 slope: h.slope,
+                rho_s_minus: h.rho_s_minus,
+                rho_d_minus: h.rho_d_minus,
                 direction: &h.direction,
                 eta: c.iter().map(|r| r.eta).collect(),
                 amplitude1: c.iter().map(|r| r.amplitude1).collect(),
@@ -419,6 +428,12 @@ pub fn figure(table: &[FrcRow], title: String) -> FrcFigure {
             let mut label = format!("ρs = {}", h.rho_s);
             if h.rho_d != h.rho_s && h.rho_s.is_finite() {
                 label += &format!(", ρd = {}", h.rho_d);
+            }
+            if let (Some(s), Some(d)) = (h.rho_s_minus, h.rho_d_minus) {
+                label += &format!("; ρs⁻ = {s}");
+                if d != s {
+                    label += &format!(", ρd⁻ = {d}");
+                }
             }
             if h.direction != "up" {
                 label += &format!(" ({})", h.direction);

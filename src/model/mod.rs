@@ -22,7 +22,9 @@ mod drive;
 mod law;
 
 pub use drive::{Drive, Schedule, ScheduleError, Segment};
-pub use law::{Law, LawFamily, LawFamily as Family, LawKind, Optimum, Scales, Selection, SiLaw};
+pub use law::{
+    Law, LawFamily, LawFamily as Family, LawKind, Levels, Optimum, Scales, Selection, SiLaw,
+};
 
 /// A number as a person reads it: plain where short, else in exponent form
 /// (1e308, not three hundred digits).
@@ -200,13 +202,27 @@ impl Model {
         Ok(())
     }
 
-    /// The friction level below which a slip phase is interrupted:
-    /// `stop_below·ρs` (0 without the rule: negative friction always stops).
-    pub fn interrupt_level(&self) -> f64 {
+    /// The friction level below which a slip phase in direction `dir` is
+    /// interrupted: `stop_below·ρs` of that direction (0 without the rule:
+    /// negative friction always stops).
+    pub fn interrupt_level(&self, dir: f64) -> f64 {
+        let rho_s = self.law.levels(dir).rho_s;
         match self.stop_below {
-            Some(f) if self.law.rho_s().is_finite() => f * self.law.rho_s(),
+            Some(f) if rho_s.is_finite() => f * rho_s,
             _ => 0.0,
         }
+    }
+
+    /// True when the pad holds a net force `f` on M2: −ρs⁻ < F < ρs⁺.
+    #[inline]
+    pub fn holds(&self, f: f64) -> bool {
+        f < self.law.rho_s() && -f < self.law.levels(-1.0).rho_s
+    }
+
+    /// The stick thresholds (ρs⁺, ρs⁻): M2 sticks while −ρs⁻ < F < ρs⁺.
+    #[inline]
+    pub fn thresholds(&self) -> (f64, f64) {
+        (self.law.levels(1.0).rho_s, self.law.levels(-1.0).rho_s)
     }
 }
 
@@ -263,16 +279,19 @@ mod tests {
                 rho_s: 0.3,
                 rho_d: 0.4,
                 slope: 0.0,
+                minus: None,
             },
             Law::Linear {
                 rho_s: f64::NAN,
                 rho_d: 0.0,
                 slope: 0.0,
+                minus: None,
             },
             Law::Linear {
                 rho_s: 0.3,
                 rho_d: 0.3,
                 slope: f64::INFINITY,
+                minus: None,
             },
             Law::Shaped {
                 kind: LawKind::Stribeck,
@@ -280,6 +299,7 @@ mod tests {
                 rho_d: 0.2,
                 slope: 0.0,
                 v_s: 0.0,
+                minus: None,
             },
         ];
         for l in laws {

@@ -8,7 +8,9 @@
 //! `stick_fraction`, `interrupted`, `method`, `periods`, `coexisting`,
 //! `amplitude1_min`, `amplitude1_max`, `amplitude2_min`, `amplitude2_max`
 //! (the range of the per-period amplitudes where no steady state was found,
-//! [`crate::sim::sweep::AmplitudeRange`]; empty elsewhere).
+//! [`crate::sim::sweep::AmplitudeRange`]; empty elsewhere). A family with a
+//! direction-dependent law adds `rho_s_minus`, `rho_d_minus` (empty on
+//! symmetric curves); a table without them reads as symmetric.
 //!
 //! `coexisting` is true where the family holds another branch (direction
 //! `up`, `down` or `rest`) of the same model whose settled steady state at
@@ -54,6 +56,10 @@ pub struct FrcRow {
     pub v_s: Option<f64>,
     /// Interruption level factor, if set.
     pub stop_below: Option<f64>,
+    /// ρs⁻ of a direction-dependent law (None: symmetric).
+    pub rho_s_minus: Option<f64>,
+    /// ρd⁻ of a direction-dependent law (None: symmetric).
+    pub rho_d_minus: Option<f64>,
     /// `up`, `down` or `rest`.
     pub direction: String,
     /// η.
@@ -100,7 +106,7 @@ impl FrcRow {
 
     /// Everything that names the model of the row's curve (not the
     /// direction), as exact bit patterns.
-    fn model_key(&self) -> [u64; 8] {
+    fn model_key(&self) -> [u64; 10] {
         let o = |v: Option<f64>| v.map_or(u64::MAX, f64::to_bits);
         [
             self.m.to_bits(),
@@ -111,6 +117,8 @@ impl FrcRow {
             self.slope.to_bits(),
             o(self.v_s),
             o(self.stop_below),
+            o(self.rho_s_minus),
+            o(self.rho_d_minus),
         ]
     }
 }
@@ -119,7 +127,7 @@ impl FrcRow {
 /// model at the same η (bit-identical) settles to a different state.
 pub fn mark_coexisting(rows: &mut [FrcRow]) {
     use std::collections::HashMap;
-    let mut groups: HashMap<([u64; 8], u64), Vec<usize>> = HashMap::new();
+    let mut groups: HashMap<([u64; 10], u64), Vec<usize>> = HashMap::new();
     for (i, r) in rows.iter().enumerate() {
         groups
             .entry((r.model_key(), r.eta.to_bits()))
@@ -310,6 +318,10 @@ pub fn write_frc(rows: &[FrcRow], meta: &TableMeta, path: &Path) -> Result<()> {
         ),
     ];
     let mut cols = cols;
+    if rows.iter().any(|r| r.rho_s_minus.is_some()) {
+        cols.push(Column::new("rho_s_minus".into(), o(|r| r.rho_s_minus)));
+        cols.push(Column::new("rho_d_minus".into(), o(|r| r.rho_d_minus)));
+    }
     for (name, f) in RANGE_COLUMNS {
         cols.push(Column::new(
             name.into(),
@@ -578,6 +590,12 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
     } else {
         vec![None; n]
     };
+    // Optional: the levels of a direction-dependent law (absent: symmetric).
+    let (rsm, rdm) = if df.column("rho_s_minus").is_ok() {
+        (fcol("rho_s_minus")?, fcol("rho_d_minus")?)
+    } else {
+        (vec![None; n], vec![None; n])
+    };
     // Optional: tables written before the range existed read as None.
     let mut range_cols = Vec::with_capacity(RANGE_COLUMNS.len());
     for (name, _) in RANGE_COLUMNS {
@@ -604,6 +622,8 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
             slope: need(sl[i], "slope", i)?,
             v_s: vs[i],
             stop_below: sb[i],
+            rho_s_minus: rsm[i],
+            rho_d_minus: rdm[i],
             direction: dir[i].clone().unwrap_or_default(),
             eta: need(eta[i], "eta", i)?,
             amplitude1: a1[i],

@@ -6,7 +6,7 @@
 //! Time is kept as (period index n, offset s within the period), so the
 //! forcing phase η·s stays exact over arbitrarily long runs.
 
-use super::event_loop::{self, Advance, Stepper, Watch};
+use super::event_loop::{self, side, Advance, Stepper, Watch};
 pub use super::event_loop::{
     after_slip, net_force, switch, Event, EventKind, Flow, Init, Mode, Observer, PeriodGrid,
     PeriodStats, RunEnd, Status, Switched,
@@ -58,10 +58,13 @@ pub struct Sim {
     /// The slip's switching functions projected on its closed form:
     /// gradients e3 and −e3 (ζ2' and −ζ2').
     slip_proj: [Projection<4>; 2],
-    rho_s: f64,
-    rho_d: f64,
-    /// Speed at which the slip friction reaches the interruption level.
-    v_interrupt: Option<f64>,
+    /// Stick thresholds by sliding direction ([`side`]: ρs⁺, ρs⁻).
+    rho_s: [f64; 2],
+    /// Dynamic levels by sliding direction (ρd⁺, ρd⁻).
+    rho_d: [f64; 2],
+    /// Speed at which the slip friction reaches the interruption level, by
+    /// sliding direction.
+    v_interrupt: [Option<f64>; 2],
     /// Event times are refined to `resolution · ε`-ish relative to the
     /// period (1: machine precision).
     resolution: f64,
@@ -73,7 +76,7 @@ impl Sim {
     pub fn new(model: &Model, eta: f64) -> Result<Self, SimError> {
         model.validate().map_err(SimError::Param)?;
         crate::model::validate_eta(eta).map_err(SimError::Param)?;
-        let Some((rho_d, slope)) = model.law.affine() else {
+        let Some((_, slope)) = model.law.affine() else {
             let affine: Vec<&str> = crate::model::LawKind::all()
                 .iter()
                 .filter(|k| !k.family().has_velocity_scale())
@@ -97,14 +100,17 @@ impl Sim {
         .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
         check_work(&stick, &slip, eta)?;
         let slip_proj = slip_projections(&slip);
-        let thr = model.interrupt_level();
-        let v_interrupt = if rho_d < thr {
-            Some(0.0)
-        } else if slope < 0.0 {
-            Some((rho_d - thr) / -slope)
-        } else {
-            None
-        };
+        let levels = [model.law.levels(1.0), model.law.levels(-1.0)];
+        let v_interrupt = [1.0, -1.0].map(|dir| {
+            let (rho_d, thr) = (model.law.levels(dir).rho_d, model.interrupt_level(dir));
+            if rho_d < thr {
+                Some(0.0)
+            } else if slope < 0.0 {
+                Some((rho_d - thr) / -slope)
+            } else {
+                None
+            }
+        });
         Ok(Self {
             model: *model,
             eta,
@@ -112,8 +118,8 @@ impl Sim {
             stick,
             slip,
             slip_proj,
-            rho_s: model.law.rho_s(),
-            rho_d,
+            rho_s: levels.map(|l| l.rho_s),
+            rho_d: levels.map(|l| l.rho_d),
             v_interrupt,
             resolution: 1.0,
         })
@@ -196,7 +202,7 @@ impl Sim {
 
     #[inline]
     fn slip_c(&self, dir: f64) -> [f64; 4] {
-        [0.0, 0.0, 0.0, -dir * self.rho_d]
+        [0.0, 0.0, 0.0, -dir * self.rho_d[side(dir)]]
     }
 
     /// Integrates `periods` forcing periods from `init`, reporting to `obs`.
@@ -253,15 +259,15 @@ impl Sim {
 
     fn stick_events(&self, z2: f64) -> [EventFn<4>; 2] {
         let d = self.model.absorber.damping;
-        // F = ζ1 − z2 + Dζ1'; h+ = ρs − F, h− = ρs + F.
+        // F = ζ1 − z2 + Dζ1'; h+ = ρs⁺ − F, h− = ρs⁻ + F.
         [
             EventFn {
                 g: [-1.0, -d, 0.0, 0.0],
-                g0: self.rho_s + z2,
+                g0: self.rho_s[0] + z2,
             },
             EventFn {
                 g: [1.0, d, 0.0, 0.0],
-                g0: self.rho_s - z2,
+                g0: self.rho_s[1] - z2,
             },
         ]
     }
@@ -271,13 +277,14 @@ impl Sim {
             g: [0.0, 0.0, 0.0, dir],
             g0: 0.0,
         };
+        let v_interrupt = self.v_interrupt[side(dir)];
         let stop = EventFn {
             g: [0.0, 0.0, 0.0, -dir],
-            g0: self.v_interrupt.unwrap_or(0.0),
+            g0: v_interrupt.unwrap_or(0.0),
         };
         if frictionless {
             ([end, stop], 0)
-        } else if self.v_interrupt.is_some() {
+        } else if v_interrupt.is_some() {
             ([end, stop], 2)
         } else {
             ([end, stop], 1)
@@ -363,7 +370,7 @@ impl Stepper for Exact<'_> {
                     ([y[0], y[1], z2, 0.0], [dy[0], dy[1], 0.0, 0.0])
                 };
                 let fns = sim.stick_events(z2);
-                let nf = if sim.rho_s.is_finite() { 2 } else { 0 };
+                let nf = if sim.rho_s[0].is_finite() { 2 } else { 0 };
                 let (hit, jb) = events::first_event(
                     &eval,
                     next,
@@ -514,6 +521,7 @@ mod tests {
                     rho_s: 0.4,
                     rho_d: 0.3,
                     slope: -0.02,
+                    minus: None,
                 },
                 stop_below: None,
             },

@@ -26,6 +26,12 @@
 //!   stick while |F| < ρs or F' points inward, else slip along F.
 //! * **Interruption** (paper §3): a slip whose friction g(|ζ2'|) falls below
 //!   `stop_below·ρs`, or would turn negative, ends the run.
+//! * **Direction-dependent levels** (issue 34): everything above with the
+//!   levels of the direction at hand ([`crate::model::Law::levels`]): the
+//!   pad holds −ρs⁻ < F < ρs⁺, a slip in direction s uses g_s and the
+//!   interruption level of s, and the end-of-slip test compares F with the
+//!   threshold of F's side. (The reversal argument holds per side: a slip
+//!   in direction s that decelerated to rest had s·F ≤ g_s(0⁺) ≤ ρs_s.)
 //!
 //! Time is kept as (period index n, offset s within the period), so the
 //! forcing phase η·s stays exact over arbitrarily long runs.
@@ -314,13 +320,18 @@ pub(crate) fn switch_with<Z: FnOnce() -> f64>(
                 stop_first: false,
             }
         }
-        Mode::Slip { .. } if which == 1 => {
-            let g = model.law.sliding(x[3].abs());
+        Mode::Slip { dir } if which == 1 => {
+            let g = model.law.toward(dir).sliding(x[3].abs());
             let why = if g <= 0.0 {
                 format!("sliding friction would turn negative at tau = {tau:.6}")
             } else {
+                let level = if model.law.is_direction_dependent() && dir < 0.0 {
+                    "rho_s_minus"
+                } else {
+                    "rho_s"
+                };
                 format!(
-                    "sliding friction fell below {}*rho_s at tau = {tau:.6}",
+                    "sliding friction fell below {}*{level} at tau = {tau:.6}",
                     model.stop_below.unwrap_or(0.0)
                 )
             };
@@ -355,6 +366,13 @@ pub(crate) fn switch_with<Z: FnOnce() -> f64>(
             }
         }
     }
+}
+
+/// The index of sliding direction `dir` in per-direction tables: 0 for
+/// positive, 1 for negative.
+#[inline]
+pub(crate) fn side(dir: f64) -> usize {
+    usize::from(dir < 0.0)
 }
 
 /// A switch applied: the run goes on, or stops at an interruption.
@@ -414,11 +432,12 @@ pub fn after_slip(model: &Model, x: &[f64; 4], z0: f64) -> Mode {
 /// [`after_slip`] with ζ0 evaluated only on the threshold.
 #[inline]
 fn after_slip_with<Z: FnOnce() -> f64>(model: &Model, x: &[f64; 4], z0: Z) -> Mode {
-    let rho_s = model.law.rho_s();
-    if rho_s == 0.0 {
+    if model.law.rho_s() == 0.0 {
         return Mode::Slip { dir: 1.0 };
     }
     let f = net_force(model, x);
+    // The threshold on F's side (−ρs⁻ < F < ρs⁺ holds the pad).
+    let rho_s = model.law.levels(f).rho_s;
     let ab = &model.absorber;
     let tol = 64.0 * f64::EPSILON * (rho_s + x[0].abs() + x[2].abs() + ab.damping * x[1].abs());
     if f.abs() < rho_s - tol {

@@ -20,7 +20,8 @@
 //!   velocity perturbation);
 //! * stick → slip (g = F ∓ ρs, F = ζ1 − ζ2 + D(ζ1' − ζ2')):
 //!   S = I + e4·ζ2''⁺·∇Fᵀ/F', ∇F = (1, D, −1, −D), F' = ζ1' + D·ζ1'' in the
-//!   stick, ζ2''⁺ = F − ρd·dir (I when ρs = ρd);
+//!   stick, ζ2''⁺ = F − ρd(dir)·dir with the dynamic level of the new
+//!   sliding direction (I when ρs = ρd);
 //! * reversal (g = ζ2'): S = I + e4·e4ᵀ·(ζ2''⁺ − ζ2''⁻)/ζ2''⁻.
 //!
 //! A stuck phase carries ζ2 as a constant input of M1's equation:
@@ -35,6 +36,7 @@
 //! caller falls back to differences.
 
 use super::engine::{Event, EventKind, Init, Mode, Observer, Sim, Status};
+use super::event_loop::side;
 use super::linalg::{self, C64};
 use super::phase::{absorber, conjugate_terms};
 use crate::model::{Absorber, Law};
@@ -51,7 +53,8 @@ const GRAZING: f64 = 1e-8;
 #[derive(Debug, Clone)]
 pub struct Monodromy {
     ab: Absorber,
-    rho_d: f64,
+    /// Dynamic levels by sliding direction (ρd⁺, ρd⁻).
+    rho_d: [f64; 2],
     slip: Spectral<4>,
     stick: Spectral<2>,
     /// B⁻¹ of the 2×2 stick matrix.
@@ -150,9 +153,10 @@ impl Monodromy {
     /// where a modal form is ill-conditioned.
     pub fn new(sim: &Sim) -> Option<Self> {
         let model = sim.model();
-        let Law::Linear { rho_d, slope, .. } = model.law else {
+        let Law::Linear { slope, .. } = model.law else {
             return None;
         };
+        let rho_d = [1.0, -1.0].map(|dir| model.law.levels(dir).rho_d);
         if model.law.is_frictionless() || model.law.is_always_stuck() {
             return None;
         }
@@ -218,14 +222,14 @@ impl Monodromy {
                 if grazing(rate, size) {
                     return None;
                 }
-                let jump = (force - self.rho_d * dir) / rate;
+                let jump = (force - self.rho_d[side(dir)] * dir) / rate;
                 Some([jump, jump * d, -jump, 1.0 - jump * d])
             }
             (EventKind::ReversePlus | EventKind::ReverseMinus, Mode::Slip { dir: old }) => {
                 let new = -old;
-                let acc_before = force - self.rho_d * old;
-                let acc_after = force - self.rho_d * new;
-                if grazing(acc_before, force.abs() + self.rho_d) {
+                let acc_before = force - self.rho_d[side(old)] * old;
+                let acc_after = force - self.rho_d[side(new)] * new;
+                if grazing(acc_before, force.abs() + self.rho_d[side(old)]) {
                     return None;
                 }
                 Some([0.0, 0.0, 0.0, acc_after / acc_before])
@@ -298,6 +302,7 @@ mod tests {
                 rho_s,
                 rho_d,
                 slope,
+                minus: None,
             },
             stop_below: None,
         }
@@ -333,17 +338,25 @@ mod tests {
     /// The variational Jacobian agrees with central differences on runs
     /// with sticks, releases (ρs ≠ ρd, with and without slope) and
     /// reversals, from stuck and slipping starts, over 1 and 3 periods, on
-    /// two absorbers.
+    /// two absorbers, with symmetric and direction-dependent levels.
     #[test]
     fn jacobian_matches_differences() {
+        let sym = None;
         let cases = [
-            // (ρs, ρd, slope, η): stick-slip with sticks, static > dynamic.
-            (0.375, 0.3, 0.0, 0.6),
-            (0.375, 0.375, 0.0, 0.6),
-            (0.5, 0.4, -0.02, 0.75),
+            // (ρs, ρd, slope, η, negative levels): stick-slip with sticks,
+            // static > dynamic.
+            (0.375, 0.3, 0.0, 0.6, sym),
+            (0.375, 0.375, 0.0, 0.6, sym),
+            (0.5, 0.4, -0.02, 0.75, sym),
             // Light friction: slips through with reversals.
-            (0.05, 0.05, 0.0, 0.45),
-            (1.2, 0.9, 0.0, 0.7),
+            (0.05, 0.05, 0.0, 0.45, sym),
+            (1.2, 0.9, 0.0, 0.7, sym),
+            // Direction-dependent pads: the saltation of each direction's
+            // breakaway and reversal uses that direction's dynamic level.
+            (0.5, 0.4, 0.0, 0.6, Some((0.35, 0.25))),
+            (0.375, 0.375, -0.01, 0.6, Some((0.45, 0.45))),
+            (0.06, 0.05, 0.0, 0.45, Some((0.04, 0.04))),
+            (1.2, 0.9, 0.0, 0.7, Some((0.8, 0.7))),
         ];
         let mut kinds = std::collections::BTreeSet::new();
         // The same cases on a second absorber (m 2, k 0.5, D 0.01).
@@ -352,8 +365,11 @@ mod tests {
             k: 0.5,
             damping: 0.01,
         };
-        let models = cases.iter().flat_map(|&(rs, rd, slope, eta)| {
-            let paper = model(rs, rd, slope);
+        let models = cases.iter().flat_map(|&(rs, rd, slope, eta, minus)| {
+            let mut paper = model(rs, rd, slope);
+            paper.law = paper
+                .law
+                .with_minus(minus.map(|(rho_s, rho_d)| crate::model::Levels { rho_s, rho_d }));
             let second = Model {
                 absorber: other,
                 ..paper
@@ -365,6 +381,7 @@ mod tests {
                 rho_s: rs,
                 rho_d: rd,
                 slope,
+                ..
             } = m.law
             else {
                 unreachable!()
@@ -385,8 +402,9 @@ mod tests {
                 }
                 let Some((x, mode, j)) = mono.map(&sim, start, p) else {
                     panic!(
-                        "no variational Jacobian for m {} rho {rs} {rd} slope {slope} eta {eta} p {p}",
-                        m.absorber.m
+                        "no variational Jacobian for m {} rho {rs} {rd} minus {:?} slope {slope} eta {eta} p {p}",
+                        m.absorber.m,
+                        m.law.minus()
                     );
                 };
                 assert_eq!(x, e_map(&sim, start, p).0);
@@ -405,8 +423,9 @@ mod tests {
                     for c in 0..dim {
                         assert!(
                             (j[i][c] - fd[i][c]).abs() <= 1e-7 * scale,
-                            "case m {} rho {rs} {rd} slope {slope} eta {eta} p {p}: J[{i}][{c}] = {} against {} (differences)",
+                            "case m {} rho {rs} {rd} minus {:?} slope {slope} eta {eta} p {p}: J[{i}][{c}] = {} against {} (differences)",
                             m.absorber.m,
+                            m.law.minus(),
                             j[i][c],
                             fd[i][c]
                         );

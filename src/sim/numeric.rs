@@ -13,10 +13,10 @@
 //! derivatives for the switching functions' curvature.
 
 use super::dopri::Dopri5;
-use super::event_loop::{self, Advance, Init, Mode, Observer, RunEnd, Stepper, Watch};
+use super::event_loop::{self, side, Advance, Init, Mode, Observer, RunEnd, Stepper, Watch};
 use super::events::{self, EventFn, Jet, Switch};
 use super::{linalg, phase::absorber, SimError};
-use crate::model::{Drive, Model};
+use crate::model::{Drive, Law, Model};
 use std::cell::Cell;
 
 /// A switching function of the numerical engine.
@@ -29,7 +29,8 @@ enum NumSwitch<'a> {
     Friction {
         dir: f64,
         thr: f64,
-        model: Model,
+        /// The law of the sliding direction ([`Law::toward`]).
+        law: Law,
         memo: &'a Memo,
     },
 }
@@ -42,13 +43,13 @@ impl Switch<Jet<4>> for NumSwitch<'_> {
             NumSwitch::Friction {
                 dir,
                 thr,
-                model,
+                law,
                 memo,
             } => {
                 let u = dir * j.x[3];
                 let (du, ddu) = (dir * j.dx[3], dir * j.ddx[3]);
                 let v = u.max(0.0);
-                let (g, g1, g2) = model.law.sliding_jet_with(v, memo.decay(&model.law, v));
+                let (g, g1, g2) = law.sliding_jet_with(v, memo.decay(law, v));
                 (g - thr, g1 * du, g2 * du * du + g1 * ddu)
             }
         }
@@ -219,7 +220,10 @@ pub struct NumericSim {
     model: Model,
     drive: Drive,
     ode: Dopri5,
-    thr: f64,
+    /// The interruption level by sliding direction ([`side`]).
+    thr: [f64; 2],
+    /// The law by sliding direction ([`Law::toward`]).
+    laws: [Law; 2],
 }
 
 impl NumericSim {
@@ -258,7 +262,8 @@ impl NumericSim {
                 atol: opts.atol,
                 h_max: 1.0 / fastest,
             },
-            thr: model.interrupt_level(),
+            thr: [model.interrupt_level(1.0), model.interrupt_level(-1.0)],
+            laws: [model.law.toward(1.0), model.law.toward(-1.0)],
         })
     }
 
@@ -325,7 +330,7 @@ impl NumericSim {
     /// Friction force on M2 in a slip of direction `dir` at velocity v.
     #[inline]
     fn friction(&self, dir: f64, v: f64, memo: &Memo) -> f64 {
-        let law = &self.model.law;
+        let law = &self.laws[side(dir)];
         if law.is_frictionless() {
             law.slope() * v
         } else {
@@ -352,7 +357,7 @@ impl NumericSim {
                 let dfric = if self.model.law.is_frictionless() {
                     self.model.law.slope() * dx[3]
                 } else {
-                    let law = &self.model.law;
+                    let law = &self.laws[side(dir)];
                     let u = (dir * x[3]).max(0.0);
                     law.sliding_slope_with(u, memo.decay(law, u)) * dx[3]
                 };
@@ -364,20 +369,20 @@ impl NumericSim {
 
     fn switches<'a>(&self, mode: Mode, memo: &'a Memo) -> ([NumSwitch<'a>; 2], usize) {
         let law = &self.model.law;
-        let rho_s = law.rho_s();
+        let (rho_plus, rho_minus) = self.model.thresholds();
         let d = self.model.absorber.damping;
         match mode {
             Mode::Stick { z2 } => {
-                let n = if rho_s.is_finite() { 2 } else { 0 };
+                let n = if rho_plus.is_finite() { 2 } else { 0 };
                 (
                     [
                         NumSwitch::Lin(EventFn {
                             g: [-1.0, -d, 0.0, 0.0],
-                            g0: rho_s + z2,
+                            g0: rho_plus + z2,
                         }),
                         NumSwitch::Lin(EventFn {
                             g: [1.0, d, 0.0, 0.0],
-                            g0: rho_s - z2,
+                            g0: rho_minus - z2,
                         }),
                     ],
                     n,
@@ -390,8 +395,8 @@ impl NumericSim {
                 });
                 let stop = NumSwitch::Friction {
                     dir,
-                    thr: self.thr,
-                    model: self.model,
+                    thr: self.thr[side(dir)],
+                    law: self.laws[side(dir)],
                     memo,
                 };
                 if law.is_frictionless() {

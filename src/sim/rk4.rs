@@ -6,7 +6,9 @@
 //! exact engine's matrices, so it cross-checks them; the switching decisions
 //! are the same physics ([`super::event_loop::after_slip`]). Errors are O(H⁴).
 
-use super::event_loop::{self, net_force, Advance, Init, Mode, Observer, RunEnd, Stepper, Watch};
+use super::event_loop::{
+    self, net_force, side, Advance, Init, Mode, Observer, RunEnd, Stepper, Watch,
+};
 use super::events;
 use super::SimError;
 use crate::model::Model;
@@ -18,8 +20,10 @@ pub struct Rk4 {
     model: Model,
     eta: f64,
     h: f64,
-    rho_d: f64,
-    v_interrupt: Option<f64>,
+    /// Dynamic levels by sliding direction (ρd⁺, ρd⁻).
+    rho_d: [f64; 2],
+    /// Interruption speeds by sliding direction.
+    v_interrupt: [Option<f64>; 2],
 }
 
 impl Rk4 {
@@ -42,19 +46,22 @@ impl Rk4 {
                 "RK4 step H = {h} is unstable for this model: its fastest mode has eta = {omega_max:.4}, and RK4 needs H <= 2*sqrt(2)/eta = {h_max:.4}: give a smaller --step (accuracy wants far less)"
             )));
         }
-        let Some((rho_d, slope)) = model.law.affine() else {
+        let Some((_, slope)) = model.law.affine() else {
             return Err(SimError::Unsupported(
                 "rk4 supports affine laws only".into(),
             ));
         };
-        let thr = model.interrupt_level();
-        let v_interrupt = if rho_d < thr {
-            Some(0.0)
-        } else if slope < 0.0 {
-            Some((rho_d - thr) / -slope)
-        } else {
-            None
-        };
+        let rho_d = [1.0, -1.0].map(|dir| model.law.levels(dir).rho_d);
+        let v_interrupt = [1.0, -1.0].map(|dir| {
+            let (rho_d, thr) = (model.law.levels(dir).rho_d, model.interrupt_level(dir));
+            if rho_d < thr {
+                Some(0.0)
+            } else if slope < 0.0 {
+                Some((rho_d - thr) / -slope)
+            } else {
+                None
+            }
+        });
         Ok(Self {
             model: *model,
             eta,
@@ -79,7 +86,7 @@ impl Rk4 {
                 let fric = if self.model.law.is_frictionless() {
                     self.model.law.slope() * x[3]
                 } else {
-                    dir * self.rho_d + self.model.law.slope() * x[3]
+                    dir * self.rho_d[side(dir)] + self.model.law.slope() * x[3]
                 };
                 let a2 = d * (x[1] - x[3]) + x[0] - x[2] - fric;
                 [x[1], a1, x[3], a2]
@@ -100,14 +107,14 @@ impl Rk4 {
 
     /// Switching functions of a mode, each > 0 while the mode holds.
     fn switching(&self, mode: Mode, x: &[f64; 4]) -> [f64; 2] {
-        let rho_s = self.model.law.rho_s();
         match mode {
             Mode::Stick { .. } => {
+                let (rho_plus, rho_minus) = self.model.thresholds();
                 let f = net_force(&self.model, x);
-                [rho_s - f, rho_s + f]
+                [rho_plus - f, rho_minus + f]
             }
             Mode::Slip { dir } => {
-                let vi = self.v_interrupt.map_or(f64::INFINITY, |v| v - dir * x[3]);
+                let vi = self.v_interrupt[side(dir)].map_or(f64::INFINITY, |v| v - dir * x[3]);
                 if self.model.law.is_frictionless() {
                     [f64::INFINITY, f64::INFINITY]
                 } else {

@@ -179,6 +179,7 @@ impl FrictionSpec {
             rho_s,
             rho_d,
             slope,
+            minus: None,
         };
         match self.family() {
             LawFamily::Law(k) => {

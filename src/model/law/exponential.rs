@@ -45,6 +45,7 @@ impl LawFamily for Exponential {
             rho_d,
             slope,
             v_s,
+            minus: None,
         })
     }
     #[inline]

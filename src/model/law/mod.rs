@@ -26,22 +26,17 @@
 //! [`Selection::OnRequest`] is fitted only with `--law <name>`, so the
 //! outputs of `--law auto` do not move.
 //!
-//! # Where this goes next (not built yet)
+//! # Real pads (issue 34)
 //!
-//! Real pads (issue 34) need two things this shape leaves room for:
-//!
-//! * **Levels per sliding direction.** Callers read the levels through the
-//!   law's accessors ([`Law::rho_s`], [`Law::rho_d`], [`Law::sliding`],
-//!   [`SiLaw`]'s fields via its family), never by destructuring a family.
-//!   A direction-dependent law adds a `backward` set of levels to
-//!   [`SiLaw`] and [`Law`] and accessors `level(direction)`; the single
-//!   level accessors become the forward ones, and the trait's sliding
-//!   methods take the levels they are given, so the families do not change.
-//! * **A fifth state.** A phase may carry the position of a friction slider
-//!   behind a contact spring. The trait describes g(v) of the contact only;
-//!   the state layout belongs to the engines, so a slider adds a method with
-//!   a default (no slider) to this trait and a state to the engine, not a
-//!   rewrite of the families.
+//! * **Levels per sliding direction** (built): a law may carry the levels
+//!   of the negative direction ([`Levels`], [`Law::minus`]); its own
+//!   levels then hold for the positive one. Callers read the levels
+//!   through [`Law::levels`] or the symmetric law of one direction,
+//!   [`Law::toward`], so the families do not change.
+//! * **A fifth state** (not built yet): a phase may carry the position of
+//!   a friction slider behind a contact spring. The trait describes g(v)
+//!   of the contact only; the state layout belongs to the engines, so a
+//!   slider adds a state to the engine, not a rewrite of the families.
 
 mod registry;
 
@@ -107,6 +102,7 @@ pub trait LawFamily: Sync + Send {
             rho_s,
             rho_d,
             slope,
+            minus: None,
         })
     }
     /// The one transcendental of g at speed v ≥ 0 (1 for an affine law).
@@ -362,6 +358,7 @@ impl SiLaw {
                 rho_s: rs,
                 rho_d: rd.min(rs),
                 slope: a,
+                minus: None,
             },
             shaped => shaped,
         };
@@ -429,6 +426,10 @@ pub enum Law {
         rho_d: f64,
         /// Slope D* = a/√(K2·M2) of the characteristic.
         slope: f64,
+        /// The levels of the negative sliding direction of a
+        /// direction-dependent pad (None: the same as `rho_s`, `rho_d`,
+        /// which then hold for both directions).
+        minus: Option<Levels>,
     },
     /// A law of family `kind` with a velocity scale:
     /// g(v) = ρd + (ρs − ρd)·φ(v) + D*·v with the family's decay φ
@@ -444,7 +445,19 @@ pub enum Law {
         slope: f64,
         /// Velocity scale v_s > 0.
         v_s: f64,
+        /// The levels of the negative sliding direction (None: symmetric).
+        minus: Option<Levels>,
     },
+}
+
+/// The two levels of one sliding direction of a direction-dependent law
+/// (dimensionless): its static threshold and its dynamic level.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Levels {
+    /// Static threshold of the direction (breakaway towards it).
+    pub rho_s: f64,
+    /// Dynamic level of the direction, ≤ its threshold.
+    pub rho_d: f64,
 }
 
 impl Law {
@@ -455,6 +468,7 @@ impl Law {
             rho_s,
             rho_d: if rho_s.is_finite() { rho_s } else { 0.0 },
             slope: 0.0,
+            minus: None,
         }
     }
 
@@ -491,6 +505,75 @@ impl Law {
         match *self {
             Law::Linear { .. } => None,
             Law::Shaped { v_s, .. } => Some(v_s),
+        }
+    }
+
+    /// The negative direction's levels of a direction-dependent law (None:
+    /// symmetric).
+    pub fn minus(&self) -> Option<Levels> {
+        match *self {
+            Law::Linear { minus, .. } | Law::Shaped { minus, .. } => minus,
+        }
+    }
+
+    /// The same law with the negative direction's levels `minus` (None:
+    /// symmetric). Not validated.
+    pub fn with_minus(mut self, minus: Option<Levels>) -> Self {
+        match &mut self {
+            Law::Linear { minus: m, .. } | Law::Shaped { minus: m, .. } => *m = minus,
+        }
+        self
+    }
+
+    /// True when the levels differ by sliding direction.
+    pub fn is_direction_dependent(&self) -> bool {
+        self.minus()
+            .is_some_and(|l| l.rho_s != self.rho_s() || l.rho_d != self.rho_d())
+    }
+
+    /// The levels (threshold, dynamic level) of sliding direction `dir`
+    /// (> 0: positive, the law's own `rho_s`, `rho_d`; < 0: negative).
+    #[inline]
+    pub fn levels(&self, dir: f64) -> Levels {
+        match self.minus() {
+            Some(l) if dir < 0.0 => l,
+            _ => Levels {
+                rho_s: self.rho_s(),
+                rho_d: self.rho_d(),
+            },
+        }
+    }
+
+    /// The symmetric law that acts while sliding in direction `dir` (or
+    /// breaking away towards it): the levels of that direction, the slope
+    /// and the velocity scale shared.
+    ///
+    /// ```
+    /// use stickslip::model::{Law, Levels};
+    /// let law = Law::coulomb(0.4).with_minus(Some(Levels { rho_s: 0.3, rho_d: 0.25 }));
+    /// assert_eq!(law.toward(1.0), Law::coulomb(0.4));
+    /// assert_eq!(law.toward(-1.0).rho_s(), 0.3);
+    /// assert_eq!(law.toward(-1.0).rho_d(), 0.25);
+    /// ```
+    pub fn toward(&self, dir: f64) -> Law {
+        let Levels { rho_s, rho_d } = self.levels(dir);
+        match *self {
+            Law::Linear { slope, .. } => Law::Linear {
+                rho_s,
+                rho_d,
+                slope,
+                minus: None,
+            },
+            Law::Shaped {
+                kind, slope, v_s, ..
+            } => Law::Shaped {
+                kind,
+                rho_s,
+                rho_d,
+                slope,
+                v_s,
+                minus: None,
+            },
         }
     }
 
@@ -553,6 +636,7 @@ impl Law {
                 rho_d,
                 slope,
                 v_s,
+                ..
             } => kind.0.jet_with(rho_s, rho_d, slope, v_s, v, ex),
         }
     }
@@ -568,6 +652,7 @@ impl Law {
                 rho_d,
                 slope,
                 v_s,
+                ..
             } => kind.0.slope_with(rho_s, rho_d, slope, v_s, v, ex),
         }
     }
@@ -622,6 +707,32 @@ impl Law {
                 "a negative slope without friction is an active damper",
             )?;
         }
+        if let Some(l) = self.minus() {
+            check(
+                "rho-s-minus",
+                l.rho_s,
+                !l.rho_s.is_nan() && l.rho_s >= 0.0,
+                "must be >= 0 (inf allowed)",
+            )?;
+            check(
+                "rho-s-minus",
+                l.rho_s,
+                (l.rho_s == 0.0) == (rs == 0.0) && l.rho_s.is_finite() == rs.is_finite(),
+                "must be 0 (no friction) or inf (always stuck) exactly where rho-s is",
+            )?;
+            check(
+                "rho-d-minus",
+                l.rho_d,
+                l.rho_d.is_finite() && l.rho_d >= 0.0,
+                "must be finite and >= 0",
+            )?;
+            check(
+                "rho-d-minus",
+                l.rho_d,
+                l.rho_d <= l.rho_s,
+                "must not exceed rho-s-minus (dynamic > static friction)",
+            )?;
+        }
         if let Some(v_s) = self.v_s() {
             check(
                 "v-s",
@@ -643,8 +754,10 @@ impl Law {
                 rho_s,
                 rho_d,
                 slope,
+                minus,
             } => {
-                if rho_d < rho_s {
+                let dips = minus.is_some_and(|l| l.rho_d < l.rho_s);
+                if rho_d < rho_s || dips {
                     LawKind::StaticDynamic
                 } else if slope != 0.0 {
                     LawKind::Decreasing
@@ -666,12 +779,16 @@ impl fmt::Display for Law {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} (rho_s={}, rho_d={}, slope={})",
+            "{} (rho_s={}, rho_d={}, slope={}",
             self.name(),
             self.rho_s(),
             self.rho_d(),
             self.slope()
-        )
+        )?;
+        if let Some(l) = self.minus() {
+            write!(f, ", rho_s_minus={}, rho_d_minus={}", l.rho_s, l.rho_d)?;
+        }
+        f.write_str(")")
     }
 }
 

@@ -49,6 +49,7 @@ impl LawFamily for Stribeck {
             rho_d,
             slope,
             v_s,
+            minus: None,
         })
     }
     #[inline]

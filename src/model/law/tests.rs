@@ -14,6 +14,7 @@ fn sliding_jet_matches_parts() {
         rho_s: 1.0,
         rho_d: 0.8,
         slope: -0.02,
+        minus: None,
     });
     for law in laws {
         for v in [0.0, 0.05, 0.2, 0.3, 0.7, 2.0] {
@@ -91,6 +92,7 @@ fn to_rho_scales_each_parameter() {
         rho_d,
         slope,
         v_s,
+        minus: None,
     }) = l.to_rho(&s)
     else {
         panic!("not a shaped law")
@@ -122,7 +124,8 @@ fn law_names() {
         Law::Linear {
             rho_s: 0.3,
             rho_d: 0.3,
-            slope: -0.04
+            slope: -0.04,
+            minus: None,
         }
         .name(),
         "decreasing"
@@ -131,7 +134,8 @@ fn law_names() {
         Law::Linear {
             rho_s: 0.3,
             rho_d: 0.15,
-            slope: 0.0
+            slope: 0.0,
+            minus: None,
         }
         .name(),
         "static-dynamic"

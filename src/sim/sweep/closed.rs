@@ -9,20 +9,25 @@ use crate::sim::linear;
 /// Proves that M2, stuck at ζ2* with the 1-DOF state (ζ1, ζ1'), never
 /// breaks away: the stuck motion is the steady 1-DOF response plus a free
 /// part whose energy E = ½mζ1h'² + ½(1+k)ζ1h² never grows (D ≥ 0), so
-/// |F| ≤ max|F_ss| + √(2E/(1+k)) + D·√(2E/m) < ρs for all later times.
+/// F stays within F_ss ± (√(2E/(1+k)) + D·√(2E/m)), inside (−ρs⁻, ρs⁺)
+/// for all later times.
 pub(super) fn permanently_stuck(model: &Model, eta: f64, x: &[f64; 4], z2: f64) -> bool {
     let ab = &model.absorber;
     let xs = linear::stuck_response(ab, eta);
     let c = z2 / (1.0 + ab.k);
     // F_ss = ζ1ss − z2 + Dζ1ss' = Re(X(1 + iηD) e^{iητ}) + c − z2.
     let f_amp = (xs * num_complex::Complex::new(1.0, eta * ab.damping)).norm();
-    let f_max = f_amp + (c - z2).abs();
+    let centre = c - z2;
     // Free part at τ = 0 mod T (the section).
     let ss = linear::stuck_state(ab, eta, z2);
     let (h, dh) = (x[0] - ss[0], x[1] - ss[1]);
     let e = 0.5 * ab.m * dh * dh + 0.5 * (1.0 + ab.k) * h * h;
     let bound = (2.0 * e / (1.0 + ab.k)).sqrt() + ab.damping * (2.0 * e / ab.m).sqrt();
-    f_max + bound < model.law.rho_s() * (1.0 - 1e-12)
+    // F stays within centre ± reach; the pad holds it for ever when that
+    // band lies inside (−ρs⁻, ρs⁺) with a margin for rounding.
+    let reach = f_amp + bound;
+    let (plus, minus) = model.thresholds();
+    centre + reach < plus * (1.0 - 1e-12) && reach - centre < minus * (1.0 - 1e-12)
 }
 
 /// Stage 1 of [`steady_state`]: the closed forms of a frictionless and of

@@ -214,9 +214,10 @@ fn point_from(
     }
 }
 
-/// The contact mode of a section state (stuck iff ζ2' = 0 and |F| < ρs).
+/// The contact mode of a section state (stuck iff ζ2' = 0 and
+/// −ρs⁻ < F < ρs⁺).
 pub fn mode_of(model: &Model, x: &[f64; 4]) -> Mode {
-    if x[3] == 0.0 && net_force(model, x).abs() < model.law.rho_s() {
+    if x[3] == 0.0 && model.holds(net_force(model, x)) {
         Mode::Stick { z2: x[2] }
     } else if x[3] == 0.0 {
         Mode::Slip {
@@ -374,6 +375,7 @@ mod tests {
                     rho_s: rho,
                     rho_d: ratio * rho,
                     slope: 0.0,
+                    minus: None,
                 },
                 stop_below: None,
             };
@@ -532,6 +534,7 @@ mod determinism {
                         rho_s: rs,
                         rho_d: 0.5 * rs,
                         slope: 0.0,
+                        minus: None,
                     },
                     stop_below: None,
                 };

@@ -149,7 +149,7 @@ pub(super) fn shoot(
         }
         if stuck {
             x[3] = 0.0;
-            if net_force(model, &x).abs() >= model.law.rho_s() {
+            if !model.holds(net_force(model, &x)) {
                 return None;
             }
         } else if x[3] == 0.0 || x[3].signum() != mode_dir(mode0) {
