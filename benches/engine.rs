@@ -16,6 +16,7 @@ fn steady_period(c: &mut Criterion) {
         absorber: Absorber::default(),
         law: Law::coulomb(0.375),
         stop_below: None,
+        contact_stiffness: None,
     };
     let sim = Sim::new(&model, 0.6).unwrap();
     let s = simulate(&sim, &SimOptions::default(), &mut ());

@@ -19,6 +19,7 @@ fn specs_dir(rhos: &[f64], direction: Direction) -> Vec<CurveSpec> {
                 absorber: Absorber::default(),
                 law: Law::coulomb(rs),
                 stop_below: None,
+                contact_stiffness: None,
             },
             direction,
         })

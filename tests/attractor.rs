@@ -19,6 +19,7 @@ fn model(law: Law, stop_below: Option<f64>) -> Model {
         absorber: Absorber::default(),
         law,
         stop_below,
+        contact_stiffness: None,
     }
 }
 
@@ -360,6 +361,7 @@ fn other_absorber_laws() -> Vec<(&'static str, Model)> {
         },
         law,
         stop_below,
+        contact_stiffness: None,
     };
     let lin = |rho_s: f64, rho_d: f64, slope: f64| Law::Linear {
         rho_s,
@@ -420,6 +422,7 @@ fn early_stop_counterexample_settles_by_default() {
             minus: None,
         },
         stop_below: None,
+        contact_stiffness: None,
     };
     let eta = 0.62;
     let sim = Sim::new(&m, eta).unwrap();

@@ -13,6 +13,7 @@ fn model(law: Law) -> Model {
         absorber: Absorber::default(),
         law,
         stop_below: None,
+        contact_stiffness: None,
     }
 }
 
@@ -523,6 +524,7 @@ fn undamped_resonance_of_the_stuck_system() {
         },
         law: Law::coulomb(f64::INFINITY),
         stop_below: None,
+        contact_stiffness: None,
     };
     let eta0 = m.absorber.eta_stuck();
     let sim = Sim::new(&m, eta0).unwrap();

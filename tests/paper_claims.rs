@@ -13,6 +13,7 @@ fn model(law: Law, stop_below: Option<f64>) -> Model {
         absorber: Absorber::default(),
         law,
         stop_below,
+        contact_stiffness: None,
     }
 }
 

@@ -79,7 +79,8 @@ proptest! {
             absorber: Absorber { m: lm.exp(), k: lk.exp(), damping: d },
             law: Law::Linear { rho_s: rs, rho_d: frac * rs, slope, minus: None },
             stop_below: None,
-        };
+contact_stiffness: None,
+};
         let eta = leta.exp();
         let sim = Sim::new(&model, eta).unwrap();
         let mut c = Check {

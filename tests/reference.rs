@@ -41,6 +41,7 @@ fn h1_events_and_final_state_match_40_digit_reference() {
         },
         law: Law::coulomb(0.375),
         stop_below: None,
+        contact_stiffness: None,
     };
     let sim = Sim::new(&model, 0.6).unwrap();
     let mut c = Collect(Vec::new());

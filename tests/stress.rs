@@ -18,6 +18,7 @@ fn model(m: f64, k: f64, d: f64, law: Law) -> Model {
         absorber: Absorber { m, k, damping: d },
         law,
         stop_below: None,
+        contact_stiffness: None,
     }
 }
 

@@ -137,6 +137,7 @@ pub(super) fn worst_model(
             minus: None,
         },
         stop_below: None,
+        contact_stiffness: None,
     };
     model.law.validate()?;
     Ok(model)

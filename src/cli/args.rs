@@ -100,6 +100,10 @@ pub struct ShapeArgs {
     /// rho-s-minus where it is given, else rho-d).
     #[arg(long = "rho-d-minus", allow_hyphen_values = true)]
     pub rho_d_minus: Option<f64>,
+    /// Pre-sliding: the tangential contact stiffness κ = kt/K2 between M2
+    /// and its friction slider (a Jenkins element; inf: the rigid stick).
+    #[arg(long = "contact-stiffness", allow_hyphen_values = true)]
+    pub contact_stiffness: Option<f64>,
 }
 
 impl ShapeArgs {
@@ -145,6 +149,8 @@ impl ShapeArgs {
             },
             law,
             stop_below: self.stop_below,
+            // inf is the paper's rigid stick.
+            contact_stiffness: self.contact_stiffness.filter(|k| *k != f64::INFINITY),
         };
         model.validate()?;
         Ok(model)

@@ -5,6 +5,7 @@
 use super::ModelArgs;
 use crate::io::AtomicFile;
 use crate::io::Output;
+use crate::model::Model;
 use crate::sim::rk4::Rk4;
 use crate::sim::{self, Event, Flow, Mode, Observer, PeriodGrid, PeriodStats, Sim, SimOptions};
 use clap::{Args, ValueEnum};
@@ -76,6 +77,48 @@ struct Files {
     events: Option<AtomicFile>,
     traj: Option<(AtomicFile, PeriodGrid)>,
     err: Option<crate::Error>,
+    /// The slider behind a contact spring, followed through the events
+    /// (None: a rigid stick, no `zeta_s` column).
+    slider: Option<Slider>,
+}
+
+/// The friction slider of a pad with a contact spring κ, followed through
+/// the events: where it sticks, or the direction it slides in.
+struct Slider {
+    model: Model,
+    kappa: f64,
+    /// `Some(ζs)` while it sticks; `None` while it slides.
+    stuck_at: Option<f64>,
+    /// Direction of the last slide.
+    dir: f64,
+}
+
+impl Slider {
+    /// Follows an event.
+    fn event(&mut self, ev: &Event) {
+        match ev.kind.as_str() {
+            "slip+" | "reverse+" => (self.stuck_at, self.dir) = (None, 1.0),
+            "slip-" | "reverse-" => (self.stuck_at, self.dir) = (None, -1.0),
+            "stick" => {
+                let pull = self.dir * self.model.law.levels(self.dir).rho_d;
+                self.stuck_at = Some(ev.x[2] - pull / self.kappa);
+            }
+            _ => {}
+        }
+    }
+
+    /// ζs at state x: where it sticks, or ζ2 − f/κ with the sliding
+    /// friction f the spring carries.
+    fn position(&self, x: &[f64; 4]) -> f64 {
+        match self.stuck_at {
+            Some(zs) => zs,
+            None => {
+                let law = self.model.law.toward(self.dir);
+                let f = self.dir * law.sliding(x[3].abs());
+                x[2] - f / self.kappa
+            }
+        }
+    }
 }
 
 impl Files {
@@ -99,16 +142,21 @@ impl Files {
 impl Observer for Files {
     fn event(&mut self, ev: &Event) {
         let x = ev.x;
+        let zs = self.slider.as_mut().map(|s| {
+            s.event(ev);
+            format!(",{}", s.position(&x))
+        });
         self.write(
             true,
             format_args!(
-                "{},{},{},{},{},{}\n",
+                "{},{},{},{},{},{}{}\n",
                 ev.tau,
                 ev.kind.as_str(),
                 x[0],
                 x[1],
                 x[2],
-                x[3]
+                x[3],
+                zs.unwrap_or_default()
             ),
         );
     }
@@ -116,9 +164,18 @@ impl Observer for Files {
         self.traj.as_mut().map(|t| t.1.advance())
     }
     fn sample(&mut self, tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
+        let zs = self.slider.as_ref().map(|s| format!(",{}", s.position(x)));
         self.write(
             false,
-            format_args!("{},{},{},{},{}\n", tau, x[0], x[1], x[2], x[3]),
+            format_args!(
+                "{},{},{},{},{}{}\n",
+                tau,
+                x[0],
+                x[1],
+                x[2],
+                x[3],
+                zs.unwrap_or_default()
+            ),
         );
     }
     fn period(&mut self, _n: u64, _x: &[f64; 4], _m: Mode, _s: &PeriodStats) -> Flow {
@@ -190,7 +247,7 @@ fn check_budget(args: &SimulateArgs) -> crate::Result<()> {
 
 /// Checks the outputs and the budget, then opens the event and trajectory
 /// files (atomic: nothing appears unless the run completes).
-fn open_files(args: &SimulateArgs) -> crate::Result<Files> {
+fn open_files(args: &SimulateArgs, model: &Model) -> crate::Result<Files> {
     let mut outputs = Vec::new();
     if let Some(p) = &args.events {
         outputs.push(Output::file("--events", p, super::ext::CSV));
@@ -204,15 +261,27 @@ fn open_files(args: &SimulateArgs) -> crate::Result<Files> {
         events: None,
         traj: None,
         err: None,
+        slider: model.contact_stiffness.map(|kappa| Slider {
+            model: *model,
+            kappa,
+            // From rest: ζs = 0, P = 0, the slider stuck.
+            stuck_at: Some(0.0),
+            dir: 1.0,
+        }),
+    };
+    let zs = if files.slider.is_some() {
+        ",zeta_s"
+    } else {
+        ""
     };
     if let Some(p) = &args.events {
         let mut f = AtomicFile::create(p)?;
-        writeln!(f.writer(), "tau,kind,zeta1,dzeta1,zeta2,dzeta2").map_err(|e| f.io_err(e))?;
+        writeln!(f.writer(), "tau,kind,zeta1,dzeta1,zeta2,dzeta2{zs}").map_err(|e| f.io_err(e))?;
         files.events = Some(f);
     }
     if let Some(p) = &args.trajectory {
         let mut f = AtomicFile::create(p)?;
-        writeln!(f.writer(), "tau,zeta1,dzeta1,zeta2,dzeta2").map_err(|e| f.io_err(e))?;
+        writeln!(f.writer(), "tau,zeta1,dzeta1,zeta2,dzeta2{zs}").map_err(|e| f.io_err(e))?;
         let grid = PeriodGrid {
             t: 2.0 * std::f64::consts::PI / args.eta,
             per_period: args.samples_per_period,
@@ -227,7 +296,7 @@ fn open_files(args: &SimulateArgs) -> crate::Result<Files> {
 pub fn run(args: SimulateArgs) -> crate::Result<()> {
     let model = args.model.model()?;
     crate::model::validate_eta(args.eta)?;
-    let mut files = open_files(&args)?;
+    let mut files = open_files(&args, &model)?;
     let opts = SimOptions {
         periods: args.periods,
         max_periods: args.max_periods,
@@ -294,6 +363,12 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
             summary: &'a sim::steady::Summary,
             method: &'static str,
             law: &'static str,
+            /// ζs at the end, with a contact spring.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            slider_position: Option<f64>,
+            /// κ, with a contact spring.
+            #[serde(skip_serializing_if = "Option::is_none")]
+            contact_stiffness: Option<f64>,
         }
         super::print_json(&crate::io::json::to_value(SimulateOut {
             summary: s,
@@ -303,6 +378,8 @@ pub fn run(args: SimulateArgs) -> crate::Result<()> {
                 Method::Dopri => "dopri",
             },
             law: model.law.name(),
+            slider_position: files.slider.as_ref().map(|sl| sl.position(&s.final_state)),
+            contact_stiffness: model.contact_stiffness,
         }))?;
     } else {
         let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6}"));

@@ -164,6 +164,12 @@ fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> 
             _ => None,
         };
         let model = args.shape.model(rs, rd)?;
+        if model.contact_stiffness.is_some() {
+            return Err(bad(
+                "--contact-stiffness: sweeps of a pad with a contact spring are not built yet (issue 34); `simulate --contact-stiffness` integrates one frequency"
+                    .to_string(),
+            ));
+        }
         for &d in &directions {
             specs.push(CurveSpec {
                 model,

@@ -184,6 +184,12 @@ pub struct Model {
     /// (paper §3: 0.5 for its decreasing characteristic). A friction force
     /// that would turn negative always interrupts.
     pub stop_below: Option<f64>,
+    /// Pre-sliding (issue 34): κ = kt/K2, the stiffness of the tangential
+    /// contact spring between M2 and a massless friction slider (a Jenkins
+    /// element); None: the paper's rigid stick. With a contact spring,
+    /// [`crate::sim::Mode::Stick`]'s position is the slider's, ζs, and M2
+    /// moves on the spring while the slider sticks.
+    pub contact_stiffness: Option<f64>,
 }
 
 impl Model {
@@ -197,6 +203,20 @@ impl Model {
                 f,
                 f.is_finite() && (0.0..=1.0).contains(&f),
                 "must be in [0, 1]",
+            )?;
+        }
+        if let Some(kappa) = self.contact_stiffness {
+            check(
+                "contact-stiffness",
+                kappa,
+                kappa.is_finite() && kappa > 0.0,
+                "must be > 0 (inf: a rigid stick)",
+            )?;
+            check(
+                "contact-stiffness",
+                kappa,
+                !self.law.is_frictionless(),
+                "a contact spring needs friction (rho-s > 0)",
             )?;
         }
         Ok(())

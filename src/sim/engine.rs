@@ -27,8 +27,14 @@ pub const MAX_STEPS_PER_PERIOD: f64 = 1e7;
 /// a forcing period costs about fastest·2π/η steps; beyond
 /// [`MAX_STEPS_PER_PERIOD`] a run would take minutes to hours per period
 /// (e.g. m = 1e-6 with k = 1e6): refused with the numbers instead.
-fn check_work(stick: &LinearPhase<2>, slip: &LinearPhase<4>, eta: f64) -> Result<(), SimError> {
-    let steps = stick.fastest.max(slip.fastest) * 2.0 * PI / eta;
+fn check_work(
+    stick: &LinearPhase<2>,
+    slip: &LinearPhase<4>,
+    held: Option<&LinearPhase<4>>,
+    eta: f64,
+) -> Result<(), SimError> {
+    let held = held.map_or(0.0, |h| h.fastest);
+    let steps = stick.fastest.max(slip.fastest).max(held) * 2.0 * PI / eta;
     if steps.is_nan() || steps > MAX_STEPS_PER_PERIOD {
         return Err(SimError::Unsupported(format!(
             "the absorber is too stiff for this forcing frequency: its fastest mode needs {steps:.2e} bracketing steps per forcing period (limit {MAX_STEPS_PER_PERIOD:.0e}); raise eta or bring m and k closer to 1"
@@ -68,6 +74,9 @@ pub struct Sim {
     /// Event times are refined to `resolution · ε`-ish relative to the
     /// period (1: machine precision).
     resolution: f64,
+    /// With a contact spring κ (issue 34): the held phase (slider stuck at
+    /// ζs, M2 on the spring) and κ.
+    held: Option<(LinearPhase<4>, f64)>,
 }
 
 impl Sim {
@@ -98,7 +107,19 @@ impl Sim {
             eta,
         )
         .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
-        check_work(&stick, &slip, eta)?;
+        let held = match model.contact_stiffness {
+            Some(kappa) => Some((
+                LinearPhase::new(
+                    absorber::held_matrix(ab, kappa),
+                    absorber::slip_input(ab),
+                    eta,
+                )
+                .ok_or_else(|| SimError::Unsupported("singular held matrix".into()))?,
+                kappa,
+            )),
+            None => None,
+        };
+        check_work(&stick, &slip, held.as_ref().map(|h| &h.0), eta)?;
         let slip_proj = slip_projections(&slip);
         let levels = [model.law.levels(1.0), model.law.levels(-1.0)];
         let v_interrupt = [1.0, -1.0].map(|dir| {
@@ -122,6 +143,7 @@ impl Sim {
             rho_d: levels.map(|l| l.rho_d),
             v_interrupt,
             resolution: 1.0,
+            held,
         })
     }
 
@@ -139,9 +161,18 @@ impl Sim {
             .slip
             .at_eta(eta)
             .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
-        check_work(&stick, &slip, eta)?;
+        let held = match &self.held {
+            Some((h, kappa)) => Some((
+                h.at_eta(eta)
+                    .ok_or_else(|| SimError::Unsupported("singular held matrix".into()))?,
+                *kappa,
+            )),
+            None => None,
+        };
+        check_work(&stick, &slip, held.as_ref().map(|h| &h.0), eta)?;
         let slip_proj = slip_projections(&slip);
         Ok(Self {
+            held,
             eta,
             period: 2.0 * PI / eta,
             stick,
@@ -179,6 +210,11 @@ impl Sim {
     /// valid up to the phase's next event).
     pub fn state_in_phase(&self, x: &[f64; 4], mode: Mode, s0: f64, delta: f64) -> [f64; 4] {
         match mode {
+            Mode::Stick { z2 } if self.held.is_some() => {
+                let (held, kappa) = self.held.as_ref().expect("held");
+                let p = held.start(*x, s0, C64::new(1.0, 0.0), held_c(*kappa, z2));
+                held.state(&p, delta)
+            }
             Mode::Stick { z2 } => {
                 let p = self
                     .stick
@@ -245,6 +281,11 @@ impl Sim {
     /// Time derivative of the state in `mode` at period offset s.
     fn rate(&self, x: &[f64; 4], mode: Mode, s: f64, u: C64) -> [f64; 4] {
         match mode {
+            Mode::Stick { z2 } if self.held.is_some() => {
+                let (held, kappa) = self.held.as_ref().expect("held");
+                let p = held.start(*x, s, u, held_c(*kappa, z2));
+                held.jet(&p, 0.0).1
+            }
             Mode::Stick { z2 } => {
                 let p = self.stick.start([x[0], x[1]], s, u, self.stick_c(z2));
                 let (_, d, _) = self.stick.jet(&p, 0.0);
@@ -268,6 +309,22 @@ impl Sim {
             EventFn {
                 g: [1.0, d, 0.0, 0.0],
                 g0: self.rho_s[1] - z2,
+            },
+        ]
+    }
+
+    /// The held phase's switching functions (slider stuck at `zs`): the
+    /// spring's pull P = κ(ζ2 − ζs) reaches ρs⁺ (h+ = ρs⁺ − P) or −ρs⁻
+    /// (h− = ρs⁻ + P).
+    fn held_events(&self, kappa: f64, zs: f64) -> [EventFn<4>; 2] {
+        [
+            EventFn {
+                g: [0.0, 0.0, -kappa, 0.0],
+                g0: self.rho_s[0] + kappa * zs,
+            },
+            EventFn {
+                g: [0.0, 0.0, kappa, 0.0],
+                g0: self.rho_s[1] - kappa * zs,
             },
         ]
     }
@@ -345,6 +402,24 @@ impl Stepper for Exact<'_> {
         let origin = n as f64 * t + s;
         let scale = sim.resolution * t;
         let (hit, x_end) = match mode {
+            Mode::Stick { z2 } if sim.held.is_some() => {
+                let (held, kappa) = sim.held.as_ref().expect("held");
+                let fns = sim.held_events(*kappa, z2);
+                let nf = if sim.rho_s[0].is_finite() { 2 } else { 0 };
+                let c = held_c(*kappa, z2);
+                let span = (left, scale, origin);
+                march4(
+                    held,
+                    x,
+                    s,
+                    u,
+                    c,
+                    &fns[..nf],
+                    span,
+                    &mut self.samp_slip,
+                    watch,
+                )
+            }
             Mode::Stick { z2 } => {
                 let p = sim.stick.start([x[0], x[1]], s, u, sim.stick_c(z2));
                 // The marching cursor is shared: arbitrary offsets are
@@ -387,37 +462,21 @@ impl Stepper for Exact<'_> {
             }
             // With exact extremes every step's jet is wanted: the finder
             // marches jets.
-            Mode::Slip { dir } if watch.wants_extremes() => {
-                let p = sim.slip.start(*x, s, u, sim.slip_c(dir));
-                let cur = Cell::new(sim.slip.cursor(&p));
-                let eval = |d: f64| slip_jet(sim.slip.jet_near(&p, &cur.get(), d));
-                let next = |b: f64| {
-                    let mut c = cur.get();
-                    if b == c.delta + sim.slip.step {
-                        let j = slip_jet(sim.slip.advance(&p, &mut c));
-                        cur.set(c);
-                        j
-                    } else {
-                        eval(b)
-                    }
-                };
-                let samp = &mut self.samp_slip;
-                samp.begin_phase();
-                let mut sample = |d: f64| sim.slip.sample_near(&p, &cur.get(), samp, d);
+            Mode::Slip { dir } if watch.wants_extremes() || sim.held.is_some() => {
                 let (fns, nf) = sim.slip_events(dir, self.frictionless);
-                let (hit, jb) = events::first_event(
-                    &eval,
-                    next,
+                let c = sim.slip_c(dir);
+                let span = (left, scale, origin);
+                march4(
+                    &sim.slip,
+                    x,
+                    s,
+                    u,
+                    c,
                     &fns[..nf],
-                    left,
-                    sim.slip.step,
-                    scale,
-                    |a, ja, b, jb| {
-                        watch.extremes(&eval, a, ja, b, jb);
-                        watch.samples(origin, a, b, &mut sample);
-                    },
-                );
-                (hit.map(|h| (h.delta, h.which, h.jet.x)), jb.x)
+                    span,
+                    &mut self.samp_slip,
+                    watch,
+                )
             }
             Mode::Slip { dir } => {
                 let p = sim.slip.start(*x, s, u, sim.slip_c(dir));
@@ -501,6 +560,58 @@ fn slip_jet((x, dx, ddx): ([f64; 4], [f64; 4], [f64; 4])) -> Jet<4> {
     Jet { x, dx, ddx }
 }
 
+/// The held phase's constant input: κζs on M2 (the spring's anchor).
+#[inline]
+fn held_c(kappa: f64, zs: f64) -> [f64; 4] {
+    [0.0, 0.0, 0.0, kappa * zs]
+}
+
+/// How a phase ended: the hit (time, switching function, state), if any,
+/// and the state at the end of the span.
+type PhaseEnd = (Option<(f64, usize, [f64; 4])>, [f64; 4]);
+
+/// One four-state phase (a slip, or the held phase of a pad with a contact
+/// spring) from `x` at offset `s` with input `c`, marched on jets to its
+/// first event among `fns` or to the span's end (`span`: time left, root
+/// resolution, the phase's absolute origin), extremes and samples
+/// delivered through `watch`. Returns the hit (time, function, state) and
+/// the state at the end.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn march4<O: Observer + ?Sized>(
+    phase: &LinearPhase<4>,
+    x: &[f64; 4],
+    s: f64,
+    u: C64,
+    c: [f64; 4],
+    fns: &[EventFn<4>],
+    (left, scale, origin): (f64, f64, f64),
+    samp: &mut Sampler<4>,
+    watch: &mut Watch<'_, O>,
+) -> PhaseEnd {
+    let p = phase.start(*x, s, u, c);
+    let cur = Cell::new(phase.cursor(&p));
+    let eval = |d: f64| slip_jet(phase.jet_near(&p, &cur.get(), d));
+    let next = |b: f64| {
+        let mut c = cur.get();
+        if b == c.delta + phase.step {
+            let j = slip_jet(phase.advance(&p, &mut c));
+            cur.set(c);
+            j
+        } else {
+            eval(b)
+        }
+    };
+    samp.begin_phase();
+    let mut sample = |d: f64| phase.sample_near(&p, &cur.get(), samp, d);
+    let (hit, jb) =
+        events::first_event(&eval, next, fns, left, phase.step, scale, |a, ja, b, jb| {
+            watch.extremes(&eval, a, ja, b, jb);
+            watch.samples(origin, a, b, &mut sample);
+        });
+    (hit.map(|h| (h.delta, h.which, h.jet.x)), jb.x)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -524,6 +635,7 @@ mod tests {
                     minus: None,
                 },
                 stop_below: None,
+                contact_stiffness: None,
             },
             Model {
                 absorber: Absorber {
@@ -533,6 +645,7 @@ mod tests {
                 },
                 law: Law::coulomb(0.5),
                 stop_below: None,
+                contact_stiffness: None,
             },
         ];
         for model in &models {

@@ -313,8 +313,14 @@ pub(crate) fn switch_with<Z: FnOnce() -> f64>(
             } else {
                 EventKind::SlipMinus
             };
+            // With a contact spring M2 is moving when its slider breaks
+            // away: the state goes on as it is.
+            let x = match model.contact_stiffness {
+                Some(_) => *x,
+                None => [x[0], x[1], z2, 0.0],
+            };
             Switched::To {
-                x: [x[0], x[1], z2, 0.0],
+                x,
                 kind,
                 next: Mode::Slip { dir },
                 stop_first: false,
@@ -336,6 +342,21 @@ pub(crate) fn switch_with<Z: FnOnce() -> f64>(
                 )
             };
             Switched::Interrupt { x: *x, why }
+        }
+        Mode::Slip { dir } if model.contact_stiffness.is_some() => {
+            // The slider stops with M2 (ζ2' = 0) and sticks where the
+            // spring holds the sliding level it carried: P = ρd⁺ (or −ρd⁻),
+            // ζs = ζ2 − P/κ. It never reverses at once.
+            let kappa = model.contact_stiffness.expect("contact");
+            let pull = dir * model.law.levels(dir).rho_d;
+            Switched::To {
+                x: [x[0], x[1], x[2], 0.0],
+                kind: EventKind::Stick,
+                next: Mode::Stick {
+                    z2: x[2] - pull / kappa,
+                },
+                stop_first: false,
+            }
         }
         Mode::Slip { dir: old } => {
             let x = [x[0], x[1], x[2], 0.0];
@@ -742,17 +763,25 @@ pub(crate) fn run<S: Stepper, O: Observer>(
     obs: &mut O,
 ) -> RunEnd {
     let model = *st.model();
+    // A rigid stick freezes M2 at the stick position; behind a contact
+    // spring the stick position is the slider's and M2 moves.
+    let rigid = model.contact_stiffness.is_none();
     let mut mode = if model.law.is_frictionless() {
         Mode::Slip { dir: 1.0 }
     } else if model.law.is_always_stuck() {
-        Mode::Stick { z2: init.x[2] }
+        match init.mode {
+            Mode::Stick { z2 } if !rigid => Mode::Stick { z2 },
+            _ => Mode::Stick { z2: init.x[2] },
+        }
     } else {
         init.mode
     };
     let mut x = init.x;
     if let Mode::Stick { z2 } = mode {
-        x[2] = z2;
-        x[3] = 0.0;
+        if rigid {
+            x[2] = z2;
+            x[3] = 0.0;
+        }
     }
     let period = st.period();
     let t = period.unwrap_or(f64::INFINITY);
@@ -800,8 +829,10 @@ pub(crate) fn run<S: Stepper, O: Observer>(
                 }
                 x = xe;
                 if let Mode::Stick { z2 } = mode {
-                    x[2] = z2;
-                    x[3] = 0.0;
+                    if rigid {
+                        x[2] = z2;
+                        x[3] = 0.0;
+                    }
                 }
                 instant = 0;
                 if !end {

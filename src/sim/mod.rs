@@ -65,8 +65,9 @@ pub enum Engine {
         /// The drive's amplitude.
         amplitude: f64,
     },
-    /// The numerical engine.
-    Numeric(numeric::NumericSim),
+    /// The numerical engine (boxed like the exact one: the variants stay
+    /// small).
+    Numeric(Box<numeric::NumericSim>),
 }
 
 impl Engine {
@@ -87,9 +88,9 @@ impl Engine {
                 phase,
                 amplitude,
             }),
-            other => Ok(Engine::Numeric(numeric::NumericSim::new(
+            other => Ok(Engine::Numeric(Box::new(numeric::NumericSim::new(
                 model, other, opts,
-            )?)),
+            )?))),
         }
     }
 

@@ -305,6 +305,7 @@ mod tests {
                 minus: None,
             },
             stop_below: None,
+            contact_stiffness: None,
         }
     }
 

@@ -242,7 +242,10 @@ impl NumericSim {
         let stick = linalg::modal(&absorber::stick_matrix(ab))
             .map(|m| m.lambda.iter().map(|l| l.norm()).fold(0.0, f64::max));
         let slip = rate(&absorber::slip_matrix(ab, model.law.slope()));
-        let fastest = [stick, slip, Some(drive.fastest())]
+        let held = model
+            .contact_stiffness
+            .and_then(|kappa| rate(&absorber::held_matrix(ab, kappa)));
+        let fastest = [stick, slip, held, Some(drive.fastest())]
             .into_iter()
             .flatten()
             .fold(1e-300, f64::max);
@@ -313,6 +316,13 @@ impl NumericSim {
         let ab = &self.model.absorber;
         let (m, k, d) = (ab.m, ab.k, ab.damping);
         match mode {
+            // Behind a contact spring κ (slider stuck at ζs = z2) M2 moves.
+            Mode::Stick { z2 } if self.model.contact_stiffness.is_some() => {
+                let kappa = self.model.contact_stiffness.unwrap_or(0.0);
+                let a1 = (k * z0 - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
+                let a2 = d * (x[1] - x[3]) + x[0] - x[2] - kappa * (x[2] - z2);
+                [x[1], a1, x[3], a2]
+            }
             Mode::Stick { z2 } => [
                 x[1],
                 (k * z0 - d * x[1] - (1.0 + k) * x[0] + z2) / m,
@@ -346,6 +356,12 @@ impl NumericSim {
         let (z0, dz0, _) = memo.drive(&self.drive, t);
         let dx = self.rhs_at(mode, z0, &x, memo);
         let ddx = match mode {
+            Mode::Stick { .. } if self.model.contact_stiffness.is_some() => {
+                let kappa = self.model.contact_stiffness.unwrap_or(0.0);
+                let da1 = (k * dz0 - d * (dx[1] - dx[3]) - (1.0 + k) * x[1] + x[3]) / m;
+                let da2 = d * (dx[1] - dx[3]) + x[1] - x[3] - kappa * x[3];
+                [dx[1], da1, dx[3], da2]
+            }
             Mode::Stick { .. } => [
                 dx[1],
                 (k * dz0 - d * dx[1] - (1.0 + k) * x[1]) / m,
@@ -372,6 +388,24 @@ impl NumericSim {
         let (rho_plus, rho_minus) = self.model.thresholds();
         let d = self.model.absorber.damping;
         match mode {
+            Mode::Stick { z2 } if self.model.contact_stiffness.is_some() => {
+                // The spring's pull P = κ(ζ2 − ζs) reaches ρs⁺ or −ρs⁻.
+                let kappa = self.model.contact_stiffness.unwrap_or(0.0);
+                let n = if rho_plus.is_finite() { 2 } else { 0 };
+                (
+                    [
+                        NumSwitch::Lin(EventFn {
+                            g: [0.0, 0.0, -kappa, 0.0],
+                            g0: rho_plus + kappa * z2,
+                        }),
+                        NumSwitch::Lin(EventFn {
+                            g: [0.0, 0.0, kappa, 0.0],
+                            g0: rho_minus - kappa * z2,
+                        }),
+                    ],
+                    n,
+                )
+            }
             Mode::Stick { z2 } => {
                 let n = if rho_plus.is_finite() { 2 } else { 0 };
                 (
@@ -542,6 +576,7 @@ impl NumericSim {
         watch: &mut Watch<'_, O>,
     ) -> Advance {
         let sim = self;
+        let rigid = sim.model.contact_stiffness.is_none();
         let t = st.t;
         if at_boundary(t, boundary) {
             if t != boundary {
@@ -593,8 +628,10 @@ impl NumericSim {
                 step.eval(d)
             };
             if let Mode::Stick { z2 } = mode {
-                y[2] = z2;
-                y[3] = 0.0;
+                if rigid {
+                    y[2] = z2;
+                    y[3] = 0.0;
+                }
             }
             y
         };

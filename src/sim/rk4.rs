@@ -39,7 +39,13 @@ impl Rk4 {
         // RK4 is stable for an undamped mode ω while h·ω ≤ 2√2; beyond it
         // the numbers grow without bound (A1/A = 1e42 "completed").
         let a = model.absorber;
-        let omega_max = a.eta_linear().1.max(a.eta_stuck());
+        let held = model.contact_stiffness.map_or(0.0, |kappa| {
+            super::linalg::modal(&super::phase::absorber::held_matrix(&a, kappa))
+                .map_or(f64::INFINITY, |m| {
+                    m.lambda.iter().map(|l| l.norm()).fold(0.0, f64::max)
+                })
+        });
+        let omega_max = a.eta_linear().1.max(a.eta_stuck()).max(held);
         let h_max = 2.0 * std::f64::consts::SQRT_2 / omega_max;
         if h > h_max {
             return Err(SimError::Unsupported(format!(
@@ -77,6 +83,13 @@ impl Rk4 {
         let (m, k, d) = (ab.m, ab.k, ab.damping);
         let drive = k * (self.eta * s).cos();
         match mode {
+            // Behind a contact spring κ (slider stuck at ζs = z2) M2 moves.
+            Mode::Stick { z2 } if self.model.contact_stiffness.is_some() => {
+                let kappa = self.model.contact_stiffness.unwrap_or(0.0);
+                let a1 = (drive - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
+                let a2 = d * (x[1] - x[3]) + x[0] - x[2] - kappa * (x[2] - z2);
+                [x[1], a1, x[3], a2]
+            }
             Mode::Stick { z2 } => {
                 let a1 = (drive - d * x[1] - (1.0 + k) * x[0] + z2) / m;
                 [x[1], a1, 0.0, 0.0]
@@ -108,6 +121,11 @@ impl Rk4 {
     /// Switching functions of a mode, each > 0 while the mode holds.
     fn switching(&self, mode: Mode, x: &[f64; 4]) -> [f64; 2] {
         match mode {
+            Mode::Stick { z2 } if self.model.contact_stiffness.is_some() => {
+                let (rho_plus, rho_minus) = self.model.thresholds();
+                let pull = self.model.contact_stiffness.unwrap_or(0.0) * (x[2] - z2);
+                [rho_plus - pull, rho_minus + pull]
+            }
             Mode::Stick { .. } => {
                 let (rho_plus, rho_minus) = self.model.thresholds();
                 let f = net_force(&self.model, x);
@@ -186,6 +204,14 @@ impl Stepper for Stepping<'_> {
                     let dy = rk.rhs(mode, s + d, &y);
                     let g = rk.switching(mode, &y)[i];
                     let dg = match (mode, i) {
+                        (Mode::Stick { .. }, _) if rk.model.contact_stiffness.is_some() => {
+                            let dp = rk.model.contact_stiffness.unwrap_or(0.0) * dy[2];
+                            if i == 0 {
+                                -dp
+                            } else {
+                                dp
+                            }
+                        }
                         (Mode::Stick { .. }, _) => {
                             let df = dy[0] + rk.model.absorber.damping * dy[1];
                             if i == 0 {

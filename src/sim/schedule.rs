@@ -101,6 +101,7 @@ mod tests {
             absorber: Absorber::default(),
             law: Law::coulomb(0.375),
             stop_below: None,
+            contact_stiffness: None,
         }
     }
 

@@ -258,11 +258,20 @@ impl<O: Observer> Observer for Tracker<'_, O> {
                 self.streak[p] = 0;
                 continue;
             }
-            let (y, ystuck) = self.points[((n - 1 - p as u64) % RING as u64) as usize];
+            let back = ((n - 1 - p as u64) % RING as u64) as usize;
+            let (y, ystuck) = self.points[back];
             let d = if ystuck == stuck {
-                x.iter()
+                let d = x
+                    .iter()
                     .zip(&y)
-                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+                    .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                // The stick position too: behind a contact spring it is the
+                // slider's, a fifth coordinate (for a rigid stick it is ζ2,
+                // already compared).
+                match (mode, self.modes[back]) {
+                    (Mode::Stick { z2: a }, Mode::Stick { z2: b }) => d.max((a - b).abs()),
+                    _ => d,
+                }
             } else {
                 f64::INFINITY
             };
@@ -301,7 +310,7 @@ impl<O: Observer> Observer for Tracker<'_, O> {
 /// use stickslip::model::{Absorber, Law, Model};
 /// use stickslip::sim::{simulate, Sim, SimOptions};
 /// // The paper's absorber (m = 4, k = 1, D = 0.005), Coulomb ρ = 0.5, η = 1.
-/// let model = Model { absorber: Absorber::default(), law: Law::coulomb(0.5), stop_below: None };
+/// let model = Model { absorber: Absorber::default(), law: Law::coulomb(0.5), stop_below: None, contact_stiffness: None };
 /// let sim = Sim::new(&model, 1.0)?;
 /// let s = simulate(&sim, &SimOptions::default(), &mut ());
 /// assert!(s.steady);
@@ -321,7 +330,7 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
                 linear::free_state(&model.absorber, model.law.slope(), eta),
                 0.0,
             ))
-        } else if model.law.is_always_stuck() {
+        } else if model.law.is_always_stuck() && model.contact_stiffness.is_none() {
             let (a1, a2) = linear::stuck_amplitudes(&model.absorber, eta);
             Some((a1, a2, linear::stuck_state(&model.absorber, eta, 0.0), 1.0))
         } else {

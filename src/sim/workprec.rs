@@ -35,6 +35,7 @@ pub fn scenarios() -> Vec<(&'static str, Model, f64)> {
         absorber: Absorber::default(),
         law,
         stop_below,
+        contact_stiffness: None,
     };
     vec![
         ("coulomb, eta 0.6", m(Law::coulomb(0.375), None), 0.6),
@@ -174,6 +175,7 @@ fn fig3_row() -> WpRow {
             absorber: Absorber::default(),
             law: Law::coulomb(rs),
             stop_below: None,
+            contact_stiffness: None,
         },
         direction: Direction::Up,
     })

@@ -596,6 +596,7 @@ impl SynthConfig {
                 .friction
                 .law(&self.rig, self.rig.drive_amplitude_true_m),
             stop_below: None,
+            contact_stiffness: None,
         }
     }
 }

@@ -94,6 +94,7 @@ impl Problem<'_> {
             absorber: rig.absorber,
             law,
             stop_below: None,
+            contact_stiffness: None,
         };
         // The exact engine where the law is linear in each phase; the
         // numerical engine (same event logic) for a shaped law.

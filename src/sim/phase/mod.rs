@@ -790,6 +790,16 @@ pub mod absorber {
         ]
     }
 
+    /// Matrix of the held phase of a pad with a contact spring κ (issue 34):
+    /// the slider sticks at ζs and M2 moves on the spring,
+    /// ζ2'' = ζ1 − ζ2 + D(ζ1' − ζ2') − κ(ζ2 − ζs) (the constant κζs is an
+    /// input, see [`crate::sim::Sim`]). Two free masses: a linear phase.
+    pub fn held_matrix(a: &Absorber, kappa: f64) -> [[f64; 4]; 4] {
+        let mut m = slip_matrix(a, 0.0);
+        m[3][2] = -1.0 - kappa;
+        m
+    }
+
     /// Drive input of the slip phase: k·ζ0 acts on M1.
     pub fn slip_input(a: &Absorber) -> [f64; 4] {
         [0.0, a.k / a.m, 0.0, 0.0]

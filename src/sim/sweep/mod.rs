@@ -378,6 +378,7 @@ mod tests {
                     minus: None,
                 },
                 stop_below: None,
+                contact_stiffness: None,
             };
             for budget in [40, 200] {
                 let cfg = SteadyConfig {
@@ -435,6 +436,7 @@ mod tests {
             absorber: Absorber::default(),
             law: Law::coulomb(rs),
             stop_below: None,
+            contact_stiffness: None,
         }
     }
 
@@ -537,6 +539,7 @@ mod determinism {
                         minus: None,
                     },
                     stop_below: None,
+                    contact_stiffness: None,
                 };
                 [Direction::Up, Direction::Rest].map(|direction| CurveSpec { model, direction })
             })

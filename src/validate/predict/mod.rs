@@ -837,6 +837,7 @@ pub fn predict_joint(
             absorber,
             law,
             stop_below: None,
+            contact_stiffness: None,
         })
     };
     let Some(model) = to_model(central) else {
@@ -1122,6 +1123,7 @@ mod tests {
             absorber: Absorber::default(),
             law: Law::coulomb(0.4),
             stop_below: None,
+            contact_stiffness: None,
         };
         let opts = PredictOptions::default();
         let whole = {
@@ -1178,6 +1180,7 @@ mod replay_tests {
                 },
                 law: Law::coulomb(rho),
                 stop_below: None,
+                contact_stiffness: None,
             };
             let t = 2.0 * PI / eta;
             let sched = Schedule {
