@@ -1,482 +1,631 @@
 //! The messages users read: [`Warning`]'s `Display` (what JSON's
-//! `warnings` holds), one arm per variant with its numbers.
+//! `warnings` holds), one arm per variant with its numbers, in one
+//! function per family of warnings.
 
 use super::*;
 use std::fmt;
 
 impl fmt::Display for Warning {
+    /// Hands the warning to the renderer of its family. This match is
+    /// exhaustive, so a new variant must be given a family here; each
+    /// family's renderer matches only the variants routed to it.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         use Warning::*;
         match self {
-            MapIgnored => f.write_str("--map applies to CSV, TDMS and MAT logs only; ignored"),
-            ChannelAbsent { channel } => write!(f, "no {channel} channel"),
-            NoAccelerometer => f.write_str(
-                "no accelerometer channel (a2): acceleration must be derived from velocity",
-            ),
-            NoVelocityChannel => f.write_str(
-                "no velocity channel (v2): identification derives the velocity of M2 from x2",
-            ),
-            ChannelEmpty { label } => {
-                write!(f, "channel {label} has no valid sample; treated as absent")
+            MapIgnored
+            | ChannelAbsent { .. }
+            | NoAccelerometer
+            | NoVelocityChannel
+            | ChannelEmpty { .. }
+            | ChannelNoMessages { .. }
+            | ChannelNulls { .. }
+            | UnknownTopic { .. }
+            | UnitAssumed { .. }
+            | UnfinishedSegment { .. }
+            | MixedSampleIntervals { .. }
+            | SampleRateMismatch { .. } => fmt_ingest(self, f),
+            Clipped { .. }
+            | VelocityDrift { .. }
+            | VelocityGain { .. }
+            | ChannelDelay { .. }
+            | VelocityLag { .. }
+            | AccelerationLag { .. } => fmt_sensor(self, f),
+            VelocityDerived { .. }
+            | AccelerationFilled { .. }
+            | VelocityDistrusted { .. }
+            | FewSlipSamples { .. }
+            | LawNotFitted { .. }
+            | NoSimpleLaw { .. }
+            | NeverSticks
+            | NoBreakaway
+            | PositionDelays { .. } => fmt_identify(self, f),
+            RefinementFailed { .. }
+            | StribeckFailed { .. }
+            | ShortSticks { .. }
+            | BoundsContradict { .. }
+            | LawChanged { .. }
+            | ThresholdNotIdentified { .. }
+            | NestedCoulomb { .. }
+            | Untested { .. }
+            | Inadequate { .. } => fmt_refinement(self, f),
+            NormalForceNegative { .. }
+            | NormalForceZero
+            | DriveAmplitude { .. }
+            | DriveFrequency { .. }
+            | BiasUnknown => fmt_rig(self, f),
+            SweepDriveAmplitude { .. }
+            | StepUnmeasured { .. }
+            | StepTooShort { .. }
+            | StepFewSamples { .. }
+            | DriveShape { .. }
+            | SweepRigMismatch { .. }
+            | InvalidDraws { .. }
+            | BandImprecise { .. }
+            | NoSteadyState => fmt_validate(self, f),
+            RecommendationAtEdge
+            | NoCliff { .. }
+            | NoRecommendation { .. }
+            | MissingSteadyStates { .. }
+            | BatchDriveAmplitude { .. }
+            | LogNormalForceZero { .. }
+            | NoStaticInformation { .. }
+            | NoSlidingLevel { .. }
+            | NormalForceNotPositive { .. }
+            | EmptyStaticBounds { .. }
+            | EstimatesDisagree { .. }
+            | Conflict { .. }
+            | UnresolvedConflict { .. }
+            | ConflictSetAside { .. }
+            | FewStaticPoints { .. }
+            | Intercept { .. }
+            | MuDAboveMuS { .. }
+            | CensoredDisagrees { .. }
+            | BatchRigMismatch { .. } => fmt_batch(self, f),
+            DuplicateFile { .. } | DuplicateTest { .. } | SameRecord { .. } => {
+                fmt_pipeline(self, f)
             }
-            ChannelNoMessages { topic, quantity } => {
-                write!(f, "channel {topic} ({quantity}) has no messages")
-            }
-            ChannelNulls {
-                channel,
-                nulls,
-                samples,
-            } => write!(f, "channel {channel} is null in {nulls} of {samples} samples"),
-            UnknownTopic { topic } => write!(f, "ignored unknown topic {topic}"),
-            UnitAssumed { topic, unit } => {
-                write!(f, "channel {topic} states no unit; {unit} assumed")
-            }
-            UnfinishedSegment { byte, ignored } => write!(
-                f,
-                "the last TDMS segment (at byte {byte}) was not finished by its writer: {ignored} bytes of an incomplete chunk ignored"
-            ),
-            MixedSampleIntervals {
-                topic,
-                min_ns,
-                max_ns,
-                nominal_ns,
-            } => write!(
-                f,
-                "channel {topic}: buffers use different sample intervals ({min_ns}..{max_ns} ns); {nominal_ns} ns taken as nominal"
-            ),
-            SampleRateMismatch {
-                topic,
-                rate_hz,
-                dt_ns,
-            } => write!(
-                f,
-                "channel {}: sample_rate_hz {} disagrees with dt_ns {} ({} Hz); dt_ns used",
-                topic,
-                rate_hz,
-                dt_ns,
-                1.0 / (*dt_ns as f64 * 1e-9)
-            ),
-            Clipped {
-                channel,
-                high,
-                level,
-                unit,
-                fraction,
-                samples,
-                runs,
-            } => write!(
-                f,
-                "clipped: {} flat at its {} ({:.4e} {}) in {:.1} % of the samples ({} samples in {} runs): saturated sensor or DAQ input; those samples are left out of every fit",
-                channel,
-                if *high { "maximum" } else { "minimum" },
-                level,
-                unit,
-                100.0 * fraction,
-                samples,
-                runs
-            ),
-            VelocityDrift {
-                drift_m_per_s2: drift,
-                span_s: span,
-                half_width_m_per_s2: half,
-            } => write!(
-                f,
-                "velocity channel v2: its offset drifts by {:.3} mm/s over the log ({:.4} ± {:.4} mm/s per s against d/dt x2); removed",
-                drift * span * 1e3,
-                drift * 1e3,
-                half * 1e3
-            ),
-            VelocityGain { gain } => write!(
-                f,
-                "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
-            ),
-            ChannelDelay {
-                channel,
-                shift_s: est,
-                interval_s: (lo, hi),
-                declared_s,
-            } => write!(
-                f,
-                "channel {} {} x1 by {:.2} ms (95 % interval of its shift {:.2} to {:.2} ms){}; corrected",
-                channel,
-                if *est < 0.0 { "lags" } else { "leads" },
-                est.abs() * 1e3,
-                lo * 1e3,
-                hi * 1e3,
-                if *declared_s != 0.0 {
-                    format!(" beyond the declared shift_s {:.2} ms", declared_s * 1e3)
-                } else {
-                    String::new()
-                }
-            ),
-            VelocityLag { lag_s } => write!(
-                f,
-                "velocity channel lags the position x2 by {:.2} ms; corrected",
-                lag_s * 1e3
-            ),
-            AccelerationLag { lag_s } => write!(
-                f,
-                "acceleration channel lags the velocity by {:.2} ms; corrected",
-                lag_s * 1e3
-            ),
-            VelocityDerived { half_window: half } => write!(
-                f,
-                "no velocity channel: ẋ2 derived from x2 (Savitzky–Golay derivative over ±{half} samples); its noise sets the stick detection threshold"
-            ),
-            AccelerationFilled { samples } => write!(
-                f,
-                "{samples} samples without accelerometer data use the differentiated velocity"
-            ),
-            VelocityDistrusted { why } => write!(
-                f,
-                "{why}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2"
-            ),
-            FewSlipSamples { samples } => write!(
-                f,
-                "M2 slid in only {samples} usable samples: reported as stuck"
-            ),
-            LawNotFitted { law } => write!(
-                f,
-                "law {} could not be fitted to this log; chose by BIC instead",
-                law.as_str()
-            ),
-            NoSimpleLaw {
-                stribeck_velocity_m_per_s: vs,
-                best,
-            } => write!(
-                f,
-                "none of the simple laws fits: residuals are structured (Stribeck-like peak near zero velocity, v_s = {:.2} mm/s); best simple law {}",
-                vs.unwrap_or(f64::NAN) * 1e3,
-                best.as_str()
-            ),
-            NeverSticks => f.write_str(
-                "M2 never sticks in this log: the static threshold is only bounded (rho_s_interval holds the bounds)",
-            ),
-            NoBreakaway => f.write_str("no stick → slip transition could be located"),
-            PositionDelays {
-                x1_s: d1,
-                x1_interval_s: i1,
-                x2_s: d2,
-                x2_interval_s: i2,
-                delta_bic,
-            } => {
-                write!(
-                    f,
-                    "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] ",
-                    d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
-                )?;
-                match delta_bic {
-                    None => f.write_str("(fitted with the law: without these lags it does not explain the log"),
-                    Some(d) => write!(
-                        f,
-                        "(fitted with the law: without them its residuals follow the velocity or the drive phase, and the lags lower the BIC by {d:.0}"
-                    ),
-                }?;
-                f.write_str("; a sensor filter at f_c lags by about 1/(2π·f_c))")
-            }
-            RefinementFailed { reason } => write!(
-                f,
-                "output-error refinement not possible ({reason}); the equation-error estimate is used"
-            ),
-            StribeckFailed { reason } => write!(
-                f,
-                "the Stribeck family could not be refined ({reason}); the best simple law is kept"
-            ),
-            ShortSticks {
-                law,
-                stick_fraction,
-                stick_runs,
-                run_s,
-            } => write!(
-                f,
-                "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
-                law.as_str(),
-                100.0 * stick_fraction,
-                stick_runs,
-                run_s * 1e3
-            ),
-            BoundsContradict {
-                upper_n: ub,
-                lower_n: lo,
-                output_error,
-            } => {
-                write!(
-                    f,
-                    "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N"
-                )?;
-                if *output_error {
-                    f.write_str("; no stick-free law explains this log")?;
-                }
-                Ok(())
-            }
-            LawChanged {
-                output_error,
-                equation_error,
-            } => write!(
-                f,
-                "the output-error refinement chose the law {} (equation error: {})",
-                output_error.as_str(),
-                equation_error.as_str()
-            ),
-            ThresholdNotIdentified {
-                other,
-                delta_bic,
-                other_rs_n,
-                interval_n: (lo, hi),
-            } => write!(
-                f,
-                "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
-                other.as_str()
-            ),
-            NestedCoulomb { law } => write!(
-                f,
-                "the {} family's extra parameter is consistent with Coulomb friction (its 95 % interval holds the nested value): Coulomb chosen",
-                law.as_str()
-            ),
-            Untested { law } => write!(
-                f,
-                "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
-                law.as_str()
-            ),
-            Inadequate {
-                law,
-                noise_ratio,
-                force_ratio,
-                max_noise_ratio,
-                worst,
-                inflation,
-            } => {
-                let worst = worst.map_or(String::new(), |st| {
-                    format!(
-                        "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
-                        st.channel, st.against, st.effect, st.chi2_per_dof, st.z
-                    )
-                });
-                write!(
-                    f,
-                    "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
-                    law.as_str(),
-                    noise_ratio.0,
-                    noise_ratio.1,
-                    force_ratio.map_or(String::new(), |r| format!(", force {r:.2}")),
-                    max_noise_ratio,
-                    inflation
-                )
-            }
-            NormalForceNegative { normal_force_n } => write!(
-                f,
-                "the normal force is negative ({normal_force_n} N): a sign or unit mistake in the log? Friction coefficients from it would be meaningless (batch refuses it)"
-            ),
-            NormalForceZero => f.write_str(
-                "the normal force is zero: the friction member may be off; no friction coefficient (μ) can be formed",
-            ),
-            DriveAmplitude {
-                measured_m,
-                nominal_m,
-            } => write!(
-                f,
-                "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; ρ uses the measured one",
-                measured_m * 1e3,
-                nominal_m * 1e3,
-                (measured_m / nominal_m - 1.0) * 100.0
-            ),
-            DriveFrequency {
-                metadata_hz: meta,
-                measured_hz: measured,
-                tolerance,
-            } => write!(
-                f,
-                "the metadata's drive frequency {meta} Hz contradicts the measured {measured:.4} Hz (by {:+.1} %, more than {} %); η and the fit use the measured one",
-                (meta / measured - 1.0) * 100.0,
-                tolerance * 100.0
-            ),
-            BiasUnknown => f.write_str(
-                "force bias unknown (M2 never slid): R includes the sensors' offsets",
-            ),
-            SweepDriveAmplitude {
-                measured_m,
-                nominal_m,
-            } => write!(
-                f,
-                "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
-                measured_m * 1e3,
-                nominal_m * 1e3,
-                (measured_m / nominal_m - 1.0) * 100.0
-            ),
-            StepUnmeasured { step, frequency_hz } => write!(
-                f,
-                "step {step} ({frequency_hz} Hz): the drive channel has too few samples to measure it"
-            ),
-            StepTooShort { step, frequency_hz } => write!(
-                f,
-                "step {step} ({frequency_hz:.3} Hz): the hold is shorter than one drive period"
-            ),
-            StepFewSamples {
-                step,
-                frequency_hz,
-                window_s,
-            } => write!(
-                f,
-                "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
-                step, frequency_hz, window_s.0, window_s.1
-            ),
-            DriveShape { rms_m } => write!(
-                f,
-                "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
-                rms_m * 1e6
-            ),
-            SweepRigMismatch {
-                constant,
-                characteristic,
-                sweep,
-            } => write!(
-                f,
-                "rig constant {constant} differs between the characteristic log ({characteristic}) and the sweep ({sweep}): are they from the same rig?"
-            ),
-            InvalidDraws { invalid, draws } => {
-                write!(f, "{invalid} of {draws} drawn laws were invalid and skipped")
-            }
-            BandImprecise {
-                standard_error,
-                draws,
-                target,
-            } => write!(
-                f,
-                "the replay band's coverages are known to ±{:.1} percentage points (bootstrap standard error over {} drawn laws), more than the target ±{:.1}: draw more laws (--samples) for a more precise band",
-                100.0 * standard_error,
-                draws,
-                100.0 * target
-            ),
-            NoSteadyState => f.write_str(
-                "no step reached its steady state: the steady-state scores are null",
-            ),
-            RecommendationAtEdge => f.write_str(
-                "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max",
-            ),
-            NoCliff { threshold, rho_min } => write!(
-                f,
-                "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {rho_min}"
-            ),
-            NoRecommendation { reason } => write!(f, "no normal force recommended: {reason}"),
-            MissingSteadyStates { missing } => write!(
-                f,
-                "{missing} steady states without amplitude (interrupted or resonant) were left out of the worst case"
-            ),
-            BatchDriveAmplitude { measured_m, used_m } => write!(
-                f,
-                "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
-                measured_m * 1e3,
-                used_m * 1e3
-            ),
-            LogNormalForceZero { log } => write!(
-                f,
-                "{}: the normal force is zero (the friction member may be off): its μ is null",
-                log.display()
-            ),
-            NoStaticInformation { log } => write!(
-                f,
-                "{}: no usable static-friction information (no estimate, bound or interval)",
-                log.display()
-            ),
-            NoSlidingLevel { log } => write!(
-                f,
-                "{}: no usable sliding level with an interval: left out of μd",
-                log.display()
-            ),
-            NormalForceNotPositive {
-                log,
-                normal_force_n: n,
-            } => write!(
-                f,
-                "{}: measured normal force {n} N is not positive: left out of the fits",
-                log.display()
-            ),
-            EmptyStaticBounds { log, low_n, high_n } => write!(
-                f,
-                "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
-                log.display()
-            ),
-            EstimatesDisagree { log, quantity: q, z } => write!(
-                f,
-                "{}: its equation-error and output-error {q} differ by {z:.1}σ: the log's {q} is in doubt",
-                log.display()
-            ),
-            Conflict { what } => write!(f, "conflict: {what}"),
-            UnresolvedConflict { quantity: sym } => write!(
-                f,
-                "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
-            ),
-            ConflictSetAside {
-                quantity: sym,
-                robust,
-                all,
-            } => write!(
-                f,
-                "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
-                robust.0, robust.1, robust.2, all.0, all.1, all.2
-            ),
-            FewStaticPoints { points } => write!(
-                f,
-                "μs rests on {points} measured log(s) (the others only bound it): its interval is wide"
-            ),
-            Intercept {
-                quantity: name,
-                intercept_n: a,
-                half_width_n: hw,
-            } => write!(
-                f,
-                "{name}: the free fit's intercept {a:.4} N is significant (95 % half-width {hw:.4} N): the forces are not proportional to the measured normal force (normal-force offset?)"
-            ),
-            MuDAboveMuS { mu_d, mu_s } => write!(
-                f,
-                "μd = {mu_d:.4} exceeds μs = {mu_s:.4}: the recommendation uses ρd = ρs"
-            ),
-            CensoredDisagrees { log, interval } => write!(
-                f,
-                "{}: its bound on Rs disagrees with the fitted μs interval [{:.4}, {:.4}]",
-                log.display(),
-                interval.0,
-                interval.1
-            ),
-            BatchRigMismatch {
-                constant,
-                log,
-                value,
-                reference_log,
-                reference,
-            } => write!(
-                f,
-                "rig constant {constant} of {} ({value}) differs from {} ({reference}): a batch should be one pad on one rig",
-                log.display(),
-                reference_log.display()
-            ),
-            DuplicateFile { log } => write!(f, "{} is given twice: counted once", log.display()),
-            DuplicateTest {
-                log,
-                of,
-                recorded_at,
-            } => write!(
-                f,
-                "{} is the same test as {} (same rig record, recorded_at {}, same measured normal force and drive): counted once",
-                log.display(),
-                of.display(),
-                recorded_at.as_deref().unwrap_or("?")
-            ),
-            SameRecord {
-                first,
-                second,
-                normal_force_n: n,
-                drive_amplitude_m: a,
-            } => write!(
-                f,
-                "{} and {} carry the same rig record and recorded_at but their data differ (normal force {:.3} / {:.3} N, drive {:.4} / {:.4} mm): kept as two tests",
-                first.display(),
-                second.display(),
-                n.0,
-                n.1,
-                a.0 * 1e3,
-                a.1 * 1e3
-            ),
         }
+    }
+}
+
+/// Renders an ingest warning (reading a log: options, absent or empty
+/// channels, units, TDMS segments, sample intervals).
+fn fmt_ingest(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        MapIgnored => f.write_str("--map applies to CSV, TDMS and MAT logs only; ignored"),
+        ChannelAbsent { channel } => write!(f, "no {channel} channel"),
+        NoAccelerometer => f.write_str(
+            "no accelerometer channel (a2): acceleration must be derived from velocity",
+        ),
+        NoVelocityChannel => f.write_str(
+            "no velocity channel (v2): identification derives the velocity of M2 from x2",
+        ),
+        ChannelEmpty { label } => {
+            write!(f, "channel {label} has no valid sample; treated as absent")
+        }
+        ChannelNoMessages { topic, quantity } => {
+            write!(f, "channel {topic} ({quantity}) has no messages")
+        }
+        ChannelNulls {
+            channel,
+            nulls,
+            samples,
+        } => write!(f, "channel {channel} is null in {nulls} of {samples} samples"),
+        UnknownTopic { topic } => write!(f, "ignored unknown topic {topic}"),
+        UnitAssumed { topic, unit } => {
+            write!(f, "channel {topic} states no unit; {unit} assumed")
+        }
+        UnfinishedSegment { byte, ignored } => write!(
+            f,
+            "the last TDMS segment (at byte {byte}) was not finished by its writer: {ignored} bytes of an incomplete chunk ignored"
+        ),
+        MixedSampleIntervals {
+            topic,
+            min_ns,
+            max_ns,
+            nominal_ns,
+        } => write!(
+            f,
+            "channel {topic}: buffers use different sample intervals ({min_ns}..{max_ns} ns); {nominal_ns} ns taken as nominal"
+        ),
+        SampleRateMismatch {
+            topic,
+            rate_hz,
+            dt_ns,
+        } => write!(
+            f,
+            "channel {}: sample_rate_hz {} disagrees with dt_ns {} ({} Hz); dt_ns used",
+            topic,
+            rate_hz,
+            dt_ns,
+            1.0 / (*dt_ns as f64 * 1e-9)
+        ),
+        _ => unreachable!("not an ingest warning: {}", w.code()),
+    }
+}
+
+/// Renders a sensor warning (checking the sensors: clipped channels,
+/// velocity drift and gain, channel delays).
+fn fmt_sensor(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        Clipped {
+            channel,
+            high,
+            level,
+            unit,
+            fraction,
+            samples,
+            runs,
+        } => write!(
+            f,
+            "clipped: {} flat at its {} ({:.4e} {}) in {:.1} % of the samples ({} samples in {} runs): saturated sensor or DAQ input; those samples are left out of every fit",
+            channel,
+            if *high { "maximum" } else { "minimum" },
+            level,
+            unit,
+            100.0 * fraction,
+            samples,
+            runs
+        ),
+        VelocityDrift {
+            drift_m_per_s2: drift,
+            span_s: span,
+            half_width_m_per_s2: half,
+        } => write!(
+            f,
+            "velocity channel v2: its offset drifts by {:.3} mm/s over the log ({:.4} ± {:.4} mm/s per s against d/dt x2); removed",
+            drift * span * 1e3,
+            drift * 1e3,
+            half * 1e3
+        ),
+        VelocityGain { gain } => write!(
+            f,
+            "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
+        ),
+        ChannelDelay {
+            channel,
+            shift_s: est,
+            interval_s: (lo, hi),
+            declared_s,
+        } => write!(
+            f,
+            "channel {} {} x1 by {:.2} ms (95 % interval of its shift {:.2} to {:.2} ms){}; corrected",
+            channel,
+            if *est < 0.0 { "lags" } else { "leads" },
+            est.abs() * 1e3,
+            lo * 1e3,
+            hi * 1e3,
+            if *declared_s != 0.0 {
+                format!(" beyond the declared shift_s {:.2} ms", declared_s * 1e3)
+            } else {
+                String::new()
+            }
+        ),
+        VelocityLag { lag_s } => write!(
+            f,
+            "velocity channel lags the position x2 by {:.2} ms; corrected",
+            lag_s * 1e3
+        ),
+        AccelerationLag { lag_s } => write!(
+            f,
+            "acceleration channel lags the velocity by {:.2} ms; corrected",
+            lag_s * 1e3
+        ),
+        _ => unreachable!("not a sensor warning: {}", w.code()),
+    }
+}
+
+/// Renders an identification warning (preparing the signals and choosing
+/// the law: derived velocity, stick and slip, law choice, position delays).
+fn fmt_identify(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        VelocityDerived { half_window: half } => write!(
+            f,
+            "no velocity channel: ẋ2 derived from x2 (Savitzky–Golay derivative over ±{half} samples); its noise sets the stick detection threshold"
+        ),
+        AccelerationFilled { samples } => write!(
+            f,
+            "{samples} samples without accelerometer data use the differentiated velocity"
+        ),
+        VelocityDistrusted { why } => write!(
+            f,
+            "{why}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2"
+        ),
+        FewSlipSamples { samples } => write!(
+            f,
+            "M2 slid in only {samples} usable samples: reported as stuck"
+        ),
+        LawNotFitted { law } => write!(
+            f,
+            "law {} could not be fitted to this log; chose by BIC instead",
+            law.as_str()
+        ),
+        NoSimpleLaw {
+            stribeck_velocity_m_per_s: vs,
+            best,
+        } => write!(
+            f,
+            "none of the simple laws fits: residuals are structured (Stribeck-like peak near zero velocity, v_s = {:.2} mm/s); best simple law {}",
+            vs.unwrap_or(f64::NAN) * 1e3,
+            best.as_str()
+        ),
+        NeverSticks => f.write_str(
+            "M2 never sticks in this log: the static threshold is only bounded (rho_s_interval holds the bounds)",
+        ),
+        NoBreakaway => f.write_str("no stick → slip transition could be located"),
+        PositionDelays {
+            x1_s: d1,
+            x1_interval_s: i1,
+            x2_s: d2,
+            x2_interval_s: i2,
+            delta_bic,
+        } => {
+            write!(
+                f,
+                "position records lag the drive: x1 by {:.3} ms [{:.3}, {:.3}], x2 by {:.3} ms [{:.3}, {:.3}] ",
+                d1 * 1e3, i1.0 * 1e3, i1.1 * 1e3, d2 * 1e3, i2.0 * 1e3, i2.1 * 1e3
+            )?;
+            match delta_bic {
+                None => f.write_str("(fitted with the law: without these lags it does not explain the log"),
+                Some(d) => write!(
+                    f,
+                    "(fitted with the law: without them its residuals follow the velocity or the drive phase, and the lags lower the BIC by {d:.0}"
+                ),
+            }?;
+            f.write_str("; a sensor filter at f_c lags by about 1/(2π·f_c))")
+        }
+        _ => unreachable!("not an identification warning: {}", w.code()),
+    }
+}
+
+/// Renders a refinement warning (refining the law and testing its adequacy:
+/// output-error and Stribeck refinement, short sticks, bounds, parsimony,
+/// adequacy).
+fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        RefinementFailed { reason } => write!(
+            f,
+            "output-error refinement not possible ({reason}); the equation-error estimate is used"
+        ),
+        StribeckFailed { reason } => write!(
+            f,
+            "the Stribeck family could not be refined ({reason}); the best simple law is kept"
+        ),
+        ShortSticks {
+            law,
+            stick_fraction,
+            stick_runs,
+            run_s,
+        } => write!(
+            f,
+            "the velocity shows no stick, but the output-error law ({}) sticks {:.1} % of the time in {} phases of about {:.0} ms (short sticks at reversal): ρs is measured, not bounded",
+            law.as_str(),
+            100.0 * stick_fraction,
+            stick_runs,
+            run_s * 1e3
+        ),
+        BoundsContradict {
+            upper_n: ub,
+            lower_n: lo,
+            output_error,
+        } => {
+            write!(
+                f,
+                "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {ub:.4} N, the sliding level below by {lo:.4} N"
+            )?;
+            if *output_error {
+                f.write_str("; no stick-free law explains this log")?;
+            }
+            Ok(())
+        }
+        LawChanged {
+            output_error,
+            equation_error,
+        } => write!(
+            f,
+            "the output-error refinement chose the law {} (equation error: {})",
+            output_error.as_str(),
+            equation_error.as_str()
+        ),
+        ThresholdNotIdentified {
+            other,
+            delta_bic,
+            other_rs_n,
+            interval_n: (lo, hi),
+        } => write!(
+            f,
+            "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
+            other.as_str()
+        ),
+        NestedCoulomb { law } => write!(
+            f,
+            "the {} family's extra parameter is consistent with Coulomb friction (its 95 % interval holds the nested value): Coulomb chosen",
+            law.as_str()
+        ),
+        Untested { law } => write!(
+            f,
+            "adequacy not tested: the {} law is the equation-error estimate, not checked against the positions (adequate: false); its intervals carry no model error",
+            law.as_str()
+        ),
+        Inadequate {
+            law,
+            noise_ratio,
+            force_ratio,
+            max_noise_ratio,
+            worst,
+            inflation,
+        } => {
+            let worst = worst.map_or(String::new(), |st| {
+                format!(
+                    "; largest structure: {} residuals against {}, {:.2} of the noise (χ²/dof {:.1}, z {:.1})",
+                    st.channel, st.against, st.effect, st.chi2_per_dof, st.z
+                )
+            });
+            write!(
+                f,
+                "the law {} does not explain the log down to its sensor noise: residual/noise x1 {:.2}, x2 {:.2}{} (adequate: ≤ {:.1}){worst}; the statistical intervals are widened ×{:.2}",
+                law.as_str(),
+                noise_ratio.0,
+                noise_ratio.1,
+                force_ratio.map_or(String::new(), |r| format!(", force {r:.2}")),
+                max_noise_ratio,
+                inflation
+            )
+        }
+        _ => unreachable!("not a refinement warning: {}", w.code()),
+    }
+}
+
+/// Renders a rig warning (the rig's normal force and drive as the
+/// identification measures them).
+fn fmt_rig(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        NormalForceNegative { normal_force_n } => write!(
+            f,
+            "the normal force is negative ({normal_force_n} N): a sign or unit mistake in the log? Friction coefficients from it would be meaningless (batch refuses it)"
+        ),
+        NormalForceZero => f.write_str(
+            "the normal force is zero: the friction member may be off; no friction coefficient (μ) can be formed",
+        ),
+        DriveAmplitude {
+            measured_m,
+            nominal_m,
+        } => write!(
+            f,
+            "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; ρ uses the measured one",
+            measured_m * 1e3,
+            nominal_m * 1e3,
+            (measured_m / nominal_m - 1.0) * 100.0
+        ),
+        DriveFrequency {
+            metadata_hz: meta,
+            measured_hz: measured,
+            tolerance,
+        } => write!(
+            f,
+            "the metadata's drive frequency {meta} Hz contradicts the measured {measured:.4} Hz (by {:+.1} %, more than {} %); η and the fit use the measured one",
+            (meta / measured - 1.0) * 100.0,
+            tolerance * 100.0
+        ),
+        BiasUnknown => f.write_str(
+            "force bias unknown (M2 never slid): R includes the sensors' offsets",
+        ),
+        _ => unreachable!("not a rig warning: {}", w.code()),
+    }
+}
+
+/// Renders a validation warning (sweep drive, skipped steps, rig
+/// mismatch, replay band, steady states).
+fn fmt_validate(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        SweepDriveAmplitude {
+            measured_m,
+            nominal_m,
+        } => write!(
+            f,
+            "measured drive amplitude {:.4} mm differs from the nominal {:.4} mm by {:+.1} %; A_i/A uses the measured one",
+            measured_m * 1e3,
+            nominal_m * 1e3,
+            (measured_m / nominal_m - 1.0) * 100.0
+        ),
+        StepUnmeasured { step, frequency_hz } => write!(
+            f,
+            "step {step} ({frequency_hz} Hz): the drive channel has too few samples to measure it"
+        ),
+        StepTooShort { step, frequency_hz } => write!(
+            f,
+            "step {step} ({frequency_hz:.3} Hz): the hold is shorter than one drive period"
+        ),
+        StepFewSamples {
+            step,
+            frequency_hz,
+            window_s,
+        } => write!(
+            f,
+            "step {} ({:.3} Hz): x1/x2 have too few samples in the window {:.2}-{:.2} s",
+            step, frequency_hz, window_s.0, window_s.1
+        ),
+        DriveShape { rms_m } => write!(
+            f,
+            "the drive signal departs from a slowly swept sinusoid (residual {:.1} µm RMS): the measured frequency plan may be off",
+            rms_m * 1e6
+        ),
+        SweepRigMismatch {
+            constant,
+            characteristic,
+            sweep,
+        } => write!(
+            f,
+            "rig constant {constant} differs between the characteristic log ({characteristic}) and the sweep ({sweep}): are they from the same rig?"
+        ),
+        InvalidDraws { invalid, draws } => {
+            write!(f, "{invalid} of {draws} drawn laws were invalid and skipped")
+        }
+        BandImprecise {
+            standard_error,
+            draws,
+            target,
+        } => write!(
+            f,
+            "the replay band's coverages are known to ±{:.1} percentage points (bootstrap standard error over {} drawn laws), more than the target ±{:.1}: draw more laws (--samples) for a more precise band",
+            100.0 * standard_error,
+            draws,
+            100.0 * target
+        ),
+        NoSteadyState => f.write_str(
+            "no step reached its steady state: the steady-state scores are null",
+        ),
+        _ => unreachable!("not a validation warning: {}", w.code()),
+    }
+}
+
+/// Renders a batch warning (the recommendation, per-log exclusions,
+/// conflicts, the μ fits).
+fn fmt_batch(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        RecommendationAtEdge => f.write_str(
+            "the recommendation lies at the edge of the candidates whose box fits the grid: widen --rho-min/--rho-max",
+        ),
+        NoCliff { threshold, rho_min } => write!(
+            f,
+            "no cliff found: W stays below twice the recommendation's ({threshold:.3}) down to ρs = {rho_min}"
+        ),
+        NoRecommendation { reason } => write!(f, "no normal force recommended: {reason}"),
+        MissingSteadyStates { missing } => write!(
+            f,
+            "{missing} steady states without amplitude (interrupted or resonant) were left out of the worst case"
+        ),
+        BatchDriveAmplitude { measured_m, used_m } => write!(
+            f,
+            "the logs' median measured drive amplitude {:.4} mm differs from the amplitude used for ρ ({:.4} mm) by more than 3 %",
+            measured_m * 1e3,
+            used_m * 1e3
+        ),
+        LogNormalForceZero { log } => write!(
+            f,
+            "{}: the normal force is zero (the friction member may be off): its μ is null",
+            log.display()
+        ),
+        NoStaticInformation { log } => write!(
+            f,
+            "{}: no usable static-friction information (no estimate, bound or interval)",
+            log.display()
+        ),
+        NoSlidingLevel { log } => write!(
+            f,
+            "{}: no usable sliding level with an interval: left out of μd",
+            log.display()
+        ),
+        NormalForceNotPositive {
+            log,
+            normal_force_n: n,
+        } => write!(
+            f,
+            "{}: measured normal force {n} N is not positive: left out of the fits",
+            log.display()
+        ),
+        EmptyStaticBounds { log, low_n, high_n } => write!(
+            f,
+            "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
+            log.display()
+        ),
+        EstimatesDisagree { log, quantity: q, z } => write!(
+            f,
+            "{}: its equation-error and output-error {q} differ by {z:.1}σ: the log's {q} is in doubt",
+            log.display()
+        ),
+        Conflict { what } => write!(f, "conflict: {what}"),
+        UnresolvedConflict { quantity: sym } => write!(
+            f,
+            "{sym}: the logs contradict each other and the data do not say which log is off: {sym} uses every log, its interval widened by their scatter"
+        ),
+        ConflictSetAside {
+            quantity: sym,
+            robust,
+            all,
+        } => write!(
+            f,
+            "{sym}: {:.4}, 95 % [{:.4}, {:.4}] without the conflicting log(s); {:.4}, 95 % [{:.4}, {:.4}] with every log",
+            robust.0, robust.1, robust.2, all.0, all.1, all.2
+        ),
+        FewStaticPoints { points } => write!(
+            f,
+            "μs rests on {points} measured log(s) (the others only bound it): its interval is wide"
+        ),
+        Intercept {
+            quantity: name,
+            intercept_n: a,
+            half_width_n: hw,
+        } => write!(
+            f,
+            "{name}: the free fit's intercept {a:.4} N is significant (95 % half-width {hw:.4} N): the forces are not proportional to the measured normal force (normal-force offset?)"
+        ),
+        MuDAboveMuS { mu_d, mu_s } => write!(
+            f,
+            "μd = {mu_d:.4} exceeds μs = {mu_s:.4}: the recommendation uses ρd = ρs"
+        ),
+        CensoredDisagrees { log, interval } => write!(
+            f,
+            "{}: its bound on Rs disagrees with the fitted μs interval [{:.4}, {:.4}]",
+            log.display(),
+            interval.0,
+            interval.1
+        ),
+        BatchRigMismatch {
+            constant,
+            log,
+            value,
+            reference_log,
+            reference,
+        } => write!(
+            f,
+            "rig constant {constant} of {} ({value}) differs from {} ({reference}): a batch should be one pad on one rig",
+            log.display(),
+            reference_log.display()
+        ),
+        _ => unreachable!("not a batch warning: {}", w.code()),
+    }
+}
+
+/// Renders a pipeline warning (the pipeline's file checks: duplicate files
+/// and tests, shared rig records).
+fn fmt_pipeline(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+    use Warning::*;
+    match w {
+        DuplicateFile { log } => write!(f, "{} is given twice: counted once", log.display()),
+        DuplicateTest {
+            log,
+            of,
+            recorded_at,
+        } => write!(
+            f,
+            "{} is the same test as {} (same rig record, recorded_at {}, same measured normal force and drive): counted once",
+            log.display(),
+            of.display(),
+            recorded_at.as_deref().unwrap_or("?")
+        ),
+        SameRecord {
+            first,
+            second,
+            normal_force_n: n,
+            drive_amplitude_m: a,
+        } => write!(
+            f,
+            "{} and {} carry the same rig record and recorded_at but their data differ (normal force {:.3} / {:.3} N, drive {:.4} / {:.4} mm): kept as two tests",
+            first.display(),
+            second.display(),
+            n.0,
+            n.1,
+            a.0 * 1e3,
+            a.1 * 1e3
+        ),
+        _ => unreachable!("not a pipeline warning: {}", w.code()),
     }
 }
