@@ -301,53 +301,13 @@ fn parse(path: &Path, buf: &[u8], wanted: &[&str]) -> Result<File, IngestError> 
     while pos < buf.len() {
         segment += 1;
         let seg = pos;
-        if buf.len() - pos < LEAD_IN {
-            return Err(bad(format!(
-                "truncated TDMS file: {} stray bytes at byte {seg} where segment {segment} should start (a segment lead-in is {LEAD_IN} bytes)",
-                buf.len() - pos
-            )));
-        }
-        if &buf[pos..pos + 4] != b"TDSm" {
-            return Err(bad(format!(
-                "corrupt TDMS file: segment {segment} at byte {seg} does not start with `TDSm`"
-            )));
-        }
-        let toc = le_u32(buf, pos + 4);
-        if toc & TOC_BIG_ENDIAN != 0 {
-            return Err(bad(format!(
-                "segment {segment} at byte {seg} is big-endian: only little-endian TDMS files are read (docs/rig-log-format.md); save the file as little-endian"
-            )));
-        }
-        if toc & TOC_DAQMX != 0 {
-            return Err(bad(format!(
-                "segment {segment} at byte {seg} holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
-            )));
-        }
-        let version = le_u32(buf, pos + 8);
-        if version != 4712 && version != 4713 {
-            return Err(bad(format!(
-                "segment {segment} at byte {seg}: TDMS version {version} is not 4712 or 4713"
-            )));
-        }
-        let next = le_u64(buf, pos + 12);
-        let raw_off = le_u64(buf, pos + 20);
+        let LeadIn {
+            toc,
+            seg_len,
+            raw_off,
+            unfinished,
+        } = lead_in(buf, pos, segment).map_err(bad)?;
         let body = pos + LEAD_IN;
-        let room = (buf.len() - body) as u64;
-        // 0xFFFF_FFFF_FFFF_FFFF: the writer stopped before it could fill in
-        // the length (a crashed recording): the segment runs to the end.
-        let unfinished = next == u64::MAX;
-        let seg_len = if unfinished { room } else { next };
-        if seg_len > room {
-            return Err(bad(format!(
-                "truncated or corrupt TDMS file: segment {segment} at byte {seg} claims {seg_len} bytes after its lead-in, only {room} remain"
-            )));
-        }
-        if raw_off > seg_len {
-            return Err(bad(format!(
-                "corrupt TDMS file: segment {segment} at byte {seg} puts its raw data {raw_off} bytes in, beyond its {seg_len} bytes"
-            )));
-        }
-        let (seg_len, raw_off) = (seg_len as usize, raw_off as usize);
         if toc & TOC_META_DATA != 0 {
             let mut c = Cur {
                 buf,
@@ -361,89 +321,9 @@ fn parse(path: &Path, buf: &[u8], wanted: &[&str]) -> Result<File, IngestError> 
             let n = c.u32("the object count").map_err(bad)?;
             for _ in 0..n {
                 let p = c.string("an object path").map_err(bad)?;
-                let id = match by_path.get(&p) {
-                    Some(&id) => id,
-                    None => {
-                        let parts = split_path(&p).ok_or_else(|| {
-                            bad(format!(
-                                "corrupt TDMS metadata in segment {segment} at byte {seg}: object path {p:?} is not /'group'/'channel'"
-                            ))
-                        })?;
-                        let name = parts.join("/");
-                        let is_channel = parts.len() == 2;
-                        let id = objects.len();
-                        objects.push(Object {
-                            wanted: is_channel && wanted.contains(&name.as_str()),
-                            name,
-                            is_channel,
-                            ..Object::default()
-                        });
-                        by_path.insert(p.clone(), id);
-                        id
-                    }
-                };
-                let raw_index = c.u32("a raw data index").map_err(bad)?;
-                let index = match raw_index {
-                    0xFFFF_FFFF => None,
-                    0 => match objects[id].last_index {
-                        Some(ix) => Some(ix),
-                        None => {
-                            return Err(bad(format!(
-                                "corrupt TDMS metadata in segment {segment} at byte {seg}: object {p:?} reuses a raw data index it never had"
-                            )))
-                        }
-                    },
-                    0x6912_0000 | 0x6913_0000 | 0x0000_1269 | 0x0000_126A => {
-                        return Err(bad(format!(
-                            "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
-                        )))
-                    }
-                    len => {
-                        let start = c.pos;
-                        let dtype = c.u32("a data type").map_err(bad)?;
-                        if dtype == T_DAQMX {
-                            return Err(bad(format!(
-                                "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
-                            )));
-                        }
-                        let dim = c.u32("an array dimension").map_err(bad)?;
-                        if dim != 1 {
-                            return Err(bad(c.err(&format!(
-                                "object {p:?} has array dimension {dim} (TDMS allows only 1)"
-                            ))));
-                        }
-                        let count = c.u64("a value count").map_err(bad)?;
-                        let bytes = if dtype == T_STRING {
-                            c.u64("a string data size").map_err(bad)?
-                        } else {
-                            match type_size(dtype) {
-                                Some(s) => count.checked_mul(s as u64).ok_or_else(|| {
-                                    bad(c.err(&format!("object {p:?}: {count} values overflow")))
-                                })?,
-                                None if count == 0 => 0,
-                                None => {
-                                    return Err(bad(c.err(&format!(
-                                        "object {p:?} holds {} data, which is not read",
-                                        type_name(dtype)
-                                    ))))
-                                }
-                            }
-                        };
-                        // The index length counts its own 4 bytes.
-                        if (c.pos - start + 4) as u64 != u64::from(len) {
-                            return Err(bad(c.err(&format!(
-                                "object {p:?}: raw data index length {len} does not match its content"
-                            ))));
-                        }
-                        let ix = Index {
-                            dtype,
-                            count,
-                            bytes,
-                        };
-                        objects[id].last_index = Some(ix);
-                        Some(ix)
-                    }
-                };
+                let id = object_id(&mut objects, &mut by_path, &p, wanted, (segment, seg))
+                    .map_err(bad)?;
+                let index = raw_index(&mut c, &mut objects[id], &p, (segment, seg)).map_err(bad)?;
                 let nprops = c.u32("a property count").map_err(bad)?;
                 for _ in 0..nprops {
                     let key = c.string("a property name").map_err(bad)?;
@@ -476,6 +356,182 @@ fn parse(path: &Path, buf: &[u8], wanted: &[&str]) -> Result<File, IngestError> 
         pos = body + seg_len;
     }
     Ok(File { objects, warnings })
+}
+
+/// What a segment's lead-in says of it, checked against the file.
+struct LeadIn {
+    /// The table of contents flags.
+    toc: u32,
+    /// Bytes of the segment after its lead-in.
+    seg_len: usize,
+    /// Offset of the raw data from the end of the lead-in.
+    raw_off: usize,
+    /// The writer stopped before filling in the length: the segment runs
+    /// to the end of the file.
+    unfinished: bool,
+}
+
+/// Reads and checks the lead-in of segment number `segment` at byte `pos`
+/// of `buf`: its tag, byte order, DAQmx flag, version, and that its length
+/// and raw data offset fit in the file.
+fn lead_in(buf: &[u8], pos: usize, segment: usize) -> Result<LeadIn, String> {
+    let seg = pos;
+    if buf.len() - pos < LEAD_IN {
+        return Err(format!(
+            "truncated TDMS file: {} stray bytes at byte {seg} where segment {segment} should start (a segment lead-in is {LEAD_IN} bytes)",
+            buf.len() - pos
+        ));
+    }
+    if &buf[pos..pos + 4] != b"TDSm" {
+        return Err(format!(
+            "corrupt TDMS file: segment {segment} at byte {seg} does not start with `TDSm`"
+        ));
+    }
+    let toc = le_u32(buf, pos + 4);
+    if toc & TOC_BIG_ENDIAN != 0 {
+        return Err(format!(
+            "segment {segment} at byte {seg} is big-endian: only little-endian TDMS files are read (docs/rig-log-format.md); save the file as little-endian"
+        ));
+    }
+    if toc & TOC_DAQMX != 0 {
+        return Err(format!(
+            "segment {segment} at byte {seg} holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
+        ));
+    }
+    let version = le_u32(buf, pos + 8);
+    if version != 4712 && version != 4713 {
+        return Err(format!(
+            "segment {segment} at byte {seg}: TDMS version {version} is not 4712 or 4713"
+        ));
+    }
+    let next = le_u64(buf, pos + 12);
+    let raw_off = le_u64(buf, pos + 20);
+    let body = pos + LEAD_IN;
+    let room = (buf.len() - body) as u64;
+    // 0xFFFF_FFFF_FFFF_FFFF: the writer stopped before it could fill in
+    // the length (a crashed recording): the segment runs to the end.
+    let unfinished = next == u64::MAX;
+    let seg_len = if unfinished { room } else { next };
+    if seg_len > room {
+        return Err(format!(
+            "truncated or corrupt TDMS file: segment {segment} at byte {seg} claims {seg_len} bytes after its lead-in, only {room} remain"
+        ));
+    }
+    if raw_off > seg_len {
+        return Err(format!(
+            "corrupt TDMS file: segment {segment} at byte {seg} puts its raw data {raw_off} bytes in, beyond its {seg_len} bytes"
+        ));
+    }
+    Ok(LeadIn {
+        toc,
+        seg_len: seg_len as usize,
+        raw_off: raw_off as usize,
+        unfinished,
+    })
+}
+
+/// The index in `objects` of the object at TDMS path `p`, added (wanted if
+/// it is a channel `wanted` names) when the file has not named it before.
+fn object_id(
+    objects: &mut Vec<Object>,
+    by_path: &mut BTreeMap<String, usize>,
+    p: &str,
+    wanted: &[&str],
+    (segment, seg): (usize, usize),
+) -> Result<usize, String> {
+    if let Some(&id) = by_path.get(p) {
+        return Ok(id);
+    }
+    let parts = split_path(p).ok_or_else(|| {
+        format!(
+            "corrupt TDMS metadata in segment {segment} at byte {seg}: object path {p:?} is not /'group'/'channel'"
+        )
+    })?;
+    let name = parts.join("/");
+    let is_channel = parts.len() == 2;
+    let id = objects.len();
+    objects.push(Object {
+        wanted: is_channel && wanted.contains(&name.as_str()),
+        name,
+        is_channel,
+        ..Object::default()
+    });
+    by_path.insert(p.to_string(), id);
+    Ok(id)
+}
+
+/// Reads the raw data index of object `obj` (path `p`) from the metadata:
+/// `None` when it has no data in this segment, else its new index or the
+/// one it had before; DAQmx raw data and data types this reader does not
+/// know are refused.
+fn raw_index(
+    c: &mut Cur,
+    obj: &mut Object,
+    p: &str,
+    (segment, seg): (usize, usize),
+) -> Result<Option<Index>, String> {
+    let raw_index = c.u32("a raw data index")?;
+    Ok(match raw_index {
+        0xFFFF_FFFF => None,
+        0 => match obj.last_index {
+            Some(ix) => Some(ix),
+            None => {
+                return Err(format!(
+                    "corrupt TDMS metadata in segment {segment} at byte {seg}: object {p:?} reuses a raw data index it never had"
+                ))
+            }
+        },
+        0x6912_0000 | 0x6913_0000 | 0x0000_1269 | 0x0000_126A => {
+            return Err(format!(
+                "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
+            ))
+        }
+        len => {
+            let start = c.pos;
+            let dtype = c.u32("a data type")?;
+            if dtype == T_DAQMX {
+                return Err(format!(
+                    "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
+                ));
+            }
+            let dim = c.u32("an array dimension")?;
+            if dim != 1 {
+                return Err(c.err(&format!(
+                    "object {p:?} has array dimension {dim} (TDMS allows only 1)"
+                )));
+            }
+            let count = c.u64("a value count")?;
+            let bytes = if dtype == T_STRING {
+                c.u64("a string data size")?
+            } else {
+                match type_size(dtype) {
+                    Some(s) => count
+                        .checked_mul(s as u64)
+                        .ok_or_else(|| c.err(&format!("object {p:?}: {count} values overflow")))?,
+                    None if count == 0 => 0,
+                    None => {
+                        return Err(c.err(&format!(
+                            "object {p:?} holds {} data, which is not read",
+                            type_name(dtype)
+                        )))
+                    }
+                }
+            };
+            // The index length counts its own 4 bytes.
+            if (c.pos - start + 4) as u64 != u64::from(len) {
+                return Err(c.err(&format!(
+                    "object {p:?}: raw data index length {len} does not match its content"
+                )));
+            }
+            let ix = Index {
+                dtype,
+                count,
+                bytes,
+            };
+            obj.last_index = Some(ix);
+            Some(ix)
+        }
+    })
 }
 
 /// Records where a segment's raw data holds each wanted channel's values.
@@ -630,6 +686,25 @@ enum Timing {
     Table,
 }
 
+/// A mapped channel (or the set point, `None`) with its map entry, its
+/// object in the file and its timing.
+type Entry<'a> = (Option<Quantity>, &'a ColumnSpec, &'a Object, Timing);
+
+/// The `time` channel of the table channels, read and checked.
+struct TimeTable<'a> {
+    /// Its map entry.
+    spec: &'a ColumnSpec,
+    /// Its object in the file.
+    obj: &'a Object,
+    /// Its values (s, the map's scale applied; the shift not).
+    time: Vec<f64>,
+    /// Its median sample interval (s).
+    dt_s: f64,
+    /// The absolute time of its first row when it holds TDMS timestamps
+    /// (2^-64 s since 1904).
+    first_stamp: Option<i128>,
+}
+
 /// Reads a TDMS log with its channel map (`map`, or the default).
 pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
     let (map_path, cmap) = csv::read_map(path, map, MapKind::Tdms)?;
@@ -639,163 +714,19 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     wanted.extend(cmap.setpoint_hz.iter().map(|s| s.name.as_str()));
     let file = parse(path, &buf, &wanted)?;
     let bad = |m: String| IngestError::invalid(path, m);
-    let rig_map: BTreeMap<String, String> = file.objects[0]
-        .props
-        .iter()
-        .filter_map(|(k, v)| match v {
-            Prop::Str(s) => Some((k.clone(), s.clone())),
-            Prop::Num(x) => Some((k.clone(), format!("{x}"))),
-            _ => None,
-        })
-        .collect();
-    if rig_map.is_empty() {
-        return Err(bad(
-            "no rig metadata: the TDMS file has no file-level properties".into(),
-        ));
-    }
-    let rig = RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))?;
-    let find = |spec: &ColumnSpec, what: &str| -> Result<&Object, IngestError> {
-        file.objects
-            .iter()
-            .find(|o| o.is_channel && o.name == spec.name)
-            .ok_or_else(|| {
-                let names: Vec<String> = file
-                    .objects
-                    .iter()
-                    .filter(|o| o.is_channel)
-                    .take(20)
-                    .map(|o| format!("{:?}", o.name))
-                    .collect();
-                bad(format!(
-                    "channel {:?} (mapped to {what} by {}) is not in the TDMS file (channels: {})",
-                    spec.name,
-                    map_path.display(),
-                    if names.is_empty() {
-                        "none".to_string()
-                    } else {
-                        names.join(", ")
-                    }
-                ))
-            })
-    };
-    let timing = |obj: &Object| -> Result<Timing, IngestError> {
-        let Some(inc) = obj.props.get("wf_increment") else {
-            return Ok(Timing::Table);
-        };
-        let Prop::Num(dt_s) = *inc else {
-            return Err(bad(format!(
-                "channel {:?}: wf_increment is not a number",
-                obj.name
-            )));
-        };
-        let (lo, hi) = csv::RATE_RANGE_HZ;
-        let rate = 1.0 / dt_s;
-        if !(rate >= lo && rate <= hi) {
-            return Err(bad(format!(
-                "channel {:?}: wf_increment {dt_s:e} s gives {rate:.4e} Hz, outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log",
-                obj.name
-            )));
-        }
-        let start = match obj.props.get("wf_start_time") {
-            Some(Prop::Time(t)) => *t,
-            Some(_) => {
-                return Err(bad(format!(
-                    "channel {:?}: wf_start_time is not a TDMS timestamp",
-                    obj.name
-                )))
-            }
-            None => {
-                return Err(bad(format!(
-                    "channel {:?} has wf_increment but no wf_start_time: a waveform needs both",
-                    obj.name
-                )))
-            }
-        };
-        let offset_s = match obj.props.get("wf_start_offset") {
-            None => 0.0,
-            Some(Prop::Num(x)) if x.is_finite() => *x,
-            Some(_) => {
-                return Err(bad(format!(
-                    "channel {:?}: wf_start_offset is not a finite number",
-                    obj.name
-                )))
-            }
-        };
-        Ok(Timing::Waveform {
-            start,
-            offset_s,
-            dt_s,
-        })
-    };
-    // The mapped channels and the set point, with their objects and timing.
-    let mut entries: Vec<(Option<Quantity>, &ColumnSpec, &Object, Timing)> = Vec::new();
-    for (q, spec) in &cmap.channels {
-        let obj = find(spec, q.name())?;
-        entries.push((Some(*q), spec, obj, timing(obj)?));
-    }
-    if let Some(spec) = &cmap.setpoint_hz {
-        let obj = find(spec, "setpoint_hz")?;
-        entries.push((None, spec, obj, timing(obj)?));
-    }
+    let rig = rig_meta(path, &file.objects[0])?;
+    let entries = mapped_entries(path, &map_path, &cmap, &file.objects)?;
     let any_table = entries.iter().any(|e| matches!(e.3, Timing::Table));
     // The `time` channel, when a table channel needs it.
     let table = if any_table {
-        let Some(tspec) = &cmap.time else {
-            let names: Vec<&str> = entries
-                .iter()
-                .filter(|e| matches!(e.3, Timing::Table))
-                .map(|e| e.1.name.as_str())
-                .collect();
-            // Named by the log: its channels lack the waveform properties
-            // (a map that is fine for an intact file meets a damaged one).
-            return Err(bad(format!(
-                "{} carries no waveform properties (wf_increment/wf_start_time), and the channel map {} has no [columns] entry `time` for a table channel",
-                names.join(", "),
-                map_path.display()
-            )));
-        };
-        let tobj = find(tspec, "time")?;
-        let group = tobj.name.split('/').next().unwrap_or("");
-        for e in entries.iter().filter(|e| matches!(e.3, Timing::Table)) {
-            if e.2.name.split('/').next().unwrap_or("") != group {
-                return Err(bad(format!(
-                    "channel {:?} is not a waveform and not in the group {group:?} of the time channel {:?}",
-                    e.2.name, tobj.name
-                )));
-            }
-        }
-        let is_stamp = tobj.pieces.iter().any(|p| p.dtype == T_TIMESTAMP);
-        let raw = decode(&buf, tobj, None).map_err(bad)?;
-        let time: Vec<f64> = raw.iter().map(|t| t * tspec.scale()).collect();
-        if time.len() < 2 {
-            return Err(bad(format!(
-                "too little data: the time channel {:?} has {} values",
-                tobj.name,
-                time.len()
-            )));
-        }
-        if let Some(i) = time
-            .windows(2)
-            .position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
-        {
-            return Err(bad(format!(
-                "non-monotonic time: time channel {:?}, value {}: {} s does not follow {} s",
-                tobj.name,
-                i + 1,
-                time[i + 1],
-                time[i]
-            )));
-        }
-        let dt_s = median_interval(&time).unwrap_or(f64::NAN);
-        csv::check_rate(&map_path, tspec, dt_s).map_err(|e| in_log(path, e))?;
-        // The absolute time of the first row when the channel holds
-        // timestamps (to line it up with waveforms).
-        let first_stamp = if is_stamp {
-            first_timestamp(&buf, tobj)
-        } else {
-            None
-        };
-        Some((tspec, tobj, time, dt_s, first_stamp))
+        Some(time_table(
+            path,
+            &map_path,
+            &cmap,
+            &file.objects,
+            &buf,
+            &entries,
+        )?)
     } else {
         None
     };
@@ -803,10 +734,10 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         .iter()
         .any(|e| matches!(e.3, Timing::Waveform { .. }));
     if any_wave {
-        if let Some((_, tobj, _, _, None)) = &table {
+        if let Some(t) = table.as_ref().filter(|t| t.first_stamp.is_none()) {
             return Err(bad(format!(
                 "the map mixes waveform channels with table channels on the time channel {:?}, whose values are not TDMS timestamps: their clocks cannot be lined up",
-                tobj.name
+                t.obj.name
             )));
         }
     }
@@ -817,55 +748,15 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
             Timing::Waveform { start, .. } => Some(start),
             Timing::Table => None,
         })
-        .chain(table.as_ref().and_then(|t| t.4))
+        .chain(table.as_ref().and_then(|t| t.first_stamp))
         .min()
         .unwrap_or(0);
     let mut channels = Vec::new();
     let mut setpoints = Vec::new();
     for (q, spec, obj, timing) in &entries {
         let raw = decode(&buf, obj, None).map_err(bad)?;
-        let factor = match (spec.scale_given, obj.props.get("unit_string"), q) {
-            (Some(s), _, _) => s,
-            (None, Some(Prop::Str(u)), Some(q)) if !u.trim().is_empty() => {
-                unit_factor(*q, u).ok_or_else(|| {
-                    bad(format!(
-                        "channel {:?} has unit_string {u:?}, not a unit of {} ({}): give its factor to SI as `scale` in {}",
-                        obj.name,
-                        q.name(),
-                        q.unit(),
-                        map_path.display()
-                    ))
-                })?
-            }
-            _ => 1.0,
-        };
-        let (t, dt_s) = match timing {
-            Timing::Waveform {
-                start,
-                offset_s,
-                dt_s,
-            } => {
-                let base = ticks_to_s(start - reference) + offset_s;
-                let t: Vec<f64> = (0..raw.len()).map(|i| base + i as f64 * dt_s).collect();
-                (t, *dt_s)
-            }
-            Timing::Table => {
-                let Some((tspec, tobj, time, dt_s, first)) = &table else {
-                    return Err(bad("internal: table channel without time".into()));
-                };
-                if raw.len() != time.len() {
-                    return Err(bad(format!(
-                        "channel {:?} has {} values, its time channel {:?} {}",
-                        obj.name,
-                        raw.len(),
-                        tobj.name,
-                        time.len()
-                    )));
-                }
-                let base = first.map_or(0.0, |f| ticks_to_s(f - reference)) + tspec.shift_s;
-                (time.iter().map(|t| t + base).collect(), *dt_s)
-            }
-        };
+        let factor = unit_scale(path, &map_path, *q, spec, obj)?;
+        let (t, dt_s) = sample_times(path, timing, obj, raw.len(), table.as_ref(), reference)?;
         match q {
             Some(q) => {
                 let v: Vec<f64> = raw.iter().map(|x| x * factor).collect();
@@ -888,9 +779,9 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     // Tables start at their first row (as CSV logs); waveforms at the
     // earliest sample of any channel.
     let origin = match &table {
-        Some((tspec, _, time, _, first)) if !any_wave => {
-            Some(time[0] + first.map_or(0.0, |f| ticks_to_s(f - reference)) + tspec.shift_s)
-        }
+        Some(t) if !any_wave => Some(
+            t.time[0] + t.first_stamp.map_or(0.0, |f| ticks_to_s(f - reference)) + t.spec.shift_s,
+        ),
         _ => None,
     };
     Ok(RawLog {
@@ -901,6 +792,285 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
         setpoints,
         warnings: file.warnings,
         declared_shifts: declared(&cmap),
+    })
+}
+
+/// The rig metadata: the file-level (root object's) string and number
+/// properties.
+fn rig_meta(path: &Path, root: &Object) -> Result<RigMeta, IngestError> {
+    let rig_map: BTreeMap<String, String> = root
+        .props
+        .iter()
+        .filter_map(|(k, v)| match v {
+            Prop::Str(s) => Some((k.clone(), s.clone())),
+            Prop::Num(x) => Some((k.clone(), format!("{x}"))),
+            _ => None,
+        })
+        .collect();
+    if rig_map.is_empty() {
+        return Err(IngestError::invalid(
+            path,
+            "no rig metadata: the TDMS file has no file-level properties",
+        ));
+    }
+    RigMeta::from_map(&rig_map).map_err(|e| IngestError::rig(path, e))
+}
+
+/// The channel object the map entry `spec` (mapped to `what`) names; an
+/// error listing the file's channels when it is not there.
+fn find_channel<'a>(
+    path: &Path,
+    map_path: &Path,
+    objects: &'a [Object],
+    spec: &ColumnSpec,
+    what: &str,
+) -> Result<&'a Object, IngestError> {
+    objects
+        .iter()
+        .find(|o| o.is_channel && o.name == spec.name)
+        .ok_or_else(|| {
+            let names: Vec<String> = objects
+                .iter()
+                .filter(|o| o.is_channel)
+                .take(20)
+                .map(|o| format!("{:?}", o.name))
+                .collect();
+            IngestError::invalid(
+                path,
+                format!(
+                    "channel {:?} (mapped to {what} by {}) is not in the TDMS file (channels: {})",
+                    spec.name,
+                    map_path.display(),
+                    if names.is_empty() {
+                        "none".to_string()
+                    } else {
+                        names.join(", ")
+                    }
+                ),
+            )
+        })
+}
+
+/// A channel's timing from its waveform properties (`wf_increment`,
+/// `wf_start_time`, `wf_start_offset`), checked; [`Timing::Table`] when it
+/// has no `wf_increment`.
+fn timing(path: &Path, obj: &Object) -> Result<Timing, IngestError> {
+    let bad = |m: String| IngestError::invalid(path, m);
+    let Some(inc) = obj.props.get("wf_increment") else {
+        return Ok(Timing::Table);
+    };
+    let Prop::Num(dt_s) = *inc else {
+        return Err(bad(format!(
+            "channel {:?}: wf_increment is not a number",
+            obj.name
+        )));
+    };
+    let (lo, hi) = csv::RATE_RANGE_HZ;
+    let rate = 1.0 / dt_s;
+    if !(rate >= lo && rate <= hi) {
+        return Err(bad(format!(
+            "channel {:?}: wf_increment {dt_s:e} s gives {rate:.4e} Hz, outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log",
+            obj.name
+        )));
+    }
+    let start = match obj.props.get("wf_start_time") {
+        Some(Prop::Time(t)) => *t,
+        Some(_) => {
+            return Err(bad(format!(
+                "channel {:?}: wf_start_time is not a TDMS timestamp",
+                obj.name
+            )))
+        }
+        None => {
+            return Err(bad(format!(
+                "channel {:?} has wf_increment but no wf_start_time: a waveform needs both",
+                obj.name
+            )))
+        }
+    };
+    let offset_s = match obj.props.get("wf_start_offset") {
+        None => 0.0,
+        Some(Prop::Num(x)) if x.is_finite() => *x,
+        Some(_) => {
+            return Err(bad(format!(
+                "channel {:?}: wf_start_offset is not a finite number",
+                obj.name
+            )))
+        }
+    };
+    Ok(Timing::Waveform {
+        start,
+        offset_s,
+        dt_s,
+    })
+}
+
+/// The mapped channels, then the set point, each with its object and
+/// timing (in the map's order; the first missing channel or bad timing is
+/// the error).
+fn mapped_entries<'a>(
+    path: &Path,
+    map_path: &Path,
+    cmap: &'a ChannelMap,
+    objects: &'a [Object],
+) -> Result<Vec<Entry<'a>>, IngestError> {
+    let mut entries: Vec<Entry<'a>> = Vec::new();
+    for (q, spec) in &cmap.channels {
+        let obj = find_channel(path, map_path, objects, spec, q.name())?;
+        entries.push((Some(*q), spec, obj, timing(path, obj)?));
+    }
+    if let Some(spec) = &cmap.setpoint_hz {
+        let obj = find_channel(path, map_path, objects, spec, "setpoint_hz")?;
+        entries.push((None, spec, obj, timing(path, obj)?));
+    }
+    Ok(entries)
+}
+
+/// The map's `time` channel for the table channels among `entries`: it
+/// must exist and share their group; its values must be at least two,
+/// increasing, and at a plausible rate.
+fn time_table<'a>(
+    path: &Path,
+    map_path: &Path,
+    cmap: &'a ChannelMap,
+    objects: &'a [Object],
+    buf: &[u8],
+    entries: &[Entry<'a>],
+) -> Result<TimeTable<'a>, IngestError> {
+    let bad = |m: String| IngestError::invalid(path, m);
+    let Some(tspec) = &cmap.time else {
+        let names: Vec<&str> = entries
+            .iter()
+            .filter(|e| matches!(e.3, Timing::Table))
+            .map(|e| e.1.name.as_str())
+            .collect();
+        // Named by the log: its channels lack the waveform properties
+        // (a map that is fine for an intact file meets a damaged one).
+        return Err(bad(format!(
+            "{} carries no waveform properties (wf_increment/wf_start_time), and the channel map {} has no [columns] entry `time` for a table channel",
+            names.join(", "),
+            map_path.display()
+        )));
+    };
+    let tobj = find_channel(path, map_path, objects, tspec, "time")?;
+    let group = tobj.name.split('/').next().unwrap_or("");
+    for e in entries.iter().filter(|e| matches!(e.3, Timing::Table)) {
+        if e.2.name.split('/').next().unwrap_or("") != group {
+            return Err(bad(format!(
+                "channel {:?} is not a waveform and not in the group {group:?} of the time channel {:?}",
+                e.2.name, tobj.name
+            )));
+        }
+    }
+    let is_stamp = tobj.pieces.iter().any(|p| p.dtype == T_TIMESTAMP);
+    let raw = decode(buf, tobj, None).map_err(bad)?;
+    let time: Vec<f64> = raw.iter().map(|t| t * tspec.scale()).collect();
+    if time.len() < 2 {
+        return Err(bad(format!(
+            "too little data: the time channel {:?} has {} values",
+            tobj.name,
+            time.len()
+        )));
+    }
+    if let Some(i) = time
+        .windows(2)
+        .position(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+    {
+        return Err(bad(format!(
+            "non-monotonic time: time channel {:?}, value {}: {} s does not follow {} s",
+            tobj.name,
+            i + 1,
+            time[i + 1],
+            time[i]
+        )));
+    }
+    let dt_s = median_interval(&time).unwrap_or(f64::NAN);
+    csv::check_rate(map_path, tspec, dt_s).map_err(|e| in_log(path, e))?;
+    // The absolute time of the first row when the channel holds
+    // timestamps (to line it up with waveforms).
+    let first_stamp = if is_stamp {
+        first_timestamp(buf, tobj)
+    } else {
+        None
+    };
+    Ok(TimeTable {
+        spec: tspec,
+        obj: tobj,
+        time,
+        dt_s,
+        first_stamp,
+    })
+}
+
+/// The factor to SI of a channel's values: the map's `scale` if given,
+/// else the one its `unit_string` names (for a quantity), else 1.
+fn unit_scale(
+    path: &Path,
+    map_path: &Path,
+    q: Option<Quantity>,
+    spec: &ColumnSpec,
+    obj: &Object,
+) -> Result<f64, IngestError> {
+    Ok(match (spec.scale_given, obj.props.get("unit_string"), q) {
+        (Some(s), _, _) => s,
+        (None, Some(Prop::Str(u)), Some(q)) if !u.trim().is_empty() => {
+            unit_factor(q, u).ok_or_else(|| {
+                IngestError::invalid(
+                    path,
+                    format!(
+                        "channel {:?} has unit_string {u:?}, not a unit of {} ({}): give its factor to SI as `scale` in {}",
+                        obj.name,
+                        q.name(),
+                        q.unit(),
+                        map_path.display()
+                    ),
+                )
+            })?
+        }
+        _ => 1.0,
+    })
+}
+
+/// The sample times (s from the clock origin `reference`, the channel's
+/// own shift not applied) of a channel with `len` values, and its sample
+/// interval: from its waveform timing, or the time table's (whose length
+/// it must have).
+fn sample_times(
+    path: &Path,
+    timing: &Timing,
+    obj: &Object,
+    len: usize,
+    table: Option<&TimeTable>,
+    reference: i128,
+) -> Result<(Vec<f64>, f64), IngestError> {
+    let bad = |m: String| IngestError::invalid(path, m);
+    Ok(match timing {
+        Timing::Waveform {
+            start,
+            offset_s,
+            dt_s,
+        } => {
+            let base = ticks_to_s(start - reference) + offset_s;
+            let t: Vec<f64> = (0..len).map(|i| base + i as f64 * dt_s).collect();
+            (t, *dt_s)
+        }
+        Timing::Table => {
+            let Some(table) = table else {
+                return Err(bad("internal: table channel without time".into()));
+            };
+            if len != table.time.len() {
+                return Err(bad(format!(
+                    "channel {:?} has {} values, its time channel {:?} {}",
+                    obj.name,
+                    len,
+                    table.obj.name,
+                    table.time.len()
+                )));
+            }
+            let first = table.first_stamp;
+            let base = first.map_or(0.0, |f| ticks_to_s(f - reference)) + table.spec.shift_s;
+            (table.time.iter().map(|t| t + base).collect(), table.dt_s)
+        }
     })
 }
 
