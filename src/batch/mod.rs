@@ -672,12 +672,11 @@ const REFINE: usize = 4;
 /// [`batch`] with a progress callback (`tick(n)`: n more worst-case
 /// evaluations done).
 ///
-/// Read top to bottom it is the batch's stages: the coefficients
-/// (`observations.rs`), the force scale, the η and ρs grids with the
-/// settings' uncertainty box, stage 1 (coarse grid and the measured
-/// settings), the recommendation search (`recommend.rs`) and the curve. It
-/// stays one function of ~190 lines because the grid's bounds share a
-/// dozen locals with the stages around them.
+/// Read top to bottom it is the batch's stages: the logs' observations
+/// and coefficients (`observations.rs`), the ratio μd/μs, the force scale,
+/// the η and ρs grids with the settings' uncertainty box (`rho_grid`),
+/// stage 1 (coarse grid and the measured settings), the recommendation
+/// search (`recommend.rs`) and the curve (`curve_points`).
 pub fn batch_with_progress(
     fits: &[(PathBuf, LogFit)],
     rig: &RigMeta,
@@ -689,26 +688,7 @@ pub fn batch_with_progress(
         return Err(BatchError::Empty.into());
     }
     let mut warnings = Vec::new();
-    // A negative normal force is a sign or unit mistake: μ from it would
-    // be meaningless (a zero one gives μ null and a warning, below).
-    if let Some((p, f)) = fits
-        .iter()
-        .find(|(_, f)| f.normal_force_n < 0.0 || f.normal_force_n.is_nan())
-    {
-        return Err(BatchError::Options(format!(
-            "{}: the normal force is {} N (negative): a sign or unit mistake in the log? batch compares settings by μ = R/N and cannot use it",
-            p.display(),
-            f.normal_force_n
-        ))
-        .into());
-    }
-    for (p, _) in fits.iter().filter(|(_, f)| f.normal_force_n == 0.0) {
-        warnings.push(crate::warning::Warning::LogNormalForceZero { log: p.clone() });
-    }
-    let mut logs: Vec<BatchLog> = fits
-        .iter()
-        .map(|(p, f)| log_obs(p, f, &mut warnings))
-        .collect();
+    let mut logs = observe_logs(fits, &mut warnings)?;
     let Coefficients {
         mu_s,
         mu_d,
@@ -716,12 +696,7 @@ pub fn batch_with_progress(
         mu_d_all,
         conflicts,
     } = fit_coefficients(&mut logs, opts.normal_force_gain_uncertainty, &mut warnings)?;
-
-    // μd/μs: the common calibration cancels; statistical parts in quadrature.
-    let ratio = (mu_d.mu / mu_s.mu).min(1.0);
-    let rel = |m: &MuFit| 0.5 * (m.stat_interval.1 - m.stat_interval.0) / m.mu;
-    let rr = rel(&mu_s).hypot(rel(&mu_d));
-    let ratio_interval = ((ratio * (1.0 - rr)).max(0.0), (ratio * (1.0 + rr)).min(1.0));
+    let (ratio, ratio_interval) = ratio_estimate(&mu_s, &mu_d);
 
     let ab = rig.constants().absorber();
     ab.validate().map_err(BatchError::Rig)?;
@@ -751,35 +726,13 @@ pub fn batch_with_progress(
     } else {
         vec![ratio]
     };
-    // The uncertainty box of a setting, as factors on its nominal ρs.
-    let t = opts.setting_tolerance;
-    let (fa, fb) = (
-        mu_s.interval.0 / mu_s.mu * (1.0 - t),
-        mu_s.interval.1 / mu_s.mu * (1.0 + t),
-    );
-    // A box wider than this factor is not searched for (the grid would be
-    // meaningless); the batch then says so instead of recommending.
-    const MAX_BOX: f64 = 1e3;
-    let box_ok = fa > 0.0 && fb.is_finite() && fb / fa <= MAX_BOX;
-    let measured_max = logs
-        .iter()
-        .map(|l| l.model_rho_s)
-        .filter(|r| r.is_finite())
-        .fold(0.0f64, f64::max);
-    let rho_min = opts.rho_min;
-    // The default grid covers every measured setting (at least ρs = 3) and
-    // room for a few candidates whose whole box fits.
-    let rho_max = opts.rho_max.unwrap_or_else(|| {
-        let need = if box_ok { 8.0 * rho_min * fb / fa } else { 0.0 };
-        (1.1 * measured_max).max(3.0).max(need)
-    });
-    if rho_max <= rho_min {
-        return Err(BatchError::RhoRange {
-            min: rho_min,
-            max: rho_max,
-        }
-        .into());
-    }
+    let RhoGrid {
+        fa,
+        fb,
+        box_ok,
+        rho_min,
+        rho_max,
+    } = rho_grid(opts, &mu_s, &logs)?;
     let mut table = Table {
         ab,
         etas: &etas,
@@ -835,10 +788,138 @@ pub fn batch_with_progress(
         }
     };
 
-    let rob: Vec<Option<f64>> = if box_ok {
-        recommend::robust_all(&table, fa, fb)
-    } else {
-        vec![None; table.nodes.len()]
+    let curve = curve_points(&table, box_ok.then_some((fa, fb)), &n_of, &mut warnings);
+    Ok(Batch {
+        logs,
+        mu_s,
+        mu_d,
+        mu_s_all,
+        mu_d_all,
+        conflicts,
+        ratio,
+        ratio_interval,
+        absorber: ab,
+        drive_amplitude_m: amp,
+        drive_amplitude_source: amp_source,
+        measured_drive_amplitude_m: measured_amp,
+        force_scale_n: fs,
+        eta_range,
+        eta_points: etas.etas.len(),
+        eta_coarse_points: etas.coarse.iter().filter(|&&c| c).count(),
+        setting_tolerance: opts.setting_tolerance,
+        window: opts.window,
+        curve,
+        recommendation,
+        recommendation_reason,
+        cliff,
+        evaluations: table.evaluations,
+        periods: table.periods,
+        warnings,
+    })
+}
+
+/// What each log says ([`log_obs`]), after refusing a negative (or NaN)
+/// normal force, the first such log named; a zero normal force is a
+/// warning per log (its μ is null).
+fn observe_logs(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>) -> Result<Vec<BatchLog>> {
+    // A negative normal force is a sign or unit mistake: μ from it would
+    // be meaningless (a zero one gives μ null and a warning, below).
+    if let Some((p, f)) = fits
+        .iter()
+        .find(|(_, f)| f.normal_force_n < 0.0 || f.normal_force_n.is_nan())
+    {
+        return Err(BatchError::Options(format!(
+            "{}: the normal force is {} N (negative): a sign or unit mistake in the log? batch compares settings by μ = R/N and cannot use it",
+            p.display(),
+            f.normal_force_n
+        ))
+        .into());
+    }
+    for (p, _) in fits.iter().filter(|(_, f)| f.normal_force_n == 0.0) {
+        warnings.push(crate::warning::Warning::LogNormalForceZero { log: p.clone() });
+    }
+    Ok(fits.iter().map(|(p, f)| log_obs(p, f, warnings)).collect())
+}
+
+/// The ratio μd/μs (at most 1) and its interval: the common calibration
+/// cancels; the statistical parts add in quadrature.
+fn ratio_estimate(mu_s: &MuFit, mu_d: &MuFit) -> (f64, (f64, f64)) {
+    let ratio = (mu_d.mu / mu_s.mu).min(1.0);
+    let rel = |m: &MuFit| 0.5 * (m.stat_interval.1 - m.stat_interval.0) / m.mu;
+    let rr = rel(mu_s).hypot(rel(mu_d));
+    let ratio_interval = ((ratio * (1.0 - rr)).max(0.0), (ratio * (1.0 + rr)).min(1.0));
+    (ratio, ratio_interval)
+}
+
+/// The ρs grid's ends and a setting's uncertainty box.
+struct RhoGrid {
+    /// The box as factors (fa, fb) on a setting's nominal ρs.
+    fa: f64,
+    /// See `fa`.
+    fb: f64,
+    /// The box is narrow enough to search for.
+    box_ok: bool,
+    /// The grid's lower end.
+    rho_min: f64,
+    /// The grid's upper end.
+    rho_max: f64,
+}
+
+/// A setting's uncertainty box (μs's interval and the setting tolerance)
+/// and the ρs grid: from the option, else covering every measured setting
+/// (at least ρs = 3) and room for a few candidates whose whole box fits;
+/// an empty grid is the error.
+fn rho_grid(opts: &BatchOptions, mu_s: &MuFit, logs: &[BatchLog]) -> Result<RhoGrid> {
+    // The uncertainty box of a setting, as factors on its nominal ρs.
+    let t = opts.setting_tolerance;
+    let (fa, fb) = (
+        mu_s.interval.0 / mu_s.mu * (1.0 - t),
+        mu_s.interval.1 / mu_s.mu * (1.0 + t),
+    );
+    // A box wider than this factor is not searched for (the grid would be
+    // meaningless); the batch then says so instead of recommending.
+    const MAX_BOX: f64 = 1e3;
+    let box_ok = fa > 0.0 && fb.is_finite() && fb / fa <= MAX_BOX;
+    let measured_max = logs
+        .iter()
+        .map(|l| l.model_rho_s)
+        .filter(|r| r.is_finite())
+        .fold(0.0f64, f64::max);
+    let rho_min = opts.rho_min;
+    // The default grid covers every measured setting (at least ρs = 3) and
+    // room for a few candidates whose whole box fits.
+    let rho_max = opts.rho_max.unwrap_or_else(|| {
+        let need = if box_ok { 8.0 * rho_min * fb / fa } else { 0.0 };
+        (1.1 * measured_max).max(3.0).max(need)
+    });
+    if rho_max <= rho_min {
+        return Err(BatchError::RhoRange {
+            min: rho_min,
+            max: rho_max,
+        }
+        .into());
+    }
+    Ok(RhoGrid {
+        fa,
+        fb,
+        box_ok,
+        rho_min,
+        rho_max,
+    })
+}
+
+/// The worst-case curve over the table's nodes in normal force (`n_of`),
+/// with the robust worst case where the uncertainty box `(fa, fb)` is
+/// searched for; a warning counts the steady states without amplitude.
+fn curve_points(
+    table: &Table<'_>,
+    box_factors: Option<(f64, f64)>,
+    n_of: &dyn Fn(f64) -> f64,
+    warnings: &mut Vec<Warning>,
+) -> Vec<CurvePoint> {
+    let rob: Vec<Option<f64>> = match box_factors {
+        Some((fa, fb)) => recommend::robust_all(table, fa, fb),
+        None => vec![None; table.nodes.len()],
     };
     let curve: Vec<CurvePoint> = table
         .nodes
@@ -858,33 +939,7 @@ pub fn batch_with_progress(
     if missing > 0 {
         warnings.push(crate::warning::Warning::MissingSteadyStates { missing });
     }
-    Ok(Batch {
-        logs,
-        mu_s,
-        mu_d,
-        mu_s_all,
-        mu_d_all,
-        conflicts,
-        ratio,
-        ratio_interval,
-        absorber: ab,
-        drive_amplitude_m: amp,
-        drive_amplitude_source: amp_source,
-        measured_drive_amplitude_m: measured_amp,
-        force_scale_n: fs,
-        eta_range,
-        eta_points: etas.etas.len(),
-        eta_coarse_points: etas.coarse.iter().filter(|&&c| c).count(),
-        setting_tolerance: t,
-        window: opts.window,
-        curve,
-        recommendation,
-        recommendation_reason,
-        cliff,
-        evaluations: table.evaluations,
-        periods: table.periods,
-        warnings,
-    })
+    curve
 }
 
 #[cfg(test)]
