@@ -686,3 +686,110 @@ fn rk4_converges_on_a_compliant_pad() {
         assert!((3.5..4.6).contains(&p), "observed order {p}");
     }
 }
+
+/// A contact stiffness outside what the engine supports is refused with
+/// the reason: not positive, without friction, or above 1e8 (the contact
+/// mode's ringing); 1e8 itself runs.
+#[test]
+fn unsupported_contact_stiffness_is_refused() {
+    for kappa in [0.0, -1.0, f64::NAN, 2e8] {
+        let m = compliant(Law::coulomb(0.4), kappa);
+        assert!(m.validate().is_err(), "{kappa}");
+        assert!(Sim::new(&m, 0.6).is_err(), "{kappa}");
+    }
+    let frictionless = compliant(Law::coulomb(0.0), 10.0);
+    assert!(frictionless.validate().is_err());
+    let e = compliant(Law::coulomb(0.4), 2e8).validate().unwrap_err();
+    assert!(e.to_string().contains("supported 1e8"), "{e}");
+    let ok = compliant(Law::coulomb(0.4), 1e8);
+    let end = Sim::new(&ok, 0.6).unwrap().run(Init::rest(), 5, &mut ());
+    assert!(end.x.iter().all(|v| v.is_finite()));
+}
+
+/// `sweep --contact-stiffness` through the binary: the curve carries κ,
+/// and every steady point from rest agrees with the steady state of the
+/// numerical engine (`simulate --method dopri`, an independent integrator)
+/// to 1e-7; `simulate` reports the slider and its `zeta_s` columns.
+#[test]
+fn sweep_and_simulate_of_a_compliant_pad() {
+    use common::bin;
+    let dir = tempfile::tempdir().unwrap();
+    let pad = [
+        "--rho-s",
+        "0.5",
+        "--rho-d",
+        "0.4",
+        "--contact-stiffness",
+        "20",
+    ];
+    let out = bin()
+        .args(["sweep", "--points", "7", "--from-rest", "--json"])
+        .args(pad)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let c = &v["curves"][0];
+    assert_eq!(c["contact_stiffness"], 20.0);
+    let mut compared = 0;
+    for (i, eta) in c["eta"].as_array().unwrap().iter().enumerate() {
+        if c["steady"][i] != true {
+            continue;
+        }
+        let eta = eta.as_f64().unwrap().to_string();
+        let o = bin()
+            .args([
+                "simulate", "--steady", "--method", "dopri", "--tol", "1e-12",
+            ])
+            .args(["--eta", &eta, "--json"])
+            .args(pad)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        for key in ["amplitude1", "amplitude2"] {
+            let (a, b) = (c[key][i].as_f64().unwrap(), s[key].as_f64().unwrap());
+            assert!(
+                (a - b).abs() <= 1e-7 * b.max(1e-3),
+                "eta {eta} {key}: sweep {a}, dopri {b}"
+            );
+        }
+        compared += 1;
+    }
+    assert!(compared >= 6, "only {compared} points compared");
+    // simulate: the slider's position and the zeta_s columns.
+    let (ev, tr) = (dir.path().join("ev.csv"), dir.path().join("tr.csv"));
+    let o = bin()
+        .args(["simulate", "--eta", "0.6", "--periods", "20", "--json"])
+        .args(pad)
+        .arg("--events")
+        .arg(&ev)
+        .arg("--trajectory")
+        .arg(&tr)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(s["slider_position"].as_f64().unwrap().is_finite());
+    assert_eq!(s["contact_stiffness"], 20.0);
+    let events = std::fs::read_to_string(&ev).unwrap();
+    assert!(events.starts_with("tau,kind,zeta1,dzeta1,zeta2,dzeta2,zeta_s\n"));
+    // At each stick the spring holds the sliding level: P = κ(ζ2 − ζs) = ±ρd.
+    let mut sticks = 0;
+    for line in events.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if f[1] == "stick" {
+            let (z2, zs): (f64, f64) = (f[4].parse().unwrap(), f[6].parse().unwrap());
+            let pull = 20.0 * (z2 - zs);
+            assert!((pull.abs() - 0.4).abs() < 1e-9, "{line}");
+            sticks += 1;
+        }
+    }
+    assert!(sticks > 5);
+    let traj = std::fs::read_to_string(&tr).unwrap();
+    assert!(traj.starts_with("tau,zeta1,dzeta1,zeta2,dzeta2,zeta_s\n"));
+}

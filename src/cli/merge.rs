@@ -143,6 +143,7 @@ fn check_parts(parts: &[PathBuf], rows: &[FrcRow], part_of: &[usize]) -> crate::
             && same_opt(r.stop_below, c.stop_below)
             && same_opt(r.rho_s_minus, c.rho_s_minus)
             && same_opt(r.rho_d_minus, c.rho_d_minus)
+            && same_opt(r.contact_stiffness, c.contact_stiffness)
             && r.direction == c.direction)
         {
             return Err(differ(i, format!("curve {} has another model", r.curve)));

@@ -164,12 +164,6 @@ fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> 
             _ => None,
         };
         let model = args.shape.model(rs, rd)?;
-        if model.contact_stiffness.is_some() {
-            return Err(bad(
-                "--contact-stiffness: sweeps of a pad with a contact spring are not built yet (issue 34); `simulate --contact-stiffness` integrates one frequency"
-                    .to_string(),
-            ));
-        }
         for &d in &directions {
             specs.push(CurveSpec {
                 model,
@@ -255,6 +249,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
                 stop_below: s.model.stop_below,
                 rho_s_minus: law.minus().map(|l| l.rho_s),
                 rho_d_minus: law.minus().map(|l| l.rho_d),
+                contact_stiffness: s.model.contact_stiffness,
                 direction: s.direction.as_str().to_string(),
                 eta: v.eta,
                 amplitude1: v.amplitude1,
@@ -348,6 +343,9 @@ struct CurveOut<'a> {
     rho_s_minus: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     rho_d_minus: Option<f64>,
+    /// κ of a contact spring (absent for a rigid stick).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    contact_stiffness: Option<f64>,
     direction: &'a str,
     eta: Vec<f64>,
     amplitude1: Vec<Option<f64>>,
@@ -392,6 +390,7 @@ fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
                 slope: h.slope,
                 rho_s_minus: h.rho_s_minus,
                 rho_d_minus: h.rho_d_minus,
+                contact_stiffness: h.contact_stiffness,
                 direction: &h.direction,
                 eta: c.iter().map(|r| r.eta).collect(),
                 amplitude1: c.iter().map(|r| r.amplitude1).collect(),
@@ -440,6 +439,9 @@ pub fn figure(table: &[FrcRow], title: String) -> FrcFigure {
                 if d != s {
                     label += &format!(", ρd⁻ = {d}");
                 }
+            }
+            if let Some(kappa) = h.contact_stiffness {
+                label += &format!("; κ = {kappa}");
             }
             if h.direction != "up" {
                 label += &format!(" ({})", h.direction);

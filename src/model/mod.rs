@@ -215,6 +215,12 @@ impl Model {
             check(
                 "contact-stiffness",
                 kappa,
+                kappa <= MAX_CONTACT_STIFFNESS,
+                "is above the supported 1e8: the contact mode rings at sqrt(1 + kappa) per unit tau and the held phase is marched one radian of it at a time (14 ms per forcing period at 1e8 for a pad that sticks a third of the time, growing as sqrt(kappa)), while M2's travel on the spring, rho_s/kappa of the drive amplitude, is below 1e-8 of it; give inf for a rigid stick",
+            )?;
+            check(
+                "contact-stiffness",
+                kappa,
                 !self.law.is_frictionless(),
                 "a contact spring needs friction (rho-s > 0)",
             )?;
@@ -245,6 +251,10 @@ impl Model {
         (self.law.levels(1.0).rho_s, self.law.levels(-1.0).rho_s)
     }
 }
+
+/// Largest contact stiffness κ = kt/K2 accepted (see [`Model::validate`]
+/// and `docs/real-pads.md`).
+pub const MAX_CONTACT_STIFFNESS: f64 = 1e8;
 
 /// Validates a forcing frequency ratio η.
 pub fn validate_eta(eta: f64) -> Result<(), ParamError> {

@@ -10,7 +10,8 @@
 //! (the range of the per-period amplitudes where no steady state was found,
 //! [`crate::sim::sweep::AmplitudeRange`]; empty elsewhere). A family with a
 //! direction-dependent law adds `rho_s_minus`, `rho_d_minus` (empty on
-//! symmetric curves); a table without them reads as symmetric.
+//! symmetric curves), one with a contact spring `contact_stiffness` (empty
+//! for a rigid stick); a table without them reads as symmetric and rigid.
 //!
 //! `coexisting` is true where the family holds another branch (direction
 //! `up`, `down` or `rest`) of the same model whose settled steady state at
@@ -60,6 +61,8 @@ pub struct FrcRow {
     pub rho_s_minus: Option<f64>,
     /// ρd⁻ of a direction-dependent law (None: symmetric).
     pub rho_d_minus: Option<f64>,
+    /// κ of a contact spring (None: the rigid stick).
+    pub contact_stiffness: Option<f64>,
     /// `up`, `down` or `rest`.
     pub direction: String,
     /// η.
@@ -106,7 +109,7 @@ impl FrcRow {
 
     /// Everything that names the model of the row's curve (not the
     /// direction), as exact bit patterns.
-    fn model_key(&self) -> [u64; 10] {
+    fn model_key(&self) -> [u64; 11] {
         let o = |v: Option<f64>| v.map_or(u64::MAX, f64::to_bits);
         [
             self.m.to_bits(),
@@ -119,6 +122,7 @@ impl FrcRow {
             o(self.stop_below),
             o(self.rho_s_minus),
             o(self.rho_d_minus),
+            o(self.contact_stiffness),
         ]
     }
 }
@@ -127,7 +131,7 @@ impl FrcRow {
 /// model at the same η (bit-identical) settles to a different state.
 pub fn mark_coexisting(rows: &mut [FrcRow]) {
     use std::collections::HashMap;
-    let mut groups: HashMap<([u64; 10], u64), Vec<usize>> = HashMap::new();
+    let mut groups: HashMap<([u64; 11], u64), Vec<usize>> = HashMap::new();
     for (i, r) in rows.iter().enumerate() {
         groups
             .entry((r.model_key(), r.eta.to_bits()))
@@ -321,6 +325,12 @@ pub fn write_frc(rows: &[FrcRow], meta: &TableMeta, path: &Path) -> Result<()> {
     if rows.iter().any(|r| r.rho_s_minus.is_some()) {
         cols.push(Column::new("rho_s_minus".into(), o(|r| r.rho_s_minus)));
         cols.push(Column::new("rho_d_minus".into(), o(|r| r.rho_d_minus)));
+    }
+    if rows.iter().any(|r| r.contact_stiffness.is_some()) {
+        cols.push(Column::new(
+            "contact_stiffness".into(),
+            o(|r| r.contact_stiffness),
+        ));
     }
     for (name, f) in RANGE_COLUMNS {
         cols.push(Column::new(
@@ -596,6 +606,12 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
     } else {
         (vec![None; n], vec![None; n])
     };
+    // Optional: a contact spring (absent: the rigid stick).
+    let kappa = if df.column("contact_stiffness").is_ok() {
+        fcol("contact_stiffness")?
+    } else {
+        vec![None; n]
+    };
     // Optional: tables written before the range existed read as None.
     let mut range_cols = Vec::with_capacity(RANGE_COLUMNS.len());
     for (name, _) in RANGE_COLUMNS {
@@ -624,6 +640,7 @@ fn rows_of(df: &DataFrame, path: &Path) -> Result<Vec<FrcRow>> {
             stop_below: sb[i],
             rho_s_minus: rsm[i],
             rho_d_minus: rdm[i],
+            contact_stiffness: kappa[i],
             direction: dir[i].clone().unwrap_or_default(),
             eta: need(eta[i], "eta", i)?,
             amplitude1: a1[i],

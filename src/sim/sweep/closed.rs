@@ -62,7 +62,9 @@ pub(super) fn closed_form(model: &Model, eta: f64, init: &Init) -> Option<(Point
             },
         ));
     }
-    if model.law.is_always_stuck() {
+    // (Behind a contact spring a slider that never slides leaves M2 on the
+    // spring: another linear system, not built yet; it is marched.)
+    if model.law.is_always_stuck() && model.contact_stiffness.is_none() {
         let z2 = if init.x[2].is_finite() {
             init.x[2]
         } else {
@@ -113,6 +115,9 @@ pub(super) fn stick_proof(
     used: u64,
 ) -> Option<(Point, Init)> {
     let ab = &model.absorber;
+    if model.contact_stiffness.is_some() {
+        return None;
+    }
     if let Mode::Stick { z2 } = state.mode {
         if permanently_stuck(model, eta, &state.x, z2) {
             let (a1, _) = linear::stuck_amplitudes(ab, eta);

@@ -486,10 +486,15 @@ impl Walk<'_, '_> {
             return Shot::Rejected;
         };
         let mut used = 0;
-        // (Shooting needs the exact engine's variational equations.)
+        // (Shooting needs the exact engine's variational equations, and
+        // a rigid stick: behind a contact spring a section state needs the
+        // slider's position too, which Newton does not vary yet.)
         let Some(sim) = self.sim.exact() else {
             return Shot::Rejected;
         };
+        if sim.model().contact_stiffness.is_some() {
+            return Shot::Rejected;
+        }
         let shot = shoot(
             sim,
             self.shooting,
