@@ -793,3 +793,44 @@ fn sweep_and_simulate_of_a_compliant_pad() {
     let traj = std::fs::read_to_string(&tr).unwrap();
     assert!(traj.starts_with("tau,zeta1,dzeta1,zeta2,dzeta2,zeta_s\n"));
 }
+
+/// `synth --contact-stiffness-n-per-m`: the log is generated with the
+/// contact spring (truth.json names kt and κ = kt/K2); combined with the
+/// test defects (whose integrator has a rigid stick) it is refused and no
+/// file is written.
+#[test]
+fn synth_writes_a_compliant_pad() {
+    use common::bin;
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("kt.mcap");
+    let o = bin()
+        .args(["synth", "--out"])
+        .arg(&log)
+        .args(["--contact-stiffness-n-per-m", "20000", "--duration-s", "4"])
+        .args(["--warmup-s", "5", "--seed", "7", "--json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("truth.json")).unwrap())
+            .unwrap();
+    let law = &truth["files"]["kt.mcap"]["law"];
+    assert_eq!(law["contact_stiffness_n_per_m"], 20000.0);
+    let kappa = law["contact_stiffness"].as_f64().unwrap();
+    assert!((kappa - 20000.0 / 670.0).abs() < 1e-12, "{kappa}");
+    let bad = dir.path().join("bad.mcap");
+    let o = bin()
+        .args(["synth", "--out"])
+        .arg(&bad)
+        .args([
+            "--contact-stiffness-n-per-m",
+            "20000",
+            "--rs-minus-n",
+            "0.8",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("contact stiffness"));
+    assert!(!bad.exists());
+}

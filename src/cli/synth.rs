@@ -218,6 +218,10 @@ pub struct SynthArgs {
     /// Test defect: dynamic level for sliding in the negative direction (N).
     #[arg(long = "rd-minus-n")]
     pub rd_minus_n: Option<f64>,
+    /// Pre-sliding: the tangential contact stiffness kt (N/m) between M2
+    /// and its friction slider (a Jenkins element; default: a rigid stick).
+    #[arg(long = "contact-stiffness-n-per-m", allow_hyphen_values = true)]
+    pub contact_stiffness: Option<f64>,
     /// Replace an existing log at --out (and its channel map); without it
     /// an existing file is refused.
     #[arg(long)]
@@ -449,6 +453,7 @@ impl SynthArgs {
                 rs_minus_n: self.rs_minus_n,
                 rd_minus_n: self.rd_minus_n,
             },
+            contact_stiffness_n_per_m: self.contact_stiffness,
         };
         cfg.validate().map_err(|e| input_err(out, e.to_string()))?;
         Ok(cfg)

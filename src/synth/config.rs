@@ -458,6 +458,10 @@ pub struct SynthConfig {
     /// Physics defects for tests (none by default; see `defects`).
     #[serde(default)]
     pub defects: PhysicsDefects,
+    /// Pre-sliding (issue 34): the tangential contact stiffness kt (N/m)
+    /// between M2 and its friction slider; None: the rigid stick.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_stiffness_n_per_m: Option<f64>,
 }
 
 impl SynthConfig {
@@ -483,6 +487,7 @@ impl SynthConfig {
             csv_shift_s: BTreeMap::new(),
             rtol: 1e-10,
             defects: PhysicsDefects::default(),
+            contact_stiffness_n_per_m: None,
         }
     }
 
@@ -492,6 +497,19 @@ impl SynthConfig {
         non_negative("normal force", self.normal_force_n)?;
         self.friction.validate()?;
         self.defects.validate(&self.friction)?;
+        if let Some(kt) = self.contact_stiffness_n_per_m {
+            if !(kt.is_finite() && kt > 0.0) {
+                return Err(bad(format!(
+                    "contact stiffness must be finite and > 0 N/m, got {kt}"
+                )));
+            }
+            if self.defects.any() {
+                return Err(bad(
+                    "a contact stiffness cannot be combined with the test defects (their integrator has a rigid stick)"
+                        .to_string(),
+                ));
+            }
+        }
         self.test.validate()?;
         for (q, s) in self.sensors.channels() {
             s.validate(q)?;
@@ -596,7 +614,9 @@ impl SynthConfig {
                 .friction
                 .law(&self.rig, self.rig.drive_amplitude_true_m),
             stop_below: None,
-            contact_stiffness: None,
+            contact_stiffness: self
+                .contact_stiffness_n_per_m
+                .map(|kt| kt / self.rig.k2_n_per_m),
         }
     }
 }

@@ -198,6 +198,13 @@ pub(super) fn truth(
         .map(|c| (c.quantity.name(), own(c) - x1_shift))
         .collect();
     obj.insert("channel_delays_s".into(), json!(delays));
+    // A contact spring (pre-sliding): kt and κ = kt/K2 with the law.
+    if let (Some(kt), Some(kappa)) = (cfg.contact_stiffness_n_per_m, model.contact_stiffness) {
+        if let Some(law) = obj.get_mut("law").and_then(Value::as_object_mut) {
+            law.insert("contact_stiffness_n_per_m".into(), num(kt));
+            law.insert("contact_stiffness".into(), num(kappa));
+        }
+    }
     // The same with each first-order low-pass's low-frequency group delay
     // 1/(2π f_c) (a filtered channel lags by that much as well).
     let filter_lag = |c: &SynthChannel| c.sensor.lowpass_hz.map_or(0.0, |fc| 1.0 / (2.0 * PI * fc));
