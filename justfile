@@ -35,12 +35,15 @@ ci:
     bash .ci/run
 
 # Regenerate the paper's Figs. 3-5 (Coulomb; decreasing D* = -0.04 interrupted
-# below rho_s/2; rho_d = rho_s/2) and the coexisting-states figure into reports/.
+# below rho_s/2; rho_d = rho_s/2), the coexisting-states figure and the
+# real-pad figures (pre-sliding; direction-dependent levels) into reports/.
 figures:
     cargo run --release -- sweep --plot reports/fig3.svg --out reports/fig3.parquet --title "Fig. 3: Coulomb friction"
     cargo run --release -- sweep --slope -0.04 --stop-below 0.5 --plot reports/fig4.svg --out reports/fig4.parquet --title "Fig. 4: decreasing characteristic D* = -0.04 (interrupted below rho_s/2)"
     cargo run --release -- sweep --rho-d-ratio 0.5 --plot reports/fig5.svg --out reports/fig5.parquet --title "Fig. 5: rho_d = rho_s/2"
     cargo run --release -- sweep --rho-s 1 --rho-d-ratio 0.5 --direction both --plot reports/coexisting.svg --title "Coexisting stable states: rho_s 1, rho_d 0.5, continued up and down"
+    cargo run --release -- sweep --rho-s 0.5 --rho-d 0.4 --contact-stiffness inf,20,5 --from-rest --plot reports/contact.svg --title "Pre-sliding: rho_s 0.5, rho_d 0.4 with a rigid stick and contact stiffness 20 and 5 (from rest)"
+    cargo run --release -- sweep --rho-s 0.5 --rho-d 0.4 --rho-s-minus 0.35 --rho-d-minus 0.3 --direction both --plot reports/direction.svg --title "Direction-dependent pad: rho_s 0.5 / 0.35, rho_d 0.4 / 0.3 (forwards / backwards), up and down"
 
 # Identification studies: adequacy right both ways (60 in-family logs of
 # four rigs with realistic sensors, docs/measurements.md), round trips

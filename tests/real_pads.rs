@@ -792,6 +792,33 @@ fn sweep_and_simulate_of_a_compliant_pad() {
     assert!(sticks > 5);
     let traj = std::fs::read_to_string(&tr).unwrap();
     assert!(traj.starts_with("tau,zeta1,dzeta1,zeta2,dzeta2,zeta_s\n"));
+    // A list of stiffnesses is a family of curves in sweep (inf: rigid),
+    // one value only in simulate.
+    let o = bin()
+        .args(["sweep", "--rho-s", "0.5", "--points", "3", "--from-rest"])
+        .args(["--contact-stiffness", "inf,20", "--json"])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let curves = v["curves"].as_array().unwrap();
+    assert_eq!(curves.len(), 2);
+    assert!(curves[0].get("contact_stiffness").is_none());
+    assert_eq!(curves[1]["contact_stiffness"], 20.0);
+    let o = bin()
+        .args([
+            "simulate",
+            "--rho-s",
+            "0.5",
+            "--eta",
+            "0.6",
+            "--periods",
+            "2",
+        ])
+        .args(["--contact-stiffness", "inf,20"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
 }
 
 /// `synth --contact-stiffness-n-per-m`: the log is generated with the

@@ -102,14 +102,40 @@ pub struct ShapeArgs {
     pub rho_d_minus: Option<f64>,
     /// Pre-sliding: the tangential contact stiffness κ = kt/K2 between M2
     /// and its friction slider (a Jenkins element; inf: the rigid stick).
-    #[arg(long = "contact-stiffness", allow_hyphen_values = true)]
-    pub contact_stiffness: Option<f64>,
+    /// `sweep` takes a list (one family of curves per value).
+    #[arg(
+        long = "contact-stiffness",
+        allow_hyphen_values = true,
+        value_delimiter = ','
+    )]
+    pub contact_stiffness: Vec<f64>,
 }
 
 impl ShapeArgs {
     /// The validated model with static threshold `rho_s` and dynamic level
     /// `rho_d` (default: ρs, or 0 when ρs = ∞).
     pub fn model(&self, rho_s: f64, rho_d: Option<f64>) -> crate::Result<Model> {
+        let kappa = match self.contact_stiffness[..] {
+            [] => None,
+            [k] => Some(k),
+            _ => {
+                return Err(crate::sim::SimError::Unsupported(
+                    "--contact-stiffness: give one value here (a list is for sweep)".into(),
+                )
+                .into())
+            }
+        };
+        self.model_with(rho_s, rho_d, kappa)
+    }
+
+    /// [`ShapeArgs::model`] with the contact stiffness `kappa` (None or
+    /// inf: the rigid stick).
+    pub fn model_with(
+        &self,
+        rho_s: f64,
+        rho_d: Option<f64>,
+        kappa: Option<f64>,
+    ) -> crate::Result<Model> {
         // ρs = 0 means no friction device: no slope, no dynamic level.
         let slope = if rho_s == 0.0 { 0.0 } else { self.slope };
         let rho_d = match rho_d {
@@ -150,7 +176,7 @@ impl ShapeArgs {
             law,
             stop_below: self.stop_below,
             // inf is the paper's rigid stick.
-            contact_stiffness: self.contact_stiffness.filter(|k| *k != f64::INFINITY),
+            contact_stiffness: kappa.filter(|k| *k != f64::INFINITY),
         };
         model.validate()?;
         Ok(model)

@@ -163,12 +163,23 @@ fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> 
             (None, Some(r)) if rs.is_finite() => Some(r * rs),
             _ => None,
         };
-        let model = args.shape.model(rs, rd)?;
-        for &d in &directions {
-            specs.push(CurveSpec {
-                model,
-                direction: d,
-            });
+        let kappas: Vec<Option<f64>> = if args.shape.contact_stiffness.is_empty() {
+            vec![None]
+        } else {
+            args.shape
+                .contact_stiffness
+                .iter()
+                .map(|&k| Some(k))
+                .collect()
+        };
+        for kappa in kappas {
+            let model = args.shape.model_with(rs, rd, kappa)?;
+            for &d in &directions {
+                specs.push(CurveSpec {
+                    model,
+                    direction: d,
+                });
+            }
         }
     }
     Ok(specs)
