@@ -861,3 +861,100 @@ fn synth_writes_a_compliant_pad() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("contact stiffness"));
     assert!(!bad.exists());
 }
+
+/// Energy balance over a steady orbit of a pad with a contact spring
+/// (D* = 0): drive work = viscous dissipation + the slider's: ρd of the
+/// direction times M2's travel in every slip, plus at every breakaway the
+/// contact spring's energy drop (ρs² − ρd²)/(2κ) of that direction (the
+/// massless slider jumps from the pull ρs to ρd). To 1e-9 relative, on
+/// symmetric and direction-dependent pads; without the jumps' term it is
+/// off by far more.
+#[test]
+fn energy_balance_with_a_contact_spring() {
+    const GL: [(f64, f64); 5] = [
+        (0.148_874_338_981_631_2, 0.295_524_224_714_752_9),
+        (0.433_395_394_129_247_2, 0.269_266_719_309_996_4),
+        (0.679_409_568_299_024_4, 0.219_086_362_515_982_04),
+        (0.865_063_366_688_984_5, 0.149_451_349_150_580_6),
+        (0.973_906_528_517_171_7, 0.066_671_344_308_688_14),
+    ];
+    for (law, kappa, eta) in [
+        (pad((0.5, 0.4), (0.5, 0.4), 0.0), 20.0, 0.6),
+        (pad((0.375, 0.375), (0.375, 0.375), 0.0), 5.0, 0.9),
+        (pad((0.5, 0.35), (0.4, 0.3), 0.0), 50.0, 0.7),
+    ] {
+        let m = compliant(law, kappa);
+        let sim = Sim::new(&m, eta).unwrap();
+        let settle = sim.run(Init::rest(), 600, &mut ());
+        let (x0, mode0) = (settle.x, settle.mode);
+        let mut c = Collect::default();
+        let end = sim.run(Init { x: x0, mode: mode0 }, 1, &mut c);
+        for i in 0..4 {
+            assert!(
+                (end.x[i] - x0[i]).abs() < 1e-9,
+                "{law} kappa {kappa}: not a period-1 orbit"
+            );
+        }
+        let t = sim.period();
+        let mut phases = vec![(0.0, x0, mode0)];
+        // The direction of the slip in progress (or the last one), for the
+        // pull a stick leaves on the spring.
+        let mut dir = match mode0 {
+            Mode::Slip { dir } => dir,
+            Mode::Stick { z2 } => (x0[2] - z2).signum(),
+        };
+        let mut jumps = 0.0;
+        for ev in &c.events {
+            let mode = match ev.kind.as_str() {
+                "stick" => {
+                    let pull = dir * law.levels(dir).rho_d;
+                    Mode::Stick {
+                        z2: ev.x[2] - pull / kappa,
+                    }
+                }
+                "slip+" | "slip-" => {
+                    dir = if ev.kind.as_str() == "slip+" {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    let l = law.levels(dir);
+                    jumps += (l.rho_s * l.rho_s - l.rho_d * l.rho_d) / (2.0 * kappa);
+                    Mode::Slip { dir }
+                }
+                other => panic!("unexpected event {other}"),
+            };
+            phases.push((ev.tau, ev.x, mode));
+        }
+        let (ab, k) = (m.absorber, m.absorber.k);
+        let (mut w_in, mut w_visc, mut w_slip) = (0.0, 0.0, 0.0);
+        for (i, &(s0, x, mode)) in phases.iter().enumerate() {
+            let s1 = phases.get(i + 1).map_or(t, |p| p.0);
+            let pieces = ((s1 - s0) / 0.05).ceil().max(1.0) as usize;
+            let h = (s1 - s0) / pieces as f64;
+            for piece in 0..pieces {
+                let mid = s0 + (piece as f64 + 0.5) * h;
+                for &(node, w) in &GL {
+                    for sgn in [-1.0, 1.0] {
+                        let tau = mid + sgn * node * 0.5 * h;
+                        let y = sim.state_in_phase(&x, mode, s0, tau - s0);
+                        let wt = w * 0.5 * h;
+                        w_in += wt * k * (eta * tau).cos() * y[1];
+                        w_visc += wt * ab.damping * (y[1] - y[3]).powi(2);
+                        if let Mode::Slip { dir } = mode {
+                            w_slip += wt * law.levels(dir).rho_d * y[3].abs();
+                        }
+                    }
+                }
+            }
+        }
+        let rel = (w_in - w_visc - w_slip - jumps).abs() / w_in;
+        let rel_no_jumps = (w_in - w_visc - w_slip).abs() / w_in;
+        eprintln!("{law} kappa {kappa} eta {eta}: W_in {w_in:.12} slips {w_slip:.12} jumps {jumps:.3e} rel {rel:e} (without jumps {rel_no_jumps:e})");
+        assert!(c.events.len() >= 2, "no stick-slip in the orbit");
+        assert!(rel < 1e-9, "energy balance off by {rel:e}");
+        if jumps > 0.0 {
+            assert!(rel_no_jumps > 1e3 * rel.max(1e-15));
+        }
+    }
+}
