@@ -958,3 +958,56 @@ fn energy_balance_with_a_contact_spring() {
         }
     }
 }
+
+/// A slider that can never break away again leaves a linear system, M2 on
+/// its contact spring: the steady state has a closed form. Written here
+/// from the dynamic-stiffness matrix (independently of `sim::linear`), it
+/// equals the sweep's steady states where the proof that the slider stays
+/// held fires (`stick-proof`: a pad that sticks for good after its
+/// transient) and `simulate`'s closed form of a slider that never slides,
+/// to 1e-8; the period is the minimal one (1) and M2 moves (A2 > 0).
+#[test]
+fn a_slider_held_for_good_has_the_closed_form() {
+    use num_complex::Complex;
+    use stickslip::sim::sweep::{steady_state, SteadyConfig};
+    let ab = Absorber::default();
+    let (m, k, d) = (ab.m, ab.k, ab.damping);
+    let reference = |kappa: f64, eta: f64| {
+        let i = Complex::new(0.0, 1.0);
+        let z11 = Complex::new(1.0 + k - m * eta * eta, 0.0) + i * eta * d;
+        let z12 = -Complex::new(1.0, 0.0) - i * eta * d;
+        let z22 = Complex::new(1.0 + kappa - eta * eta, 0.0) + i * eta * d;
+        let det = z11 * z22 - z12 * z12;
+        ((k * z22 / det).norm(), (k * z12 / det).norm())
+    };
+    let mut proofs = 0;
+    for kappa in [2.0, 5.0, 50.0] {
+        for eta in [0.3, 0.55, 0.8, 1.3, 1.9] {
+            let (a1, a2) = reference(kappa, eta);
+            // A pad that holds for good once the transient has passed.
+            let pad = compliant(Law::coulomb(20.0), kappa);
+            let (p, _) = steady_state(&pad, eta, Init::rest(), &SteadyConfig::default()).unwrap();
+            assert!(p.steady && p.period_multiple == Some(1), "{p:?}");
+            if p.method == "stick-proof" {
+                proofs += 1;
+            }
+            // A slider that never slides: the closed form at once.
+            let held = compliant(Law::coulomb(f64::INFINITY), kappa);
+            let (q, _) = steady_state(&held, eta, Init::rest(), &SteadyConfig::default()).unwrap();
+            assert_eq!(q.method, "closed-form");
+            for (got, want) in [
+                (p.amplitude1.unwrap(), a1),
+                (p.amplitude2.unwrap(), a2),
+                (q.amplitude1.unwrap(), a1),
+                (q.amplitude2.unwrap(), a2),
+            ] {
+                assert!(
+                    (got - want).abs() <= 1e-8 * want,
+                    "kappa {kappa} eta {eta}: {got} against {want}"
+                );
+            }
+            assert!(a2 > 0.0);
+        }
+    }
+    assert!(proofs >= 12, "the proof fired at {proofs} of 15 points");
+}

@@ -330,9 +330,23 @@ pub fn simulate<O: Observer>(sim: &Sim, opts: &SimOptions, obs: &mut O) -> Summa
                 linear::free_state(&model.absorber, model.law.slope(), eta),
                 0.0,
             ))
-        } else if model.law.is_always_stuck() && model.contact_stiffness.is_none() {
-            let (a1, a2) = linear::stuck_amplitudes(&model.absorber, eta);
-            Some((a1, a2, linear::stuck_state(&model.absorber, eta, 0.0), 1.0))
+        } else if model.law.is_always_stuck() {
+            Some(match model.contact_stiffness {
+                None => {
+                    let (a1, a2) = linear::stuck_amplitudes(&model.absorber, eta);
+                    (a1, a2, linear::stuck_state(&model.absorber, eta, 0.0), 1.0)
+                }
+                // The slider never slides: M2 on its contact spring.
+                Some(kappa) => {
+                    let (a1, a2) = linear::held_amplitudes(&model.absorber, kappa, eta);
+                    (
+                        a1,
+                        a2,
+                        linear::held_state(&model.absorber, kappa, eta, 0.0),
+                        1.0,
+                    )
+                }
+            })
         } else {
             None
         };
