@@ -41,6 +41,47 @@ fn model(absorber: Absorber, law: Law) -> Model {
     }
 }
 
+/// Gauss–Legendre nodes and weights on [−1, 1] (10 points, positive half).
+const GL: [(f64, f64); 5] = [
+    (0.148_874_338_981_631_2, 0.295_524_224_714_752_9),
+    (0.433_395_394_129_247_2, 0.269_266_719_309_996_4),
+    (0.679_409_568_299_024_4, 0.219_086_362_515_982_04),
+    (0.865_063_366_688_984_5, 0.149_451_349_150_580_6),
+    (0.973_906_528_517_171_7, 0.066_671_344_308_688_14),
+];
+
+/// RK4 with steps `steps` against the exact engine over `periods` from
+/// rest: the same events, and the observed orders of the largest event
+/// time and final state errors, each asserted within 3.5–4.6.
+fn assert_rk4_fourth_order(m: &Model, eta: f64, periods: u64, steps: [f64; 3]) {
+    let mut exact = Collect::default();
+    let e_end = Sim::new(m, eta)
+        .unwrap()
+        .run(Init::rest(), periods, &mut exact);
+    let mut errs = Vec::new();
+    for h in steps {
+        let mut c = Collect::default();
+        let end = Rk4::new(m, eta, h)
+            .unwrap()
+            .run(Init::rest(), periods, &mut c);
+        assert_eq!(c.events.len(), exact.events.len(), "H {h}: event count");
+        let mut err: f64 = 0.0;
+        for (a, b) in c.events.iter().zip(&exact.events) {
+            assert_eq!(a.kind, b.kind);
+            err = err.max((a.tau - b.tau).abs());
+        }
+        for i in 0..4 {
+            err = err.max((end.x[i] - e_end.x[i]).abs());
+        }
+        errs.push(err);
+    }
+    let orders: Vec<f64> = errs.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
+    eprintln!("{}: rk4 errors {errs:?}, observed orders {orders:?}", m.law);
+    for p in orders {
+        assert!((3.5..4.6).contains(&p), "observed order {p}");
+    }
+}
+
 /// A small deterministic generator (SplitMix64) for the random cases.
 struct Rng(u64);
 impl Rng {
@@ -121,14 +162,6 @@ fn mirror_image_swaps_the_directions() {
 /// levels' difference, far above that: checked below.)
 #[test]
 fn energy_balance_with_direction_dependent_levels() {
-    // Gauss–Legendre nodes and weights on [−1, 1] (10 points, positive half).
-    const GL: [(f64, f64); 5] = [
-        (0.148_874_338_981_631_2, 0.295_524_224_714_752_9),
-        (0.433_395_394_129_247_2, 0.269_266_719_309_996_4),
-        (0.679_409_568_299_024_4, 0.219_086_362_515_982_04),
-        (0.865_063_366_688_984_5, 0.149_451_349_150_580_6),
-        (0.973_906_528_517_171_7, 0.066_671_344_308_688_14),
-    ];
     let cases = [
         (pad((0.375, 0.3), (0.3, 0.25), 0.0), 0.6),
         (pad((0.375, 0.375), (0.45, 0.4), -0.02), 0.9),
@@ -270,29 +303,7 @@ fn exact_and_numeric_engines_agree_on_random_direction_dependent_pads() {
 #[test]
 fn rk4_converges_on_a_direction_dependent_pad() {
     let m = model(Absorber::default(), pad((0.5, 0.4), (0.35, 0.3), 0.0));
-    let eta = 0.6;
-    let mut exact = Collect::default();
-    let e_end = Sim::new(&m, eta).unwrap().run(Init::rest(), 15, &mut exact);
-    let mut errs = Vec::new();
-    for &h in &[0.04, 0.02, 0.01] {
-        let mut c = Collect::default();
-        let end = Rk4::new(&m, eta, h).unwrap().run(Init::rest(), 15, &mut c);
-        assert_eq!(c.events.len(), exact.events.len(), "H {h}: event count");
-        let mut err: f64 = 0.0;
-        for (a, b) in c.events.iter().zip(&exact.events) {
-            assert_eq!(a.kind, b.kind);
-            err = err.max((a.tau - b.tau).abs());
-        }
-        for i in 0..4 {
-            err = err.max((end.x[i] - e_end.x[i]).abs());
-        }
-        errs.push(err);
-    }
-    let orders: Vec<f64> = errs.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
-    eprintln!("rk4 errors {errs:?}, observed orders {orders:?}");
-    for p in orders {
-        assert!((3.5..4.6).contains(&p), "observed order {p}");
-    }
+    assert_rk4_fourth_order(&m, 0.6, 15, [0.04, 0.02, 0.01]);
 }
 
 /// Levels given equal in both directions are the symmetric law, to the
@@ -662,29 +673,7 @@ fn exact_and_numeric_engines_agree_on_random_compliant_pads() {
 #[test]
 fn rk4_converges_on_a_compliant_pad() {
     let m = compliant(pad((0.5, 0.4), (0.5, 0.4), 0.0), 20.0);
-    let eta = 0.6;
-    let mut exact = Collect::default();
-    let e_end = Sim::new(&m, eta).unwrap().run(Init::rest(), 10, &mut exact);
-    let mut errs = Vec::new();
-    for &h in &[0.02, 0.01, 0.005] {
-        let mut c = Collect::default();
-        let end = Rk4::new(&m, eta, h).unwrap().run(Init::rest(), 10, &mut c);
-        assert_eq!(c.events.len(), exact.events.len(), "H {h}: event count");
-        let mut err: f64 = 0.0;
-        for (a, b) in c.events.iter().zip(&exact.events) {
-            assert_eq!(a.kind, b.kind);
-            err = err.max((a.tau - b.tau).abs());
-        }
-        for i in 0..4 {
-            err = err.max((end.x[i] - e_end.x[i]).abs());
-        }
-        errs.push(err);
-    }
-    let orders: Vec<f64> = errs.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
-    eprintln!("rk4 errors {errs:?}, observed orders {orders:?}");
-    for p in orders {
-        assert!((3.5..4.6).contains(&p), "observed order {p}");
-    }
+    assert_rk4_fourth_order(&m, 0.6, 10, [0.02, 0.01, 0.005]);
 }
 
 /// A contact stiffness outside what the engine supports is refused with
@@ -871,13 +860,6 @@ fn synth_writes_a_compliant_pad() {
 /// off by far more.
 #[test]
 fn energy_balance_with_a_contact_spring() {
-    const GL: [(f64, f64); 5] = [
-        (0.148_874_338_981_631_2, 0.295_524_224_714_752_9),
-        (0.433_395_394_129_247_2, 0.269_266_719_309_996_4),
-        (0.679_409_568_299_024_4, 0.219_086_362_515_982_04),
-        (0.865_063_366_688_984_5, 0.149_451_349_150_580_6),
-        (0.973_906_528_517_171_7, 0.066_671_344_308_688_14),
-    ];
     for (law, kappa, eta) in [
         (pad((0.5, 0.4), (0.5, 0.4), 0.0), 20.0, 0.6),
         (pad((0.375, 0.375), (0.375, 0.375), 0.0), 5.0, 0.9),

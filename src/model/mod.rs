@@ -239,6 +239,22 @@ impl Model {
         }
     }
 
+    /// The sliding speed at which an affine law's friction in direction
+    /// `dir` reaches the interruption level ([`Model::interrupt_level`]):
+    /// 0 where its dynamic level is already below it, None where a slip
+    /// never gets there (a law that does not fall).
+    pub fn interrupt_speed(&self, dir: f64) -> Option<f64> {
+        let (rho_d, thr) = (self.law.levels(dir).rho_d, self.interrupt_level(dir));
+        let slope = self.law.slope();
+        if rho_d < thr {
+            Some(0.0)
+        } else if slope < 0.0 {
+            Some((rho_d - thr) / -slope)
+        } else {
+            None
+        }
+    }
+
     /// True when the pad holds a net force `f` on M2: −ρs⁻ < F < ρs⁺.
     #[inline]
     pub fn holds(&self, f: f64) -> bool {

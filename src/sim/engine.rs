@@ -122,16 +122,7 @@ impl Sim {
         check_work(&stick, &slip, held.as_ref().map(|h| &h.0), eta)?;
         let slip_proj = slip_projections(&slip);
         let levels = [model.law.levels(1.0), model.law.levels(-1.0)];
-        let v_interrupt = [1.0, -1.0].map(|dir| {
-            let (rho_d, thr) = (model.law.levels(dir).rho_d, model.interrupt_level(dir));
-            if rho_d < thr {
-                Some(0.0)
-            } else if slope < 0.0 {
-                Some((rho_d - thr) / -slope)
-            } else {
-                None
-            }
-        });
+        let v_interrupt = [1.0, -1.0].map(|dir| model.interrupt_speed(dir));
         Ok(Self {
             model: *model,
             eta,

@@ -52,22 +52,13 @@ impl Rk4 {
                 "RK4 step H = {h} is unstable for this model: its fastest mode has eta = {omega_max:.4}, and RK4 needs H <= 2*sqrt(2)/eta = {h_max:.4}: give a smaller --step (accuracy wants far less)"
             )));
         }
-        let Some((_, slope)) = model.law.affine() else {
+        if model.law.affine().is_none() {
             return Err(SimError::Unsupported(
                 "rk4 supports affine laws only".into(),
             ));
         };
         let rho_d = [1.0, -1.0].map(|dir| model.law.levels(dir).rho_d);
-        let v_interrupt = [1.0, -1.0].map(|dir| {
-            let (rho_d, thr) = (model.law.levels(dir).rho_d, model.interrupt_level(dir));
-            if rho_d < thr {
-                Some(0.0)
-            } else if slope < 0.0 {
-                Some((rho_d - thr) / -slope)
-            } else {
-                None
-            }
-        });
+        let v_interrupt = [1.0, -1.0].map(|dir| model.interrupt_speed(dir));
         Ok(Self {
             model: *model,
             eta,
