@@ -82,6 +82,48 @@ fn assert_rk4_fourth_order(m: &Model, eta: f64, periods: u64, steps: [f64; 3]) {
     }
 }
 
+/// The exact engine against Dormand–Prince (rtol 1e-12) on `m` at η over
+/// `periods` from rest: the same event sequence (kinds collected into
+/// `kinds`), event times within 1e-9 relative and final states within
+/// 1e-8; returns the worst relative event-time difference.
+fn assert_engines_agree(
+    m: &Model,
+    eta: f64,
+    periods: u64,
+    label: &str,
+    kinds: &mut std::collections::BTreeSet<&'static str>,
+) -> f64 {
+    let mut a = Collect::default();
+    let ea = Sim::new(m, eta).unwrap().run(Init::rest(), periods, &mut a);
+    let drive = Drive::Harmonic {
+        eta,
+        phase: 0.0,
+        amplitude: 1.0,
+    };
+    let opts = NumericOptions {
+        rtol: 1e-12,
+        atol: 1e-14,
+    };
+    let mut b = Collect::default();
+    let eb = NumericSim::new(m, drive, opts).unwrap().run(
+        Init::rest(),
+        periods as f64 * 2.0 * std::f64::consts::PI / eta,
+        &mut b,
+    );
+    assert_eq!(a.events.len(), b.events.len(), "{label}");
+    let mut worst: f64 = 0.0;
+    for (x, y) in a.events.iter().zip(&b.events) {
+        assert_eq!(x.kind, y.kind, "{label}");
+        kinds.insert(x.kind.as_str());
+        worst = worst.max((x.tau - y.tau).abs() / x.tau);
+    }
+    assert!(worst < 1e-9, "{label}: {worst:e}");
+    for i in 0..4 {
+        assert!((ea.x[i] - eb.x[i]).abs() < 1e-8, "{label}");
+    }
+    worst
+}
+
 /// A small deterministic generator (SplitMix64) for the random cases.
 struct Rng(u64);
 impl Rng {
@@ -260,35 +302,8 @@ fn exact_and_numeric_engines_agree_on_random_direction_dependent_pads() {
         let slope = rng.in_range(-0.01, 0.03);
         let eta = rng.in_range(0.3, 1.5);
         let m = model(absorber, pad((rs, rd), (rs_minus, rd_minus), slope));
-        let mut a = Collect::default();
-        let ea = Sim::new(&m, eta).unwrap().run(Init::rest(), 12, &mut a);
-        let drive = Drive::Harmonic {
-            eta,
-            phase: 0.0,
-            amplitude: 1.0,
-        };
-        let opts = NumericOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-        };
-        let mut b = Collect::default();
-        let eb = NumericSim::new(&m, drive, opts).unwrap().run(
-            Init::rest(),
-            12.0 * 2.0 * std::f64::consts::PI / eta,
-            &mut b,
-        );
         let label = format!("case {case}: {:?} {} eta {eta}", m.absorber, m.law);
-        assert_eq!(a.events.len(), b.events.len(), "{label}");
-        let mut worst: f64 = 0.0;
-        for (x, y) in a.events.iter().zip(&b.events) {
-            assert_eq!(x.kind, y.kind, "{label}");
-            kinds.insert(x.kind.as_str());
-            worst = worst.max((x.tau - y.tau).abs() / x.tau);
-        }
-        assert!(worst < 1e-9, "{label}: {worst:e}");
-        for i in 0..4 {
-            assert!((ea.x[i] - eb.x[i]).abs() < 1e-8, "{label}");
-        }
+        let worst = assert_engines_agree(&m, eta, 12, &label, &mut kinds);
         worst_all = worst_all.max(worst);
     }
     eprintln!("worst relative event-time difference {worst_all:e}; kinds {kinds:?}");
@@ -630,35 +645,8 @@ fn exact_and_numeric_engines_agree_on_random_compliant_pads() {
         let slope = rng.in_range(-0.01, 0.03);
         let eta = rng.in_range(0.3, 1.5);
         let m = compliant(pad((rs, rd), (rs_minus, rd_minus), slope), kappa);
-        let mut a = Collect::default();
-        let ea = Sim::new(&m, eta).unwrap().run(Init::rest(), 10, &mut a);
-        let drive = Drive::Harmonic {
-            eta,
-            phase: 0.0,
-            amplitude: 1.0,
-        };
-        let opts = NumericOptions {
-            rtol: 1e-12,
-            atol: 1e-14,
-        };
-        let mut b = Collect::default();
-        let eb = NumericSim::new(&m, drive, opts).unwrap().run(
-            Init::rest(),
-            10.0 * 2.0 * std::f64::consts::PI / eta,
-            &mut b,
-        );
         let label = format!("case {case}: kappa {kappa} {} eta {eta}", m.law);
-        assert_eq!(a.events.len(), b.events.len(), "{label}");
-        let mut worst: f64 = 0.0;
-        for (x, y) in a.events.iter().zip(&b.events) {
-            assert_eq!(x.kind, y.kind, "{label}");
-            kinds.insert(x.kind.as_str());
-            worst = worst.max((x.tau - y.tau).abs() / x.tau);
-        }
-        assert!(worst < 1e-9, "{label}: {worst:e}");
-        for i in 0..4 {
-            assert!((ea.x[i] - eb.x[i]).abs() < 1e-8, "{label}");
-        }
+        let worst = assert_engines_agree(&m, eta, 10, &label, &mut kinds);
         worst_all = worst_all.max(worst);
     }
     eprintln!("worst relative event-time difference {worst_all:e}; kinds {kinds:?}");
