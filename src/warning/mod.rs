@@ -740,6 +740,20 @@ mod tests {
         clippy::unnecessary_literal_unwrap
     )]
     fn examples() -> Vec<(Warning, String)> {
+        let mut all = examples_a();
+        all.extend(examples_b());
+        all.extend(examples_c());
+        all
+    }
+
+    /// A third of [`examples`] (one function would be over 200 lines).
+    #[allow(
+        clippy::format_in_format_args,
+        clippy::unnecessary_cast,
+        clippy::unnecessary_literal_unwrap,
+        unused_variables
+    )]
+    fn examples_a() -> Vec<(Warning, String)> {
         use Warning::*;
         let p = PathBuf::from("logs/a.mcap");
         let q = PathBuf::from("logs/b.mcap");
@@ -877,6 +891,27 @@ mod tests {
                     s.as_str()
                 ),
             ),
+        ]
+    }
+
+    /// A third of [`examples`] (one function would be over 200 lines).
+    #[allow(
+        clippy::format_in_format_args,
+        clippy::unnecessary_cast,
+        clippy::unnecessary_literal_unwrap,
+        unused_variables
+    )]
+    fn examples_b() -> Vec<(Warning, String)> {
+        use Warning::*;
+        let p = PathBuf::from("logs/a.mcap");
+        let q = PathBuf::from("logs/b.mcap");
+        let (x, y, z) = (1.234_567_8_f64, -0.004_321_f64, 2.5e-3_f64);
+        let s = LawKind::StaticDynamic;
+        let c = LawKind::Coulomb;
+        let topic = "/mass2/velocity";
+        let label = "/daq/v2";
+        let (half, filled, n) = (7usize, 101usize, 12usize);
+        vec![
             (
                 NeverSticks,
                 "M2 never sticks in this log: the static threshold is only bounded (rho_s_interval holds the bounds)".to_string(),
@@ -1047,6 +1082,27 @@ mod tests {
                     "K2", 1000.0, 1100.5
                 ),
             ),
+        ]
+    }
+
+    /// A third of [`examples`] (one function would be over 200 lines).
+    #[allow(
+        clippy::format_in_format_args,
+        clippy::unnecessary_cast,
+        clippy::unnecessary_literal_unwrap,
+        unused_variables
+    )]
+    fn examples_c() -> Vec<(Warning, String)> {
+        use Warning::*;
+        let p = PathBuf::from("logs/a.mcap");
+        let q = PathBuf::from("logs/b.mcap");
+        let (x, y, z) = (1.234_567_8_f64, -0.004_321_f64, 2.5e-3_f64);
+        let s = LawKind::StaticDynamic;
+        let c = LawKind::Coulomb;
+        let topic = "/mass2/velocity";
+        let label = "/daq/v2";
+        let (half, filled, n) = (7usize, 101usize, 12usize);
+        vec![
             (
                 InvalidDraws { invalid: 2, draws: 200 },
                 format!("{} of {} drawn laws were invalid and skipped", 2, 200),
