@@ -318,10 +318,7 @@ impl NumericSim {
         match mode {
             // Behind a contact spring κ (slider stuck at ζs = z2) M2 moves.
             Mode::Stick { z2 } if self.model.contact_stiffness.is_some() => {
-                let kappa = self.model.contact_stiffness.unwrap_or(0.0);
-                let a1 = (k * z0 - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
-                let a2 = d * (x[1] - x[3]) + x[0] - x[2] - kappa * (x[2] - z2);
-                [x[1], a1, x[3], a2]
+                self.held_rhs(z0, z2, x)
             }
             Mode::Stick { z2 } => [
                 x[1],
@@ -335,6 +332,31 @@ impl NumericSim {
                 [x[1], a1, x[3], d * (x[1] - x[3]) + x[0] - x[2] - fric]
             }
         }
+    }
+
+    /// The held phase's right-hand side (a contact spring κ, its slider
+    /// stuck at ζs = `zs`; out of line, so the rigid model's right-hand
+    /// side stays small).
+    #[inline(never)]
+    fn held_rhs(&self, z0: f64, zs: f64, x: &[f64; 4]) -> [f64; 4] {
+        let ab = &self.model.absorber;
+        let (m, k, d) = (ab.m, ab.k, ab.damping);
+        let kappa = self.model.contact_stiffness.unwrap_or(0.0);
+        let a1 = (k * z0 - d * (x[1] - x[3]) - (1.0 + k) * x[0] + x[2]) / m;
+        let a2 = d * (x[1] - x[3]) + x[0] - x[2] - kappa * (x[2] - zs);
+        [x[1], a1, x[3], a2]
+    }
+
+    /// The held phase's second derivative of the state (drive rate `dz0`,
+    /// rate `dx`).
+    #[inline(never)]
+    fn held_rate2(&self, dz0: f64, x: &[f64; 4], dx: &[f64; 4]) -> [f64; 4] {
+        let ab = &self.model.absorber;
+        let (m, k, d) = (ab.m, ab.k, ab.damping);
+        let kappa = self.model.contact_stiffness.unwrap_or(0.0);
+        let da1 = (k * dz0 - d * (dx[1] - dx[3]) - (1.0 + k) * x[1] + x[3]) / m;
+        let da2 = d * (dx[1] - dx[3]) + x[1] - x[3] - kappa * x[3];
+        [dx[1], da1, dx[3], da2]
     }
 
     /// Friction force on M2 in a slip of direction `dir` at velocity v.
@@ -357,10 +379,7 @@ impl NumericSim {
         let dx = self.rhs_at(mode, z0, &x, memo);
         let ddx = match mode {
             Mode::Stick { .. } if self.model.contact_stiffness.is_some() => {
-                let kappa = self.model.contact_stiffness.unwrap_or(0.0);
-                let da1 = (k * dz0 - d * (dx[1] - dx[3]) - (1.0 + k) * x[1] + x[3]) / m;
-                let da2 = d * (dx[1] - dx[3]) + x[1] - x[3] - kappa * x[3];
-                [dx[1], da1, dx[3], da2]
+                self.held_rate2(dz0, &x, &dx)
             }
             Mode::Stick { .. } => [
                 dx[1],
