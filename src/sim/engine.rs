@@ -76,7 +76,8 @@ pub struct Sim {
     resolution: f64,
     /// With a contact spring κ (issue 34): the held phase (slider stuck at
     /// ζs, M2 on the spring) and κ.
-    held: Option<(LinearPhase<4>, f64)>,
+    /// (Boxed: the paper's model copies a small engine.)
+    held: Option<Box<(LinearPhase<4>, f64)>>,
 }
 
 impl Sim {
@@ -108,7 +109,7 @@ impl Sim {
         )
         .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
         let held = match model.contact_stiffness {
-            Some(kappa) => Some((
+            Some(kappa) => Some(Box::new((
                 LinearPhase::new(
                     absorber::held_matrix(ab, kappa),
                     absorber::slip_input(ab),
@@ -116,7 +117,7 @@ impl Sim {
                 )
                 .ok_or_else(|| SimError::Unsupported("singular held matrix".into()))?,
                 kappa,
-            )),
+            ))),
             None => None,
         };
         check_work(&stick, &slip, held.as_ref().map(|h| &h.0), eta)?;
@@ -153,11 +154,11 @@ impl Sim {
             .at_eta(eta)
             .ok_or_else(|| SimError::Unsupported("singular slip matrix".into()))?;
         let held = match &self.held {
-            Some((h, kappa)) => Some((
-                h.at_eta(eta)
+            Some(h) => Some(Box::new((
+                h.0.at_eta(eta)
                     .ok_or_else(|| SimError::Unsupported("singular held matrix".into()))?,
-                *kappa,
-            )),
+                h.1,
+            ))),
             None => None,
         };
         check_work(&stick, &slip, held.as_ref().map(|h| &h.0), eta)?;
@@ -202,7 +203,7 @@ impl Sim {
     pub fn state_in_phase(&self, x: &[f64; 4], mode: Mode, s0: f64, delta: f64) -> [f64; 4] {
         match mode {
             Mode::Stick { z2 } if self.held.is_some() => {
-                let (held, kappa) = self.held.as_ref().expect("held");
+                let (held, kappa) = &**self.held.as_ref().expect("held");
                 let p = held.start(*x, s0, C64::new(1.0, 0.0), held_c(*kappa, z2));
                 held.state(&p, delta)
             }
@@ -273,7 +274,7 @@ impl Sim {
     fn rate(&self, x: &[f64; 4], mode: Mode, s: f64, u: C64) -> [f64; 4] {
         match mode {
             Mode::Stick { z2 } if self.held.is_some() => {
-                let (held, kappa) = self.held.as_ref().expect("held");
+                let (held, kappa) = &**self.held.as_ref().expect("held");
                 let p = held.start(*x, s, u, held_c(*kappa, z2));
                 held.jet(&p, 0.0).1
             }
@@ -394,7 +395,7 @@ impl Stepper for Exact<'_> {
         let scale = sim.resolution * t;
         let (hit, x_end) = match mode {
             Mode::Stick { z2 } if sim.held.is_some() => {
-                let (held, kappa) = sim.held.as_ref().expect("held");
+                let (held, kappa) = &**sim.held.as_ref().expect("held");
                 let fns = sim.held_events(*kappa, z2);
                 let nf = if sim.rho_s[0].is_finite() { 2 } else { 0 };
                 let c = held_c(*kappa, z2);
@@ -566,9 +567,10 @@ type PhaseEnd = (Option<(f64, usize, [f64; 4])>, [f64; 4]);
 /// first event among `fns` or to the span's end (`span`: time left, root
 /// resolution, the phase's absolute origin), extremes and samples
 /// delivered through `watch`. Returns the hit (time, function, state) and
-/// the state at the end.
+/// the state at the end. (Always inlined: the slip's arm of [`Exact`]'s
+/// advance was one inline block before it was shared.)
 #[allow(clippy::too_many_arguments)]
-#[inline]
+#[inline(always)]
 fn march4<O: Observer + ?Sized>(
     phase: &LinearPhase<4>,
     x: &[f64; 4],
