@@ -50,6 +50,48 @@ const GL: [(f64, f64); 5] = [
     (0.973_906_528_517_171_7, 0.066_671_344_308_688_14),
 ];
 
+/// A phase of a recorded orbit: its start τ, state and mode.
+type Phase = (f64, [f64; 4], Mode);
+
+/// Gauss–Legendre quadrature over the phases of an orbit that ends at `t`
+/// (pieces of at most `piece` in τ): the drive's work ∫ k·cos(ητ)·ζ1', the
+/// viscous dissipation ∫ D(ζ1' − ζ2')², and ∫ `slip(dir, |ζ2'|)` over the
+/// slips (one value per closure in `slip`).
+fn orbit_work<const N: usize>(
+    sim: &Sim,
+    phases: &[Phase],
+    t: f64,
+    piece: f64,
+    slip: [&dyn Fn(f64, f64) -> f64; N],
+) -> (f64, f64, [f64; N]) {
+    let m = sim.model();
+    let (d, k, eta) = (m.absorber.damping, m.absorber.k, sim.eta());
+    let (mut w_in, mut w_visc, mut w_slip) = (0.0, 0.0, [0.0; N]);
+    for (i, &(s0, x, mode)) in phases.iter().enumerate() {
+        let s1 = phases.get(i + 1).map_or(t, |p| p.0);
+        let pieces = ((s1 - s0) / piece).ceil().max(1.0) as usize;
+        let h = (s1 - s0) / pieces as f64;
+        for j in 0..pieces {
+            let mid = s0 + (j as f64 + 0.5) * h;
+            for &(node, w) in &GL {
+                for sgn in [-1.0, 1.0] {
+                    let tau = mid + sgn * node * 0.5 * h;
+                    let y = sim.state_in_phase(&x, mode, s0, tau - s0);
+                    let wt = w * 0.5 * h;
+                    w_in += wt * k * (eta * tau).cos() * y[1];
+                    w_visc += wt * d * (y[1] - y[3]).powi(2);
+                    if let Mode::Slip { dir } = mode {
+                        for (acc, f) in w_slip.iter_mut().zip(&slip) {
+                            *acc += wt * f(dir, y[3].abs());
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (w_in, w_visc, w_slip)
+}
+
 /// RK4 with steps `steps` against the exact engine over `periods` from
 /// rest: the same events, and the observed orders of the largest event
 /// time and final state errors, each asserted within 3.5–4.6.
@@ -238,31 +280,14 @@ fn energy_balance_with_direction_dependent_levels() {
             };
             phases.push((ev.tau, ev.x, mode));
         }
-        let (ab, k) = (m.absorber, m.absorber.k);
-        let (mut w_in, mut w_visc, mut w_fric, mut w_sym) = (0.0, 0.0, 0.0, 0.0);
-        let mut slid = [false; 2];
-        for (i, &(s0, x, mode)) in phases.iter().enumerate() {
-            let s1 = phases.get(i + 1).map_or(t, |p| p.0);
-            let pieces = ((s1 - s0) / 0.25).ceil().max(1.0) as usize;
-            let h = (s1 - s0) / pieces as f64;
-            for piece in 0..pieces {
-                let mid = s0 + (piece as f64 + 0.5) * h;
-                for &(node, w) in &GL {
-                    for sgn in [-1.0, 1.0] {
-                        let tau = mid + sgn * node * 0.5 * h;
-                        let y = sim.state_in_phase(&x, mode, s0, tau - s0);
-                        let wt = w * 0.5 * h;
-                        w_in += wt * k * (eta * tau).cos() * y[1];
-                        w_visc += wt * ab.damping * (y[1] - y[3]).powi(2);
-                        if let Mode::Slip { dir } = mode {
-                            slid[usize::from(dir < 0.0)] = true;
-                            w_fric += wt * law.toward(dir).sliding(y[3].abs()) * y[3].abs();
-                            w_sym += wt * law.toward(1.0).sliding(y[3].abs()) * y[3].abs();
-                        }
-                    }
-                }
-            }
-        }
+        let slid = [1.0, -1.0].map(|dir| {
+            phases
+                .iter()
+                .any(|p| matches!(p.2, Mode::Slip { dir: d } if d == dir))
+        });
+        let own = |dir: f64, v: f64| law.toward(dir).sliding(v) * v;
+        let forwards = |_: f64, v: f64| law.toward(1.0).sliding(v) * v;
+        let (w_in, w_visc, [w_fric, w_sym]) = orbit_work(&sim, &phases, t, 0.25, [&own, &forwards]);
         let rel = (w_in - w_visc - w_fric).abs() / w_in;
         let rel_sym = (w_in - w_visc - w_sym).abs() / w_in;
         eprintln!("{law} eta {eta}: W_in {w_in:.12} W_fric {w_fric:.12} rel {rel:e} (one level for both directions: {rel_sym:e})");
@@ -896,28 +921,8 @@ fn energy_balance_with_a_contact_spring() {
             };
             phases.push((ev.tau, ev.x, mode));
         }
-        let (ab, k) = (m.absorber, m.absorber.k);
-        let (mut w_in, mut w_visc, mut w_slip) = (0.0, 0.0, 0.0);
-        for (i, &(s0, x, mode)) in phases.iter().enumerate() {
-            let s1 = phases.get(i + 1).map_or(t, |p| p.0);
-            let pieces = ((s1 - s0) / 0.05).ceil().max(1.0) as usize;
-            let h = (s1 - s0) / pieces as f64;
-            for piece in 0..pieces {
-                let mid = s0 + (piece as f64 + 0.5) * h;
-                for &(node, w) in &GL {
-                    for sgn in [-1.0, 1.0] {
-                        let tau = mid + sgn * node * 0.5 * h;
-                        let y = sim.state_in_phase(&x, mode, s0, tau - s0);
-                        let wt = w * 0.5 * h;
-                        w_in += wt * k * (eta * tau).cos() * y[1];
-                        w_visc += wt * ab.damping * (y[1] - y[3]).powi(2);
-                        if let Mode::Slip { dir } = mode {
-                            w_slip += wt * law.levels(dir).rho_d * y[3].abs();
-                        }
-                    }
-                }
-            }
-        }
+        let travel = |dir: f64, v: f64| law.levels(dir).rho_d * v;
+        let (w_in, w_visc, [w_slip]) = orbit_work(&sim, &phases, t, 0.05, [&travel]);
         let rel = (w_in - w_visc - w_slip - jumps).abs() / w_in;
         let rel_no_jumps = (w_in - w_visc - w_slip).abs() / w_in;
         eprintln!("{law} kappa {kappa} eta {eta}: W_in {w_in:.12} slips {w_slip:.12} jumps {jumps:.3e} rel {rel:e} (without jumps {rel_no_jumps:e})");

@@ -746,6 +746,39 @@ mod tests {
         all
     }
 
+    /// The values the examples' messages are made of.
+    struct Fx {
+        p: PathBuf,
+        q: PathBuf,
+        x: f64,
+        y: f64,
+        z: f64,
+        s: LawKind,
+        c: LawKind,
+        topic: &'static str,
+        label: &'static str,
+        half: usize,
+        filled: usize,
+        n: usize,
+    }
+
+    fn fx() -> Fx {
+        Fx {
+            p: PathBuf::from("logs/a.mcap"),
+            q: PathBuf::from("logs/b.mcap"),
+            x: 1.234_567_8,
+            y: -0.004_321,
+            z: 2.5e-3,
+            s: LawKind::StaticDynamic,
+            c: LawKind::Coulomb,
+            topic: "/mass2/velocity",
+            label: "/daq/v2",
+            half: 7,
+            filled: 101,
+            n: 12,
+        }
+    }
+
     /// A third of [`examples`] (one function would be over 200 lines).
     #[allow(
         clippy::format_in_format_args,
@@ -755,14 +788,20 @@ mod tests {
     )]
     fn examples_a() -> Vec<(Warning, String)> {
         use Warning::*;
-        let p = PathBuf::from("logs/a.mcap");
-        let q = PathBuf::from("logs/b.mcap");
-        let (x, y, z) = (1.234_567_8_f64, -0.004_321_f64, 2.5e-3_f64);
-        let s = LawKind::StaticDynamic;
-        let c = LawKind::Coulomb;
-        let topic = "/mass2/velocity";
-        let label = "/daq/v2";
-        let (half, filled, n) = (7usize, 101usize, 12usize);
+        let Fx {
+            p,
+            q,
+            x,
+            y,
+            z,
+            s,
+            c,
+            topic,
+            label,
+            half,
+            filled,
+            n,
+        } = fx();
         vec![
             (MapIgnored, "--map applies to CSV, TDMS and MAT logs only; ignored".to_string()),
             (
@@ -903,14 +942,20 @@ mod tests {
     )]
     fn examples_b() -> Vec<(Warning, String)> {
         use Warning::*;
-        let p = PathBuf::from("logs/a.mcap");
-        let q = PathBuf::from("logs/b.mcap");
-        let (x, y, z) = (1.234_567_8_f64, -0.004_321_f64, 2.5e-3_f64);
-        let s = LawKind::StaticDynamic;
-        let c = LawKind::Coulomb;
-        let topic = "/mass2/velocity";
-        let label = "/daq/v2";
-        let (half, filled, n) = (7usize, 101usize, 12usize);
+        let Fx {
+            p,
+            q,
+            x,
+            y,
+            z,
+            s,
+            c,
+            topic,
+            label,
+            half,
+            filled,
+            n,
+        } = fx();
         vec![
             (
                 NeverSticks,
@@ -1094,14 +1139,20 @@ mod tests {
     )]
     fn examples_c() -> Vec<(Warning, String)> {
         use Warning::*;
-        let p = PathBuf::from("logs/a.mcap");
-        let q = PathBuf::from("logs/b.mcap");
-        let (x, y, z) = (1.234_567_8_f64, -0.004_321_f64, 2.5e-3_f64);
-        let s = LawKind::StaticDynamic;
-        let c = LawKind::Coulomb;
-        let topic = "/mass2/velocity";
-        let label = "/daq/v2";
-        let (half, filled, n) = (7usize, 101usize, 12usize);
+        let Fx {
+            p,
+            q,
+            x,
+            y,
+            z,
+            s,
+            c,
+            topic,
+            label,
+            half,
+            filled,
+            n,
+        } = fx();
         vec![
             (
                 InvalidDraws { invalid: 2, draws: 200 },
