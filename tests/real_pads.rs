@@ -166,6 +166,15 @@ fn assert_engines_agree(
     worst
 }
 
+/// Prints the worst event-time difference of a random study and checks that
+/// its cases met sticks and slips both ways.
+fn report_random_cases(worst: f64, kinds: &std::collections::BTreeSet<&'static str>) {
+    eprintln!("worst relative event-time difference {worst:e}; kinds {kinds:?}");
+    for k in ["stick", "slip+", "slip-"] {
+        assert!(kinds.contains(k), "no {k} event in the cases: {kinds:?}");
+    }
+}
+
 /// A small deterministic generator (SplitMix64) for the random cases.
 struct Rng(u64);
 impl Rng {
@@ -331,10 +340,7 @@ fn exact_and_numeric_engines_agree_on_random_direction_dependent_pads() {
         let worst = assert_engines_agree(&m, eta, 12, &label, &mut kinds);
         worst_all = worst_all.max(worst);
     }
-    eprintln!("worst relative event-time difference {worst_all:e}; kinds {kinds:?}");
-    for k in ["stick", "slip+", "slip-"] {
-        assert!(kinds.contains(k), "no {k} event in the cases: {kinds:?}");
-    }
+    report_random_cases(worst_all, &kinds);
 }
 
 /// The paper's RK4 converges to the exact engine at fourth order on a
@@ -674,10 +680,7 @@ fn exact_and_numeric_engines_agree_on_random_compliant_pads() {
         let worst = assert_engines_agree(&m, eta, 10, &label, &mut kinds);
         worst_all = worst_all.max(worst);
     }
-    eprintln!("worst relative event-time difference {worst_all:e}; kinds {kinds:?}");
-    for k in ["stick", "slip+", "slip-"] {
-        assert!(kinds.contains(k), "no {k} event in the cases: {kinds:?}");
-    }
+    report_random_cases(worst_all, &kinds);
 }
 
 /// RK4 converges to the exact engine at fourth order on a pad with a

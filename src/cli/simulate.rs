@@ -82,11 +82,12 @@ struct Files {
     slider: Option<Slider>,
 }
 
-/// The friction slider of a pad with a contact spring κ, followed through
-/// the events: where it sticks, or the direction it slides in.
+/// The friction slider of a pad with a contact spring, followed through
+/// the events: where it sticks, or the direction it slides in (its
+/// position from the model's rules, [`Model::slider_at_rest`] and
+/// [`Model::slider_sliding`]).
 struct Slider {
     model: Model,
-    kappa: f64,
     /// `Some(ζs)` while it sticks; `None` while it slides.
     stuck_at: Option<f64>,
     /// Direction of the last slide.
@@ -99,25 +100,16 @@ impl Slider {
         match ev.kind.as_str() {
             "slip+" | "reverse+" => (self.stuck_at, self.dir) = (None, 1.0),
             "slip-" | "reverse-" => (self.stuck_at, self.dir) = (None, -1.0),
-            "stick" => {
-                let pull = self.dir * self.model.law.levels(self.dir).rho_d;
-                self.stuck_at = Some(ev.x[2] - pull / self.kappa);
-            }
+            "stick" => self.stuck_at = self.model.slider_at_rest(self.dir, ev.x[2]),
             _ => {}
         }
     }
 
-    /// ζs at state x: where it sticks, or ζ2 − f/κ with the sliding
-    /// friction f the spring carries.
+    /// ζs at state x: where it sticks, or where it slides with M2.
     fn position(&self, x: &[f64; 4]) -> f64 {
-        match self.stuck_at {
-            Some(zs) => zs,
-            None => {
-                let law = self.model.law.toward(self.dir);
-                let f = self.dir * law.sliding(x[3].abs());
-                x[2] - f / self.kappa
-            }
-        }
+        self.stuck_at
+            .or_else(|| self.model.slider_sliding(self.dir, x))
+            .unwrap_or(f64::NAN)
     }
 }
 
@@ -261,9 +253,8 @@ fn open_files(args: &SimulateArgs, model: &Model) -> crate::Result<Files> {
         events: None,
         traj: None,
         err: None,
-        slider: model.contact_stiffness.map(|kappa| Slider {
+        slider: model.contact_stiffness.map(|_| Slider {
             model: *model,
-            kappa,
             // From rest: ζs = 0, P = 0, the slider stuck.
             stuck_at: Some(0.0),
             dir: 1.0,

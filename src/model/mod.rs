@@ -255,6 +255,22 @@ impl Model {
         }
     }
 
+    /// Behind a contact spring: where the slider sticks when a slip in
+    /// direction `dir` ends with M2 at `z2` (the spring keeps the sliding
+    /// level it carried, P = ±ρd: ζs = ζ2 − dir·ρd/κ). None: a rigid stick.
+    pub fn slider_at_rest(&self, dir: f64, z2: f64) -> Option<f64> {
+        let kappa = self.contact_stiffness?;
+        Some(z2 - dir * self.law.levels(dir).rho_d / kappa)
+    }
+
+    /// Behind a contact spring: the slider's position while it slides in
+    /// direction `dir` with M2 at state `x` (the spring carries the signed
+    /// sliding friction f: ζs = ζ2 − f/κ). None: a rigid stick.
+    pub fn slider_sliding(&self, dir: f64, x: &[f64; 4]) -> Option<f64> {
+        let kappa = self.contact_stiffness?;
+        Some(x[2] - dir * self.law.toward(dir).sliding(x[3].abs()) / kappa)
+    }
+
     /// True when the pad holds a net force `f` on M2: −ρs⁻ < F < ρs⁺.
     #[inline]
     pub fn holds(&self, f: f64) -> bool {

@@ -343,21 +343,17 @@ pub(crate) fn switch_with<Z: FnOnce() -> f64>(
             };
             Switched::Interrupt { x: *x, why }
         }
-        Mode::Slip { dir } if model.contact_stiffness.is_some() => {
-            // The slider stops with M2 (ζ2' = 0) and sticks where the
-            // spring holds the sliding level it carried: P = ρd⁺ (or −ρd⁻),
-            // ζs = ζ2 − P/κ. It never reverses at once.
-            let kappa = model.contact_stiffness.expect("contact");
-            let pull = dir * model.law.levels(dir).rho_d;
-            Switched::To {
-                x: [x[0], x[1], x[2], 0.0],
-                kind: EventKind::Stick,
-                next: Mode::Stick {
-                    z2: x[2] - pull / kappa,
-                },
-                stop_first: false,
-            }
-        }
+        // Behind a contact spring the slider stops with M2 (ζ2' = 0) and
+        // sticks where the spring holds the sliding level it carried
+        // (P = ρd⁺ or −ρd⁻). It never reverses at once.
+        Mode::Slip { dir } if model.contact_stiffness.is_some() => Switched::To {
+            x: [x[0], x[1], x[2], 0.0],
+            kind: EventKind::Stick,
+            next: Mode::Stick {
+                z2: model.slider_at_rest(dir, x[2]).unwrap_or(x[2]),
+            },
+            stop_first: false,
+        },
         Mode::Slip { dir: old } => {
             let x = [x[0], x[1], x[2], 0.0];
             let (kind, next, stop_first) = match after_slip_with(model, &x, z0) {
