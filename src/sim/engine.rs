@@ -350,6 +350,9 @@ struct Exact<'a> {
     frictionless: bool,
     samp_stick: Sampler<2>,
     samp_slip: Sampler<4>,
+    /// The held phase's own sampler: a sampler caches its phase system's
+    /// factors e^{λΔ}, so the held and slip systems cannot share one.
+    samp_held: Sampler<4>,
 }
 
 impl<'a> Exact<'a> {
@@ -360,6 +363,7 @@ impl<'a> Exact<'a> {
             frictionless: sim.model.law.is_frictionless(),
             samp_stick: Sampler::default(),
             samp_slip: Sampler::default(),
+            samp_held: Sampler::default(),
         }
     }
 }
@@ -408,7 +412,7 @@ impl Stepper for Exact<'_> {
                     c,
                     &fns[..nf],
                     span,
-                    &mut self.samp_slip,
+                    &mut self.samp_held,
                     watch,
                 )
             }
