@@ -1000,7 +1000,7 @@ struct Grid {
 
 impl stickslip::sim::Observer for Grid {
     fn next_sample(&mut self) -> Option<f64> {
-        (self.got.len() < self.n).then(|| self.got.len() as f64 * self.h)
+        (self.got.len() < self.n).then_some(self.got.len() as f64 * self.h)
     }
     fn sample(&mut self, _tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
         self.got.push([x[0], x[2]]);
@@ -1061,4 +1061,144 @@ fn regular_samples_through_held_phases_match_the_numerical_engine() {
             .fold(0.0, f64::max);
         assert!(worst < 1e-8, "kappa {kappa:?}: {worst:e}");
     }
+}
+
+/// Synthesises a characteristic log (20 s, N = 2.2 N: Rs 0.924 N, Rd
+/// 0.748 N, the bundled rig's realistic sensors with their zero offsets)
+/// with the real-pad options `extra`, fits it and returns the fit entry.
+fn synth_and_fit(
+    dir: &std::path::Path,
+    name: &str,
+    seed: u64,
+    extra: &[&str],
+) -> serde_json::Value {
+    use common::bin;
+    let log = dir.join(name);
+    let o = bin()
+        .args([
+            "synth",
+            "--normal-force",
+            "2.2",
+            "--duration-s",
+            "20",
+            "--seed",
+        ])
+        .arg(seed.to_string())
+        .args(extra)
+        .arg("--out")
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = bin().arg("fit").arg(&log).arg("--json").output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    v["fits"][0].clone()
+}
+
+fn covers(v: &serde_json::Value, key: &str, truth: f64) -> bool {
+    let iv = &v[key];
+    iv[0].as_f64().unwrap() <= truth && truth <= iv[1].as_f64().unwrap()
+}
+
+/// A pad whose static threshold is lower backwards (Rs⁻ 0.80 N against
+/// Rs⁺ 0.924 N, equal dynamic levels) sticks at one reversal only: the
+/// screen sees breakaways towards + only, the split threshold wins the
+/// criterion, Rs⁺ and Rd are measured (intervals covering the truth) and
+/// Rs⁻ is only bounded (null, its interval the bounds, covering 0.80 N).
+#[test]
+fn direction_dependent_pad_is_identified() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = synth_and_fit(
+        dir.path(),
+        "drop.mcap",
+        4,
+        &["--rs-minus-n", "0.80", "--rd-minus-n", "0.748"],
+    );
+    assert_eq!(f["direction_dependent"], true, "{f:#}");
+    assert_eq!(f["law"], "static-dynamic");
+    assert!(
+        covers(&f, "r_s_interval_n", 0.924),
+        "{}",
+        f["r_s_interval_n"]
+    );
+    assert!(
+        covers(&f, "r_d_interval_n", 0.748),
+        "{}",
+        f["r_d_interval_n"]
+    );
+    assert!((f["r_s_n"].as_f64().unwrap() / 0.924 - 1.0).abs() < 0.03);
+    assert!(f["r_s_minus_n"].is_null());
+    assert!(
+        covers(&f, "r_s_minus_interval_n", 0.80),
+        "{}",
+        f["r_s_minus_interval_n"]
+    );
+    assert_eq!(f["r_d_minus_n"], f["r_d_n"]);
+    let screen = &f["pad_screen"]["direction"];
+    assert_eq!(screen["flagged"], true);
+    assert!(f["warning_codes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|c| c == "direction_dependent"));
+}
+
+/// Pre-sliding of 80 µm (kt = 11 550 N/m, κ = 17.24) and of 20 µm (kt =
+/// 46 200 N/m, κ = 68.96): the contact rings on its spring after every
+/// slip, so the velocity shows no stick; the rigid laws fail the adequacy
+/// test, the contact spring is refined and chosen, κ within 20 % with an
+/// interval covering it, Rd covered. At 80 µm Rs is measured (covered);
+/// at 20 µm the threshold's extra deflection (Rs − Rd)/kt = 3.8 µm is
+/// below what the log resolves: Rs null, not a number that misses.
+#[test]
+fn compliant_contacts_are_identified() {
+    let dir = tempfile::tempdir().unwrap();
+    for (kt, seed, rs_known) in [(11550.0, 6, true), (46200.0, 5, false)] {
+        let kappa = kt / 670.0;
+        let f = synth_and_fit(
+            dir.path(),
+            &format!("kt{kt}.mcap"),
+            seed,
+            &["--contact-stiffness-n-per-m", &kt.to_string()],
+        );
+        let label = format!("kt {kt}: {f:#}");
+        let k = f["contact_stiffness"].as_f64().expect(&label);
+        // The criterion: within 20 % or inside the interval (at
+        // 20 µm the estimate is 1.3 % high with a narrower interval:
+        // docs/real-pads.md).
+        assert!((k / kappa - 1.0).abs() < 0.2, "{label}");
+        if rs_known {
+            assert!(covers(&f, "contact_stiffness_interval", kappa), "{label}");
+        }
+        assert!(f["contact_stiffness_lower_bound"].is_null());
+        assert!((f["kt_n_per_m"].as_f64().unwrap() / k - 670.0).abs() < 1e-6);
+        assert!(covers(&f, "r_d_interval_n", 0.748), "{label}");
+        assert_eq!(f["adequate"], true, "{label}");
+        if rs_known {
+            assert!(covers(&f, "r_s_interval_n", 0.924), "{label}");
+        } else {
+            assert!(f["r_s_n"].is_null() && f["rho_s"].is_null(), "{label}");
+        }
+        assert_eq!(f["direction_dependent"], false);
+    }
+}
+
+/// A rigid, symmetric pad (the bundled char_N4.mcap): no extension is
+/// chosen, and the sticks bound κ from below (x2 stays flat while
+/// sticking to within its noise).
+#[test]
+fn rigid_symmetric_pad_keeps_the_paper_model() {
+    use common::bin;
+    let log = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");
+    let o = bin().arg("fit").arg(&log).arg("--json").output().unwrap();
+    assert!(o.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let f = &v["fits"][0];
+    assert_eq!(f["direction_dependent"], false);
+    assert!(f["contact_stiffness"].is_null() && f["rho_s_minus"].is_null());
+    let lb = f["contact_stiffness_lower_bound"].as_f64().unwrap();
+    assert!(lb > 100.0, "{lb}");
+    assert_eq!(f["pad_screen"]["direction"]["flagged"], false);
+    assert_eq!(f["pad_screen"]["compliance"]["flagged"], false);
 }

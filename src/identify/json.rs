@@ -77,6 +77,17 @@ struct FamilyOut {
     stick_phases: usize,
     rms_x1_m: f64,
     rms_x2_m: f64,
+    direction_dependent: bool,
+    contact_stiffness: Option<f64>,
+    r_s_n: f64,
+    r_d_n: f64,
+    r_s_minus_n: Option<f64>,
+    slope_n_s_per_m: f64,
+    /// Simulated breakaways towards + and towards −.
+    breakaways: (usize, usize),
+    /// Upper bounds (N) on the thresholds towards + and − from simulated
+    /// reversals without stick.
+    reversal_bound_n: (Option<f64>, Option<f64>),
 }
 
 /// The output-error estimate.
@@ -217,6 +228,25 @@ struct FitOut<'a> {
     channel_delays_s: Value,
     channel_delays_interval_s: Value,
     velocity_consistency: Value,
+    direction_dependent: bool,
+    rho_s_minus: Option<f64>,
+    rho_d_minus: Option<f64>,
+    r_s_minus_n: Option<f64>,
+    r_d_minus_n: Option<f64>,
+    rho_s_minus_interval: Iv,
+    rho_d_minus_interval: Iv,
+    r_s_minus_interval_n: Iv,
+    r_d_minus_interval_n: Iv,
+    /// Rs⁺ − Rs⁻ (N) with equal dynamic levels: what the log identifies of
+    /// the direction dependence (see the warning `direction_dependent`).
+    direction_split_n: Option<f64>,
+    direction_split_interval_n: Iv,
+    contact_stiffness: Option<f64>,
+    contact_stiffness_interval: Iv,
+    kt_n_per_m: Option<f64>,
+    kt_interval_n_per_m: Iv,
+    contact_stiffness_lower_bound: Option<f64>,
+    pad_screen: &'a super::pads::PadScreen,
 }
 
 impl LogFit {
@@ -270,6 +300,8 @@ impl LogFit {
             .output_error
             .as_ref()
             .filter(|_| self.estimate == Estimate::OutputError);
+        let pads = self.pads();
+        let split = pads.filter(|_| self.direction_dependent());
         let out = FitOut {
             log: log.display().to_string(),
             law: self.kind().as_str(),
@@ -351,6 +383,14 @@ impl LogFit {
                             stick_phases: f.stick_runs,
                             rms_x1_m: f.rms_m.0,
                             rms_x2_m: f.rms_m.1,
+                            direction_dependent: f.ext.split,
+                            contact_stiffness: f.contact_stiffness,
+                            r_s_n: f.law.rs_n,
+                            r_d_n: f.law.rd_n,
+                            r_s_minus_n: f.rs_minus_n,
+                            slope_n_s_per_m: f.law.slope_n_s_per_m,
+                            breakaways: f.breakaways,
+                            reversal_bound_n: f.reversal_bound_n,
                         })
                         .collect(),
                 }
@@ -367,6 +407,25 @@ impl LogFit {
             channel_delays_s: self.channel_delays.shifts_json(),
             channel_delays_interval_s: self.channel_delays.intervals_json(),
             velocity_consistency: self.channel_delays.velocity_json(),
+            direction_dependent: self.direction_dependent(),
+            rho_s_minus: split.and_then(|p| p.rho_s_minus),
+            rho_d_minus: split.and_then(|_| self.rho_d()),
+            r_s_minus_n: split.and_then(|p| p.rs_minus_n),
+            r_d_minus_n: split.and_then(|_| law.map(|l| l.rd_n)),
+            rho_s_minus_interval: Iv(split.and_then(|p| p.rho_s_minus_interval)),
+            rho_d_minus_interval: Iv(split.and(self.rho_d_interval)),
+            r_s_minus_interval_n: Iv(split.and_then(|p| p.rs_minus_interval_n)),
+            r_d_minus_interval_n: Iv(split.and(self.rd_interval_n)),
+            direction_split_n: split.and_then(|p| p.split_n),
+            direction_split_interval_n: Iv(split.and_then(|p| p.split_interval_n)),
+            contact_stiffness: self.contact_stiffness(),
+            contact_stiffness_interval: Iv(pads.and_then(|p| p.contact_stiffness_interval)),
+            kt_n_per_m: self.contact_stiffness().map(|k| k * self.k2_n_per_m()),
+            kt_interval_n_per_m: Iv(pads
+                .and_then(|p| p.contact_stiffness_interval)
+                .map(|(l, h)| (l * self.k2_n_per_m(), h * self.k2_n_per_m()))),
+            contact_stiffness_lower_bound: self.contact_stiffness_lower_bound(),
+            pad_screen: &self.pad_screen,
         };
         crate::io::json::to_value(out)
     }

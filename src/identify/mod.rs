@@ -16,6 +16,9 @@
 //!   the measured drive reproduces the measured x1, x2; multiple shooting
 //!   from the stick phases; family selection by BIC with an effective
 //!   sample size; sandwich intervals over segments).
+//! * `pads`: the real-pad screen (a threshold that depends on the sliding
+//!   direction, a compliant contact; `docs/real-pads.md`), whose findings
+//!   the output-error refinement then tries as extensions of the law.
 //! * `json`: the JSON entry of one fitted log ([`LogFit::to_json`]).
 //! * this module: the calibration budget of the equation-error estimate
 //!   (sensor gain errors are systematic: the identification is re-run with
@@ -137,6 +140,7 @@ pub mod fit;
 pub mod json;
 pub mod noise;
 pub mod output_error;
+pub mod pads;
 pub mod positions;
 pub mod segment;
 pub mod smooth;
@@ -293,6 +297,10 @@ pub struct IdentifyOptions {
     /// is adequate (see `OeOptions::position_delays`, which fits them
     /// always).
     pub lag_fallback: bool,
+    /// Screen the log for a direction-dependent threshold and a compliant
+    /// contact, and refine those extensions where the screen sees them
+    /// (`pads`; the criterion still decides).
+    pub real_pads: bool,
 }
 
 impl Default for IdentifyOptions {
@@ -303,6 +311,7 @@ impl Default for IdentifyOptions {
             output_error: true,
             oe: OeOptions::default(),
             lag_fallback: true,
+            real_pads: true,
         }
     }
 }
@@ -419,6 +428,9 @@ pub struct LogFit {
     /// The log's channel delays (declared, estimated, applied at ingest)
     /// and its velocity channel's consistency with x2.
     pub channel_delays: crate::ingest::ChannelDelays,
+    /// The real-pad screen (direction dependence, contact compliance).
+    #[serde(default)]
+    pub pad_screen: pads::PadScreen,
 }
 
 /// What a log measured of its friction law.
@@ -472,9 +484,17 @@ impl LogFit {
             dstar: self.dstar_interval,
         }
     }
-    /// Rs (N), where measured.
+    /// Rs (N), where measured (towards + where the threshold is split: a
+    /// law that never breaks away towards + only bounds it).
     pub fn rs_n(&self) -> Option<f64> {
         match self.measured {
+            Measured::StickSlip(_)
+                if self
+                    .pads()
+                    .is_some_and(|p| p.plus_bounded || p.threshold_unresolved) =>
+            {
+                None
+            }
             Measured::StickSlip(l) => Some(l.rs_n),
             _ => None,
         }
@@ -490,6 +510,50 @@ impl LogFit {
     /// D* (None for a stuck log).
     pub fn dstar(&self) -> Option<f64> {
         self.law().map(|l| l.slope_n_s_per_m / self.slope_scale)
+    }
+    /// The real-pad parameters of the estimate used (the output-error
+    /// refinement's; None for the equation-error estimate).
+    pub fn pads(&self) -> Option<&output_error::PadFit> {
+        self.output_error
+            .as_ref()
+            .filter(|_| self.estimate == Estimate::OutputError)
+            .map(|o| &o.pads)
+    }
+    /// The law's static threshold depends on the sliding direction (a
+    /// split was chosen); `rho_s` is then towards +, `rho_s_minus` towards
+    /// −, with equal dynamic levels (see [`output_error::Ext`]).
+    pub fn direction_dependent(&self) -> bool {
+        self.output_error
+            .as_ref()
+            .filter(|_| self.estimate == Estimate::OutputError)
+            .is_some_and(|o| o.chosen.ext.split)
+            && !self.never_sticks()
+    }
+    /// ρs⁻ where the threshold is split.
+    pub fn rho_s_minus(&self) -> Option<f64> {
+        self.pads()
+            .filter(|_| self.direction_dependent())
+            .and_then(|p| p.rho_s_minus)
+    }
+    /// The contact stiffness κ = kt/K2 of a compliant contact (None: rigid).
+    pub fn contact_stiffness(&self) -> Option<f64> {
+        self.pads().and_then(|p| p.contact_stiffness)
+    }
+    /// K2 (N/m) of the log's rig (from the force scale A·K2).
+    pub fn k2_n_per_m(&self) -> f64 {
+        self.force_scale_n / self.drive.amplitude_m
+    }
+    /// A lower bound (one-sided 95 %) on κ where the contact was taken as
+    /// rigid and the log has sticks to bound it: the pre-sliding the
+    /// sticks could hide below the position noise.
+    pub fn contact_stiffness_lower_bound(&self) -> Option<f64> {
+        if self.contact_stiffness().is_some() {
+            return None;
+        }
+        self.pad_screen
+            .compliance
+            .map(|c| c.kt_lower_bound_n_per_m / self.k2_n_per_m())
+            .filter(|k| k.is_finite())
     }
     /// The M2 never slid: only a lower bound on Rs is known.
     pub fn stuck(&self) -> bool {
@@ -740,6 +804,7 @@ fn refine(
     base: &Characteristic,
     ef: &mut EquationFit,
     opts: &IdentifyOptions,
+    hints: output_error::PadHints,
     warnings: &mut Vec<Warning>,
 ) -> (Option<OutputErrorFit>, bool) {
     // Output-error refinement (not for a stuck log: nothing slides). The
@@ -757,7 +822,7 @@ fn refine(
                 &run.rig,
                 oe,
             )
-            .and_then(|r| r.run(starts, bias, forced, u))
+            .and_then(|r| r.with_pad_hints(hints).run(starts, bias, forced, u))
         };
         let mut first = refine_with(&opts.oe, &ef.candidates, ef.bias_n);
         // Position records that lag the drive (sensor filters, DAQ
@@ -826,15 +891,20 @@ fn refine(
         .filter(|o| ef.never_sticks && o.sticks_found)
     {
         let c = &o.chosen;
+        // Behind a contact spring M2 rings after every slip: the velocity
+        // cannot show sticks (the contact warning says what was measured).
+        let contact = c.ext.contact;
         let per_run = c.stick_fraction * o.samples as f64 / c.stick_runs.max(1) as f64
             * opts.oe.stride as f64
             * base.contact.dt;
-        warnings.push(Warning::ShortSticks {
-            law: c.law.kind,
-            stick_fraction: c.stick_fraction,
-            stick_runs: c.stick_runs,
-            run_s: per_run,
-        });
+        if !contact {
+            warnings.push(Warning::ShortSticks {
+                law: c.law.kind,
+                stick_fraction: c.stick_fraction,
+                stick_runs: c.stick_runs,
+                run_s: per_run,
+            });
+        }
         no_stick = false;
         warnings.retain(|w| *w != Warning::NeverSticks);
         // The reversal bound assumed no stick there: it does not hold.
@@ -934,6 +1004,42 @@ fn equation_error_intervals(
     (equation_error, ub, rs_lower_bound_n)
 }
 
+/// The real-pad warnings of the output-error law `o` (a split threshold,
+/// a side only bounded, a compliant contact); `k2` in N/m.
+fn pad_warnings(o: &OutputErrorFit, k2: f64, warnings: &mut Vec<Warning>) {
+    let iv = &o.intervals;
+    if let (Some(split_n), Some(interval_n)) = (o.pads.split_n, o.pads.split_interval_n) {
+        warnings.push(Warning::DirectionDependent {
+            split_n,
+            interval_n,
+        });
+    }
+    if o.pads.minus_bounded {
+        warnings.push(Warning::DirectionBounded {
+            side: '-',
+            bounds_n: o.pads.rs_minus_interval_n,
+        });
+    }
+    if o.pads.plus_bounded {
+        warnings.push(Warning::DirectionBounded {
+            side: '+',
+            bounds_n: iv.rs_n,
+        });
+    }
+    if let (Some(kappa), Some(interval)) =
+        (o.pads.contact_stiffness, o.pads.contact_stiffness_interval)
+    {
+        let kt = kappa * k2;
+        warnings.push(Warning::ContactCompliance {
+            kappa,
+            interval,
+            kt_n_per_m: kt,
+            presliding_m: o.law.rs_n.max(o.pads.rs_minus_n.unwrap_or(0.0)) / kt,
+            threshold_unresolved: o.pads.threshold_unresolved,
+        });
+    }
+}
+
 /// Fits the friction law of one characteristic log with 95 % intervals
 /// (bootstrap over periods combined with the calibration budget).
 ///
@@ -1002,7 +1108,13 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     warnings.extend(base.contact.warnings.iter().cloned());
     warnings.extend(ef.warnings.iter().cloned());
 
-    let (mut output_error, no_stick) = refine(run, &base, &mut ef, opts, &mut warnings);
+    let pad_screen = pads::PadScreen::of(&base.contact, &base.segmentation, &ef, rig);
+    let hints = if opts.real_pads {
+        pad_screen.hints()
+    } else {
+        Default::default()
+    };
+    let (mut output_error, no_stick) = refine(run, &base, &mut ef, opts, hints, &mut warnings);
     let mut contradictions = Vec::new();
     if let Some(o) = output_error.as_ref() {
         warnings.extend(o.notes.iter().cloned());
@@ -1062,6 +1174,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                     used.rho_s = used.rho_s.map(|(l, h)| (l * lo / iv.0, h * hi / iv.1));
                 }
             }
+            pad_warnings(o, k2, &mut warnings);
             if o.law.kind != ef.law.kind {
                 warnings.push(Warning::LawChanged {
                     output_error: o.law.kind,
@@ -1141,6 +1254,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         contradictions,
         untested,
         fit: ef,
+        pad_screen,
     })
 }
 

@@ -77,6 +77,8 @@ pub const CODES: &[&str] = &[
     "law_changed",
     "threshold_not_identified",
     "parsimony",
+    "direction_dependent",
+    "contact_compliance",
     "untested",
     "inadequate",
     "normal_force",
@@ -360,6 +362,42 @@ pub enum Warning {
         other_rs_n: f64,
         /// The chosen law's Rs interval before widening (N).
         interval_n: (f64, f64),
+    },
+    /// A real-pad extension (split threshold, contact spring) could not be
+    /// refined.
+    PadRefinementFailed {
+        /// Why.
+        reason: String,
+    },
+    /// The chosen law's static threshold depends on the sliding direction.
+    DirectionDependent {
+        /// The split Δ = Rs⁺ − Rs⁻ (N) the log identifies.
+        split_n: f64,
+        /// Its 95 % interval (N).
+        interval_n: (f64, f64),
+    },
+    /// The threshold is split by direction, but M2 never breaks away towards
+    /// one side: that side's threshold is only bounded.
+    DirectionBounded {
+        /// The side whose threshold is bounded (`+` or `-`).
+        side: char,
+        /// Its bounds (N): above Rd, below the smallest net force at a
+        /// reversal without stick towards it (None if they contradict).
+        bounds_n: Option<(f64, f64)>,
+    },
+    /// The chosen law has a compliant contact (pre-sliding).
+    ContactCompliance {
+        /// κ = kt/K2.
+        kappa: f64,
+        /// Its 95 % interval.
+        interval: (f64, f64),
+        /// kt (N/m).
+        kt_n_per_m: f64,
+        /// Largest pre-sliding displacement Rs/kt (m).
+        presliding_m: f64,
+        /// The static threshold is not resolved above the sliding level
+        /// behind the spring (Rs ≥ Rd only).
+        threshold_unresolved: bool,
     },
     /// A family's extra parameter is consistent with Coulomb: Coulomb chosen.
     NestedCoulomb {
@@ -670,6 +708,9 @@ impl Warning {
             LawChanged { .. } => "law_changed",
             ThresholdNotIdentified { .. } => "threshold_not_identified",
             NestedCoulomb { .. } => "parsimony",
+            PadRefinementFailed { .. } => "refinement_failed",
+            DirectionDependent { .. } | DirectionBounded { .. } => "direction_dependent",
+            ContactCompliance { .. } => "contact_compliance",
             Untested { .. } => "untested",
             Inadequate { .. } => "inadequate",
             NormalForceNegative { .. } | NormalForceZero | LogNormalForceZero { .. } => {
@@ -1155,6 +1196,36 @@ mod tests {
         } = fx();
         vec![
             (
+                PadRefinementFailed { reason: "no data".into() },
+                format!("a real-pad extension could not be refined ({}); the law without it is kept", "no data"),
+            ),
+            (
+                DirectionDependent { split_n: 0.05, interval_n: (0.03, 0.07) },
+                format!(
+                    "the static threshold depends on the sliding direction: Rs⁺ − Rs⁻ = {:.4} N [{:.4}, {:.4}] with equal dynamic levels; \
+                     with unknown sensor zero offsets only this difference of the drops Rs − Rd is identified \
+                     (shifting one direction's levels against the other's is an x2 offset): calibrate the zeros to split the levels",
+                    0.05, 0.03, 0.07
+                ),
+            ),
+            (
+                DirectionBounded { side: '-', bounds_n: Some((0.74, 0.83)) },
+                format!(
+                    "the static threshold depends on the sliding direction: M2 sticks and breaks away towards the other side only, \
+                     and reverses towards {} without sticking, so the threshold there is only bounded: {:.4}–{:.4} N (null value, the interval holds the bounds)",
+                    '-', 0.74, 0.83
+                ),
+            ),
+            (
+                ContactCompliance { kappa: 20.0, interval: (15.0, 27.0), kt_n_per_m: 13400.0, presliding_m: 4e-5, threshold_unresolved: true },
+                format!(
+                    "the contact is compliant (pre-sliding): κ = kt/K2 = {:.3} [{:.3}, {:.3}], kt = {:.0} N/m, up to {:.1} µm before sliding{}",
+                    20.0, 15.0, 27.0, 13400.0, 40.0,
+                    "; behind it the static threshold shows only as the extra deflection (Rs − Rd)/kt before each breakaway, \
+                     which this log does not resolve: Rs ≥ Rd only (rho_s null)"
+                ),
+            ),
+            (
                 InvalidDraws { invalid: 2, draws: 200 },
                 format!("{} of {} drawn laws were invalid and skipped", 2, 200),
             ),
@@ -1351,7 +1422,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 72;
+    const VARIANTS: usize = 76;
 
     #[test]
     fn every_code_is_documented() {

@@ -46,6 +46,10 @@ impl fmt::Display for Warning {
             | LawChanged { .. }
             | ThresholdNotIdentified { .. }
             | NestedCoulomb { .. }
+            | PadRefinementFailed { .. }
+            | DirectionDependent { .. }
+            | DirectionBounded { .. }
+            | ContactCompliance { .. }
             | Untested { .. }
             | Inadequate { .. } => fmt_refinement(self, f),
             NormalForceNegative { .. }
@@ -340,6 +344,55 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             f,
             "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
             other.as_str()
+        ),
+        PadRefinementFailed { reason } => write!(
+            f,
+            "a real-pad extension could not be refined ({reason}); the law without it is kept"
+        ),
+        DirectionDependent {
+            split_n,
+            interval_n,
+        } => write!(
+            f,
+            "the static threshold depends on the sliding direction: Rs⁺ − Rs⁻ = {:.4} N [{:.4}, {:.4}] with equal dynamic levels; \
+             with unknown sensor zero offsets only this difference of the drops Rs − Rd is identified \
+             (shifting one direction's levels against the other's is an x2 offset): calibrate the zeros to split the levels",
+            split_n, interval_n.0, interval_n.1
+        ),
+        DirectionBounded { side, bounds_n } => {
+            write!(
+                f,
+                "the static threshold depends on the sliding direction: M2 sticks and breaks away towards the other side only, \
+                 and reverses towards {side} without sticking, so the threshold there is only bounded: "
+            )?;
+            match bounds_n {
+                Some((lo, hi)) => write!(
+                    f,
+                    "{lo:.4}–{hi:.4} N (null value, the interval holds the bounds)"
+                ),
+                None => write!(f, "the bounds contradict each other (no interval)"),
+            }
+        }
+        ContactCompliance {
+            kappa,
+            interval,
+            kt_n_per_m,
+            presliding_m,
+            threshold_unresolved,
+        } => write!(
+            f,
+            "the contact is compliant (pre-sliding): κ = kt/K2 = {:.3} [{:.3}, {:.3}], kt = {:.0} N/m, up to {:.1} µm before sliding{}",
+            kappa,
+            interval.0,
+            interval.1,
+            kt_n_per_m,
+            presliding_m * 1e6,
+            if *threshold_unresolved {
+                "; behind it the static threshold shows only as the extra deflection (Rs − Rd)/kt before each breakaway, \
+                 which this log does not resolve: Rs ≥ Rd only (rho_s null)"
+            } else {
+                ""
+            }
         ),
         NestedCoulomb { law } => write!(
             f,

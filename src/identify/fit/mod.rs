@@ -114,6 +114,10 @@ pub struct EquationFit {
     pub n_breakaways: usize,
     /// Per-breakaway Rs estimates (N, bias removed).
     pub breakaway_forces_n: Vec<f64>,
+    /// The direction (±1) of the slip after each breakaway, in the order
+    /// of `breakaway_forces_n`.
+    #[serde(default)]
+    pub breakaway_directions: Vec<f64>,
     /// BIC of every family considered (lower is better).
     pub criteria: Vec<(LawKind, f64)>,
     /// The equation-error law of every simple family that could be fitted
@@ -286,6 +290,7 @@ pub fn fit(
         n_slip: samples.len(),
         n_eff,
         n_breakaways: brks.len(),
+        breakaway_directions: brks.iter().map(|k| k.dir).collect(),
         breakaway_forces_n,
         criteria,
         candidates,
@@ -392,6 +397,7 @@ impl EquationFit {
             n_eff: 0.0,
             n_breakaways: 0,
             breakaway_forces_n: Vec::new(),
+            breakaway_directions: Vec::new(),
             criteria: Vec::new(),
             candidates: Vec::new(),
             warnings,

@@ -2,6 +2,7 @@
 //! Student t, and the calibration budget.
 
 use super::*;
+use crate::identify::Interval;
 
 /// The inverse of a small matrix, column by column.
 fn inverse(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
@@ -39,34 +40,89 @@ fn inverse_equilibrated(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
     )
 }
 
+/// Quantities reported of a refined law: Rs⁺, Rd, a, ρs⁺, ρd, D*, then
+/// Rs⁻ (N), ρs⁻, the split Δ (N) and ln κ (NaN where not fitted).
+const NQ: usize = 10;
+
+/// The real-pad parameters of a refined law and their 95 % intervals
+/// (None where the law does not have them). The split's levels are in the
+/// gauge "equal dynamic levels" (see [`Ext`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PadFit {
+    /// Rs⁻ (N), the static threshold towards −.
+    pub rs_minus_n: Option<f64>,
+    /// Its interval (N).
+    pub rs_minus_interval_n: Option<Interval>,
+    /// ρs⁻.
+    pub rho_s_minus: Option<f64>,
+    /// Its interval.
+    pub rho_s_minus_interval: Option<Interval>,
+    /// The split Δ = Rs⁺ − Rs⁻ (N), the drop asymmetry the log identifies.
+    pub split_n: Option<f64>,
+    /// Its interval (N).
+    pub split_interval_n: Option<Interval>,
+    /// Contact stiffness κ = kt/K2.
+    pub contact_stiffness: Option<f64>,
+    /// Its interval (from ln κ's).
+    pub contact_stiffness_interval: Option<Interval>,
+    /// The simulated law never breaks away towards −: Rs⁻ is only bounded
+    /// (`rs_minus_interval_n` holds the bounds).
+    pub minus_bounded: bool,
+    /// The same towards +: Rs⁺ (the law's Rs) is only bounded.
+    pub plus_bounded: bool,
+    /// Behind a contact spring the log did not resolve the static
+    /// threshold above the sliding level: Rs ≥ Rd only.
+    pub threshold_unresolved: bool,
+}
+
 impl Refinement {
-    /// Sandwich intervals over segments plus the calibration budget.
+    /// Sandwich intervals over segments plus the calibration budget, and
+    /// the real-pad parameters' intervals.
     pub(super) fn intervals(
         &self,
-        kind: LawKind,
+        fam: Fam,
         th: &[f64],
         proj: &Proj,
         u: f64,
         rs_known: bool,
         inflation: f64,
-    ) -> Option<Intervals> {
-        let prob = self.problem(&self.data, kind);
+    ) -> Option<(Intervals, PadFit)> {
+        let prob = self.problem(&self.data, fam);
         let p = th.len();
         let mut r0 = Res::new();
         prob.eval(th, Some(proj), Some(&mut r0))?;
         let m = r0.len();
-        let jac = self.jacobian(&prob, kind, th, proj, m)?;
+        let jac = self.jacobian(&prob, fam.kind, th, proj, m)?;
         let (hinv, cov, t975) = self.sandwich(&jac, &r0, p)?;
         // The reported quantities as functions of θ (and the amplitude).
         let k2 = self.rig.k2;
         let ss = k2 / self.rig.omega;
-        let quantities = |th: &[f64], a: f64| -> [f64; 6] {
-            let (l, _, _, _) = prob.unpack(th);
-            l.si_and_rho(a * k2, ss)
+        let quantities = |th: &[f64], a: f64| -> [f64; NQ] {
+            let (l, rs_minus, kappa) = prob.pad_law(th);
+            let b = l.si_and_rho(a * k2, ss);
+            let rs_minus = rs_minus.unwrap_or(f64::NAN);
+            let split = if fam.ext.split {
+                prob.ext_values(th).split_n
+            } else {
+                f64::NAN
+            };
+            let ln_kappa = kappa.map_or(f64::NAN, f64::ln);
+            [
+                b[0],
+                b[1],
+                b[2],
+                b[3],
+                b[4],
+                b[5],
+                rs_minus,
+                rs_minus / (a * k2),
+                split,
+                ln_kappa,
+            ]
         };
         let q0 = quantities(th, self.data.a);
         // Statistical variance of each quantity (linear in θ for fixed A).
-        let mut var_stat = [0.0f64; 6];
+        let mut var_stat = [0.0f64; NQ];
         for (qi, v) in var_stat.iter_mut().enumerate() {
             let grad: Vec<f64> = (0..p)
                 .map(|j| {
@@ -85,7 +141,7 @@ impl Refinement {
             *v = s.max(0.0);
         }
         let var_cal =
-            self.calibration_variance(kind, th, proj, u, (&r0, &jac, &hinv), &quantities, &q0)?;
+            self.calibration_variance(fam, th, proj, u, (&r0, &jac, &hinv), &quantities, &q0)?;
         let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
             if !present || !q0[k].is_finite() {
                 return None;
@@ -97,14 +153,31 @@ impl Refinement {
             let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
             Some((q0[k] - hw, q0[k] + hw))
         };
-        Some(Intervals {
-            rs_n: iv(0, rs_known),
-            rd_n: iv(1, true),
-            slope_n_s_per_m: iv(2, true),
-            rho_s: iv(3, rs_known),
-            rho_d: iv(4, true),
-            dstar: iv(5, true),
-        })
+        let value = |k: usize| q0[k].is_finite().then_some(q0[k]);
+        let pads = PadFit {
+            rs_minus_n: value(6).filter(|_| rs_known),
+            rs_minus_interval_n: iv(6, rs_known),
+            rho_s_minus: value(7).filter(|_| rs_known),
+            rho_s_minus_interval: iv(7, rs_known),
+            split_n: value(8),
+            split_interval_n: iv(8, true),
+            contact_stiffness: value(9).map(f64::exp),
+            contact_stiffness_interval: iv(9, true).map(|(l, h)| (l.exp(), h.exp())),
+            minus_bounded: false,
+            plus_bounded: false,
+            threshold_unresolved: false,
+        };
+        Some((
+            Intervals {
+                rs_n: iv(0, rs_known),
+                rd_n: iv(1, true),
+                slope_n_s_per_m: iv(2, true),
+                rho_s: iv(3, rs_known),
+                rho_d: iv(4, true),
+                dstar: iv(5, true),
+            },
+            pads,
+        ))
     }
 
     /// The Jacobian of the residuals by central differences (2m rows: r1
@@ -126,8 +199,12 @@ impl Refinement {
                 kind.family()
                     .oe_jac_step(j, &law)
                     .unwrap_or(2e-3 * law.rd_n.abs().max(1e-2))
-            } else if j == kl {
+            } else if j == kl || (j == kl + 3 && prob.ext.split) {
+                // The bias and the split Δ: forces.
                 2e-3 * law.rd_n.abs().max(1e-2)
+            } else if j >= kl + 3 {
+                // ln κ.
+                1e-2
             } else {
                 3e-4
             };
@@ -214,18 +291,18 @@ impl Refinement {
     #[allow(clippy::too_many_arguments)]
     fn calibration_variance(
         &self,
-        kind: LawKind,
+        fam: Fam,
         th: &[f64],
         proj: &Proj,
         u: f64,
         lin: (&Res, &[Vec<f64>], &[Vec<f64>]),
-        quantities: &impl Fn(&[f64], f64) -> [f64; 6],
-        q0: &[f64; 6],
-    ) -> Option<[f64; 6]> {
+        quantities: &impl Fn(&[f64], f64) -> [f64; NQ],
+        q0: &[f64; NQ],
+    ) -> Option<[f64; NQ]> {
         let (r0, jac, hinv) = lin;
         let p = th.len();
         let m = r0.len();
-        let mut var_cal = [0.0f64; 6];
+        let mut var_cal = [0.0f64; NQ];
         if u > 0.0 {
             for gk in 0..4 {
                 let mut gains = Gains::default();
@@ -236,7 +313,7 @@ impl Refinement {
                     _ => gains.v2 = 1.0 + u,
                 }
                 let dp = self.data.scaled(&gains);
-                let pp = self.problem(&dp, kind);
+                let pp = self.problem(&dp, fam);
                 let mut rp = Res::new();
                 pp.eval(th, Some(proj), Some(&mut rp))?;
                 if rp.len() != m {
@@ -255,7 +332,7 @@ impl Refinement {
                     t[a] -= (0..p).map(|b| hinv[a][b] * jtr[b]).sum::<f64>();
                 }
                 let q = quantities(&t, dp.a);
-                for k in 0..6 {
+                for k in 0..NQ {
                     let dq = q[k] - q0[k];
                     if dq.is_finite() {
                         // Rectangular ±u: σ = |δ|/√3.

@@ -68,6 +68,14 @@
 //!   BIC is chosen, and one whose extra parameter's interval holds the
 //!   nested value gives way to Coulomb. A threshold the segmentation did
 //!   not see must beat every stick-free family by more than 10.
+//! * **Real pads** (`docs/real-pads.md`): a static threshold split by
+//!   direction (Δ, in the gauge "equal dynamic levels": unknown sensor
+//!   zeros leave only that identifiable) and a contact spring (ln κ) are
+//!   extra parameters at the end of θ ([`Ext`]), refined where the screen
+//!   (`identify::pads`) saw them or the law fails the adequacy test, from
+//!   the optimum they extend, and chosen by the same criterion. A side the
+//!   simulated law never breaks away towards is only bounded; behind a
+//!   contact spring an unresolved threshold is Rs ≥ Rd only.
 //! * **Adequacy** ([`Adequacy`]): the chosen law's residuals against the
 //!   sensor noise (ratio ≤ 1.4) and binned against drive phase, velocity,
 //!   position and time (flagged when z > 3.7 and the structure exceeds half
@@ -109,7 +117,9 @@ pub use adequacy::{
     Adequacy, Evidence, Structure, MAX_NOISE_RATIO, MAX_STRUCTURE_EFFECT, MAX_STRUCTURE_Z,
 };
 use data::*;
+pub use intervals::PadFit;
 pub use lm::Minimiser;
+pub use problem::Ext;
 use problem::*;
 
 use super::contact::{Contact, Gains};
@@ -209,6 +219,31 @@ pub struct FamilyFit {
     pub delays_s: (f64, f64),
     /// Their 95 % intervals (s).
     pub delays_interval_s: ((f64, f64), (f64, f64)),
+    /// Real-pad extensions refined with the law (`law.rs_n` is then the
+    /// threshold towards +).
+    #[serde(default)]
+    pub ext: Ext,
+    /// Rs⁻ (N) of a split threshold (gauge: equal dynamic levels).
+    #[serde(default)]
+    pub rs_minus_n: Option<f64>,
+    /// Contact stiffness κ = kt/K2 (None: rigid stick).
+    #[serde(default)]
+    pub contact_stiffness: Option<f64>,
+    /// Simulated breakaways towards + and towards − over the compared
+    /// segments.
+    #[serde(default)]
+    pub breakaways: (usize, usize),
+    /// Upper bounds (N) on the thresholds towards + and towards − from the
+    /// simulated reversals without stick (None: no such reversal).
+    #[serde(default)]
+    pub reversal_bound_n: (Option<f64>, Option<f64>),
+}
+
+impl FamilyFit {
+    /// Parameters the criterion counts.
+    pub fn n_params(&self) -> usize {
+        n_params(self.law.kind) + self.ext.len()
+    }
 }
 
 /// What the refinement found.
@@ -226,6 +261,10 @@ pub struct OutputErrorFit {
     /// 95 % intervals (sandwich over segments + calibration budget; for a
     /// never-sticking log Rs holds the bounds, as in [`super::LogFit`]).
     pub intervals: Intervals,
+    /// The real-pad parameters of the chosen law with their intervals
+    /// (all None for the paper's symmetric, rigid pad).
+    #[serde(default)]
+    pub pads: PadFit,
     /// Shooting segments.
     pub segments: usize,
     /// Residual samples compared (per channel).
@@ -389,7 +428,31 @@ pub struct Refinement {
     minimiser: Minimiser,
     never_sticks: bool,
     evals: std::cell::Cell<usize>,
+    hints: PadHints,
 }
+
+/// What the real-pad screen (`crate::identify::pads`) saw: the extensions
+/// the refinement then tries (each must still win by the criterion), with
+/// their start values.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PadHints {
+    /// The direction screen fired: try a split threshold.
+    pub split: bool,
+    /// The drop asymmetry Δ (N) it measured, where it could (a start).
+    pub split_n: Option<f64>,
+    /// The compliance screen fired: try a contact spring.
+    pub contact: bool,
+    /// The contact stiffness kt (N/m) it measured (a start).
+    pub kt_n_per_m: Option<f64>,
+}
+
+/// Breakaways towards a direction a split threshold needs to count as
+/// measured there (as sticks: four phases).
+const MIN_DIRECTION_BREAKAWAYS: usize = 4;
+
+/// Contact stiffnesses κ tried as starts where the screen gave none (the
+/// best of them by the cost starts the minimiser).
+const KAPPA_GRID: [f64; 6] = [3.0, 10.0, 30.0, 100.0, 300.0, 1000.0];
 
 impl Refinement {
     /// Prepares the shooting segments and the nuisance averages of a log
@@ -537,7 +600,14 @@ impl Refinement {
             minimiser: opts.minimiser,
             never_sticks: seg.never_sticks(),
             evals: std::cell::Cell::new(0),
+            hints: PadHints::default(),
         })
+    }
+
+    /// The same refinement, also trying the real-pad extensions `hints`.
+    pub fn with_pad_hints(mut self, hints: PadHints) -> Self {
+        self.hints = hints;
+        self
     }
 
     /// Number of shooting segments.
@@ -545,21 +615,25 @@ impl Refinement {
         self.data.segs.len()
     }
 
-    fn problem<'a>(&'a self, d: &'a Data, kind: LawKind) -> Problem<'a> {
+    fn problem<'a>(&'a self, d: &'a Data, fam: impl Into<Fam>) -> Problem<'a> {
+        let Fam { kind, ext } = fam.into();
         Problem {
             d,
             rig: self.rig,
             kind,
+            ext,
             never_sticks: self.never_sticks,
             evals: &self.evals,
             sticks: std::cell::Cell::new((0, 0)),
+            dirs: std::cell::Cell::new(DirStats::default()),
             idx: std::cell::RefCell::new(None),
             delays: std::cell::Cell::new(DelayFit::default()),
         }
     }
 
     /// θ and Nelder–Mead steps of a family from its equation-error law.
-    fn start(kind: LawKind, l: &SiLaw, bias: f64) -> (Vec<f64>, Vec<f64>) {
+    fn start(fam: Fam, l: &SiLaw, bias: f64, ev: ExtValues) -> (Vec<f64>, Vec<f64>) {
+        let kind = fam.kind;
         let f = l.rd_n.abs().max(1e-3);
         // The family's parameters (its own order), with a threshold just
         // above the sliding level where the family has one.
@@ -572,6 +646,14 @@ impl Refinement {
         let mut step = kind.family().oe_steps(&th, f, rs_step);
         th.extend([bias, 1.0, 1.0]);
         step.extend([0.01 * f, 0.003, 0.003]);
+        if fam.ext.split {
+            th.push(ev.split_n);
+            step.push(0.01 * f);
+        }
+        if fam.ext.contact {
+            th.push(ev.kappa.unwrap_or(100.0).ln());
+            step.push(0.1);
+        }
         (th, step)
     }
 
@@ -582,11 +664,11 @@ impl Refinement {
     /// projection the cost refers to.
     fn minimise(
         &self,
-        kind: LawKind,
+        fam: Fam,
         starts: &[Vec<f64>],
         step: &[f64],
     ) -> Result<(Vec<f64>, f64, u64, Proj), String> {
-        let prob = self.problem(&self.data, kind);
+        let prob = self.problem(&self.data, fam);
         let (mut th, proj, _) = starts
             .iter()
             .filter_map(|t| {
@@ -737,7 +819,92 @@ impl Refinement {
                 }
             }
         }
+        self.real_pads(&mut fits, &mut out, forced, u, t0);
         Ok(out)
+    }
+
+    /// The real-pad extensions, each refined from the optimum it extends
+    /// and chosen only by the criterion: the split threshold on the simple
+    /// family with a threshold where the direction screen fired or the law
+    /// so far does not explain the log (a short log may hold too few
+    /// one-sided breakaways for the screen); then a
+    /// contact spring where the compliance screen fired or the law so far
+    /// does not explain the log (a compliant contact rings on its spring
+    /// after every slip, so the velocity may show no stick at all and the
+    /// screen has nothing to read), on the law chosen so far and on the
+    /// static-dynamic family.
+    fn real_pads(
+        &self,
+        fits: &mut Vec<Refined>,
+        out: &mut OutputErrorFit,
+        forced: Option<LawKind>,
+        u: f64,
+        t0: std::time::Instant,
+    ) {
+        let h = self.hints;
+        let try_ext = |i: usize,
+                       ext: Ext,
+                       (splits, kappas, extra): (&[f64], &[f64], &[Vec<f64>]),
+                       fits: &mut Vec<Refined>,
+                       out: &mut OutputErrorFit| {
+            let fail = |e: String| crate::warning::Warning::PadRefinementFailed { reason: e };
+            match self.refine_ext(&fits[i], ext, splits, kappas, extra) {
+                Ok(f) => {
+                    fits.push(f);
+                    match self.conclude(fits, forced, u, t0) {
+                        Ok(o) => *out = o,
+                        Err(e) => {
+                            fits.pop();
+                            out.notes.push(fail(e));
+                        }
+                    }
+                }
+                Err(e) => out.notes.push(fail(e)),
+            }
+        };
+        let simple_threshold = |fits: &[Refined]| {
+            fits.iter().position(|f| {
+                f.ext.is_empty()
+                    && f.kind.family().has_threshold()
+                    && f.kind.family().selection() == Selection::Simple
+            })
+        };
+        if h.split || !out.adequacy.adequate {
+            if let Some(i) = simple_threshold(fits) {
+                let law = fits[i].kind.family().unpack(&fits[i].th);
+                // Either sign: a pad that sticks at one reversal only does
+                // not say which threshold is the lower one.
+                let d = 0.5 * (law.rs_n - law.rd_n).max(0.02 * law.rd_n.abs());
+                let mut splits: Vec<f64> = h.split_n.into_iter().collect();
+                splits.extend([0.0, d, -d]);
+                let ext = Ext {
+                    split: true,
+                    contact: false,
+                };
+                try_ext(i, ext, (&splits, &[], &[]), fits, out);
+            }
+        }
+        if h.contact || !out.adequacy.adequate {
+            let kappas: Vec<f64> = match h.kt_n_per_m {
+                Some(kt) => vec![kt / self.rig.k2],
+                None => KAPPA_GRID.to_vec(),
+            };
+            let chosen = fits
+                .iter()
+                .position(|f| f.kind == out.chosen.law.kind && f.ext == out.chosen.ext);
+            let mut bases: Vec<usize> = chosen.into_iter().collect();
+            if let Some(i) = simple_threshold(fits).filter(|i| !bases.contains(i)) {
+                bases.push(i);
+            }
+            for i in bases {
+                let ext = Ext {
+                    contact: true,
+                    ..fits[i].ext
+                };
+                let extra = self.contact_donor_starts(fits, i);
+                try_ext(i, ext, (&[], &kappas, &extra), fits, out);
+            }
+        }
     }
 
     /// True when a refined shaped law's drop is resolved by the log: its
@@ -774,7 +941,7 @@ impl Refinement {
                 None => return Ok(None),
             },
         };
-        let (th_ee, step) = Self::start(kind, &law, bias);
+        let (th_ee, step) = Self::start(kind.into(), &law, bias, ExtValues::NONE);
         // Nested starts: the richer families also start from the optima
         // of the simpler ones they contain (their law at its boundary, and
         // with the equation-error law's extra parameter), so a richer
@@ -793,15 +960,73 @@ impl Refinement {
                 cands.push(g);
             }
         }
-        let (th, cost, it, proj) = self.minimise(kind, &cands, &step)?;
+        let (th, cost, it, proj) = self.minimise(kind.into(), &cands, &step)?;
         Ok(Some(Refined {
             kind,
+            ext: Ext::default(),
             th,
             cost,
             iterations: it,
             proj,
             start: th_ee,
         }))
+    }
+
+    /// Refines `base`'s family with the real-pad extensions `ext` (a
+    /// superset of its own) from its optimum, each new parameter at each of
+    /// its start values (`splits`: Δ in N; `kappas`: κ); the best start by
+    /// the cost is minimised.
+    fn refine_ext(
+        &self,
+        base: &Refined,
+        ext: Ext,
+        splits: &[f64],
+        kappas: &[f64],
+        extra: &[Vec<f64>],
+    ) -> Result<Refined, String> {
+        let fam = Fam {
+            kind: base.kind,
+            ext,
+        };
+        let own = self.problem(&self.data, base.fam()).ext_values(&base.th);
+        let k = n_params(base.kind);
+        let law = base.kind.family().unpack(&base.th[..k]);
+        let (_, step) = Self::start(fam, &law, base.th[k], ExtValues::NONE);
+        let splits: Vec<f64> = if base.ext.split || !ext.split {
+            vec![own.split_n]
+        } else {
+            splits.to_vec()
+        };
+        let kappas: Vec<f64> = match own.kappa {
+            Some(kp) => vec![kp],
+            None if ext.contact => kappas.to_vec(),
+            None => vec![f64::NAN],
+        };
+        let mut cands = Vec::new();
+        for &sp in &splits {
+            for &kp in &kappas {
+                let mut th = base.th[..k + 3].to_vec();
+                if ext.split {
+                    th.push(sp);
+                }
+                if ext.contact {
+                    th.push(kp.ln());
+                }
+                cands.push(th);
+            }
+        }
+        let len = cands[0].len();
+        cands.extend(extra.iter().filter(|t| t.len() == len).cloned());
+        let (th, cost, it, proj) = self.minimise(fam, &cands, &step)?;
+        Ok(Refined {
+            kind: base.kind,
+            ext,
+            th,
+            cost,
+            iterations: it,
+            proj,
+            start: cands[0].clone(),
+        })
     }
 
     /// The number of residual samples per channel and the effective number
@@ -811,10 +1036,10 @@ impl Refinement {
         // The criterion: n_eff from the residuals of the richest fit.
         let richest = fits
             .iter()
-            .max_by_key(|f| n_params(f.kind))
+            .max_by_key(|f| f.fam().n_params())
             .expect("non-empty");
         let mut res = Res::new();
-        self.problem(&self.data, richest.kind)
+        self.problem(&self.data, richest.fam())
             .eval(&richest.th, Some(&richest.proj), Some(&mut res))
             .ok_or("the refined law cannot be simulated")?;
         let seg: Vec<u32> = res.iter().map(|r| r.0).collect();
@@ -830,23 +1055,27 @@ impl Refinement {
     /// sticking (one more simulation each).
     fn family_fits(&self, fits: &[Refined], n: usize, n_eff: f64) -> Vec<FamilyFit> {
         let mut families: Vec<FamilyFit> = Vec::new();
-        for Refined {
-            kind,
-            th,
-            cost,
-            iterations: it,
-            proj,
-            ..
-        } in fits
-        {
-            let prob = self.problem(&self.data, *kind);
-            let (law, b, g1, g2) = prob.unpack(th);
-            let k = n_params(*kind) as f64;
+        for f in fits {
+            let Refined {
+                th,
+                cost,
+                iterations: it,
+                proj,
+                ..
+            } = f;
+            let prob = self.problem(&self.data, f.fam());
+            let (_, b, g1, g2) = prob.unpack(th);
+            let (law, rs_minus_n, kappa) = prob.pad_law(th);
+            let k = f.fam().n_params() as f64;
             let bic = n_eff * (cost / (2 * n) as f64).ln() + k * n_eff.ln();
             let rms = self.rms(&prob, th);
             prob.sticks.set((0, 0));
+            prob.dirs.set(DirStats::default());
             let m = prob.eval(th, Some(proj), None).map_or(0, |_| n);
             let (ss, runs) = prob.sticks.get();
+            let dirs = prob.dirs.get();
+            let fs = self.data.a * self.rig.k2;
+            let bound = |v: f64| v.is_finite().then_some(v * fs);
             let df = prob.delays.get();
             // 95 % intervals: the variances times the residuals'
             // correlation time (n / n_eff samples per independent one).
@@ -874,6 +1103,11 @@ impl Refinement {
                 stick_runs: runs,
                 delays_s,
                 delays_interval_s,
+                ext: f.ext,
+                rs_minus_n,
+                contact_stiffness: kappa,
+                breakaways: (dirs.breakaways[0], dirs.breakaways[1]),
+                reversal_bound_n: (bound(dirs.reversal_force[0]), bound(dirs.reversal_force[1])),
             });
         }
         families
@@ -889,15 +1123,21 @@ impl Refinement {
         let mut best = (0..families.len())
             .filter(|&a| families[a].bic <= bmin + BIC_WEAK)
             .min_by(|&a, &b| {
-                n_params(families[a].law.kind)
-                    .cmp(&n_params(families[b].law.kind))
+                families[a]
+                    .n_params()
+                    .cmp(&families[b].n_params())
                     .then(families[a].bic.total_cmp(&families[b].bic))
             })
             .expect("non-empty");
         // Overruling the segmentation's never-sticks verdict takes very
         // strong evidence: a static threshold is kept only if it beats
         // every stick-free family by more than BIC_STRONG.
-        if self.never_sticks && families[best].law.kind.family().has_threshold() {
+        // (Not behind a contact spring: M2 rings on it after every slip, so
+        // the velocity cannot show the slider's sticks.)
+        if self.never_sticks
+            && families[best].law.kind.family().has_threshold()
+            && !families[best].ext.contact
+        {
             let other = (0..families.len())
                 .filter(|&a| !families[a].law.kind.family().has_threshold())
                 .min_by(|&a, &b| families[a].bic.total_cmp(&families[b].bic));
@@ -908,6 +1148,80 @@ impl Refinement {
             }
         }
         best
+    }
+
+    /// Starts for the contact extension of the family with a threshold
+    /// `fits[i]` from the best contact fit so far (a contact ringing after
+    /// every slip hides the sticks, so the family's own rigid optimum may
+    /// sit far from its threshold): that fit's sliding level, nuisance
+    /// parameters and κ, with thresholds 5–45 % above the sliding level.
+    fn contact_donor_starts(&self, fits: &[Refined], i: usize) -> Vec<Vec<f64>> {
+        let base = &fits[i];
+        let family = base.kind.family();
+        if !family.has_threshold() || base.ext.split {
+            return Vec::new();
+        }
+        let Some(donor) = fits
+            .iter()
+            .filter(|f| f.ext.contact && !f.ext.split)
+            .min_by(|a, b| a.cost.total_cmp(&b.cost))
+        else {
+            return Vec::new();
+        };
+        let dp = self.problem(&self.data, donor.fam());
+        let kd = n_params(donor.kind);
+        let (law, ..) = dp.unpack(&donor.th);
+        let Some(kappa) = dp.ext_values(&donor.th).kappa else {
+            return Vec::new();
+        };
+        [1.05, 1.12, 1.2, 1.3, 1.45]
+            .iter()
+            .map(|f| {
+                let mut th = family.pack(&SiLaw {
+                    kind: base.kind,
+                    rs_n: f * law.rd_n,
+                    ..law
+                });
+                th.extend_from_slice(&donor.th[kd..kd + 3]);
+                th.push(kappa.ln());
+                th
+            })
+            .collect()
+    }
+
+    /// A split threshold is measured only in a direction the simulated law
+    /// breaks away towards (at least [`MIN_DIRECTION_BREAKAWAYS`] times);
+    /// where it does not, M2 reverses there without sticking, and the
+    /// threshold is only bounded: above Rd (the interval's low end), below
+    /// the smallest |F| at those reversals. That side's value and the split
+    /// become None, its interval holds the bounds (None if they
+    /// contradict).
+    fn bound_split_sides(&self, f: &FamilyFit, iv: &mut Intervals, pads: &mut PadFit) {
+        let fs = self.data.a * self.rig.k2;
+        let rd_lo = iv.rd_n.map(|r| r.0);
+        let bounds = |ub: Option<f64>| match (rd_lo, ub) {
+            (Some(lo), Some(hi)) if lo <= hi => Some((lo, hi)),
+            _ => None,
+        };
+        let scaled = |b: Option<super::Interval>| b.map(|(l, h)| (l / fs, h / fs));
+        if f.breakaways.1 < MIN_DIRECTION_BREAKAWAYS {
+            let b = bounds(f.reversal_bound_n.1);
+            pads.rs_minus_n = None;
+            pads.rho_s_minus = None;
+            pads.rs_minus_interval_n = b;
+            pads.rho_s_minus_interval = scaled(b);
+            pads.minus_bounded = true;
+        }
+        if f.breakaways.0 < MIN_DIRECTION_BREAKAWAYS {
+            let b = bounds(f.reversal_bound_n.0);
+            iv.rs_n = b;
+            iv.rho_s = scaled(b);
+            pads.plus_bounded = true;
+        }
+        if pads.minus_bounded || pads.plus_bounded {
+            pads.split_n = None;
+            pads.split_interval_n = None;
+        }
     }
 
     /// Whether a family's law sticks (see [`OutputErrorFit::sticks_found`]).
@@ -930,57 +1244,100 @@ impl Refinement {
         let mut best = self.pick_family(&families);
         let mut notes = Vec::new();
         let sticks_of = |f: &FamilyFit| self.sticks_of(f);
-        let mut adequacy = self.adequacy(fits[best].kind, &fits[best].th, &fits[best].proj)?;
-        let mut intervals = self
-            .intervals(
-                fits[best].kind,
-                &fits[best].th,
-                &fits[best].proj,
-                u,
-                sticks_of(&families[best]),
-                adequacy.inflation,
-            )
-            .ok_or("too few shooting segments for intervals")?;
+        let assess = |i: usize| -> Result<(Adequacy, Intervals, PadFit), String> {
+            let f = &fits[i];
+            let adequacy = self.adequacy(f.fam(), &f.th, &f.proj)?;
+            let (intervals, pads) = self
+                .intervals(
+                    f.fam(),
+                    &f.th,
+                    &f.proj,
+                    u,
+                    sticks_of(&families[i]),
+                    adequacy.inflation,
+                )
+                .ok_or("too few shooting segments for intervals")?;
+            Ok((adequacy, intervals, pads))
+        };
+        let (mut adequacy, mut intervals, mut pads) = assess(best)?;
         // Parsimony, second rule: an extra parameter whose interval holds
-        // its nested value (D* = 0; ρs = ρd) is not supported by the data.
-        if forced.is_none() && families[best].law.kind != LawKind::Coulomb {
+        // its nested value (D* = 0; ρs = ρd; the split Δ = 0) is not
+        // supported by the data.
+        if fits[best].ext.split
+            && pads
+                .split_interval_n
+                .is_some_and(|(lo, hi)| lo <= 0.0 && 0.0 <= hi)
+        {
+            let without = Ext {
+                split: false,
+                ..fits[best].ext
+            };
+            if let Some(c) = fits
+                .iter()
+                .position(|f| f.kind == fits[best].kind && f.ext == without)
+            {
+                best = c;
+                (adequacy, intervals, pads) = assess(c)?;
+            }
+        }
+        if forced.is_none()
+            && families[best].law.kind != LawKind::Coulomb
+            && fits[best].ext.is_empty()
+        {
             let l = families[best].law;
             let nested =
                 l.kind
                     .family()
                     .nests_coulomb(&l, intervals.rs_n, intervals.slope_n_s_per_m);
-            if let Some(c) = fits.iter().position(|f| f.kind == LawKind::Coulomb) {
+            if let Some(c) = fits
+                .iter()
+                .position(|f| f.kind == LawKind::Coulomb && f.ext.is_empty())
+            {
                 if nested {
                     notes.push(crate::warning::Warning::NestedCoulomb { law: l.kind });
                     best = c;
-                    adequacy = self.adequacy(fits[c].kind, &fits[c].th, &fits[c].proj)?;
-                    intervals = self
-                        .intervals(
-                            fits[c].kind,
-                            &fits[c].th,
-                            &fits[c].proj,
-                            u,
-                            sticks_of(&families[c]),
-                            adequacy.inflation,
-                        )
-                        .ok_or("too few shooting segments for intervals")?;
+                    (adequacy, intervals, pads) = assess(c)?;
                 }
             }
         }
-        let kind = &fits[best].kind;
+        if fits[best].ext.split {
+            self.bound_split_sides(&families[best], &mut intervals, &mut pads);
+        }
+        // Behind a contact spring the threshold shows only as the extra
+        // deflection (Rs − Rd)/kt before each breakaway: a law without a
+        // threshold (Rs = Rd by assumption), or one whose Rs interval
+        // reaches Rd, has not measured it, and Rs is only bounded below
+        // by Rd (on a compliant pad with (Rs − Rd)/kt = 3.8 µm and 3 µm
+        // of position noise every start, the true Rs included, ended at
+        // Rs = Rd).
+        if fits[best].ext.contact {
+            let l = families[best].law;
+            let reaches_rd = match intervals.rs_n {
+                Some((lo, _)) => intervals.rd_n.is_some_and(|(_, hi)| lo <= hi),
+                None => true,
+            };
+            if !l.kind.family().has_threshold() || reaches_rd {
+                intervals.rs_n = None;
+                intervals.rho_s = None;
+                pads.threshold_unresolved = true;
+            }
+        }
+        let fam = fits[best].fam();
         let chosen = families[best].clone();
         // How strongly the data prefer the chosen family over the best
         // other one (BIC difference, Kass–Raftery scale).
+        // (Among the laws with the chosen one's real-pad extensions: the
+        // extensions have their own comparison in `families`.)
         let evidence = families
             .iter()
             .enumerate()
-            .filter(|(i, _)| *i != best)
+            .filter(|(i, f)| *i != best && f.ext == chosen.ext)
             .min_by(|a, b| a.1.bic.total_cmp(&b.1.bic))
             .map(|(_, f)| Evidence {
                 against: f.law.kind,
                 delta_bic: f.bic - chosen.bic,
             });
-        let start_rms_m = self.rms(&self.problem(&self.data, *kind), &fits[best].start);
+        let start_rms_m = self.rms(&self.problem(&self.data, fam), &fits[best].start);
         Ok(OutputErrorFit {
             law: chosen.law,
             sticks_found: sticks_of(&chosen),
@@ -988,6 +1345,7 @@ impl Refinement {
             families,
             start_rms_m,
             intervals,
+            pads,
             segments: self.data.segs.len(),
             samples: n,
             n_eff,
@@ -1031,8 +1389,8 @@ impl Refinement {
     /// The adequacy of a refined law: residuals of x1, x2 against the
     /// sensor noise of the same log, and their structure against drive
     /// phase, velocity, position along the stroke and time in the log.
-    fn adequacy(&self, kind: LawKind, th: &[f64], proj: &Proj) -> Result<Adequacy, String> {
-        let prob = self.problem(&self.data, kind);
+    fn adequacy(&self, fam: Fam, th: &[f64], proj: &Proj) -> Result<Adequacy, String> {
+        let prob = self.problem(&self.data, fam);
         let mut res = Res::new();
         prob.idx.replace(Some(Vec::new()));
         let ok = prob.eval(th, Some(proj), Some(&mut res));

@@ -18,10 +18,14 @@ pub(super) struct Problem<'a> {
     pub(super) d: &'a Data,
     pub(super) rig: Rig,
     pub(super) kind: LawKind,
+    /// Real-pad extensions refined with the law.
+    pub(super) ext: Ext,
     pub(super) never_sticks: bool,
     pub(super) evals: &'a std::cell::Cell<usize>,
     /// Simulated stick samples and stick runs since the last reset.
     pub(super) sticks: std::cell::Cell<(usize, usize)>,
+    /// Per-direction breakaways and reversal forces since the last reset.
+    pub(super) dirs: std::cell::Cell<DirStats>,
     /// When set, the sample index of every compared sample is recorded.
     /// Compared samples and the simulated ẍ2 (m/s²) there, when recorded.
     pub(super) idx: std::cell::RefCell<Option<Vec<(usize, f64)>>>,
@@ -38,6 +42,74 @@ pub(super) fn n_params(kind: LawKind) -> usize {
     kind.family().params().len()
 }
 
+/// Real-pad extensions refined beside a family's law
+/// (`docs/real-pads.md`): θ = [law…, bias, g1, g2] then ends in Δ (N) for
+/// a static threshold split by direction and ln κ for a contact spring,
+/// in that order.
+///
+/// The split is the one combination of direction-dependent levels that
+/// unknown sensor zero offsets leave identifiable: the levels are
+/// Rs⁺ = Rs + Δ/2, Rs⁻ = Rs − Δ/2, Rd⁺ = Rd⁻ = Rd (the gauge "equal
+/// dynamic levels": a common shift of one direction's levels is a
+/// constant force on M2, which the force bias absorbs).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Ext {
+    /// The static threshold differs by direction (Δ).
+    pub split: bool,
+    /// A contact spring (pre-sliding) behind the stick.
+    pub contact: bool,
+}
+
+impl Ext {
+    /// Number of extra parameters.
+    pub fn len(self) -> usize {
+        self.split as usize + self.contact as usize
+    }
+    /// No extension: the paper's symmetric, rigid pad.
+    pub fn is_empty(self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// A family with its extensions: what one refinement fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Fam {
+    pub(super) kind: LawKind,
+    pub(super) ext: Ext,
+}
+
+impl From<LawKind> for Fam {
+    fn from(kind: LawKind) -> Self {
+        Fam {
+            kind,
+            ext: Ext::default(),
+        }
+    }
+}
+
+impl Fam {
+    /// Parameters the criterion counts: the law's and the extensions'.
+    pub(super) fn n_params(self) -> usize {
+        n_params(self.kind) + self.ext.len()
+    }
+}
+
+/// The extension values of θ: Δ (N, 0 without a split) and κ (None for a
+/// rigid stick).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct ExtValues {
+    pub(super) split_n: f64,
+    pub(super) kappa: Option<f64>,
+}
+
+impl ExtValues {
+    /// No extension.
+    pub(super) const NONE: ExtValues = ExtValues {
+        split_n: 0.0,
+        kappa: None,
+    };
+}
+
 impl Problem<'_> {
     /// Unpacks θ = [law…, bias, g1, g2] (the law's parameters as its
     /// [`crate::model::LawFamily`] orders them).
@@ -45,6 +117,33 @@ impl Problem<'_> {
         let family = self.kind.family();
         let k = family.params().len();
         (family.unpack(th), th[k], th[k + 1], th[k + 2])
+    }
+
+    /// The law as reported (SI): Rs is the threshold towards + where the
+    /// threshold is split (Rs + Δ/2), with Rs⁻ = Rs − Δ/2 (N) and κ.
+    pub(super) fn pad_law(&self, th: &[f64]) -> (SiLaw, Option<f64>, Option<f64>) {
+        let (mut law, ..) = self.unpack(th);
+        let ev = self.ext_values(th);
+        let mut minus = None;
+        if self.ext.split {
+            minus = Some(law.rs_n - 0.5 * ev.split_n);
+            law.rs_n += 0.5 * ev.split_n;
+        }
+        (law, minus, ev.kappa)
+    }
+
+    /// The extension values of θ (after [law…, bias, g1, g2]).
+    pub(super) fn ext_values(&self, th: &[f64]) -> ExtValues {
+        let mut k = n_params(self.kind) + 3;
+        let mut next = |on: bool| {
+            on.then(|| {
+                k += 1;
+                th[k - 1]
+            })
+        };
+        let split_n = next(self.ext.split).unwrap_or(0.0);
+        let kappa = next(self.ext.contact).map(f64::exp);
+        ExtValues { split_n, kappa }
     }
 
     /// Offsets p1, p2 (m) for a bias and gains (mean of M1's equation).
@@ -89,13 +188,33 @@ impl Problem<'_> {
             return None;
         }
         let v_s = law.vs_m_per_s.map(|vs| vs / (d.a * rig.omega));
-        let law = self.kind.family().law(rho_s, rho_d, slope, v_s)?;
+        let ev = self.ext_values(th);
+        // The split: Rs± = Rs ± Δ/2 (a threshold below Rd is simulated at
+        // Rd and penalised, as Rd > Rs is).
+        let half = 0.5 * ev.split_n / fs;
+        let (rs_p, rs_m) = if self.ext.split {
+            (rho_s + half, rho_s - half)
+        } else {
+            (rho_s, rho_s)
+        };
+        let excess = excess + (rho_d - rs_p).max(0.0) + (rho_d - rs_m).max(0.0);
+        let (rs_p, rs_m) = (rs_p.max(rho_d), rs_m.max(rho_d));
+        let mut law = self.kind.family().law(rs_p, rho_d, slope, v_s)?;
+        if self.ext.split {
+            law = law.with_minus(Some(crate::model::Levels { rho_s: rs_m, rho_d }));
+        }
+        if let Some(k) = ev.kappa {
+            if !(k > 0.0 && k <= crate::model::MAX_CONTACT_STIFFNESS) {
+                return None;
+            }
+        }
         let model = Model {
             absorber: rig.absorber,
             law,
             stop_below: None,
-            contact_stiffness: None,
+            contact_stiffness: ev.kappa,
         };
+        model.validate().ok()?;
         // The exact engine where the law is linear in each phase; the
         // numerical engine (same event logic) for a shaped law.
         // Both set up once per parameter vector; each segment only sets
@@ -116,7 +235,7 @@ impl Problem<'_> {
         Some(Ctx {
             engine,
             model,
-            rs: rs.max(rd),
+            thr: (rs_p, rs_m),
             g: (g1, g2),
             off: (p1, p2),
             excess,
@@ -144,6 +263,7 @@ impl Problem<'_> {
         }
         let c = self.sticks.get();
         self.sticks.set((c.0 + o.sticks.0, c.1 + o.sticks.1));
+        self.dirs.set(self.dirs.get().merge(o.dirs));
     }
 
     /// The projection of the start-state errors at θ: per segment, the
@@ -158,6 +278,7 @@ impl Problem<'_> {
         // Segment by segment in parallel (independent; collected in order).
         // The stick counts of these runs are not booked: nothing reads
         // them (they are reset before the evaluations that report them).
+        let contact = self.ext.contact;
         let one = |k: usize| -> Option<SegProj> {
             let mut base = Vec::new();
             let mut pert = Vec::new();
@@ -167,7 +288,7 @@ impl Problem<'_> {
                 .then_some(())?;
             let mut cols: Vec<Vec<f64>> = Vec::new();
             let mut dirs: Vec<usize> = Vec::new();
-            for &e in free(d, k) {
+            for &e in free(d, k, contact) {
                 let x = [0, 1, 2, 3].map(|j| x0[j] + e[j]);
                 seg.run(&cx, k, seg.init(&cx, k, x), &mut pert, false)
                     .ok
@@ -442,11 +563,22 @@ pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// start-state projection the cost refers to, and its start θ.
 pub(super) struct Refined {
     pub(super) kind: LawKind,
+    pub(super) ext: Ext,
     pub(super) th: Vec<f64>,
     pub(super) cost: f64,
     pub(super) iterations: u64,
     pub(super) proj: Proj,
     pub(super) start: Vec<f64>,
+}
+
+impl Refined {
+    /// The family and its extensions.
+    pub(super) fn fam(&self) -> Fam {
+        Fam {
+            kind: self.kind,
+            ext: self.ext,
+        }
+    }
 }
 
 /// The model and offsets of one parameter vector.
@@ -455,8 +587,8 @@ pub(super) struct Ctx {
     /// law, numerical for a shaped one); `None` for a sampled drive.
     pub(super) engine: Option<Engine>,
     pub(super) model: Model,
-    /// Static threshold used (dimensionless).
-    pub(super) rs: f64,
+    /// Static thresholds used towards + and towards − (dimensionless).
+    pub(super) thr: (f64, f64),
     pub(super) g: (f64, f64),
     pub(super) off: (f64, f64),
     /// Amount by which ρd exceeds ρs (penalised).
@@ -469,6 +601,10 @@ pub(super) const NUMERIC: NumericOptions = NumericOptions {
     rtol: 1e-8,
     atol: 1e-10,
 };
+
+/// Samples a simulated stick must last for its breakaway to count as
+/// measuring that direction's threshold ([`DirStats`]).
+pub(super) const MIN_STICK_SAMPLES: f64 = 3.0;
 
 /// Largest start change (dimensionless) accepted from the data.
 pub(super) const MAX_START_CHANGE: f64 = 0.05;
@@ -505,8 +641,8 @@ impl Proj {
 /// Free start directions of segment `k`: ζ1 and ζ1' always, ζ2 and ζ2'
 /// for a slip start (a stick start has ζ2' = 0 exactly and ζ2 from the
 /// mean over the stick).
-fn free(d: &Data, k: usize) -> &'static [[f64; 4]] {
-    if d.anchors[d.segs[k].0].x2_stick.is_some() {
+fn free(d: &Data, k: usize, contact: bool) -> &'static [[f64; 4]] {
+    if d.anchors[d.segs[k].0].x2_stick.is_some() && !contact {
         &[
             [DX, 0.0, 0.0, 0.0],
             [0.0, DX, 0.0, 0.0],
@@ -530,8 +666,45 @@ pub(super) struct Segments<'a> {
     rig: Rig,
 }
 
+/// What a simulated law did in each direction: breakaways towards plus
+/// and towards minus, and the smallest |F| at a reversal without stick
+/// towards each (it bounds that direction's threshold from above: M2 did
+/// not stick there, so |F| exceeded it). Dimensionless.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct DirStats {
+    pub(super) breakaways: [usize; 2],
+    pub(super) reversal_force: [f64; 2],
+}
+
+impl Default for DirStats {
+    fn default() -> Self {
+        DirStats {
+            breakaways: [0, 0],
+            reversal_force: [f64::INFINITY; 2],
+        }
+    }
+}
+
+impl DirStats {
+    /// Both together.
+    pub(super) fn merge(self, o: DirStats) -> DirStats {
+        DirStats {
+            breakaways: [
+                self.breakaways[0] + o.breakaways[0],
+                self.breakaways[1] + o.breakaways[1],
+            ],
+            reversal_force: [
+                self.reversal_force[0].min(o.reversal_force[0]),
+                self.reversal_force[1].min(o.reversal_force[1]),
+            ],
+        }
+    }
+}
+
 /// One segment's simulation besides its residuals.
 pub(super) struct SegOut {
+    /// Per-direction breakaways and reversal forces.
+    dirs: DirStats,
     /// It ran to the segment's end.
     ok: bool,
     /// Compared samples at which the simulated M2 sticks, and stick runs.
@@ -556,22 +729,40 @@ impl Segments<'_> {
         let i = an.i;
         let z1 = (d.x1s[i] / g1 - p1) / a + dx[0];
         let dz1 = d.v1s[i] / g1 / (a * w) + dx[1];
-        match an.x2_stick {
-            Some(x2) => {
-                let z2 = (x2 / g2 - p2) / a + dx[2];
-                let f = z1 - z2 + self.rig.absorber.damping * dz1;
-                // A start outside the friction cone slides along F.
-                let mode = if f.abs() > cx.rs {
-                    Mode::Slip { dir: f.signum() }
-                } else {
-                    Mode::Stick { z2 }
-                };
+        // A start outside the friction cone slides along F.
+        let mode_of = |f: f64, zs: f64| {
+            if f > cx.thr.0 {
+                Mode::Slip { dir: 1.0 }
+            } else if f < -cx.thr.1 {
+                Mode::Slip { dir: -1.0 }
+            } else {
+                Mode::Stick { z2: zs }
+            }
+        };
+        match (an.x2_stick, cx.model.contact_stiffness) {
+            // Behind a contact spring M2 rides on the spring while the
+            // slider sticks: ζ2 and ζ2' as measured at the anchor, and the
+            // slider where the spring holds the net force quasi-statically
+            // (P = κ(ζ2 − ζs) = F, M2's inertia neglected at the anchor;
+            // the free start components absorb the rest).
+            (Some(_), Some(kappa)) => {
+                let z2 = (d.x2s[i] / g2 - p2) / a + dx[2];
+                let dz2 = d.v2s[i] / g2 / (a * w) + dx[3];
+                let f = z1 - z2 + self.rig.absorber.damping * (dz1 - dz2);
                 Init {
-                    x: [z1, dz1, z2, 0.0],
-                    mode,
+                    x: [z1, dz1, z2, dz2],
+                    mode: mode_of(f, z2 - f / kappa),
                 }
             }
-            None => {
+            (Some(x2), None) => {
+                let z2 = (x2 / g2 - p2) / a + dx[2];
+                let f = z1 - z2 + self.rig.absorber.damping * dz1;
+                Init {
+                    x: [z1, dz1, z2, 0.0],
+                    mode: mode_of(f, z2),
+                }
+            }
+            (None, _) => {
                 let v = d.v2s[i] / g2 / (a * w) + dx[3];
                 Init {
                     x: [z1, dz1, (d.x2s[i] / g2 - p2) / a + dx[2], v],
@@ -602,6 +793,14 @@ impl Segments<'_> {
             buf,
             sticks: (0, 0),
             sticking: false,
+            dirs: DirStats::default(),
+            damping: self.rig.absorber.damping,
+            stick_since: matches!(init.mode, Mode::Stick { .. }).then_some(f64::NEG_INFINITY),
+            min_stick: MIN_STICK_SAMPLES * d.dt * w,
+            slider: cx
+                .model
+                .contact_stiffness
+                .map(|_| matches!(init.mode, Mode::Slip { .. })),
             idx: want_idx.then(|| Vec::with_capacity(list.len())),
             vel: if d.delays {
                 Vec::with_capacity(2 * list.len())
@@ -631,12 +830,14 @@ impl Segments<'_> {
             // Not simulated at all: nothing recorded.
             None => SegOut {
                 ok: false,
+                dirs: DirStats::default(),
                 sticks: (0, 0),
                 idx: None,
                 vel: Vec::new(),
             },
             Some(status) => SegOut {
                 ok: status == Status::Completed,
+                dirs: obs.dirs,
                 sticks: obs.sticks,
                 idx: obs.idx,
                 vel: obs.vel,
@@ -660,6 +861,18 @@ pub(super) struct Collect<'a, 'o> {
     /// and the number of stick runs among them.
     pub(super) sticks: (usize, usize),
     pub(super) sticking: bool,
+    /// Per-direction breakaways and reversal forces.
+    pub(super) dirs: DirStats,
+    /// The absorber's D (for F at a reversal).
+    pub(super) damping: f64,
+    /// When the current stick began (τ), if sticking.
+    pub(super) stick_since: Option<f64>,
+    /// Shortest stick (τ) whose breakaway counts in [`DirStats`]: one the
+    /// log's samples could show.
+    pub(super) min_stick: f64,
+    /// Behind a contact spring: whether the slider slides (its events
+    /// tell; M2 itself moves while the slider sticks). None: rigid stick.
+    pub(super) slider: Option<bool>,
     /// Indices of the compared samples and the simulated ẍ2 (m/s²) there,
     /// when recorded.
     pub(super) idx: Option<Vec<(usize, f64)>>,
@@ -678,7 +891,10 @@ impl Observer for Collect<'_, '_> {
             .push((d.x1[j] / self.g.0 - self.off.0 - d.a * x[0]) / d.sig.0);
         self.buf
             .push((d.x2[j] / self.g.1 - self.off.1 - d.a * x[2]) / d.sig.1);
-        let stuck = x[3] == 0.0 && dx[3] == 0.0;
+        let stuck = match self.slider {
+            Some(sliding) => !sliding,
+            None => x[3] == 0.0 && dx[3] == 0.0,
+        };
         if stuck {
             self.sticks.0 += 1;
             if !self.sticking {
@@ -698,6 +914,35 @@ impl Observer for Collect<'_, '_> {
     }
     fn wants_extremes(&self) -> bool {
         false
+    }
+    fn event(&mut self, ev: &crate::sim::Event) {
+        use crate::sim::EventKind as K;
+        if let Some(s) = self.slider.as_mut() {
+            match ev.kind {
+                K::Stick => *s = false,
+                K::SlipPlus | K::SlipMinus => *s = true,
+                _ => {}
+            }
+        }
+        let x = ev.x;
+        let f = x[0] - x[2] + self.damping * (x[1] - x[3]);
+        let r = &mut self.dirs.reversal_force;
+        // A stick too short for the samples to show is a reversal to the
+        // data: its breakaway does not count as measuring the threshold.
+        let seen = self
+            .stick_since
+            .is_some_and(|t0| ev.tau - t0 >= self.min_stick);
+        match ev.kind {
+            K::Stick => self.stick_since = Some(ev.tau),
+            K::SlipPlus if seen => self.dirs.breakaways[0] += 1,
+            K::SlipMinus if seen => self.dirs.breakaways[1] += 1,
+            K::ReversePlus => r[0] = r[0].min(f),
+            K::ReverseMinus => r[1] = r[1].min(-f),
+            _ => {}
+        }
+        if matches!(ev.kind, K::SlipPlus | K::SlipMinus) {
+            self.stick_since = None;
+        }
     }
 }
 
