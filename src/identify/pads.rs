@@ -139,7 +139,7 @@ pub fn direction_screen(forces_n: &[f64], dirs: &[f64], rd_n: f64) -> Option<Dir
     out.z = Some(z);
     let all: Vec<f64> = p.iter().chain(&m).copied().collect();
     let drop = mean(&all) - rd_n;
-    let sizeable = !(drop > 0.0) || delta.abs() > MIN_DROP_FRACTION * drop;
+    let sizeable = drop.is_nan() || drop <= 0.0 || delta.abs() > MIN_DROP_FRACTION * drop;
     out.flagged |= z > SCREEN_Z && sizeable;
     Some(out)
 }
