@@ -297,9 +297,11 @@ pub struct IdentifyOptions {
     /// is adequate (see `OeOptions::position_delays`, which fits them
     /// always).
     pub lag_fallback: bool,
-    /// Screen the log for a direction-dependent threshold and a compliant
-    /// contact, and refine those extensions where the screen sees them
-    /// (`pads`; the criterion still decides).
+    /// Pass the real-pad screen's findings (a direction-dependent
+    /// threshold, a compliant contact; `pads`) to the output-error
+    /// refinement, which then tries those extensions (the criterion still
+    /// decides). `false` passes none: the extensions are then tried only
+    /// where the law fails the adequacy test.
     pub real_pads: bool,
 }
 
