@@ -161,8 +161,8 @@ pub struct ComplianceScreen {
     /// [`SCREEN_Z`]), with its 95 % interval (upper end infinite where the
     /// slope's interval reaches 0).
     pub kt_n_per_m: Option<(f64, (f64, f64))>,
-    /// One-sided 95 % lower bound on kt (N/m; infinite if β's upper bound
-    /// is not above 0, i.e. never: kept finite by construction).
+    /// One-sided 95 % lower bound on kt (N/m; infinite only where the slope
+    /// and its standard error are both 0).
     pub kt_lower_bound_n_per_m: f64,
     /// Largest pre-sliding displacement the fit implies over the sticks
     /// (m): β times the largest within-stick range of q.
@@ -305,7 +305,6 @@ impl PadScreen {
         super::output_error::PadHints {
             split: dir.is_some(),
             split_n: dir.and_then(|d| d.drop_asymmetry_n),
-            contact: kt.is_some(),
             kt_n_per_m: kt,
         }
     }

@@ -440,9 +440,8 @@ pub struct PadHints {
     pub split: bool,
     /// The drop asymmetry Δ (N) it measured, where it could (a start).
     pub split_n: Option<f64>,
-    /// The compliance screen fired: try a contact spring.
-    pub contact: bool,
-    /// The contact stiffness kt (N/m) it measured (a start).
+    /// The contact stiffness kt (N/m) where the compliance screen fired:
+    /// try a contact spring from there.
     pub kt_n_per_m: Option<f64>,
 }
 
@@ -632,8 +631,7 @@ impl Refinement {
     }
 
     /// θ and Nelder–Mead steps of a family from its equation-error law.
-    fn start(fam: Fam, l: &SiLaw, bias: f64, ev: ExtValues) -> (Vec<f64>, Vec<f64>) {
-        let kind = fam.kind;
+    fn start(kind: LawKind, l: &SiLaw, bias: f64) -> (Vec<f64>, Vec<f64>) {
         let f = l.rd_n.abs().max(1e-3);
         // The family's parameters (its own order), with a threshold just
         // above the sliding level where the family has one.
@@ -646,14 +644,6 @@ impl Refinement {
         let mut step = kind.family().oe_steps(&th, f, rs_step);
         th.extend([bias, 1.0, 1.0]);
         step.extend([0.01 * f, 0.003, 0.003]);
-        if fam.ext.split {
-            th.push(ev.split_n);
-            step.push(0.01 * f);
-        }
-        if fam.ext.contact {
-            th.push(ev.kappa.unwrap_or(100.0).ln());
-            step.push(0.1);
-        }
         (th, step)
     }
 
@@ -884,7 +874,7 @@ impl Refinement {
                 try_ext(i, ext, (&splits, &[], &[]), fits, out);
             }
         }
-        if h.contact || !out.adequacy.adequate {
+        if h.kt_n_per_m.is_some() || !out.adequacy.adequate {
             let kappas: Vec<f64> = match h.kt_n_per_m {
                 Some(kt) => vec![kt / self.rig.k2],
                 None => KAPPA_GRID.to_vec(),
@@ -941,7 +931,7 @@ impl Refinement {
                 None => return Ok(None),
             },
         };
-        let (th_ee, step) = Self::start(kind.into(), &law, bias, ExtValues::NONE);
+        let (th_ee, step) = Self::start(kind, &law, bias);
         // Nested starts: the richer families also start from the optima
         // of the simpler ones they contain (their law at its boundary, and
         // with the equation-error law's extra parameter), so a richer
@@ -991,7 +981,14 @@ impl Refinement {
         let own = self.problem(&self.data, base.fam()).ext_values(&base.th);
         let k = n_params(base.kind);
         let law = base.kind.family().unpack(&base.th[..k]);
-        let (_, step) = Self::start(fam, &law, base.th[k], ExtValues::NONE);
+        // The family's steps, then Δ's (a force) and ln κ's.
+        let (_, mut step) = Self::start(base.kind, &law, base.th[k]);
+        if ext.split {
+            step.push(0.01 * law.rd_n.abs().max(1e-3));
+        }
+        if ext.contact {
+            step.push(0.1);
+        }
         let splits: Vec<f64> = if base.ext.split || !ext.split {
             vec![own.split_n]
         } else {

@@ -102,14 +102,6 @@ pub(super) struct ExtValues {
     pub(super) kappa: Option<f64>,
 }
 
-impl ExtValues {
-    /// No extension.
-    pub(super) const NONE: ExtValues = ExtValues {
-        split_n: 0.0,
-        kappa: None,
-    };
-}
-
 impl Problem<'_> {
     /// Unpacks θ = [law…, bias, g1, g2] (the law's parameters as its
     /// [`crate::model::LawFamily`] orders them).
@@ -203,17 +195,13 @@ impl Problem<'_> {
         if self.ext.split {
             law = law.with_minus(Some(crate::model::Levels { rho_s: rs_m, rho_d }));
         }
-        if let Some(k) = ev.kappa {
-            if !(k > 0.0 && k <= crate::model::MAX_CONTACT_STIFFNESS) {
-                return None;
-            }
-        }
         let model = Model {
             absorber: rig.absorber,
             law,
             stop_below: None,
             contact_stiffness: ev.kappa,
         };
+        // (Refuses a κ outside (0, MAX_CONTACT_STIFFNESS] too.)
         model.validate().ok()?;
         // The exact engine where the law is linear in each phase; the
         // numerical engine (same event logic) for a shaped law.
