@@ -1222,7 +1222,8 @@ mod tests {
                     "the contact is compliant (pre-sliding): κ = kt/K2 = {:.3} [{:.3}, {:.3}], kt = {:.0} N/m, up to {:.1} µm before sliding{}",
                     20.0, 15.0, 27.0, 13400.0, 40.0,
                     "; behind it the static threshold shows only as the extra deflection (Rs − Rd)/kt before each breakaway, \
-                     which this log does not resolve: Rs ≥ Rd only (rho_s null)"
+                     which this log does not resolve: Rs ≥ Rd only (rho_s null; its interval holds the bounds the log admits, \
+                     and κ's interval every admitted threshold)"
                 ),
             ),
             (

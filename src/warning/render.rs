@@ -389,7 +389,8 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             presliding_m * 1e6,
             if *threshold_unresolved {
                 "; behind it the static threshold shows only as the extra deflection (Rs − Rd)/kt before each breakaway, \
-                 which this log does not resolve: Rs ≥ Rd only (rho_s null)"
+                 which this log does not resolve: Rs ≥ Rd only (rho_s null; its interval holds the bounds the log admits, \
+                 and κ's interval every admitted threshold)"
             } else {
                 ""
             }

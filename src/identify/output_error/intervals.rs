@@ -44,6 +44,23 @@ fn inverse_equilibrated(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 /// Rs⁻ (N), ρs⁻, the split Δ (N) and ln κ (NaN where not fitted).
 const NQ: usize = 10;
 
+/// The reported quantities of one refined law and their variances.
+pub(super) struct Variances {
+    /// Rs⁺, Rd, a, ρs⁺, ρd, D*, Rs⁻, ρs⁻, Δ, ln κ (NaN where not fitted).
+    pub q0: [f64; NQ],
+    /// Statistical (sandwich) variance of each.
+    pub var_stat: [f64; NQ],
+    /// Calibration-budget variance of each.
+    pub var_cal: [f64; NQ],
+    /// Student t's 97.5 % point for the sandwich's degrees of freedom.
+    pub t975: f64,
+    /// (H⁻¹)ⱼⱼ of each parameter θⱼ (JᵀJ's inverse: the variance per unit
+    /// residual variance of independent residuals; 0 where held).
+    pub naive_stat: Vec<f64>,
+    /// The sandwich variance of each parameter θⱼ (0 where held).
+    pub stat: Vec<f64>,
+}
+
 /// The real-pad parameters of a refined law and their 95 % intervals
 /// (None where the law does not have them). The split's levels are in the
 /// gauge "equal dynamic levels" (see [`Ext`]).
@@ -77,7 +94,9 @@ pub struct PadFit {
 
 impl Refinement {
     /// Sandwich intervals over segments plus the calibration budget, and
-    /// the real-pad parameters' intervals.
+    /// the real-pad parameters' intervals; conditional on θ[`fixed`] where
+    /// given (a profile point: that parameter held, not estimated).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn intervals(
         &self,
         fam: Fam,
@@ -86,14 +105,97 @@ impl Refinement {
         u: f64,
         rs_known: bool,
         inflation: f64,
+        fixed: Option<usize>,
     ) -> Option<(Intervals, PadFit)> {
+        let Variances {
+            q0,
+            var_stat,
+            var_cal,
+            t975,
+            ..
+        } = self.variances(fam, th, proj, u, fixed)?;
+        let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
+            if !present || !q0[k].is_finite() {
+                return None;
+            }
+            // Student t with K − p degrees of freedom for the sandwich part
+            // (few clusters); the calibration part is a bound (normal).
+            // An inadequate law: the statistical part widened by the misfit.
+            let ts = t975 * inflation;
+            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
+            Some((q0[k] - hw, q0[k] + hw))
+        };
+        let value = |k: usize| q0[k].is_finite().then_some(q0[k]);
+        let pads = PadFit {
+            rs_minus_n: value(6).filter(|_| rs_known),
+            rs_minus_interval_n: iv(6, rs_known),
+            rho_s_minus: value(7).filter(|_| rs_known),
+            rho_s_minus_interval: iv(7, rs_known),
+            split_n: value(8),
+            split_interval_n: iv(8, true),
+            contact_stiffness: value(9).map(f64::exp),
+            contact_stiffness_interval: iv(9, true).map(|(l, h)| (l.exp(), h.exp())),
+            minus_bounded: false,
+            plus_bounded: false,
+            threshold_unresolved: false,
+        };
+        Some((
+            Intervals {
+                rs_n: iv(0, rs_known),
+                rd_n: iv(1, true),
+                slope_n_s_per_m: iv(2, true),
+                rho_s: iv(3, rs_known),
+                rho_d: iv(4, true),
+                dstar: iv(5, true),
+            },
+            pads,
+        ))
+    }
+
+    /// The reported quantities at θ (see [`NQ`]) with their statistical
+    /// (sandwich) and calibration variances; conditional on θ[`fixed`]
+    /// where given.
+    pub(super) fn variances(
+        &self,
+        fam: Fam,
+        th: &[f64],
+        proj: &Proj,
+        u: f64,
+        fixed: Option<usize>,
+    ) -> Option<Variances> {
         let prob = self.problem(&self.data, fam);
         let p = th.len();
         let mut r0 = Res::new();
         prob.eval(th, Some(proj), Some(&mut r0))?;
         let m = r0.len();
         let jac = self.jacobian(&prob, fam.kind, th, proj, m)?;
-        let (hinv, cov, t975) = self.sandwich(&jac, &r0, p)?;
+        let (hinv, cov, t975) = match fixed {
+            None => self.sandwich(&jac, &r0, p)?,
+            Some(fx) => {
+                // The held column out, and back as zero rows and columns.
+                let free: Vec<Vec<f64>> = jac
+                    .iter()
+                    .map(|row| {
+                        let mut r = row.clone();
+                        r.remove(fx);
+                        r
+                    })
+                    .collect();
+                let (h, c, t) = self.sandwich(&free, &r0, p - 1)?;
+                let expand = |a: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+                    let mut out: Vec<Vec<f64>> = a
+                        .into_iter()
+                        .map(|mut row| {
+                            row.insert(fx, 0.0);
+                            row
+                        })
+                        .collect();
+                    out.insert(fx, vec![0.0; p]);
+                    out
+                };
+                (expand(h), expand(c), t)
+            }
+        };
         // The reported quantities as functions of θ (and the amplitude).
         let k2 = self.rig.k2;
         let ss = k2 / self.rig.omega;
@@ -142,42 +244,14 @@ impl Refinement {
         }
         let var_cal =
             self.calibration_variance(fam, th, proj, u, (&r0, &jac, &hinv), &quantities, &q0)?;
-        let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
-            if !present || !q0[k].is_finite() {
-                return None;
-            }
-            // Student t with K − p degrees of freedom for the sandwich part
-            // (few clusters); the calibration part is a bound (normal).
-            // An inadequate law: the statistical part widened by the misfit.
-            let ts = t975 * inflation;
-            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
-            Some((q0[k] - hw, q0[k] + hw))
-        };
-        let value = |k: usize| q0[k].is_finite().then_some(q0[k]);
-        let pads = PadFit {
-            rs_minus_n: value(6).filter(|_| rs_known),
-            rs_minus_interval_n: iv(6, rs_known),
-            rho_s_minus: value(7).filter(|_| rs_known),
-            rho_s_minus_interval: iv(7, rs_known),
-            split_n: value(8),
-            split_interval_n: iv(8, true),
-            contact_stiffness: value(9).map(f64::exp),
-            contact_stiffness_interval: iv(9, true).map(|(l, h)| (l.exp(), h.exp())),
-            minus_bounded: false,
-            plus_bounded: false,
-            threshold_unresolved: false,
-        };
-        Some((
-            Intervals {
-                rs_n: iv(0, rs_known),
-                rd_n: iv(1, true),
-                slope_n_s_per_m: iv(2, true),
-                rho_s: iv(3, rs_known),
-                rho_d: iv(4, true),
-                dstar: iv(5, true),
-            },
-            pads,
-        ))
+        Some(Variances {
+            q0,
+            var_stat,
+            var_cal,
+            t975,
+            naive_stat: (0..p).map(|j| hinv[j][j]).collect(),
+            stat: (0..p).map(|j| cov[j][j]).collect(),
+        })
     }
 
     /// The Jacobian of the residuals by central differences (2m rows: r1

@@ -38,7 +38,8 @@ pub enum Minimiser {
 
 impl Refinement {
     /// Levenberg–Marquardt (Marquardt's diagonal scaling, Nielsen's
-    /// damping update) from `th0`; finite-difference steps `fd·step`.
+    /// damping update) from `th0`; finite-difference steps `fd·step`
+    /// (a zero step holds that parameter at its start value).
     /// Returns θ̂, its cost and the number of Jacobians.
     pub(super) fn lm(
         &self,
@@ -60,6 +61,11 @@ impl Refinement {
             // Jacobian, column by column.
             let mut jac: Vec<Vec<f64>> = Vec::with_capacity(p);
             for j in 0..p {
+                // A zero step holds the parameter fixed (a profile).
+                if step[j] == 0.0 {
+                    jac.push(vec![0.0; r.len()]);
+                    continue;
+                }
                 let h = FD_STEP * step[j];
                 let mut tp = th.clone();
                 tp[j] += h;
@@ -113,7 +119,7 @@ impl Refinement {
                     break 'outer;
                 };
                 let delta: Vec<f64> = (0..p).map(|i| z[i] / d[i]).collect();
-                if (0..p).all(|i| delta[i].abs() < 1e-9 * step[i]) {
+                if (0..p).all(|i| delta[i].abs() <= 1e-9 * step[i]) {
                     break 'outer;
                 }
                 // Predicted decrease of the linear model.

@@ -75,7 +75,8 @@
 //!   (`identify::pads`) saw them or the law fails the adequacy test, from
 //!   the optimum they extend, and chosen by the same criterion. A side the
 //!   simulated law never breaks away towards is only bounded; behind a
-//!   contact spring an unresolved threshold is Rs ≥ Rd only.
+//!   contact spring an unresolved threshold is Rs ≥ Rd only, bounded above
+//!   by its profile (`profile.rs`), which also widens κ's interval.
 //! * **Adequacy** ([`Adequacy`]): the chosen law's residuals against the
 //!   sensor noise (ratio ≤ 1.4) and binned against drive phase, velocity,
 //!   position and time (flagged when z > 3.7 and the structure exceeds half
@@ -111,6 +112,7 @@ mod data;
 mod intervals;
 mod lm;
 mod problem;
+mod profile;
 
 use adequacy::*;
 pub use adequacy::{
@@ -980,15 +982,7 @@ impl Refinement {
         };
         let own = self.problem(&self.data, base.fam()).ext_values(&base.th);
         let k = n_params(base.kind);
-        let law = base.kind.family().unpack(&base.th[..k]);
-        // The family's steps, then Δ's (a force) and ln κ's.
-        let (_, mut step) = Self::start(base.kind, &law, base.th[k]);
-        if ext.split {
-            step.push(0.01 * law.rd_n.abs().max(1e-3));
-        }
-        if ext.contact {
-            step.push(0.1);
-        }
+        let step = Self::ext_steps(fam, &base.th);
         let splits: Vec<f64> = if base.ext.split || !ext.split {
             vec![own.split_n]
         } else {
@@ -1024,6 +1018,21 @@ impl Refinement {
             proj,
             start: cands[0].clone(),
         })
+    }
+
+    /// The minimiser's steps of `fam` near θ (of `fam` or of its family
+    /// without extensions): the family's, then Δ's (a force) and ln κ's.
+    fn ext_steps(fam: Fam, th: &[f64]) -> Vec<f64> {
+        let k = n_params(fam.kind);
+        let law = fam.kind.family().unpack(&th[..k]);
+        let (_, mut step) = Self::start(fam.kind, &law, th[k]);
+        if fam.ext.split {
+            step.push(0.01 * law.rd_n.abs().max(1e-3));
+        }
+        if fam.ext.contact {
+            step.push(0.1);
+        }
+        step
     }
 
     /// The number of residual samples per channel and the effective number
@@ -1252,6 +1261,7 @@ impl Refinement {
                     u,
                     sticks_of(&families[i]),
                     adequacy.inflation,
+                    None,
                 )
                 .ok_or("too few shooting segments for intervals")?;
             Ok((adequacy, intervals, pads))
@@ -1306,7 +1316,9 @@ impl Refinement {
         // reaches Rd, has not measured it, and Rs is only bounded below
         // by Rd (on a compliant pad with (Rs − Rd)/kt = 3.8 µm and 3 µm
         // of position noise every start, the true Rs included, ended at
-        // Rs = Rd).
+        // Rs = Rd). Its bounds, and κ's interval over every threshold the
+        // log admits, then come from the profile in Rs (the chosen fit's
+        // own intervals are conditional on its threshold).
         if fits[best].ext.contact {
             let l = families[best].law;
             let reaches_rd = match intervals.rs_n {
@@ -1317,6 +1329,14 @@ impl Refinement {
                 intervals.rs_n = None;
                 intervals.rho_s = None;
                 pads.threshold_unresolved = true;
+                self.profile_unresolved(
+                    fits,
+                    &fits[best],
+                    adequacy.inflation,
+                    u,
+                    &mut intervals,
+                    &mut pads,
+                );
             }
         }
         let fam = fits[best].fam();
@@ -1354,6 +1374,41 @@ impl Refinement {
             evidence,
             notes,
         })
+    }
+
+    /// Behind a contact whose threshold the log did not resolve: the
+    /// profile in Rs of the static-dynamic fit with the chosen extensions
+    /// bounds Rs from above (the Rs interval then holds [Rd's low end, that
+    /// bound]) and widens κ's interval to every admitted threshold (the
+    /// chosen fit's interval is conditional on its own threshold).
+    fn profile_unresolved(
+        &self,
+        fits: &[Refined],
+        chosen: &Refined,
+        inflation: f64,
+        u: f64,
+        intervals: &mut Intervals,
+        pads: &mut PadFit,
+    ) {
+        let Some(sd) = fits
+            .iter()
+            .find(|f| f.kind == LawKind::StaticDynamic && f.ext == chosen.ext)
+        else {
+            return;
+        };
+        let Some(pr) = self.profile_threshold(sd, inflation, u) else {
+            return;
+        };
+        if let (Some(hi), Some((lo, _))) = (pr.rs_upper_n, intervals.rd_n) {
+            let fs = self.data.a * self.rig.k2;
+            if lo <= hi {
+                intervals.rs_n = Some((lo, hi));
+                intervals.rho_s = Some((lo / fs, hi / fs));
+            }
+        }
+        if let (Some((a, b)), Some((l, h))) = (pr.kappa_interval, pads.contact_stiffness_interval) {
+            pads.contact_stiffness_interval = Some((l.min(a), h.max(b)));
+        }
     }
 
     /// The best start of `kind` (parameters [Rs, Rd]: the static-dynamic

@@ -1,0 +1,154 @@
+//! The static threshold's profile behind a contact spring: where the log
+//! does not resolve Rs above Rd, the local (sandwich) interval of κ is
+//! conditional on the threshold sitting where the fit left it (often at
+//! Rs = Rd, the family's bound), and misses when the true threshold is
+//! higher. The profile holds Rs at a ladder of values, refits the rest,
+//! keeps the values the criterion's deviance admits, and gives Rs's upper
+//! bound and κ's interval over every admitted threshold.
+
+use super::*;
+use crate::identify::Interval;
+
+/// Steps out from the fitted threshold, each twice the last (the first
+/// half a noise unit: see [`Refinement::profile_threshold`]).
+const MAX_STEPS: usize = 10;
+
+/// Bisections between the last admitted and the first refused threshold.
+const BISECTIONS: usize = 3;
+
+/// What the profile in Rs says (see the module comment).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct ThresholdProfile {
+    /// The largest Rs (N) the log admits; None where the ladder never
+    /// reached a refused value (no upper bound within 2^MAX_STEPS noise
+    /// units).
+    pub rs_upper_n: Option<f64>,
+    /// κ's 95 % interval: the union of its intervals conditional on each
+    /// admitted Rs.
+    pub kappa_interval: Option<Interval>,
+}
+
+impl Refinement {
+    /// The profile in Rs of `base`, a static-dynamic fit behind a contact
+    /// spring, whose cost is the lowest of its extension. The deviance
+    /// is calibrated to the sandwich (the intervals' own variance, robust
+    /// to correlated residuals): Δcost·(H⁻¹)κκ/Var(ln κ), with Rs held at
+    /// the base, admits up to (t₀.₉₇₅·inflation)², as the Student-t
+    /// interval does. The ladder's unit is the force that deflects the
+    /// contact by one noise σ of x2, kt·σ₂ (the threshold shows only as
+    /// the extra deflection (Rs − Rd)/kt).
+    pub(super) fn profile_threshold(
+        &self,
+        base: &Refined,
+        inflation: f64,
+        u: f64,
+    ) -> Option<ThresholdProfile> {
+        if base.kind != LawKind::StaticDynamic || !base.ext.contact {
+            return None;
+        }
+        let fam = base.fam();
+        let kappa = self.problem(&self.data, fam).ext_values(&base.th).kappa?;
+        let unit = kappa * self.rig.k2 * self.data.sig.1;
+        if !(unit.is_finite() && unit > 0.0) {
+            return None;
+        }
+        let (rs0, rd0) = (base.th[0], base.th[1]);
+        let mut step = Self::ext_steps(fam, &base.th);
+        step[0] = 0.0;
+        // The calibration of the deviance, along ln κ (the last of θ).
+        let v = self.variances(fam, &base.th, &base.proj, u, Some(0))?;
+        let k = base.th.len() - 1;
+        let scale = v.naive_stat[k] / v.stat[k];
+        if !(scale.is_finite() && scale > 0.0) {
+            return None;
+        }
+        let crit = (v.t975 * inflation.max(1.0)).powi(2);
+        // (Rs, cost, θ, projection; None: the base's own.)
+        type Point = (f64, f64, Vec<f64>, Option<Proj>);
+        let mut points: Vec<Point> = vec![(rs0, base.cost, base.th.clone(), None)];
+        let cmin = |pts: &[Point]| pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+        let deviance = |c: f64, cm: f64| (c - cm) * scale;
+        let admitted = |c: f64, cm: f64| deviance(c, cm) <= crit;
+        let fit = |rs: f64, from: &[f64]| -> Option<Point> {
+            let mut th = from.to_vec();
+            th[0] = rs;
+            let (th, cost, _, proj) = self.minimise(fam, &[th], &step).ok()?;
+            Some((rs, cost, th, Some(proj)))
+        };
+        // Up: doubling steps until the deviance refuses, then bisections.
+        let floor = rs0.max(rd0);
+        let mut lo = (floor, base.th.clone());
+        let mut hi = None;
+        let mut c = 0.5;
+        for _ in 0..MAX_STEPS {
+            let r = floor + c * unit;
+            let pt = fit(r, &lo.1);
+            let ok = pt
+                .as_ref()
+                .is_some_and(|p| admitted(p.1, cmin(&points).min(p.1)));
+            if ok {
+                lo = (r, pt.as_ref().map(|p| p.2.clone()).unwrap_or_default());
+            } else {
+                hi = Some(r);
+            }
+            points.extend(pt);
+            if !ok {
+                break;
+            }
+            c *= 2.0;
+        }
+        if let Some(mut h) = hi {
+            for _ in 0..BISECTIONS {
+                let r = 0.5 * (lo.0 + h);
+                let pt = fit(r, &lo.1);
+                let ok = pt
+                    .as_ref()
+                    .is_some_and(|p| admitted(p.1, cmin(&points).min(p.1)));
+                if ok {
+                    lo = (r, pt.as_ref().map(|p| p.2.clone()).unwrap_or_default());
+                } else {
+                    h = r;
+                }
+                points.extend(pt);
+            }
+        }
+        // Down to the sliding level, where the fit left the threshold above
+        // it by more than a quarter unit.
+        if rs0 - rd0 > 0.25 * unit {
+            for r in [rd0 + 0.5 * (rs0 - rd0), rd0] {
+                points.extend(fit(r, &base.th));
+            }
+        }
+        let cm = cmin(&points);
+        let kept: Vec<&Point> = points.iter().filter(|p| admitted(p.1, cm)).collect();
+        // The highest admitted threshold, plus the calibration budget's
+        // part of Rs there (in quadrature, as the intervals add them).
+        let top = kept.iter().max_by(|a, b| a.0.total_cmp(&b.0))?;
+        let rs_upper_n = match hi {
+            Some(_) => {
+                let proj = top.3.as_ref().unwrap_or(&base.proj);
+                let cal = self.variances(fam, &top.2, proj, u, None)?.var_cal[0];
+                let floor = rs0.max(rd0);
+                Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * cal).sqrt())
+            }
+            None => None,
+        };
+        let mut kappa_interval: Option<Interval> = None;
+        for (_, _, th, proj) in &kept {
+            let proj = proj.as_ref().unwrap_or(&base.proj);
+            let Some((_, pads)) = self.intervals(fam, th, proj, u, true, inflation, Some(0)) else {
+                continue;
+            };
+            if let Some((a, b)) = pads.contact_stiffness_interval {
+                kappa_interval = Some(match kappa_interval {
+                    Some((l, h)) => (l.min(a), h.max(b)),
+                    None => (a, b),
+                });
+            }
+        }
+        Some(ThresholdProfile {
+            rs_upper_n,
+            kappa_interval,
+        })
+    }
+}
