@@ -107,6 +107,32 @@ pub struct VelocityConsistency {
     pub residual_ratio: f64,
     /// Whether the drift was removed from v2.
     pub drift_corrected: bool,
+    /// Whether v2 was divided by the gain (x2 sets the scale): significant
+    /// and more than [`VELOCITY_GAIN_TOLERANCE`] off 1 (false in
+    /// artifacts written before it existed).
+    #[serde(default)]
+    pub gain_corrected: bool,
+}
+
+/// How far v2's gain may sit from d/dt x2's before v2 is rescaled: two
+/// sensors within the default calibration budget (1 % each) differ by up
+/// to 2 %; beyond that the velocity channel is miscalibrated and, left
+/// alone, scales every force computed from it (the inertia M2·ẍ2 from a
+/// differentiated v2: a 10 % gain moved the equation-error Rd by 10 %).
+pub const VELOCITY_GAIN_TOLERANCE: f64 = 0.02;
+
+/// The accelerometer against d/dt v2 (or d²/dt² x2), on x2's scale:
+/// `a2 = gain·ẍ2(t + shift) + offset + drift·(t − t_mid)`, the gain of a
+/// v2 reference multiplied in.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AccelerationConsistency {
+    /// Gain of a2 relative to x2.
+    pub gain: f64,
+    /// Its standard error.
+    pub gain_se: f64,
+    /// Whether a2 was divided by the gain: significant and more than
+    /// [`VELOCITY_GAIN_TOLERANCE`] off 1.
+    pub gain_corrected: bool,
 }
 
 /// What the estimator found and did.
@@ -117,6 +143,10 @@ pub struct ChannelDelays {
     pub channels: Vec<ChannelDelay>,
     /// The velocity channel's consistency with x2, where both move.
     pub velocity: Option<VelocityConsistency>,
+    /// The accelerometer's gain against x2, where both move (absent in
+    /// artifacts written before it existed).
+    #[serde(default)]
+    pub acceleration: Option<AccelerationConsistency>,
 }
 
 impl ChannelDelays {
@@ -529,6 +559,8 @@ pub(crate) struct Estimate {
     pub(crate) applied: Vec<(Quantity, f64)>,
     /// The velocity's consistency and its drift to remove (m/s per s).
     pub(crate) velocity: Option<VelocityConsistency>,
+    /// The accelerometer's gain (to divide a2 by where corrected).
+    pub(crate) acceleration: Option<AccelerationConsistency>,
     /// Warnings with the numbers.
     pub(crate) warnings: Vec<Warning>,
 }
@@ -614,14 +646,20 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
             let span = r.duration_s();
             let drift_corrected =
                 drift.abs() > o.tq * drift_se && drift.abs() * span > 0.5 * noise_v;
+            let gain_se = o.cov[0][0].sqrt();
+            let gain_corrected = gain.is_finite()
+                && gain > 0.0
+                && (gain - 1.0).abs() > VELOCITY_GAIN_TOLERANCE
+                && (gain - 1.0).abs() > o.tq * gain_se;
             velocity = Some(VelocityConsistency {
                 gain,
-                gain_se: o.cov[0][0].sqrt(),
+                gain_se,
                 offset_m_per_s: o.beta[2],
                 drift_m_per_s2: drift,
                 drift_se,
                 residual_ratio: rms / noise_vs,
                 drift_corrected,
+                gain_corrected,
             });
             if drift_corrected {
                 warnings.push(Warning::VelocityDrift {
@@ -630,8 +668,11 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
                     half_width_m_per_s2: o.tq * drift_se,
                 });
             }
-            if (gain - 1.0).abs() > 0.05 && (gain - 1.0).abs() > o.tq * o.cov[0][0].sqrt() {
-                warnings.push(Warning::VelocityGain { gain });
+            if gain_corrected {
+                warnings.push(Warning::VelocityGain {
+                    gain,
+                    half_width: o.tq * gain_se,
+                });
             }
         }
     }
@@ -640,18 +681,36 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
         record(Quantity::V2, v_total, v_applied, &mut applied);
     }
 
+    let mut acceleration = None;
     // a2 against d/dt v2 (or d²/dt² x2).
     if let Some(a2) = &r.a2 {
         let a2s = gauss_smooth(a2, sigma);
-        let (reference, base, base_applied) = if has_v && v_total.is_some() {
-            (deriv(&v2s, dt), v_total, v_applied)
-        } else {
-            (deriv(&x2d, dt), sh2, a2x)
+        // The reference's gain against x2 (v2's where v2 is the reference).
+        let (reference, base, base_applied, ref_gain) = match velocity {
+            Some(v) if has_v && v_total.is_some() => (deriv(&v2s, dt), v_total, v_applied, v.gain),
+            _ => (deriv(&x2d, dt), sh2, a2x, 1.0),
         };
         let mut total = None;
         let mut a_applied = base_applied;
         if x2_moves {
-            if let Some((rel, _)) = rate_shift(&a2s, &reference, &pre) {
+            if let Some((rel, o)) = rate_shift(&a2s, &reference, &pre) {
+                let gain = o.beta[0] * ref_gain;
+                let gain_se = o.cov[0][0].sqrt() * ref_gain.abs();
+                let gain_corrected = gain.is_finite()
+                    && gain > 0.0
+                    && (gain - 1.0).abs() > VELOCITY_GAIN_TOLERANCE
+                    && (gain - 1.0).abs() > o.tq * gain_se;
+                acceleration = Some(AccelerationConsistency {
+                    gain,
+                    gain_se,
+                    gain_corrected,
+                });
+                if gain_corrected {
+                    warnings.push(Warning::AccelerationGain {
+                        gain,
+                        half_width: o.tq * gain_se,
+                    });
+                }
                 let b = base.unwrap_or(Shift {
                     s: 0.0,
                     var: 0.0,
@@ -673,6 +732,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
         shifts,
         applied,
         velocity,
+        acceleration,
         warnings,
     }
 }
@@ -710,6 +770,7 @@ impl Estimate {
         ChannelDelays {
             channels,
             velocity: self.velocity,
+            acceleration: self.acceleration,
         }
     }
 }

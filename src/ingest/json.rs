@@ -94,6 +94,7 @@ struct RunOut<'a> {
     channel_delays_s: Value,
     channel_delays_interval_s: Value,
     velocity_consistency: Value,
+    acceleration_consistency: Value,
     out: Option<String>,
 }
 
@@ -118,6 +119,7 @@ impl Run {
             channel_delays_s: self.delays.shifts_json(),
             channel_delays_interval_s: self.delays.intervals_json(),
             velocity_consistency: self.delays.velocity_json(),
+            acceleration_consistency: self.delays.acceleration_json(),
             out: out.map(|p| p.display().to_string()),
         };
         // Not `io::json::to_value`: `io` depends on `ingest` (it writes
@@ -176,6 +178,19 @@ impl super::ChannelDelays {
                 "drift_se_m_per_s2": fin(v.drift_se),
                 "residual_ratio": fin(v.residual_ratio),
                 "drift_corrected": v.drift_corrected,
+                "gain_corrected": v.gain_corrected,
+            }),
+        }
+    }
+    /// `acceleration_consistency`: a2's gain against x2 (through d/dt v2
+    /// or d²/dt² x2), `null` where it was not measured.
+    pub fn acceleration_json(&self) -> Value {
+        match &self.acceleration {
+            None => Value::Null,
+            Some(a) => serde_json::json!({
+                "gain": fin(a.gain),
+                "gain_se": fin(a.gain_se),
+                "gain_corrected": a.gain_corrected,
             }),
         }
     }

@@ -34,7 +34,10 @@ mod tdms;
 
 use std::path::{Path, PathBuf};
 
-pub use delays::{ChannelDelay, ChannelDelays, VelocityConsistency};
+pub use delays::{
+    AccelerationConsistency, ChannelDelay, ChannelDelays, VelocityConsistency,
+    VELOCITY_GAIN_TOLERANCE,
+};
 pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
 pub(crate) use run::interpolate;
 pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};

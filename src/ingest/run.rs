@@ -314,10 +314,11 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
     })
 }
 
-/// Estimates the channel delays and the velocity's drift on the common
-/// grid, applies what matters (re-stamps the channels and their gaps,
-/// removes the drift from v2's samples) and rebuilds the grid if anything
-/// changed. Returns the report (see `delays`).
+/// Estimates the channel delays and the velocity's drift and gain on the
+/// common grid, applies what matters (re-stamps the channels and their
+/// gaps, removes the drift from v2's samples, divides v2 and a2 by a gain
+/// off 1) and rebuilds the grid if anything changed. Returns the report
+/// (see `delays`).
 fn align_channels(
     path: &Path,
     rig: &RigMeta,
@@ -336,6 +337,27 @@ fn align_channels(
         if let Some(c) = channels.iter_mut().find(|c| c.quantity == Quantity::V2) {
             for (x, t) in c.v.iter_mut().zip(&c.t) {
                 *x -= v.drift_m_per_s2 * (t - tm);
+            }
+            changed = true;
+        }
+    }
+    let gains = [
+        (
+            Quantity::V2,
+            est.velocity.filter(|v| v.gain_corrected).map(|v| v.gain),
+        ),
+        (
+            Quantity::A2,
+            est.acceleration
+                .filter(|a| a.gain_corrected)
+                .map(|a| a.gain),
+        ),
+    ];
+    for (q, gain) in gains {
+        let Some(g) = gain else { continue };
+        if let Some(c) = channels.iter_mut().find(|c| c.quantity == q) {
+            for x in c.v.iter_mut() {
+                *x /= g;
             }
             changed = true;
         }

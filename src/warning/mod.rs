@@ -61,6 +61,7 @@ pub const CODES: &[&str] = &[
     "clipped",
     "velocity_drift",
     "velocity_gain",
+    "acceleration_gain",
     "channel_delay",
     "velocity_derived",
     "acceleration_filled",
@@ -233,10 +234,21 @@ pub enum Warning {
         /// 95 % half-width of the drift (m/s per s).
         half_width_m_per_s2: f64,
     },
-    /// The velocity channel's gain differs from that of d/dt x2.
+    /// The velocity channel's gain differs from that of d/dt x2: v2 was
+    /// divided by it.
     VelocityGain {
         /// v2 over d/dt x2.
         gain: f64,
+        /// Its 95 % half-width.
+        half_width: f64,
+    },
+    /// The accelerometer's gain differs from that of d²/dt² x2: a2 was
+    /// divided by it.
+    AccelerationGain {
+        /// a2 over d²/dt² x2.
+        gain: f64,
+        /// Its 95 % half-width.
+        half_width: f64,
     },
     /// A channel's estimated shift against x1, applied.
     ChannelDelay {
@@ -692,6 +704,7 @@ impl Warning {
             Clipped { .. } => "clipped",
             VelocityDrift { .. } => "velocity_drift",
             VelocityGain { .. } => "velocity_gain",
+            AccelerationGain { .. } => "acceleration_gain",
             ChannelDelay { .. } | VelocityLag { .. } | AccelerationLag { .. } => "channel_delay",
             VelocityDerived { .. } => "velocity_derived",
             AccelerationFilled { .. } => "acceleration_filled",
@@ -917,10 +930,17 @@ mod tests {
                 ),
             ),
             (
-                VelocityGain { gain: x },
+                VelocityGain { gain: x, half_width: 0.0004 },
                 format!(
-                    "velocity channel v2: its gain is {:.3} times that of d/dt x2; not corrected (x2 sets the scale)",
-                    x
+                    "velocity channel v2: its gain is {:.4} ± {:.4} times that of d/dt x2 (more than 2 % off); v2 divided by it (x2 sets the scale)",
+                    x, 0.0004
+                ),
+            ),
+            (
+                AccelerationGain { gain: 0.95, half_width: 0.001 },
+                format!(
+                    "accelerometer a2: its gain is {:.4} ± {:.4} times that of d²/dt² x2 (more than 2 % off); a2 divided by it (x2 sets the scale)",
+                    0.95, 0.001
                 ),
             ),
             (
@@ -1423,7 +1443,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 76;
+    const VARIANTS: usize = 77;
 
     #[test]
     fn every_code_is_documented() {

@@ -27,6 +27,7 @@ impl fmt::Display for Warning {
             Clipped { .. }
             | VelocityDrift { .. }
             | VelocityGain { .. }
+            | AccelerationGain { .. }
             | ChannelDelay { .. }
             | VelocityLag { .. }
             | AccelerationLag { .. } => fmt_sensor(self, f),
@@ -184,9 +185,15 @@ fn fmt_sensor(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             drift * 1e3,
             half * 1e3
         ),
-        VelocityGain { gain } => write!(
+        VelocityGain { gain, half_width } => write!(
             f,
-            "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
+            "velocity channel v2: its gain is {gain:.4} ± {half_width:.4} times that of d/dt x2 (more than {:.0} % off); v2 divided by it (x2 sets the scale)",
+            crate::ingest::VELOCITY_GAIN_TOLERANCE * 100.0
+        ),
+        AccelerationGain { gain, half_width } => write!(
+            f,
+            "accelerometer a2: its gain is {gain:.4} ± {half_width:.4} times that of d²/dt² x2 (more than {:.0} % off); a2 divided by it (x2 sets the scale)",
+            crate::ingest::VELOCITY_GAIN_TOLERANCE * 100.0
         ),
         ChannelDelay {
             channel,
