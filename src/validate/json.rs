@@ -16,6 +16,11 @@ struct LawAtSweep {
     rho_s: f64,
     rho_d: f64,
     slope: f64,
+    /// The threshold towards − where the fit split it (null: symmetric).
+    rho_s_minus: Option<f64>,
+    /// κ = kt/K2 of the sweep's rig where the fit chose a contact spring
+    /// (null: rigid).
+    contact_stiffness: Option<f64>,
 }
 
 /// The measured response, one entry per point.
@@ -95,6 +100,8 @@ impl Validation {
                 rho_s: p.law.rho_s(),
                 rho_d: p.law.rho_d(),
                 slope: p.law.slope(),
+                rho_s_minus: p.law.minus().map(|l| l.rho_s),
+                contact_stiffness: p.contact_stiffness,
             },
             measured: Measured {
                 eta: pts.iter().map(|q| q.eta).collect(),

@@ -33,12 +33,20 @@
 //! Every ρ here is made dimensionless with the *sweep's* measured drive
 //! amplitude: a law fitted on a characteristic log is kept in newtons and
 //! re-scaled ([`Scales`]).
+//!
+//! * **Real pads** ([`PadSi`]): where the fit chose a threshold split by
+//!   direction or a contact spring, every prediction simulates them (Rs⁻
+//!   with equal dynamic levels, κ = kt/K2 of the sweep's rig); the draws
+//!   take Rs⁻ and ln κ from their intervals on streams of their own, so a
+//!   rigid symmetric fit draws exactly what it drew before. Steady states
+//!   behind a contact spring are marched (shooting does not vary the
+//!   slider's position).
 
 use super::frc::{MeasuredFrc, SweepKind};
 use super::ValidateError;
 use crate::identify::{Estimate, LogFit};
 use crate::ingest::RigMeta;
-use crate::model::{Absorber, Law, Model, Scales, Schedule, Segment, SiLaw};
+use crate::model::{Absorber, Law, Levels, Model, Scales, Schedule, Segment, SiLaw};
 use crate::sim::engine::{Event, Init, Observer};
 use crate::sim::numeric::NumericOptions;
 use crate::sim::schedule::{run_schedule, SegmentObserver};
@@ -220,6 +228,8 @@ pub struct Score {
 pub struct Prediction {
     /// The dimensionless law used (with the sweep's drive amplitude).
     pub law: Law,
+    /// The contact stiffness κ = kt/K2 simulated (None: rigid).
+    pub contact_stiffness: Option<f64>,
     /// The absorber of the sweep's rig.
     pub absorber: Absorber,
     /// Steady-state prediction.
@@ -256,6 +266,78 @@ fn split_normal(rng: &mut Rng, est: f64, iv: Option<(f64, f64)>) -> f64 {
             est + z * s.max(0.0) / 1.96
         }
         _ => est,
+    }
+}
+
+/// What a fit found beyond the paper's symmetric rigid pad, in SI, as the
+/// predictions simulate it (the default: the paper's pad).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PadSi {
+    /// The static threshold towards − (N), the dynamic level shared;
+    /// None: symmetric.
+    pub rs_minus_n: Option<f64>,
+    /// The contact's tangential stiffness kt (N/m); None: rigid.
+    pub kt_n_per_m: Option<f64>,
+}
+
+impl PadSi {
+    /// The fit's extensions: Rs⁻ where the threshold is split (a side only
+    /// bounded takes its lowest admitted threshold, as a never-sticking
+    /// log's Rs does), kt where a contact spring was chosen.
+    pub fn of(fit: &LogFit) -> Self {
+        let rs_minus_n = fit
+            .pads()
+            .filter(|_| fit.direction_dependent())
+            .and_then(|p| p.rs_minus_n.or(p.rs_minus_interval_n.map(|iv| iv.0)));
+        PadSi {
+            rs_minus_n,
+            kt_n_per_m: fit.contact_stiffness().map(|k| k * fit.k2_n_per_m()),
+        }
+    }
+
+    /// `n` draws (Rs⁻ and kt) from the fit's intervals, in order, on
+    /// streams of their own: a split normal for a measured Rs⁻ (uniform
+    /// between the bounds of one only bounded), a split normal in ln kt.
+    fn draws(fit: &LogFit, n: usize, seed: u64) -> Vec<PadSi> {
+        let central = Self::of(fit);
+        let pads = fit.pads();
+        let mut rng_s = Rng::with_stream(seed, 0x5_9117);
+        let mut rng_k = Rng::with_stream(seed, 0xC0_47AC7);
+        (0..n)
+            .map(|_| PadSi {
+                rs_minus_n: central.rs_minus_n.map(|rs| {
+                    let p = pads.expect("a split comes from the pads");
+                    match (p.rs_minus_n, p.rs_minus_interval_n) {
+                        (Some(_), iv) => split_normal(&mut rng_s, rs, iv).max(0.0),
+                        (None, Some((lo, hi))) => lo + (hi - lo) * rng_s.uniform(),
+                        (None, None) => rs,
+                    }
+                }),
+                kt_n_per_m: central.kt_n_per_m.map(|kt| {
+                    let iv = pads
+                        .and_then(|p| p.contact_stiffness_interval)
+                        .filter(|(l, h)| *l > 0.0 && *h > 0.0)
+                        .map(|(l, h)| (l.ln(), h.ln()));
+                    let k2 = fit.k2_n_per_m();
+                    (split_normal(&mut rng_k, (kt / k2).ln(), iv)).exp() * k2
+                }),
+            })
+            .collect()
+    }
+
+    /// `model` with these extensions under `scales` (Rs⁻ scaled as the
+    /// law's levels are; its dynamic level the law's own), for a rig of
+    /// coupling stiffness `k2` (N/m).
+    fn apply(&self, mut model: Model, scales: &Scales, k2: f64) -> Model {
+        if let Some(rs) = self.rs_minus_n {
+            let rho_d = model.law.rho_d();
+            model.law = model.law.with_minus(Some(Levels {
+                rho_s: (rs / scales.force_n).max(rho_d),
+                rho_d,
+            }));
+        }
+        model.contact_stiffness = self.kt_n_per_m.map(|kt| kt / k2);
+        model
     }
 }
 
@@ -750,7 +832,13 @@ pub fn predict(
     opts: &PredictOptions,
 ) -> Result<Prediction, PredictError> {
     let (central, draws) = draw_joint(fit, frc, opts.samples, opts.seed)?;
-    predict_joint(&central, &draws, rig, frc, opts)
+    let pad = PadSi::of(fit);
+    let pads = if pad == PadSi::default() {
+        Vec::new()
+    } else {
+        PadSi::draws(fit, draws.len(), opts.seed)
+    };
+    predict_pads(&central, &draws, (&pad, &pads), rig, frc, opts)
 }
 
 /// A draw's predicted A_i/A as the rig reads them: over the measured drive
@@ -826,26 +914,45 @@ pub fn predict_joint(
     frc: &MeasuredFrc,
     opts: &PredictOptions,
 ) -> Result<Prediction, PredictError> {
+    predict_pads(central, draws, (&PadSi::default(), &[]), rig, frc, opts)
+}
+
+/// [`predict_joint`] with a real pad's extensions: the central one and
+/// one per draw (`pads.1` empty: the central one for every draw).
+pub fn predict_pads(
+    central: &SiLaw,
+    draws: &[(SiLaw, DriveDraw)],
+    pads: (&PadSi, &[PadSi]),
+    rig: &RigMeta,
+    frc: &MeasuredFrc,
+    opts: &PredictOptions,
+) -> Result<Prediction, PredictError> {
     if frc.points.is_empty() {
         return Err(ValidateError::NoPoints.into());
     }
     let scales = Scales::from_rig(&rig.constants(), frc.drive_amplitude_m);
     let absorber = absorber(rig);
     let mut warnings = Vec::new();
-    let to_model = |l: &SiLaw| {
-        l.to_rho(&scales).map(|law| Model {
+    let to_model = |l: &SiLaw, pad: &PadSi| {
+        let model = l.to_rho(&scales).map(|law| Model {
             absorber,
             law,
             stop_below: None,
             contact_stiffness: None,
-        })
+        })?;
+        if *pad == PadSi::default() {
+            return Some(model);
+        }
+        let model = pad.apply(model, &scales, rig.k2_n_per_m);
+        model.validate().is_ok().then_some(model)
     };
-    let Some(model) = to_model(central) else {
+    let Some(model) = to_model(central, pads.0) else {
         return Err(ValidateError::InvalidLaw.into());
     };
     let (models, drives): (Vec<Model>, Vec<DriveDraw>) = draws
         .iter()
-        .filter_map(|(l, d)| to_model(l).map(|m| (m, *d)))
+        .enumerate()
+        .filter_map(|(i, (l, d))| to_model(l, pads.1.get(i).unwrap_or(pads.0)).map(|m| (m, *d)))
         .unzip();
     if models.len() < draws.len() {
         warnings.push(crate::warning::Warning::InvalidDraws {
@@ -988,6 +1095,7 @@ pub fn predict_joint(
     }
     Ok(Prediction {
         law: model.law,
+        contact_stiffness: model.contact_stiffness,
         absorber,
         steady,
         replay,
