@@ -672,6 +672,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
                 warnings.push(Warning::VelocityGain {
                     gain,
                     half_width: o.tq * gain_se,
+                    tolerance: VELOCITY_GAIN_TOLERANCE,
                 });
             }
         }
@@ -709,6 +710,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
                     warnings.push(Warning::AccelerationGain {
                         gain,
                         half_width: o.tq * gain_se,
+                        tolerance: VELOCITY_GAIN_TOLERANCE,
                     });
                 }
                 let b = base.unwrap_or(Shift {

@@ -239,8 +239,13 @@ pub enum Warning {
     VelocityGain {
         /// v2 over d/dt x2.
         gain: f64,
-        /// Its 95 % half-width.
+        /// Its 95 % half-width (0 in artifacts written before it existed).
+        #[serde(default)]
         half_width: f64,
+        /// The relative deviation from 1 beyond which the channel is
+        /// rescaled (0: an artifact written before v2 was rescaled).
+        #[serde(default)]
+        tolerance: f64,
     },
     /// The accelerometer's gain differs from that of d²/dt² x2: a2 was
     /// divided by it.
@@ -249,6 +254,9 @@ pub enum Warning {
         gain: f64,
         /// Its 95 % half-width.
         half_width: f64,
+        /// The relative deviation from 1 beyond which the channel is
+        /// rescaled.
+        tolerance: f64,
     },
     /// A channel's estimated shift against x1, applied.
     ChannelDelay {
@@ -930,14 +938,14 @@ mod tests {
                 ),
             ),
             (
-                VelocityGain { gain: x, half_width: 0.0004 },
+                VelocityGain { gain: x, half_width: 0.0004, tolerance: 0.02 },
                 format!(
                     "velocity channel v2: its gain is {:.4} ± {:.4} times that of d/dt x2 (more than 2 % off); v2 divided by it (x2 sets the scale)",
                     x, 0.0004
                 ),
             ),
             (
-                AccelerationGain { gain: 0.95, half_width: 0.001 },
+                AccelerationGain { gain: 0.95, half_width: 0.001, tolerance: 0.02 },
                 format!(
                     "accelerometer a2: its gain is {:.4} ± {:.4} times that of d²/dt² x2 (more than 2 % off); a2 divided by it (x2 sets the scale)",
                     0.95, 0.001
@@ -1402,6 +1410,30 @@ mod tests {
             let back: Warning = serde_json::from_value(serde_json::to_value(&w).unwrap()).unwrap();
             assert_eq!(back, w);
         }
+    }
+
+    /// A fit artifact written before v2 was rescaled holds the velocity's
+    /// gain alone: it reads back and says what was done then.
+    #[test]
+    fn an_old_velocity_gain_warning_reads_back_as_not_corrected() {
+        let mut v = serde_json::to_value(Warning::VelocityGain {
+            gain: 1.091,
+            half_width: 0.0004,
+            tolerance: 0.02,
+        })
+        .unwrap();
+        let fields = v
+            .as_object_mut()
+            .and_then(|o| o.values_mut().next())
+            .and_then(|f| f.as_object_mut())
+            .expect("an externally tagged variant");
+        fields.remove("half_width");
+        fields.remove("tolerance");
+        let w: Warning = serde_json::from_value(v).unwrap();
+        assert_eq!(
+            w.to_string(),
+            "velocity channel v2: its gain is 1.091 times that of d/dt x2; not corrected (x2 sets the scale)"
+        );
     }
 
     #[test]

@@ -185,15 +185,29 @@ fn fmt_sensor(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             drift * 1e3,
             half * 1e3
         ),
-        VelocityGain { gain, half_width } => write!(
+        // Written before the correction existed (a fit artifact): v2 was
+        // not rescaled then.
+        VelocityGain { gain, tolerance, .. } if *tolerance == 0.0 => write!(
+            f,
+            "velocity channel v2: its gain is {gain:.3} times that of d/dt x2; not corrected (x2 sets the scale)"
+        ),
+        VelocityGain {
+            gain,
+            half_width,
+            tolerance,
+        } => write!(
             f,
             "velocity channel v2: its gain is {gain:.4} ± {half_width:.4} times that of d/dt x2 (more than {:.0} % off); v2 divided by it (x2 sets the scale)",
-            crate::ingest::VELOCITY_GAIN_TOLERANCE * 100.0
+            tolerance * 100.0
         ),
-        AccelerationGain { gain, half_width } => write!(
+        AccelerationGain {
+            gain,
+            half_width,
+            tolerance,
+        } => write!(
             f,
             "accelerometer a2: its gain is {gain:.4} ± {half_width:.4} times that of d²/dt² x2 (more than {:.0} % off); a2 divided by it (x2 sets the scale)",
-            crate::ingest::VELOCITY_GAIN_TOLERANCE * 100.0
+            tolerance * 100.0
         ),
         ChannelDelay {
             channel,
