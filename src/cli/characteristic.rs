@@ -145,6 +145,7 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
                 law_label: "fitted",
                 // The equation-error law's Rs is NaN where only bounded.
                 threshold: true,
+                minus_threshold_n: None,
                 alternative,
                 alternative_label: "alternative",
             },

@@ -1,7 +1,9 @@
 //! The characteristic figure (paper Figs. 8–9): the contact force R(t) and
 //! the absorber velocity ẋ2(t) over the first drive periods (left), and R
 //! against ẋ2 over the whole log with the fitted law drawn over it (right;
-//! stick samples at ẋ2 = 0 with their passive force).
+//! stick samples at ẋ2 = 0 with their passive force). A threshold split
+//! by direction is drawn as it is: up to Rs⁺ towards +, down to −Rs⁻
+//! towards − (a side only bounded is not drawn).
 
 use super::plot::{plot_err, register_font};
 use crate::error::Result;
@@ -28,6 +30,10 @@ pub struct CharacteristicFigure<'a> {
     /// `law`'s static threshold is measured (false where Rs is only
     /// bounded: the threshold is not drawn).
     pub threshold: bool,
+    /// Where the fit split the threshold by direction: Rs⁻ (N) towards −
+    /// (`Some(None)`: only bounded, not drawn; `None`: symmetric, −Rs).
+    /// Towards + the law's own Rs, unless only bounded (`threshold`).
+    pub minus_threshold_n: Option<Option<f64>>,
     /// A second law drawn dashed (e.g. the Stribeck alternative).
     pub alternative: Option<SiLaw>,
     /// Legend name of `alternative`.
@@ -53,6 +59,7 @@ pub fn characteristic_figure(fig: &CharacteristicFigure<'_>, path: &Path) -> Res
 /// shows no law; a never-sticking one no static threshold.
 pub fn fit_figure(log: &Path, ch: &Characteristic, f: &LogFit, path: &Path) -> Result<()> {
     let e = &f.fit;
+    let split = f.pads().filter(|_| f.direction_dependent());
     let (law, law_label, alternative, alternative_label) = if f.stuck() {
         (None, "fitted", None, "alternative")
     } else if f.estimate == Estimate::OutputError {
@@ -79,7 +86,8 @@ pub fn fit_figure(log: &Path, ch: &Characteristic, f: &LogFit, path: &Path) -> R
             bias_n: if e.bias_n.is_finite() { e.bias_n } else { 0.0 },
             law,
             law_label,
-            threshold: !f.never_sticks(),
+            threshold: !f.never_sticks() && !split.is_some_and(|p| p.plus_bounded),
+            minus_threshold_n: split.map(|p| p.rs_minus_n.filter(|_| !p.minus_bounded)),
             alternative,
             alternative_label,
         },
@@ -182,8 +190,14 @@ fn time_panels<'a>(
 }
 
 /// The curve of a law over [vlo, vhi] (300 points each side), with the
-/// vertical static threshold at ẋ2 = 0 where `threshold`.
-fn law_curve(l: &SiLaw, threshold: bool, vlo: f64, vhi: f64) -> Vec<(f64, f64)> {
+/// vertical static threshold at ẋ2 = 0 from −`minus` to +`plus` (each side
+/// drawn where given: the law's Rs, or Rs⁻ of a split threshold).
+fn law_curve(
+    l: &SiLaw,
+    (minus, plus): (Option<f64>, Option<f64>),
+    vlo: f64,
+    vhi: f64,
+) -> Vec<(f64, f64)> {
     let m = 300;
     let mut pts = Vec::with_capacity(2 * m + 4);
     for k in 0..=m {
@@ -192,10 +206,12 @@ fn law_curve(l: &SiLaw, threshold: bool, vlo: f64, vhi: f64) -> Vec<(f64, f64)> 
             pts.push((u, law_force(l, u)));
         }
     }
-    if threshold && l.rs_n.is_finite() {
-        pts.push((0.0, -l.rs_n));
-        pts.push((0.0, l.rs_n));
-    }
+    let finite = |x: Option<f64>| x.filter(|x| x.is_finite());
+    // The sliding levels at ±0 (where no threshold is drawn, the curve
+    // joins them through zero velocity).
+    let at_zero = l.sliding_n(0.0);
+    pts.push((0.0, finite(minus).map_or(-at_zero, |m| -m)));
+    pts.push((0.0, finite(plus).unwrap_or(at_zero)));
     for k in 0..=m {
         let u = vhi * k as f64 / m as f64;
         if u > 0.0 {
@@ -216,9 +232,21 @@ fn characteristic_panel(
     let (blue, red) = (BLUE, RED);
     let (vlo, vhi) = range(v.iter().copied());
     let mut rr = range(r.iter().copied());
-    if let Some(l) = fig.law.filter(|_| fig.threshold) {
-        if l.rs_n.is_finite() {
-            rr = (rr.0.min(-1.05 * l.rs_n), rr.1.max(1.05 * l.rs_n));
+    let sides = |l: &SiLaw| -> (Option<f64>, Option<f64>) {
+        let plus = fig.threshold.then_some(l.rs_n);
+        let minus = match fig.minus_threshold_n {
+            None => plus,
+            Some(m) => m,
+        };
+        (minus, plus)
+    };
+    if let Some(l) = fig.law {
+        let (minus, plus) = sides(&l);
+        if let Some(m) = minus.filter(|m| m.is_finite()) {
+            rr.0 = rr.0.min(-1.05 * m);
+        }
+        if let Some(p) = plus.filter(|p| p.is_finite()) {
+            rr.1 = rr.1.max(1.05 * p);
         }
     }
     let mut chart = ChartBuilder::on(right)
@@ -248,19 +276,23 @@ fn characteristic_panel(
         .map_err(e)?
         .label("measured")
         .legend(move |(x, y)| Circle::new((x + 10, y), 3, blue.filled()));
-    let curve = |l: &SiLaw, threshold: bool| law_curve(l, threshold, vlo, vhi);
     if let Some(l) = fig.law {
+        let split = match fig.minus_threshold_n {
+            Some(Some(m)) => format!(" (Rs⁺ {:.3} N, Rs⁻ {m:.3} N)", l.rs_n),
+            Some(None) => " (Rs⁻ only bounded)".to_string(),
+            None => String::new(),
+        };
         chart
             .draw_series(LineSeries::new(
-                curve(&l, fig.threshold),
+                law_curve(&l, sides(&l), vlo, vhi),
                 BLACK.stroke_width(2),
             ))
             .map_err(e)?
-            .label(format!("{}: {}", fig.law_label, l.kind.as_str()))
+            .label(format!("{}: {}{split}", fig.law_label, l.kind.as_str()))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
     }
     if let Some(l) = fig.alternative {
-        let pts = curve(&l, true);
+        let pts = law_curve(&l, (Some(l.rs_n), Some(l.rs_n)), vlo, vhi);
         let dashed = DashedLineSeries::new(pts, 6, 4, red.stroke_width(2));
         chart
             .draw_series(dashed)
@@ -277,4 +309,32 @@ fn characteristic_panel(
         .draw()
         .map_err(e)?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::LawKind;
+
+    /// A split threshold is drawn from −Rs⁻ to +Rs⁺ at ẋ2 = 0; a side not
+    /// given joins the sliding level there; the branches are the law's.
+    #[test]
+    fn the_threshold_is_drawn_per_direction() {
+        let l = SiLaw {
+            kind: LawKind::StaticDynamic,
+            rs_n: 0.924,
+            rd_n: 0.748,
+            slope_n_s_per_m: 0.0,
+            vs_m_per_s: None,
+        };
+        let at0 = |pts: &[(f64, f64)]| -> Vec<f64> {
+            pts.iter().filter(|p| p.0 == 0.0).map(|p| p.1).collect()
+        };
+        let split = law_curve(&l, (Some(0.80), Some(0.924)), -0.1, 0.1);
+        assert_eq!(at0(&split), vec![-0.80, 0.924]);
+        let bounded = law_curve(&l, (None, Some(0.924)), -0.1, 0.1);
+        assert_eq!(at0(&bounded), vec![-0.748, 0.924]);
+        assert_eq!(split.first(), Some(&(-0.1, -0.748)));
+        assert_eq!(split.last(), Some(&(0.1, 0.748)));
+    }
 }
