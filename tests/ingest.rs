@@ -771,3 +771,29 @@ fn truncation_anywhere_is_an_error_not_a_crash() {
         }
     }
 }
+
+/// The fit's sample budget reaches the MCAP reader: a log whose position
+/// channel has more samples than the caller can fit is refused with the
+/// numbers as soon as that is known — from the summary's message count
+/// times the first buffer's length where the file has a summary (the
+/// bundled logs do), before the rest is decoded — and a budget it fits is
+/// read as before.
+#[test]
+fn an_mcap_log_longer_than_the_fit_budget_is_refused_early() {
+    let path = data("char_N4.mcap");
+    let full = ingest::read(&path, &IngestOptions::default()).expect("mcap");
+    let samples = full.channels.iter().map(|c| c.t.len()).max().unwrap() as u64;
+    let opts = |max| IngestOptions {
+        max_samples: Some(max),
+        ..IngestOptions::default()
+    };
+    let err = ingest::read(&path, &opts(samples / 4))
+        .expect_err("a quarter of the samples")
+        .to_string();
+    assert!(
+        err.contains("announces") && err.contains("split the log into shorter ones"),
+        "{err}"
+    );
+    let run = ingest::read(&path, &opts(samples)).expect("within the budget");
+    assert_eq!(run.samples(), full.samples());
+}

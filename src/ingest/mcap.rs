@@ -195,7 +195,7 @@ fn read_records(mut file: std::fs::File, tx: SyncSender<Batch>, pool: Receiver<B
 /// Reads an MCAP rig log. A reader thread reads and decompresses the
 /// records while this thread decodes them, in file order; the result (or
 /// the first error) is the same as a single pass's.
-pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
+pub(crate) fn read(path: &Path, max_samples: Option<u64>) -> Result<RawLog, IngestError> {
     let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
     let expected = expected_counts(path).unwrap_or_default();
     let mut log = Collector {
@@ -207,6 +207,7 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
         warnings: Vec::new(),
         n_messages: 0,
         expected,
+        max_samples,
     };
     std::thread::scope(|s| {
         let (tx, rx) = std::sync::mpsc::sync_channel(BATCHES_QUEUED);
@@ -252,6 +253,11 @@ struct Collector<'a> {
     /// Messages per channel id announced by the summary section (a hint
     /// for reserving sample vectors, see [`expected_counts`]).
     expected: ExpectedCounts,
+    /// Samples the caller can fit ([`super::IngestOptions::max_samples`]):
+    /// a position channel with more is refused as soon as that is known
+    /// (from the summary's message count times the first buffer's length,
+    /// else when its samples pass the limit), before the rest is decoded.
+    max_samples: Option<u64>,
 }
 
 /// Messages per channel id as a log's summary section states them, and the
@@ -452,6 +458,33 @@ impl Collector<'_> {
                     }
                 };
                 push_buffer(path, acc, t0_ns, dt_ns, start, &where_)?;
+                let position = matches!(q, Quantity::X0 | Quantity::X1 | Quantity::X2);
+                if let Some(max) = self.max_samples.filter(|_| position) {
+                    // The common grid runs at the fastest position channel's
+                    // rate: it has at least as many samples as each of them.
+                    let announced = first
+                        .then(|| self.expected.messages.get(&header.channel_id))
+                        .flatten()
+                        .map_or(0, |m| m.saturating_mul(acc.values.len() as u64));
+                    let n = announced.max(acc.values.len() as u64);
+                    if n > max {
+                        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
+                        let what = if announced > acc.values.len() as u64 {
+                            "announces"
+                        } else {
+                            "holds more than"
+                        };
+                        return Err(IngestError::invalid(
+                            path,
+                            format!(
+                                "{} {what} {n} samples: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
+                                info.topic,
+                                crate::limits::human(n as f64 * per as f64),
+                                crate::limits::budget_text()
+                            ),
+                        ));
+                    }
+                }
                 if first {
                     reserve(
                         acc,

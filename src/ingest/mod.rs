@@ -50,7 +50,9 @@ pub struct IngestOptions {
     pub map: Option<PathBuf>,
     /// Samples the caller can hold (the fit's budget): a CSV log with more
     /// data rows is refused after they are counted, before any column is
-    /// read (`None`: the ingest's own budget only).
+    /// read; an MCAP log whose position channel has more, as soon as its
+    /// summary or its samples say so (`None`: the ingest's own budget
+    /// only).
     pub max_samples: Option<u64>,
 }
 
@@ -446,7 +448,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         }
     }
     let mut raw = match format {
-        LogFormat::Mcap => mcap::read(path)?,
+        LogFormat::Mcap => mcap::read(path, opts.max_samples)?,
         LogFormat::Csv => csv::read(path, opts.map.as_deref(), opts.max_samples)?,
         LogFormat::Parquet => parquet::read(path)?,
         LogFormat::Tdms => tdms::read(path, opts.map.as_deref())?,
