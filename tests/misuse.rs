@@ -1177,6 +1177,10 @@ fn full_disk_leaves_nothing_behind() {
 /// file holds the user's bytes, the new trajectory is gone, no temporary
 /// or backup is left. Without the failpoint the same run writes both.
 #[test]
+#[cfg_attr(
+    not(debug_assertions),
+    ignore = "the failpoint exists in debug builds only"
+)]
 fn sigint_during_the_final_renames_undoes_them_all() {
     let run = |dir: &Path, failpoint: Option<&str>| {
         let mut cmd = bin();
