@@ -79,20 +79,24 @@ impl Refinement {
         let floor = rs0.max(rd0);
         let mut lo = (floor, base.th.clone());
         let mut hi = None;
-        let mut c = 0.5;
-        for _ in 0..MAX_STEPS {
-            let r = floor + c * unit;
+        // Refits at Rs = r from the last admitted θ and records the point;
+        // an admitted one becomes the last admitted.
+        let step_to = |r: f64, lo: &mut (f64, Vec<f64>), points: &mut Vec<Point>| -> bool {
             let pt = fit(r, &lo.1);
             let ok = pt
                 .as_ref()
-                .is_some_and(|p| admitted(p.1, cmin(&points).min(p.1)));
-            if ok {
-                lo = (r, pt.as_ref().map(|p| p.2.clone()).unwrap_or_default());
-            } else {
-                hi = Some(r);
+                .is_some_and(|p| admitted(p.1, cmin(points).min(p.1)));
+            if let (true, Some(p)) = (ok, pt.as_ref()) {
+                *lo = (r, p.2.clone());
             }
             points.extend(pt);
-            if !ok {
+            ok
+        };
+        let mut c = 0.5;
+        for _ in 0..MAX_STEPS {
+            let r = floor + c * unit;
+            if !step_to(r, &mut lo, &mut points) {
+                hi = Some(r);
                 break;
             }
             c *= 2.0;
@@ -100,16 +104,9 @@ impl Refinement {
         if let Some(mut h) = hi {
             for _ in 0..BISECTIONS {
                 let r = 0.5 * (lo.0 + h);
-                let pt = fit(r, &lo.1);
-                let ok = pt
-                    .as_ref()
-                    .is_some_and(|p| admitted(p.1, cmin(&points).min(p.1)));
-                if ok {
-                    lo = (r, pt.as_ref().map(|p| p.2.clone()).unwrap_or_default());
-                } else {
+                if !step_to(r, &mut lo, &mut points) {
                     h = r;
                 }
-                points.extend(pt);
             }
         }
         // Down to the sliding level, where the fit left the threshold above
