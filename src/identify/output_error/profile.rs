@@ -125,7 +125,6 @@ impl Refinement {
             Some(_) => {
                 let proj = top.3.as_ref().unwrap_or(&base.proj);
                 let cal = self.variances(fam, &top.2, proj, u, None)?.var_cal[0];
-                let floor = rs0.max(rd0);
                 Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * cal).sqrt())
             }
             None => None,
