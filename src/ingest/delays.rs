@@ -121,6 +121,14 @@ pub struct VelocityConsistency {
 /// differentiated v2: a 10 % gain moved the equation-error Rd by 10 %).
 pub const VELOCITY_GAIN_TOLERANCE: f64 = 0.02;
 
+/// Whether a rate channel with `gain` (standard error `se`, Student-t
+/// quantile `tq`) against x2 is rescaled: significant and more than
+/// [`VELOCITY_GAIN_TOLERANCE`] off 1.
+fn rescaled(gain: f64, se: f64, tq: f64) -> bool {
+    let off = (gain - 1.0).abs();
+    gain.is_finite() && gain > 0.0 && off > VELOCITY_GAIN_TOLERANCE && off > tq * se
+}
+
 /// The accelerometer against d/dt v2 (or d²/dt² x2), on x2's scale:
 /// `a2 = gain·ẍ2(t + shift) + offset + drift·(t − t_mid)`, the gain of a
 /// v2 reference multiplied in.
@@ -647,10 +655,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
             let drift_corrected =
                 drift.abs() > o.tq * drift_se && drift.abs() * span > 0.5 * noise_v;
             let gain_se = o.cov[0][0].sqrt();
-            let gain_corrected = gain.is_finite()
-                && gain > 0.0
-                && (gain - 1.0).abs() > VELOCITY_GAIN_TOLERANCE
-                && (gain - 1.0).abs() > o.tq * gain_se;
+            let gain_corrected = rescaled(gain, gain_se, o.tq);
             velocity = Some(VelocityConsistency {
                 gain,
                 gain_se,
@@ -697,10 +702,7 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
             if let Some((rel, o)) = rate_shift(&a2s, &reference, &pre) {
                 let gain = o.beta[0] * ref_gain;
                 let gain_se = o.cov[0][0].sqrt() * ref_gain.abs();
-                let gain_corrected = gain.is_finite()
-                    && gain > 0.0
-                    && (gain - 1.0).abs() > VELOCITY_GAIN_TOLERANCE
-                    && (gain - 1.0).abs() > o.tq * gain_se;
+                let gain_corrected = rescaled(gain, gain_se, o.tq);
                 acceleration = Some(AccelerationConsistency {
                     gain,
                     gain_se,
