@@ -772,14 +772,14 @@ fn truncation_anywhere_is_an_error_not_a_crash() {
     }
 }
 
-/// The fit's sample budget reaches the MCAP reader: a log whose position
+/// The fit's sample budget reaches the MCAP and Parquet readers: a log whose position
 /// channel has more samples than the caller can fit is refused with the
 /// numbers as soon as that is known — from the summary's message count
 /// times the first buffer's length where the file has a summary (the
 /// bundled logs do), before the rest is decoded — and a budget it fits is
 /// read as before.
 #[test]
-fn an_mcap_log_longer_than_the_fit_budget_is_refused_early() {
+fn a_log_longer_than_the_fit_budget_is_refused_early() {
     let path = data("char_N4.mcap");
     let full = ingest::read(&path, &IngestOptions::default()).expect("mcap");
     let samples = full.channels.iter().map(|c| c.t.len()).max().unwrap() as u64;
@@ -796,4 +796,19 @@ fn an_mcap_log_longer_than_the_fit_budget_is_refused_early() {
     );
     let run = ingest::read(&path, &opts(samples)).expect("within the budget");
     assert_eq!(run.samples(), full.samples());
+    // A Parquet table: its footer's row count, before any column.
+    let path = data("char_N2.2.parquet");
+    let rows = ingest::read(&path, &IngestOptions::default())
+        .expect("parquet")
+        .channels[0]
+        .t
+        .len() as u64;
+    let err = ingest::read(&path, &opts(rows - 1))
+        .expect_err("one row over")
+        .to_string();
+    assert!(
+        err.contains(&format!("{rows} rows")) && err.contains("split the log into shorter ones"),
+        "{err}"
+    );
+    ingest::read(&path, &opts(rows)).expect("within the budget");
 }

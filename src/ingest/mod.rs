@@ -50,9 +50,9 @@ pub struct IngestOptions {
     pub map: Option<PathBuf>,
     /// Samples the caller can hold (the fit's budget): a CSV log with more
     /// data rows is refused after they are counted, before any column is
-    /// read; an MCAP log whose position channel has more, as soon as its
-    /// summary or its samples say so (`None`: the ingest's own budget
-    /// only).
+    /// read; a Parquet table with more rows, from its footer; an MCAP log
+    /// whose position channel has more, as soon as its summary or its
+    /// samples say so (`None`: the ingest's own budget only).
     pub max_samples: Option<u64>,
 }
 
@@ -450,7 +450,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     let mut raw = match format {
         LogFormat::Mcap => mcap::read(path, opts.max_samples)?,
         LogFormat::Csv => csv::read(path, opts.map.as_deref(), opts.max_samples)?,
-        LogFormat::Parquet => parquet::read(path)?,
+        LogFormat::Parquet => parquet::read(path, opts.max_samples)?,
         LogFormat::Tdms => tdms::read(path, opts.map.as_deref())?,
         LogFormat::Mat => mat::read(path, opts.map.as_deref())?,
     };

@@ -23,8 +23,11 @@ fn pq_err(path: &Path, what: &str, e: PolarsError) -> IngestError {
 /// Reads a Parquet log. The Parquet decoder can panic on corrupt metadata
 /// (found by `tests/fuzz.rs`): such a panic is caught and reported as a
 /// corrupt file, never shown to the user as a crash.
-pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
-    match crate::guard::guarded(|| read_inner(path)) {
+/// `max_samples`: the caller's budget ([`super::IngestOptions::max_samples`]):
+/// a table with more rows is refused from its footer, before any column
+/// is decoded.
+pub(crate) fn read(path: &Path, max_samples: Option<u64>) -> Result<RawLog, IngestError> {
+    match crate::guard::guarded(|| read_inner(path, max_samples)) {
         Ok(r) => r,
         Err(msg) => Err(IngestError::invalid(
             path,
@@ -33,7 +36,7 @@ pub(crate) fn read(path: &Path) -> Result<RawLog, IngestError> {
     }
 }
 
-fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
+fn read_inner(path: &Path, max_samples: Option<u64>) -> Result<RawLog, IngestError> {
     check_magic(path)?;
     let file = std::fs::File::open(path).map_err(|e| IngestError::io(path, e))?;
     let mut reader = ParquetReader::new(file);
@@ -44,6 +47,18 @@ fn read_inner(path: &Path) -> Result<RawLog, IngestError> {
             e,
         )
     })?;
+    let rows = meta.num_rows as u64;
+    if let Some(max) = max_samples.filter(|m| rows > *m) {
+        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
+        return Err(IngestError::invalid(
+            path,
+            format!(
+                "{rows} rows: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
+                crate::limits::human(rows as f64 * per as f64),
+                crate::limits::budget_text()
+            ),
+        ));
+    }
     let mut rig_map = BTreeMap::new();
     if let Some(kvs) = meta.key_value_metadata() {
         for kv in kvs {
