@@ -79,6 +79,16 @@ pub fn fits(count: u64, item_bytes: u64) -> bool {
     bytes(count, item_bytes).is_some_and(|b| b <= MEMORY_BUDGET_BYTES)
 }
 
+/// Why a log of `samples` samples is not fitted (at most `max`): the
+/// message after what was counted (`subject`, e.g. "12000000 data rows").
+pub fn fit_refusal(subject: &str, samples: u64, max: u64) -> String {
+    format!(
+        "{subject}: fitting takes about {} ({FIT_BYTES_PER_SAMPLE} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
+        human(samples as f64 * FIT_BYTES_PER_SAMPLE as f64),
+        budget_text()
+    )
+}
+
 /// A byte count as people read it (`9.0 GB`, `512 MB`).
 pub fn human(bytes: f64) -> String {
     if bytes >= 1e9 {

@@ -649,14 +649,9 @@ fn read_table(
         ));
     }
     if let Some(max) = max_samples.filter(|m| rows as u64 > *m) {
-        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
         return Err(IngestError::invalid(
             path,
-            format!(
-                "{rows} data rows: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
-                crate::limits::human(rows as f64 * per as f64),
-                crate::limits::budget_text()
-            ),
+            crate::limits::fit_refusal(&format!("{rows} data rows"), rows as u64, max),
         ));
     }
     let per_row = CSV_BYTES_PER_VALUE * specs.len() as u64;

@@ -468,7 +468,6 @@ impl Collector<'_> {
                         .map_or(0, |m| m.saturating_mul(acc.values.len() as u64));
                     let n = announced.max(acc.values.len() as u64);
                     if n > max {
-                        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
                         let what = if announced > acc.values.len() as u64 {
                             "announces"
                         } else {
@@ -476,11 +475,10 @@ impl Collector<'_> {
                         };
                         return Err(IngestError::invalid(
                             path,
-                            format!(
-                                "{} {what} {n} samples: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
-                                info.topic,
-                                crate::limits::human(n as f64 * per as f64),
-                                crate::limits::budget_text()
+                            crate::limits::fit_refusal(
+                                &format!("{} {what} {n} samples", info.topic),
+                                n,
+                                max,
                             ),
                         ));
                     }

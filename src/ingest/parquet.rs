@@ -49,14 +49,9 @@ fn read_inner(path: &Path, max_samples: Option<u64>) -> Result<RawLog, IngestErr
     })?;
     let rows = meta.num_rows as u64;
     if let Some(max) = max_samples.filter(|m| rows > *m) {
-        let per = crate::limits::FIT_BYTES_PER_SAMPLE;
         return Err(IngestError::invalid(
             path,
-            format!(
-                "{rows} rows: fitting takes about {} ({per} bytes per sample), over {}: at most {max} samples are fitted; split the log into shorter ones",
-                crate::limits::human(rows as f64 * per as f64),
-                crate::limits::budget_text()
-            ),
+            crate::limits::fit_refusal(&format!("{rows} rows"), rows, max),
         ));
     }
     let mut rig_map = BTreeMap::new();
