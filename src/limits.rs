@@ -29,10 +29,34 @@ pub const MAX_FAMILY_POINTS: u64 = MEMORY_BUDGET_BYTES / FAMILY_POINT_BYTES;
 
 /// Memory the fit of one log takes per sample of its common grid (bytes,
 /// all copies counted: the run, the contact signals, the equation-error
-/// and output-error fits, the calibration re-fits). Measured on a 7-column
+/// and output-error fits, one calibration re-fit at a time: more run at
+/// once only where [`concurrent_refits`] allows). Measured on a 7-column
 /// 1 kHz CSV log: 600 s peaked at 425 MB, 1200 s at 761 MB (560 bytes per
-/// sample above about 90 MB); rounded up (`docs/measurements.md`, issue 29).
+/// sample above about 90 MB); 3000 s at 1.61 GB with one thread and with
+/// five (537 bytes per sample); rounded up (`docs/measurements.md`, issue
+/// 29).
 pub const FIT_BYTES_PER_SAMPLE: u64 = 600;
+
+/// Memory one calibration re-fit of a log takes beside the fit itself, per
+/// sample (bytes): its characteristic (the contact signals, the
+/// segmentation) and its equation-error fit. Measured with all five
+/// re-fits at once against one at a time: a 1 kHz MCAP log of 1200 s
+/// peaked at 1169 MB against 643 MB (110 bytes per sample and re-fit), a
+/// 3000-s CSV log at 3.27 GB against 1.61 GB (138); rounded up
+/// (`docs/measurements.md`, issue 29).
+pub const REFIT_BYTES_PER_SAMPLE: u64 = 150;
+
+/// How many of a log's calibration re-fits may run at once within `budget`
+/// bytes: the fit itself ([`FIT_BYTES_PER_SAMPLE`], which counts one
+/// re-fit) and every further concurrent re-fit
+/// ([`REFIT_BYTES_PER_SAMPLE`]) must fit, whatever the thread count. At
+/// least one.
+pub fn concurrent_refits(samples: u64, budget: u64) -> usize {
+    let base = samples.saturating_mul(FIT_BYTES_PER_SAMPLE);
+    let each = samples.saturating_mul(REFIT_BYTES_PER_SAMPLE).max(1);
+    let extra = budget.saturating_sub(base) / each;
+    usize::try_from(extra.saturating_add(1)).unwrap_or(usize::MAX)
+}
 
 /// Most samples one log may have to be fitted within [`MEMORY_BUDGET_BYTES`]
 /// (3.33 million: 55 min at 1 kHz).
@@ -219,5 +243,28 @@ mod tests {
         assert!(check_family(1, 4_294_967_297, 1).is_err());
         assert!(check_family(u64::MAX, 2, 1).is_err());
         assert!(check_family(2, 3, 7).unwrap_err().contains("7 shards"));
+    }
+
+    /// The calibration re-fits of a log run as many at once as fit the
+    /// budget beside the fit: all five for a 20-s log, one for the
+    /// longest log the fit takes, and never more memory than the budget
+    /// where more than one runs.
+    #[test]
+    fn concurrent_refits_stay_within_the_budget() {
+        let b = MEMORY_BUDGET_BYTES;
+        assert!(concurrent_refits(20_000, b) >= 5);
+        assert_eq!(concurrent_refits(MAX_FIT_SAMPLES, b), 1);
+        assert_eq!(concurrent_refits(u64::MAX, b), 1);
+        assert_eq!(concurrent_refits(0, b) as u64, b + 1);
+        let mut last = usize::MAX;
+        for n in [1_000u64, 100_000, 1_000_000, 2_000_000, 3_000_000] {
+            let c = concurrent_refits(n, b);
+            assert!(c <= last, "{n}: {c} > {last}");
+            last = c;
+            let peak = n * FIT_BYTES_PER_SAMPLE + (c as u64 - 1) * n * REFIT_BYTES_PER_SAMPLE;
+            assert!(c == 1 || peak <= b, "{n} samples, {c} at once: {peak} bytes");
+        }
+        // A smaller share allows fewer at once.
+        assert!(concurrent_refits(1_000_000, b / 4) < concurrent_refits(1_000_000, b));
     }
 }

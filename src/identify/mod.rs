@@ -303,6 +303,13 @@ pub struct IdentifyOptions {
     /// decides). `false` passes none: the extensions are then tried only
     /// where the law fails the adequacy test.
     pub real_pads: bool,
+    /// The memory this fit may plan to hold (bytes): the calibration
+    /// re-fits run only as many at once as fit in it beside the fit
+    /// (`limits::concurrent_refits`), so the peak does not grow with the
+    /// thread count. Default: the whole budget
+    /// ([`crate::limits::MEMORY_BUDGET_BYTES`]); [`fit_logs`] gives each of
+    /// the logs it fits at once its share.
+    pub memory_bytes: u64,
 }
 
 impl Default for IdentifyOptions {
@@ -314,6 +321,7 @@ impl Default for IdentifyOptions {
             oe: OeOptions::default(),
             lag_fallback: true,
             real_pads: true,
+            memory_bytes: crate::limits::MEMORY_BUDGET_BYTES,
         }
     }
 }
@@ -718,16 +726,20 @@ fn calibration_variance(
                 ..Gains::default()
             });
         }
-        // The perturbed re-fits are independent: in parallel, booked in
-        // order (the same sums as one pass).
+        // The perturbed re-fits are independent: in parallel, as many at
+        // once as fit the memory (each holds its own characteristic),
+        // booked in order (the same sums as one pass, whatever the
+        // concurrency).
+        let at_once = crate::limits::concurrent_refits(run.samples() as u64, opts.memory_bytes);
+        let refit = |g: &Gains| {
+            let ch = characteristic_reusing(run, g, Some((&Gains::default(), base))).ok()?;
+            let f =
+                fit::fit_forced(&ch.contact, &ch.segmentation, ef.law.kind, opts.fit.seed).ok()?;
+            Some(quantities_of(&f, ch.contact.drive.amplitude_m, k2, ss))
+        };
         let qs: Vec<Option<[f64; 8]>> = perturbed
-            .par_iter()
-            .map(|g| {
-                let ch = characteristic_reusing(run, g, Some((&Gains::default(), base))).ok()?;
-                let f = fit::fit_forced(&ch.contact, &ch.segmentation, ef.law.kind, opts.fit.seed)
-                    .ok()?;
-                Some(quantities_of(&f, ch.contact.drive.amplitude_m, k2, ss))
-            })
+            .chunks(at_once)
+            .flat_map(|round| round.par_iter().map(refit).collect::<Vec<_>>())
             .collect();
         for q in qs.into_iter().flatten() {
             for k in 0..8 {
