@@ -811,4 +811,32 @@ fn a_log_longer_than_the_fit_budget_is_refused_early() {
         "{err}"
     );
     ingest::read(&path, &opts(rows)).expect("within the budget");
+    // TDMS (waveform and table channels) and MAT (variables with a rate,
+    // compressed variables): the position channel's value count, before
+    // any value is decoded or the log's channels are built.
+    for (log, what) in [
+        ("formats/char_N2.2_wf.tdms", "values"),
+        ("formats/synth_table.tdms", "values"),
+        ("formats/synth_rate.mat", "values"),
+        ("formats/synth_table_v7.mat", "values"),
+    ] {
+        let path = data(log);
+        let full = ingest::read(&path, &IngestOptions::default()).expect(log);
+        let longest = [Quantity::X0, Quantity::X1, Quantity::X2]
+            .iter()
+            .filter_map(|&q| full.channel(q))
+            .map(|c| c.t.len() as u64)
+            .max()
+            .unwrap();
+        let err = ingest::read(&path, &opts(longest - 1))
+            .expect_err("one value over")
+            .to_string();
+        assert!(
+            err.contains(&format!("holds {longest} {what}"))
+                && err.contains("split the log into shorter ones"),
+            "{log}: {err}"
+        );
+        let run = ingest::read(&path, &opts(longest)).expect("within the budget");
+        assert_eq!(run.samples(), full.samples(), "{log}");
+    }
 }

@@ -25,7 +25,7 @@
 use super::csv::{self, ColumnSpec, MapKind};
 use super::rig::RigMeta;
 use super::run::median_interval;
-use super::{IngestError, LogFormat, RawChannel, RawLog};
+use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
 use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
@@ -597,7 +597,14 @@ fn vector(vars: &[Var], spec: &ColumnSpec, what: &str, map: &Path) -> Result<Vec
 }
 
 /// Reads a MAT log with its channel map (`map`, or the default).
-pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
+/// `max_samples`: the caller's budget ([`super::IngestOptions::max_samples`]):
+/// a position variable with more values is refused from its dimensions,
+/// before the log's channels and time base are built.
+pub(crate) fn read(
+    path: &Path,
+    map: Option<&Path>,
+    max_samples: Option<u64>,
+) -> Result<RawLog, IngestError> {
     let buf = std::fs::read(path).map_err(|e| IngestError::io(path, e))?;
     let bad = |m: String| IngestError::invalid(path, m);
     // The header first: a -v7.3 file is refused before its map is needed.
@@ -611,6 +618,29 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     for (i, v) in vars.iter().enumerate() {
         if wanted.contains(&v.name.as_str()) && vars[..i].iter().any(|w| w.name == v.name) {
             return Err(bad(format!("variable `{}` appears twice", v.name)));
+        }
+    }
+    if let Some(max) = max_samples {
+        let positions = cmap
+            .channels
+            .iter()
+            .filter(|(q, _)| matches!(q, Quantity::X0 | Quantity::X1 | Quantity::X2));
+        for (_, spec) in positions {
+            let Some(v) = vars.iter().find(|v| v.name == spec.name) else {
+                continue;
+            };
+            let n = v
+                .dims
+                .iter()
+                .try_fold(1u64, |a, &d| a.checked_mul(d as u64))
+                .unwrap_or(u64::MAX);
+            if n > max {
+                return Err(bad(crate::limits::fit_refusal(
+                    &format!("variable {:?} holds {n} values", v.name),
+                    n,
+                    max,
+                )));
+            }
         }
     }
     let rig =

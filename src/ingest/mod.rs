@@ -451,8 +451,8 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         LogFormat::Mcap => mcap::read(path, opts.max_samples)?,
         LogFormat::Csv => csv::read(path, opts.map.as_deref(), opts.max_samples)?,
         LogFormat::Parquet => parquet::read(path, opts.max_samples)?,
-        LogFormat::Tdms => tdms::read(path, opts.map.as_deref())?,
-        LogFormat::Mat => mat::read(path, opts.map.as_deref())?,
+        LogFormat::Tdms => tdms::read(path, opts.map.as_deref(), opts.max_samples)?,
+        LogFormat::Mat => mat::read(path, opts.map.as_deref(), opts.max_samples)?,
     };
     if opts.map.is_some() && !format.needs_map() {
         raw.warnings.push(crate::warning::Warning::MapIgnored);

@@ -706,7 +706,14 @@ struct TimeTable<'a> {
 }
 
 /// Reads a TDMS log with its channel map (`map`, or the default).
-pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestError> {
+/// `max_samples`: the caller's budget ([`super::IngestOptions::max_samples`]):
+/// a position channel with more values is refused from the segments'
+/// raw data indexes, before any value is decoded.
+pub(crate) fn read(
+    path: &Path,
+    map: Option<&Path>,
+    max_samples: Option<u64>,
+) -> Result<RawLog, IngestError> {
     let (map_path, cmap) = csv::read_map(path, map, MapKind::Tdms)?;
     let buf = std::fs::read(path).map_err(|e| IngestError::io(path, e))?;
     let mut wanted: Vec<&str> = cmap.channels.iter().map(|(_, s)| s.name.as_str()).collect();
@@ -716,6 +723,24 @@ pub(crate) fn read(path: &Path, map: Option<&Path>) -> Result<RawLog, IngestErro
     let bad = |m: String| IngestError::invalid(path, m);
     let rig = rig_meta(path, &file.objects[0])?;
     let entries = mapped_entries(path, &map_path, &cmap, &file.objects)?;
+    if let Some(max) = max_samples {
+        // The common grid runs at the fastest position channel's rate: it
+        // has at least as many samples as each of them.
+        let position = |q: &Option<Quantity>| {
+            matches!(q, Some(Quantity::X0 | Quantity::X1 | Quantity::X2))
+        };
+        if let Some((_, _, obj, _)) = entries
+            .iter()
+            .filter(|e| position(&e.0))
+            .find(|e| e.2.values > max)
+        {
+            return Err(bad(crate::limits::fit_refusal(
+                &format!("channel {:?} holds {} values", obj.name, obj.values),
+                obj.values,
+                max,
+            )));
+        }
+    }
     let any_table = entries.iter().any(|e| matches!(e.3, Timing::Table));
     // The `time` channel, when a table channel needs it.
     let table = if any_table {
