@@ -58,6 +58,43 @@ pub fn concurrent_refits(samples: u64, budget: u64) -> usize {
     usize::try_from(extra.saturating_add(1)).unwrap_or(usize::MAX)
 }
 
+/// The memory planned for fitting a log of `samples` grid samples, as far
+/// as they are known before it is decoded (`None`: unknown, the whole
+/// `budget`). A log over [`MAX_FIT_SAMPLES`] is refused by its reader as
+/// soon as that is known, so plans only [`REFUSAL_BYTES`].
+pub fn planned_fit_bytes(samples: Option<u64>, budget: u64) -> u64 {
+    match samples {
+        None => budget,
+        Some(n) if n > MAX_FIT_SAMPLES => REFUSAL_BYTES,
+        Some(n) => n.saturating_mul(FIT_BYTES_PER_SAMPLE),
+    }
+}
+
+/// What a refused case may hold (the bound on every refusal).
+pub const REFUSAL_BYTES: u64 = 500_000_000;
+
+/// Consecutive groups of items (in order) whose planned bytes together fit
+/// `budget`, to be run one group after the other, the items of a group at
+/// once; an item over the budget forms a group of its own. Every item is
+/// in exactly one group.
+pub fn rounds(planned: &[u64], budget: u64) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    let mut sum = 0u64;
+    for (i, &b) in planned.iter().enumerate() {
+        if i > start && sum.saturating_add(b) > budget {
+            out.push(start..i);
+            start = i;
+            sum = 0;
+        }
+        sum = sum.saturating_add(b);
+    }
+    if start < planned.len() {
+        out.push(start..planned.len());
+    }
+    out
+}
+
 /// Most samples one log may have to be fitted within [`MEMORY_BUDGET_BYTES`]
 /// (3.33 million: 55 min at 1 kHz).
 pub const MAX_FIT_SAMPLES: u64 = MEMORY_BUDGET_BYTES / FIT_BYTES_PER_SAMPLE;
@@ -262,9 +299,46 @@ mod tests {
             assert!(c <= last, "{n}: {c} > {last}");
             last = c;
             let peak = n * FIT_BYTES_PER_SAMPLE + (c as u64 - 1) * n * REFIT_BYTES_PER_SAMPLE;
-            assert!(c == 1 || peak <= b, "{n} samples, {c} at once: {peak} bytes");
+            assert!(
+                c == 1 || peak <= b,
+                "{n} samples, {c} at once: {peak} bytes"
+            );
         }
         // A smaller share allows fewer at once.
         assert!(concurrent_refits(1_000_000, b / 4) < concurrent_refits(1_000_000, b));
+    }
+
+    /// Rounds keep the order, cover every item once, fit the budget
+    /// (but for an item over it, alone) and are as long as the budget
+    /// allows.
+    #[test]
+    fn rounds_cover_every_item_within_the_budget() {
+        assert!(rounds(&[], 10).is_empty());
+        assert_eq!(rounds(&[3, 3, 3, 3], 10), vec![0..3, 3..4]);
+        assert_eq!(
+            rounds(&[11, 1, 1, 20, 5, 5], 10),
+            vec![0..1, 1..3, 3..4, 4..6]
+        );
+        assert_eq!(rounds(&[u64::MAX, u64::MAX], 10), vec![0..1, 1..2]);
+        assert_eq!(rounds(&[0; 5], 0), vec![0..5]);
+        let planned: Vec<u64> = (0..200u64).map(|i| (i * 7919) % 13).collect();
+        let r = rounds(&planned, 20);
+        let mut next = 0;
+        for g in &r {
+            assert_eq!(g.start, next);
+            next = g.end;
+            let sum: u64 = planned[g.clone()].iter().sum();
+            assert!(sum <= 20 || g.len() == 1, "{g:?}: {sum}");
+            if g.end < planned.len() {
+                assert!(sum + planned[g.end] > 20, "{g:?} could take the next");
+            }
+        }
+        assert_eq!(next, planned.len());
+        assert_eq!(planned_fit_bytes(None, 7), 7);
+        assert_eq!(planned_fit_bytes(Some(10), 7), 10 * FIT_BYTES_PER_SAMPLE);
+        assert_eq!(
+            planned_fit_bytes(Some(MAX_FIT_SAMPLES + 1), MEMORY_BUDGET_BYTES),
+            REFUSAL_BYTES
+        );
     }
 }

@@ -840,3 +840,58 @@ fn a_log_longer_than_the_fit_budget_is_refused_early() {
         assert_eq!(run.samples(), full.samples(), "{log}");
     }
 }
+
+/// The sample count planned before a log is decoded (for memory planning
+/// of parallel fits) is its common grid's, for every format: the CSV and
+/// Parquet row counts, the MCAP summary's announcement, the longest TDMS
+/// channel or MAT variable.
+#[test]
+fn planned_samples_match_the_grid_in_every_format() {
+    let mut logs: Vec<String> = [
+        "char_N4.mcap",
+        "char_N2.2.csv",
+        "char_N2.2.parquet",
+        "law_coulomb.mcap",
+        "sweep_stepped_N4.mcap",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for f in [
+        "char_N2.2_wf.tdms",
+        "synth_table.tdms",
+        "synth_wf.tdms",
+        "synth_rate.mat",
+        "synth_table_v7.mat",
+        "synth_table.parquet",
+    ] {
+        logs.push(format!("formats/{f}"));
+    }
+    for log in &logs {
+        let path = data(log);
+        let run = ingest::read(&path, &IngestOptions::default()).expect(log);
+        let planned = ingest::planned_samples(&path, &IngestOptions::default())
+            .unwrap_or_else(|| panic!("{log}: no count before decoding"));
+        let grid = run.samples() as u64;
+        assert!(
+            planned.abs_diff(grid) <= grid / 100 + 1,
+            "{log}: planned {planned}, grid {grid}"
+        );
+    }
+    // An MCAP log without a summary section announces nothing: only a
+    // lower bound is known before decoding.
+    for log in ["law_stribeck.mcap", "formats/synth_wf.mcap"] {
+        assert_eq!(
+            ingest::planned_samples(&data(log), &IngestOptions::default()),
+            None,
+            "{log}"
+        );
+    }
+    // A log that cannot be read plans nothing (its read fails as early).
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("none.mcap");
+    assert_eq!(
+        ingest::planned_samples(&missing, &IngestOptions::default()),
+        Some(0)
+    );
+}

@@ -646,44 +646,93 @@ fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
 /// of `paths`, the same whatever the thread count). A log that cannot be
 /// read or fitted, or whose fit panics, gives its own error; the others
 /// complete. `tick` is called once per log done (progress).
+///
+/// Memory: each log's samples are counted before any log is decoded
+/// ([`crate::ingest::planned_samples`], one log at a time), and the logs
+/// are fitted in consecutive rounds whose planned memory
+/// ([`crate::limits::planned_fit_bytes`]) fits `opts.memory_bytes`
+/// together, each fit given its plan and an equal part of what the round
+/// leaves ([`IdentifyOptions::memory_bytes`]). Rounds do not wait inside
+/// rayon jobs, so nothing can deadlock, and the results do not depend on
+/// them.
 pub fn fit_logs(
     paths: &[PathBuf],
     opts: &IdentifyOptions,
     tick: &(dyn Fn() + Sync),
 ) -> Vec<Result<(RigMeta, LogFit)>> {
-    paths
-        .par_iter()
+    // A log too long to fit is refused by its reader before it is decoded.
+    let ingest = crate::ingest::IngestOptions {
+        max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+        ..Default::default()
+    };
+    let budget = opts.memory_bytes;
+    let planned: Vec<u64> = paths
+        .iter()
         .map(|p| {
-            let r = guarded(p, || {
-                // A CSV log too long to fit is refused before its columns
-                // are read.
-                let ingest = crate::ingest::IngestOptions {
-                    max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
-                    ..Default::default()
-                };
-                let run = crate::ingest::read(p, &ingest)?;
-                let f = fit_log(&run, opts)?;
-                Ok((run.rig, f))
-            });
-            tick();
-            r
+            let n = crate::ingest::planned_samples(p, &ingest);
+            crate::limits::planned_fit_bytes(n, budget)
         })
-        .collect()
+        .collect();
+    in_rounds(&planned, budget, opts, |i, o| {
+        let p = &paths[i];
+        let r = guarded(p, || {
+            let run = crate::ingest::read(p, &ingest)?;
+            let f = fit_log(&run, o)?;
+            Ok((run.rig, f))
+        });
+        tick();
+        r
+    })
 }
 
-/// Fits logs already read, in parallel, panic-guarded as [`fit_logs`].
+/// Fits logs already read, in parallel, panic-guarded and in rounds that
+/// fit the memory, as [`fit_logs`].
 pub fn fit_runs(
     runs: &[&Run],
     opts: &IdentifyOptions,
     tick: &(dyn Fn() + Sync),
 ) -> Vec<Result<LogFit>> {
-    runs.par_iter()
-        .map(|run| {
-            let r = guarded(&run.source, || fit_log(run, opts));
-            tick();
-            r
-        })
-        .collect()
+    let budget = opts.memory_bytes;
+    let planned: Vec<u64> = runs
+        .iter()
+        .map(|r| crate::limits::planned_fit_bytes(Some(r.samples() as u64), budget))
+        .collect();
+    in_rounds(&planned, budget, opts, |i, o| {
+        let r = guarded(&runs[i].source, || fit_log(runs[i], o));
+        tick();
+        r
+    })
+}
+
+/// Runs `job(i, options)` for every item, the items of each
+/// [`crate::limits::rounds`] group of `planned` at once (rayon), the
+/// groups one after the other; each job's options carry its memory share.
+/// Results in item order.
+fn in_rounds<T: Send>(
+    planned: &[u64],
+    budget: u64,
+    opts: &IdentifyOptions,
+    job: impl Fn(usize, &IdentifyOptions) -> T + Sync,
+) -> Vec<T> {
+    let mut out = Vec::with_capacity(planned.len());
+    for round in crate::limits::rounds(planned, budget) {
+        let sum = planned[round.clone()]
+            .iter()
+            .fold(0u64, |a, &b| a.saturating_add(b));
+        let spare = budget.saturating_sub(sum) / round.len() as u64;
+        let done: Vec<T> = round
+            .into_par_iter()
+            .map(|i| {
+                let o = IdentifyOptions {
+                    memory_bytes: planned[i].saturating_add(spare).min(budget),
+                    ..opts.clone()
+                };
+                job(i, &o)
+            })
+            .collect();
+        out.extend(done);
+    }
+    out
 }
 
 /// The calibration budget's variances of the [`quantities`] of `ef`: the

@@ -10,7 +10,7 @@
 
 use super::rig::RigMeta;
 use super::run::{median_interval, Setpoint};
-use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, SampleCount};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::io::{BufRead, Read};
@@ -649,9 +649,14 @@ fn read_table(
         ));
     }
     if let Some(max) = max_samples.filter(|m| rows as u64 > *m) {
-        return Err(IngestError::invalid(
+        return Err(IngestError::content(
             path,
-            crate::limits::fit_refusal(&format!("{rows} data rows"), rows as u64, max),
+            ContentError::OverFitBudget {
+                subject: format!("{rows} data rows"),
+                samples: rows as u64,
+                max,
+                count: SampleCount::Grid,
+            },
         ));
     }
     let per_row = CSV_BYTES_PER_VALUE * specs.len() as u64;

@@ -25,7 +25,7 @@
 use super::csv::{self, ColumnSpec, MapKind};
 use super::rig::RigMeta;
 use super::run::median_interval;
-use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, SampleCount};
 use std::collections::BTreeMap;
 use std::io::Read;
 use std::path::Path;
@@ -625,22 +625,27 @@ pub(crate) fn read(
             .channels
             .iter()
             .filter(|(q, _)| matches!(q, Quantity::X0 | Quantity::X1 | Quantity::X2));
-        for (_, spec) in positions {
-            let Some(v) = vars.iter().find(|v| v.name == spec.name) else {
-                continue;
-            };
-            let n = v
-                .dims
-                .iter()
-                .try_fold(1u64, |a, &d| a.checked_mul(d as u64))
-                .unwrap_or(u64::MAX);
-            if n > max {
-                return Err(bad(crate::limits::fit_refusal(
-                    &format!("variable {:?} holds {n} values", v.name),
-                    n,
+        let longest = positions
+            .filter_map(|(_, spec)| vars.iter().find(|v| v.name == spec.name))
+            .map(|v| {
+                let n = v
+                    .dims
+                    .iter()
+                    .try_fold(1u64, |a, &d| a.checked_mul(d as u64))
+                    .unwrap_or(u64::MAX);
+                (n, v)
+            })
+            .max_by_key(|(n, _)| *n);
+        if let Some((n, v)) = longest.filter(|(n, _)| *n > max) {
+            return Err(IngestError::content(
+                path,
+                ContentError::OverFitBudget {
+                    subject: format!("variable {:?} holds {n} values", v.name),
+                    samples: n,
                     max,
-                )));
-            }
+                    count: SampleCount::Grid,
+                },
+            ));
         }
     }
     let rig =

@@ -13,7 +13,10 @@
 
 use super::rig::RigMeta;
 use super::run::Setpoint;
-use super::{buffer_json, unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{
+    buffer_json, unit_factor, ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog,
+    SampleCount,
+};
 use crate::warning::Warning;
 use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
@@ -208,6 +211,7 @@ pub(crate) fn read(path: &Path, max_samples: Option<u64>) -> Result<RawLog, Inge
         n_messages: 0,
         expected,
         max_samples,
+        over: None,
     };
     std::thread::scope(|s| {
         let (tx, rx) = std::sync::mpsc::sync_channel(BATCHES_QUEUED);
@@ -258,6 +262,45 @@ struct Collector<'a> {
     /// (from the summary's message count times the first buffer's length,
     /// else when its samples pass the limit), before the rest is decoded.
     max_samples: Option<u64>,
+    /// The longest position channel over `max_samples` so far (its
+    /// refusal is pending until the other position channels announced
+    /// theirs).
+    over: Option<Over>,
+}
+
+/// Buffers of one channel decoded at most while a refusal waits for the
+/// other position channels' announcements.
+const ANNOUNCE_WAIT: usize = 64;
+
+/// A position channel over the caller's sample budget.
+struct Over {
+    /// What was counted (`/x1 announces 12000000 samples`).
+    subject: String,
+    /// The count.
+    samples: u64,
+    /// Whether the count is the summary's (else: samples decoded so far).
+    announced: bool,
+}
+
+impl Collector<'_> {
+    /// The refusal of the pending [`Over`] (`all_seen`: every position
+    /// channel announced its count, so the longest is known).
+    fn refusal(&mut self, max: u64, all_seen: bool) -> IngestError {
+        let o = self.over.take().expect("a pending refusal");
+        IngestError::content(
+            self.path,
+            ContentError::OverFitBudget {
+                subject: o.subject,
+                samples: o.samples,
+                max,
+                count: if o.announced && all_seen {
+                    SampleCount::Grid
+                } else {
+                    SampleCount::AtLeast
+                },
+            },
+        )
+    }
 }
 
 /// Messages per channel id as a log's summary section states them, and the
@@ -468,19 +511,19 @@ impl Collector<'_> {
                         .map_or(0, |m| m.saturating_mul(acc.values.len() as u64));
                     let n = announced.max(acc.values.len() as u64);
                     if n > max {
-                        let what = if announced > acc.values.len() as u64 {
+                        let announces = announced > acc.values.len() as u64;
+                        let what = if announces {
                             "announces"
                         } else {
                             "holds more than"
                         };
-                        return Err(IngestError::invalid(
-                            path,
-                            crate::limits::fit_refusal(
-                                &format!("{} {what} {n} samples", info.topic),
-                                n,
-                                max,
-                            ),
-                        ));
+                        if self.over.as_ref().is_none_or(|o| n > o.samples) {
+                            self.over = Some(Over {
+                                subject: format!("{} {what} {n} samples", info.topic),
+                                samples: n,
+                                announced: announces,
+                            });
+                        }
                     }
                 }
                 if first {
@@ -490,6 +533,21 @@ impl Collector<'_> {
                         self.expected.file_len,
                     );
                 }
+                // A refusal waits for the other position channels'
+                // announcements (their first messages, near the start of
+                // the log: a lost first buffer delays one) so that it
+                // names the longest; it comes at once where samples are
+                // being decoded past the budget, and after at most
+                // `ANNOUNCE_WAIT` buffers of a channel.
+                if let (Some(max), Some(o)) = (self.max_samples, &self.over) {
+                    let seen = [Quantity::X0, Quantity::X1, Quantity::X2]
+                        .iter()
+                        .all(|q| self.accs.get(q).is_some_and(|a| !a.buffers.is_empty()));
+                    let waited = self.accs.get(&q).map_or(0, |a| a.buffers.len()) > ANNOUNCE_WAIT;
+                    if seen || waited || !o.announced {
+                        return Err(self.refusal(max, seen));
+                    }
+                }
             }
         }
         Ok(())
@@ -497,7 +555,10 @@ impl Collector<'_> {
 
     /// The raw log: rig metadata and data present, channels expanded on
     /// the log's origin (its first sensor sample).
-    fn finish(self) -> Result<RawLog, IngestError> {
+    fn finish(mut self) -> Result<RawLog, IngestError> {
+        if let (Some(max), Some(_)) = (self.max_samples, &self.over) {
+            return Err(self.refusal(max, true));
+        }
         let Collector {
             path,
             rig,

@@ -312,6 +312,31 @@ pub enum ContentError {
     /// Rig constants the engines cannot integrate.
     #[error("rig metadata: {0}")]
     NotIntegrable(#[from] crate::model::IntegrableError),
+    /// More samples than the caller can fit
+    /// ([`IngestOptions::max_samples`]), known before the log was decoded.
+    #[error("{}", crate::limits::fit_refusal(.subject, *.samples, *.max))]
+    OverFitBudget {
+        /// What was counted, for the message (`12000000 data rows`).
+        subject: String,
+        /// The count.
+        samples: u64,
+        /// The most samples the caller fits.
+        max: u64,
+        /// How `samples` relates to the log's common grid.
+        count: SampleCount,
+    },
+}
+
+/// What an [`ContentError::OverFitBudget`] count says about the log's
+/// common grid (which runs at the fastest position channel's rate).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SampleCount {
+    /// The grid's samples (CSV and Parquet rows; the longest position
+    /// channel of a TDMS or MAT log, or as an MCAP summary announces it).
+    Grid,
+    /// Only a lower bound (samples decoded so far; an MCAP log without a
+    /// summary, or whose position channels did not all announce theirs).
+    AtLeast,
 }
 
 impl IngestError {
@@ -388,6 +413,38 @@ pub(crate) struct RawLog {
     /// Time shifts declared per channel (a CSV map's `shift_s`), already
     /// applied to the times.
     pub declared_shifts: Vec<(Quantity, f64)>,
+}
+
+/// The samples of the log's common grid as far as they are known before
+/// its channels are decoded, for planning memory (several logs fitted at
+/// once): the CSV row count, the Parquet footer's, the longest position
+/// channel of a TDMS or MAT log or as an MCAP summary announces it
+/// ([`read`] with a budget of no sample, whose refusal carries the count).
+/// `None` where only a lower bound is known before decoding (an MCAP log
+/// without a summary). A log that cannot be read gives `Some(0)`: its read
+/// fails as early.
+///
+/// ```
+/// use stickslip::ingest::{planned_samples, read, IngestOptions};
+/// let path = "datasets/char_N4.mcap".as_ref();
+/// let planned = planned_samples(path, &IngestOptions::default()).unwrap();
+/// let run = read(path, &IngestOptions::default())?;
+/// assert!(planned.abs_diff(run.samples() as u64) <= 1);
+/// # Ok::<(), stickslip::ingest::IngestError>(())
+/// ```
+pub fn planned_samples(path: &Path, opts: &IngestOptions) -> Option<u64> {
+    let probe = IngestOptions {
+        max_samples: Some(0),
+        ..opts.clone()
+    };
+    match read(path, &probe) {
+        Err(IngestError::Content {
+            source: ContentError::OverFitBudget { samples, count, .. },
+            ..
+        }) => (count == SampleCount::Grid).then_some(samples),
+        Ok(run) => Some(run.samples() as u64),
+        Err(_) => Some(0),
+    }
 }
 
 /// Reads a rig log (`.mcap`, `.csv`, `.parquet`, `.tdms` or `.mat`; CSV,

@@ -5,7 +5,7 @@
 
 use super::rig::RigMeta;
 use super::run::{median_interval, Setpoint};
-use super::{IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, SampleCount};
 use polars::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -49,9 +49,14 @@ fn read_inner(path: &Path, max_samples: Option<u64>) -> Result<RawLog, IngestErr
     })?;
     let rows = meta.num_rows as u64;
     if let Some(max) = max_samples.filter(|m| rows > *m) {
-        return Err(IngestError::invalid(
+        return Err(IngestError::content(
             path,
-            crate::limits::fit_refusal(&format!("{rows} rows"), rows, max),
+            ContentError::OverFitBudget {
+                subject: format!("{rows} rows"),
+                samples: rows,
+                max,
+                count: SampleCount::Grid,
+            },
         ));
     }
     let mut rig_map = BTreeMap::new();

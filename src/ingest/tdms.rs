@@ -26,7 +26,9 @@
 use super::csv::{self, ChannelMap, ColumnSpec, MapKind};
 use super::rig::RigMeta;
 use super::run::median_interval;
-use super::{unit_factor, IngestError, LogFormat, Quantity, RawChannel, RawLog};
+use super::{
+    unit_factor, ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, SampleCount,
+};
 use crate::warning::Warning;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -726,19 +728,23 @@ pub(crate) fn read(
     if let Some(max) = max_samples {
         // The common grid runs at the fastest position channel's rate: it
         // has at least as many samples as each of them.
-        let position = |q: &Option<Quantity>| {
-            matches!(q, Some(Quantity::X0 | Quantity::X1 | Quantity::X2))
-        };
+        let position =
+            |q: &Option<Quantity>| matches!(q, Some(Quantity::X0 | Quantity::X1 | Quantity::X2));
         if let Some((_, _, obj, _)) = entries
             .iter()
             .filter(|e| position(&e.0))
-            .find(|e| e.2.values > max)
+            .max_by_key(|e| e.2.values)
+            .filter(|e| e.2.values > max)
         {
-            return Err(bad(crate::limits::fit_refusal(
-                &format!("channel {:?} holds {} values", obj.name, obj.values),
-                obj.values,
-                max,
-            )));
+            return Err(IngestError::content(
+                path,
+                ContentError::OverFitBudget {
+                    subject: format!("channel {:?} holds {} values", obj.name, obj.values),
+                    samples: obj.values,
+                    max,
+                    count: SampleCount::Grid,
+                },
+            ));
         }
     }
     let any_table = entries.iter().any(|e| matches!(e.3, Timing::Table));
