@@ -355,3 +355,49 @@ fn quasi_periodic_point_stops_early_unless_asked_not_to() {
     let full = run(&["--no-early-stop", "--max-periods", "6000"]);
     assert_eq!(full["method"][0], "not-settled");
 }
+
+/// A shard that holds no curve of its family (one curve, three shards)
+/// writes an empty table, an empty `curves` list and a figure with empty
+/// axes; its `--plot` hung before (an infinite η axis).
+#[test]
+fn a_shard_without_curves_writes_an_empty_table_and_figure() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let (table, fig) = (dir.path().join("s.csv"), dir.path().join("s.svg"));
+    let mut child = bin()
+        .args([
+            "sweep", "--rho-s", "0.4", "--points", "12", "--shard", "2/3", "--json",
+        ])
+        .arg("--out")
+        .arg(&table)
+        .arg("--plot")
+        .arg(&fig)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("run");
+    // Hang guard: a few seconds of work at most; killed after 120 s.
+    let start = std::time::Instant::now();
+    while child.try_wait().expect("wait").is_none() {
+        if start.elapsed().as_secs() > 120 {
+            child.kill().ok();
+            panic!("sweep --shard 2/3 --plot hung");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().expect("output");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let j: serde_json::Value = serde_json::from_slice(&out.stdout).expect("json");
+    assert_eq!(j["curves"].as_array().map(Vec::len), Some(0), "{j}");
+    assert_eq!(j["points"], 0);
+    assert!(read_frc(&table).expect("table").is_empty());
+    let svg = std::fs::read_to_string(&fig).expect("figure");
+    assert!(
+        svg.starts_with("<svg") || svg.starts_with("<?xml"),
+        "{}",
+        &svg[..80.min(svg.len())]
+    );
+}

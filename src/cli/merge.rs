@@ -87,7 +87,10 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
     table::mark_coexisting(&mut rows);
     table::write_frc(&rows, &meta, &args.out)?;
     if let Some(p) = &args.plot {
-        plot::frc(&super::sweep::figure(&rows, "Frequency response".into()), p)?;
+        plot::frc(
+            &crate::report::frc_json::figure(&rows, "Frequency response".into()),
+            p,
+        )?;
     }
     if args.json {
         super::print_json(

@@ -4,9 +4,10 @@
 
 use super::args::ShapeArgs;
 use crate::io::Output;
-use crate::report::plot::{self, FrcCurve, FrcFigure};
+use crate::report::frc_json::{self, SweepJson};
+use crate::report::plot;
 use crate::report::table::{self, FrcRow};
-use crate::sim::sweep::{self, AmplitudeRange, CurveSpec, Direction, Shard, SteadyConfig};
+use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
 use crate::sim::SimError;
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
@@ -289,16 +290,14 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
     }
     if let Some(p) = &args.plot {
         let title = args.title.clone().unwrap_or_else(|| default_title(&specs));
-        plot::frc(&figure(&table, title), p)?;
+        plot::frc(&frc_json::figure(&table, title), p)?;
     }
     if args.json {
-        super::print_json(&crate::io::json::to_value(SweepOut {
-            curves: curves_out(&table),
+        super::print_json(&crate::io::json::to_value(SweepJson::of(
+            &table,
             seconds,
-            points: table.len(),
-            coexisting_points: table.iter().filter(|r| r.coexisting).count(),
-            shard: args.shard.as_deref(),
-        }))?;
+            args.shard.clone(),
+        )))?;
     } else {
         let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
         let interrupted = table.iter().filter(|r| r.interrupted).count();
@@ -327,153 +326,5 @@ fn default_title(specs: &[CurveSpec]) -> String {
             t
         }
         None => "Frequency response".into(),
-    }
-}
-
-/// Groups table rows into curves (by `curve` index, rows in η order).
-pub fn group(table: &[FrcRow]) -> Vec<Vec<&FrcRow>> {
-    let mut out: Vec<Vec<&FrcRow>> = Vec::new();
-    for r in table {
-        match out.last_mut() {
-            Some(c) if c[0].curve == r.curve => c.push(r),
-            _ => out.push(vec![r]),
-        }
-    }
-    out
-}
-
-/// One curve of the `curves` JSON (interface keys plus details): the
-/// model of its first row, then one entry per point.
-#[derive(serde::Serialize)]
-struct CurveOut<'a> {
-    rho_s: f64,
-    rho_d: f64,
-    slope: f64,
-    /// ρs⁻, ρd⁻ of a direction-dependent law (absent when symmetric).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    rho_s_minus: Option<f64>,
-    #[serde(skip_serializing_if = "Option::is_none")]
-    rho_d_minus: Option<f64>,
-    /// κ of a contact spring (absent for a rigid stick).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    contact_stiffness: Option<f64>,
-    direction: &'a str,
-    eta: Vec<f64>,
-    amplitude1: Vec<Option<f64>>,
-    amplitude2: Vec<Option<f64>>,
-    steady: Vec<bool>,
-    period_multiple: Vec<Option<u32>>,
-    stick_fraction: Vec<f64>,
-    interrupted: Vec<bool>,
-    coexisting: Vec<bool>,
-    amplitude1_min: Vec<Option<f64>>,
-    amplitude1_max: Vec<Option<f64>>,
-    amplitude2_min: Vec<Option<f64>>,
-    amplitude2_max: Vec<Option<f64>>,
-    method: Vec<&'a str>,
-}
-
-/// The `sweep --json` object.
-#[derive(serde::Serialize)]
-struct SweepOut<'a> {
-    curves: Vec<CurveOut<'a>>,
-    seconds: f64,
-    points: usize,
-    coexisting_points: usize,
-    shard: Option<&'a str>,
-}
-
-/// The `curves` JSON of the interface from table rows.
-fn curves_out(table: &[FrcRow]) -> Vec<CurveOut<'_>> {
-    group(table)
-        .into_iter()
-        .map(|c| {
-            let h = c[0];
-            let all = |f: fn(&FrcRow) -> bool| c.iter().map(|r| f(r)).collect::<Vec<_>>();
-            let range = |f: fn(&AmplitudeRange) -> f64| {
-                c.iter()
-                    .map(|r| r.range.as_ref().map(f))
-                    .collect::<Vec<_>>()
-            };
-            CurveOut {
-                rho_s: h.rho_s,
-                rho_d: h.rho_d,
-                slope: h.slope,
-                rho_s_minus: h.rho_s_minus,
-                rho_d_minus: h.rho_d_minus,
-                contact_stiffness: h.contact_stiffness,
-                direction: &h.direction,
-                eta: c.iter().map(|r| r.eta).collect(),
-                amplitude1: c.iter().map(|r| r.amplitude1).collect(),
-                amplitude2: c.iter().map(|r| r.amplitude2).collect(),
-                steady: all(|r| r.steady),
-                period_multiple: c.iter().map(|r| r.period_multiple).collect(),
-                stick_fraction: c.iter().map(|r| r.stick_fraction).collect(),
-                interrupted: all(|r| r.interrupted),
-                coexisting: all(|r| r.coexisting),
-                amplitude1_min: range(|g| g.amplitude1_min),
-                amplitude1_max: range(|g| g.amplitude1_max),
-                amplitude2_min: range(|g| g.amplitude2_min),
-                amplitude2_max: range(|g| g.amplitude2_max),
-                method: c.iter().map(|r| r.method.as_str()).collect(),
-            }
-        })
-        .collect()
-}
-
-/// The figure of a table's family.
-pub fn figure(table: &[FrcRow], title: String) -> FrcFigure {
-    let groups = group(table);
-    let absorber = table
-        .first()
-        .map(|r| crate::model::Absorber {
-            m: r.m,
-            k: r.k,
-            damping: r.damping,
-        })
-        .unwrap_or_default();
-    let lo = table.iter().map(|r| r.eta).fold(f64::INFINITY, f64::min);
-    let hi = table
-        .iter()
-        .map(|r| r.eta)
-        .fold(f64::NEG_INFINITY, f64::max);
-    let curves = groups
-        .into_iter()
-        .map(|c| {
-            let h = c[0];
-            let mut label = format!("ρs = {}", h.rho_s);
-            if h.rho_d != h.rho_s && h.rho_s.is_finite() {
-                label += &format!(", ρd = {}", h.rho_d);
-            }
-            if let (Some(s), Some(d)) = (h.rho_s_minus, h.rho_d_minus) {
-                label += &format!("; ρs⁻ = {s}");
-                if d != s {
-                    label += &format!(", ρd⁻ = {d}");
-                }
-            }
-            if let Some(kappa) = h.contact_stiffness {
-                label += &format!("; κ = {kappa}");
-            }
-            if h.direction != "up" {
-                label += &format!(" ({})", h.direction);
-            }
-            FrcCurve {
-                label,
-                eta: c.iter().map(|r| r.eta).collect(),
-                a1: c.iter().map(|r| r.amplitude1).collect(),
-                a2: c.iter().map(|r| r.amplitude2).collect(),
-                coexisting: c.iter().map(|r| r.coexisting).collect(),
-            }
-        })
-        .collect();
-    FrcFigure {
-        title,
-        absorber,
-        curves,
-        eta_range: if lo < hi {
-            (lo, hi)
-        } else {
-            (lo * 0.9, lo * 1.1)
-        },
     }
 }

@@ -5,6 +5,7 @@
 pub mod batch_plot;
 pub mod batch_view;
 pub mod characteristic_plot;
+pub mod frc_json;
 pub mod html;
 pub mod plot;
 pub mod sections;

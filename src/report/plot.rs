@@ -193,6 +193,9 @@ fn draw_frc<DB: DrawingBackend>(
     let root = root.titled(&fig.title, ("sans-serif", 26)).map_err(e)?;
     let panels = root.split_evenly((2, 1));
     let (lo, hi) = fig.eta_range;
+    if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+        return Err(format!("no η range to draw ({lo} to {hi})"));
+    }
     let grid: Vec<f64> = (0..=800)
         .map(|i| lo + (hi - lo) * i as f64 / 800.0)
         .collect();
