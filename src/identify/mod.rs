@@ -676,7 +676,10 @@ pub fn fit_logs(
     in_rounds(&planned, budget, opts, |i, o| {
         let p = &paths[i];
         let r = guarded(p, || {
-            let run = crate::ingest::read(p, &ingest)?;
+            let mut run = crate::ingest::read(p, &ingest)?;
+            // The fit reads the common grid only: the channels as recorded
+            // (times and values, about a fifth of the fit's memory) go.
+            run.channels = Vec::new();
             let f = fit_log(&run, o)?;
             Ok((run.rig, f))
         });
@@ -1106,6 +1109,11 @@ fn pad_warnings(o: &OutputErrorFit, k2: f64, warnings: &mut Vec<Warning>) {
 /// Fits the friction law of one characteristic log with 95 % intervals
 /// (bootstrap over periods combined with the calibration budget).
 ///
+/// It reads the run's common grid, rig metadata, gaps, warnings and
+/// delays, never its channels as recorded ([`Run::channels`]), which
+/// [`fit_logs`] therefore drops before fitting (test
+/// `the_fit_does_not_read_the_recorded_channels`).
+///
 /// ```
 /// use stickslip::identify::{fit_log, FitOptions, IdentifyOptions};
 /// use stickslip::ingest::{read, IngestOptions};
@@ -1386,6 +1394,42 @@ mod tests {
     /// single-gain perturbation and a double one, with an accelerometer,
     /// without one, and without a velocity channel (the Debug form prints
     /// every f64 so that distinct values print differently).
+    /// [`fit_logs`] drops the channels as recorded before fitting: the
+    /// fit must not read them (the same result, bit for bit, without them).
+    #[test]
+    fn the_fit_does_not_read_the_recorded_channels() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");
+        let full = crate::ingest::read(&path, &IngestOptions::default()).unwrap();
+        let mut bare = full.clone();
+        bare.channels = Vec::new();
+        let opts = IdentifyOptions {
+            fit: FitOptions {
+                bootstrap: 0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let a = fit_log(&full, &opts).unwrap();
+        let b = fit_log(&bare, &opts).unwrap();
+        // Wall times aside.
+        fn strip(v: &mut serde_json::Value) {
+            match v {
+                serde_json::Value::Object(m) => {
+                    m.retain(|k, _| !k.contains("seconds"));
+                    m.values_mut().for_each(strip);
+                }
+                serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+                _ => {}
+            }
+        }
+        let strip = |f: &LogFit| {
+            let mut v = serde_json::to_value(f).unwrap();
+            strip(&mut v);
+            v.to_string()
+        };
+        assert_eq!(strip(&a), strip(&b));
+    }
+
     #[test]
     fn reusing_characteristic_is_bit_identical() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");
