@@ -48,11 +48,11 @@ impl Refinement {
         th0: &[f64],
         step: &[f64],
         max_iters: u64,
-    ) -> Result<(Vec<f64>, f64, u64), String> {
-        let fail = "the refined law cannot be simulated";
+    ) -> Result<(Vec<f64>, f64, u64), RefineError> {
+        let fail = RefineError::NotSimulable;
         let p = th0.len();
         let mut th = th0.to_vec();
-        let (mut c, mut r) = prob.residual_vector(&th, proj).ok_or(fail)?;
+        let (mut c, mut r) = prob.residual_vector(&th, proj).ok_or(fail.clone())?;
         let mut lambda = 1e-3;
         let mut nu = 2.0;
         let mut it = 0u64;
@@ -76,7 +76,7 @@ impl Refinement {
                         tp[j] = th[j] - h;
                         match prob.residual_vector(&tp, proj) {
                             Some((_, rp)) if rp.len() == r.len() => (-h, rp),
-                            _ => return Err(fail.into()),
+                            _ => return Err(fail),
                         }
                     }
                 };

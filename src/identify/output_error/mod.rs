@@ -140,6 +140,45 @@ use argmin::core::{CostFunction, Executor};
 use argmin::solver::neldermead::NelderMead;
 use std::f64::consts::PI;
 
+/// Why the output-error refinement, or one family of it, failed (the
+/// text of the `refinement_failed` warnings).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RefineError {
+    /// Fewer usable samples than the refinement needs.
+    #[error("too few samples")]
+    TooFewSamples,
+    /// Too few anchors (sticks or slips) to cut the log into segments.
+    #[error("only {segments} shooting segments (the log needs repeated sticks or slips)")]
+    TooFewSegments {
+        /// The segments found.
+        segments: usize,
+    },
+    /// The equation-error start cannot be simulated.
+    #[error("the equation-error law cannot be simulated")]
+    StartNotSimulable,
+    /// No start of a family can be simulated.
+    #[error("no simulable law found")]
+    NoSimulableLaw,
+    /// The minimiser reached a law that cannot be simulated.
+    #[error("the refined law cannot be simulated")]
+    NotSimulable,
+    /// The minimiser (Nelder–Mead, argmin) failed; its message.
+    #[error("{0}")]
+    Minimiser(String),
+    /// The minimiser returned no optimum.
+    #[error("no optimum")]
+    NoOptimum,
+    /// No family could be refined.
+    #[error("no family to refine")]
+    NoFamily,
+    /// Too few segments left for the cluster-robust intervals.
+    #[error("too few shooting segments for intervals")]
+    TooFewSegmentsForIntervals,
+    /// The residuals do not line up with the samples compared.
+    #[error("residual bookkeeping failed")]
+    Bookkeeping,
+}
+
 /// Options of the refinement.
 #[derive(Debug, Clone)]
 pub struct OeOptions {
@@ -464,10 +503,10 @@ impl Refinement {
         seg: &Segmentation,
         rig: &RigMeta,
         opts: &OeOptions,
-    ) -> Result<Self, String> {
+    ) -> Result<Self, RefineError> {
         let n = c.t.len();
         if n < 10 || x0.len() != n {
-            return Err("too few samples".into());
+            return Err(RefineError::TooFewSamples);
         }
         let per_n = (1.0 / (c.drive.frequency_hz * c.dt)).round().max(8.0) as usize;
         // Initial states of M1: a cubic fit over ±1/20 of a period.
@@ -499,10 +538,9 @@ impl Refinement {
         anchors.dedup_by(|a, b| a.i.abs_diff(b.i) < per_n / 8);
         let segs = shooting_segments(&anchors, opts.span, per_n);
         if segs.len() < 4 {
-            return Err(format!(
-                "only {} shooting segments (the log needs repeated sticks or slips)",
-                segs.len()
-            ));
+            return Err(RefineError::TooFewSegments {
+                segments: segs.len(),
+            });
         }
         let stride = opts.stride.max(1);
         let omega = rig.omega_ref();
@@ -659,7 +697,7 @@ impl Refinement {
         fam: Fam,
         starts: &[Vec<f64>],
         step: &[f64],
-    ) -> Result<(Vec<f64>, f64, u64, Proj), String> {
+    ) -> Result<(Vec<f64>, f64, u64, Proj), RefineError> {
         let prob = self.problem(&self.data, fam);
         let (mut th, proj, _) = starts
             .iter()
@@ -669,11 +707,13 @@ impl Refinement {
                 Some((t.clone(), p, c))
             })
             .min_by(|a, b| a.2.total_cmp(&b.2))
-            .ok_or("the equation-error law cannot be simulated")?;
-        let fail = "the refined law cannot be simulated";
+            .ok_or(RefineError::StartNotSimulable)?;
+        let fail = RefineError::NotSimulable;
         // The segment starts move to their least-squares values (free
         // multiple-shooting nodes), so the linearised projection holds.
-        let mut proj = prob.projection(&th, Some(&proj.corrected())).ok_or(fail)?;
+        let mut proj = prob
+            .projection(&th, Some(&proj.corrected()))
+            .ok_or(fail.clone())?;
         let mut iterations = 0;
         let mut cost = f64::INFINITY;
         for pass in 0..2 {
@@ -689,11 +729,15 @@ impl Refinement {
             cost = c;
             iterations += it;
             if !(cost.is_finite() && cost < 1e299) {
-                return Err("no simulable law found".into());
+                return Err(RefineError::NoSimulableLaw);
             }
             if pass == 0 {
-                let q = prob.projection(&th, Some(&proj.current())).ok_or(fail)?;
-                proj = prob.projection(&th, Some(&q.corrected())).ok_or(fail)?;
+                let q = prob
+                    .projection(&th, Some(&proj.current()))
+                    .ok_or(fail.clone())?;
+                proj = prob
+                    .projection(&th, Some(&q.corrected()))
+                    .ok_or(fail.clone())?;
             }
         }
         Ok((th, cost, iterations, proj))
@@ -707,7 +751,7 @@ impl Refinement {
         th: &[f64],
         steps: &[f64],
         max_iters: u64,
-    ) -> Result<(Vec<f64>, f64, u64), String> {
+    ) -> Result<(Vec<f64>, f64, u64), RefineError> {
         let mut simplex = vec![th.to_vec()];
         for (k, s) in steps.iter().enumerate() {
             let mut p = th.to_vec();
@@ -717,12 +761,12 @@ impl Refinement {
         let c0 = prob.eval(th, Some(proj), None).unwrap_or(1.0);
         let solver = NelderMead::new(simplex)
             .with_sd_tolerance(1e-8 * c0.max(1.0))
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| RefineError::Minimiser(e.to_string()))?;
         let res = Executor::new(Cost(prob, Some(proj)), solver)
             .configure(|s| s.max_iters(max_iters))
             .run()
-            .map_err(|e| e.to_string())?;
-        let th = res.state.best_param.clone().ok_or("no optimum")?;
+            .map_err(|e| RefineError::Minimiser(e.to_string()))?;
+        let th = res.state.best_param.clone().ok_or(RefineError::NoOptimum)?;
         Ok((th, res.state.best_cost, res.state.iter))
     }
 
@@ -740,7 +784,7 @@ impl Refinement {
         bias: f64,
         forced: Option<LawKind>,
         u: f64,
-    ) -> Result<OutputErrorFit, String> {
+    ) -> Result<OutputErrorFit, RefineError> {
         let t0 = std::time::Instant::now();
         let mut fits: Vec<Refined> = Vec::new();
         let kinds: Vec<LawKind> = match forced {
@@ -751,7 +795,7 @@ impl Refinement {
                 .filter(|k| k.family().selection() == Selection::Simple)
                 .collect(),
         };
-        let mut last_err = String::from("no family to refine");
+        let mut last_err = RefineError::NoFamily;
         for kind in kinds {
             match self.refine(kind, starts, bias, &fits) {
                 Ok(Some(f)) => fits.push(f),
@@ -799,8 +843,9 @@ impl Refinement {
                             Ok(o) => out = o,
                             Err(e) => {
                                 fits.pop();
-                                out.notes
-                                    .push(crate::warning::Warning::StribeckFailed { reason: e });
+                                out.notes.push(crate::warning::Warning::StribeckFailed {
+                                    reason: e.to_string(),
+                                });
                             }
                         }
                     }
@@ -839,7 +884,9 @@ impl Refinement {
                        (splits, kappas, extra): (&[f64], &[f64], &[Vec<f64>]),
                        fits: &mut Vec<Refined>,
                        out: &mut OutputErrorFit| {
-            let fail = |e: String| crate::warning::Warning::PadRefinementFailed { reason: e };
+            let fail = |e: RefineError| crate::warning::Warning::PadRefinementFailed {
+                reason: e.to_string(),
+            };
             match self.refine_ext(&fits[i], ext, splits, kappas, extra) {
                 Ok(f) => {
                     fits.push(f);
@@ -921,7 +968,7 @@ impl Refinement {
         starts: &[SiLaw],
         bias: f64,
         fits: &[Refined],
-    ) -> Result<Option<Refined>, String> {
+    ) -> Result<Option<Refined>, RefineError> {
         let optimum = |k: LawKind| fits.iter().find(|f| f.kind == k).map(|f| f.th.clone());
         let family = kind.family();
         let law = match starts.iter().find(|l| l.kind == kind) {
@@ -975,7 +1022,7 @@ impl Refinement {
         splits: &[f64],
         kappas: &[f64],
         extra: &[Vec<f64>],
-    ) -> Result<Refined, String> {
+    ) -> Result<Refined, RefineError> {
         let fam = Fam {
             kind: base.kind,
             ext,
@@ -1038,7 +1085,7 @@ impl Refinement {
     /// The number of residual samples per channel and the effective number
     /// of independent ones (n over the correlation time of the residuals of
     /// the richest fit) for the criterion.
-    fn effective_samples(&self, fits: &[Refined]) -> Result<(usize, f64), String> {
+    fn effective_samples(&self, fits: &[Refined]) -> Result<(usize, f64), RefineError> {
         // The criterion: n_eff from the residuals of the richest fit.
         let richest = fits
             .iter()
@@ -1047,7 +1094,7 @@ impl Refinement {
         let mut res = Res::new();
         self.problem(&self.data, richest.fam())
             .eval(&richest.th, Some(&richest.proj), Some(&mut res))
-            .ok_or("the refined law cannot be simulated")?;
+            .ok_or(RefineError::NotSimulable)?;
         let seg: Vec<u32> = res.iter().map(|r| r.0).collect();
         let r1: Vec<f64> = res.iter().map(|r| r.1).collect();
         let r2: Vec<f64> = res.iter().map(|r| r.2).collect();
@@ -1244,13 +1291,13 @@ impl Refinement {
         forced: Option<LawKind>,
         u: f64,
         t0: std::time::Instant,
-    ) -> Result<OutputErrorFit, String> {
+    ) -> Result<OutputErrorFit, RefineError> {
         let (n, n_eff) = self.effective_samples(fits)?;
         let families = self.family_fits(fits, n, n_eff);
         let mut best = self.pick_family(&families);
         let mut notes = Vec::new();
         let sticks_of = |f: &FamilyFit| self.sticks_of(f);
-        let assess = |i: usize| -> Result<(Adequacy, Intervals, PadFit), String> {
+        let assess = |i: usize| -> Result<(Adequacy, Intervals, PadFit), RefineError> {
             let f = &fits[i];
             let adequacy = self.adequacy(f.fam(), &f.th, &f.proj)?;
             let (intervals, pads) = self
@@ -1263,7 +1310,7 @@ impl Refinement {
                     adequacy.inflation,
                     None,
                 )
-                .ok_or("too few shooting segments for intervals")?;
+                .ok_or(RefineError::TooFewSegmentsForIntervals)?;
             Ok((adequacy, intervals, pads))
         };
         let (mut adequacy, mut intervals, mut pads) = assess(best)?;
@@ -1441,15 +1488,15 @@ impl Refinement {
     /// The adequacy of a refined law: residuals of x1, x2 against the
     /// sensor noise of the same log, and their structure against drive
     /// phase, velocity, position along the stroke and time in the log.
-    fn adequacy(&self, fam: Fam, th: &[f64], proj: &Proj) -> Result<Adequacy, String> {
+    fn adequacy(&self, fam: Fam, th: &[f64], proj: &Proj) -> Result<Adequacy, RefineError> {
         let prob = self.problem(&self.data, fam);
         let mut res = Res::new();
         prob.idx.replace(Some(Vec::new()));
         let ok = prob.eval(th, Some(proj), Some(&mut res));
         let idx = prob.idx.take().unwrap_or_default();
-        ok.ok_or("the refined law cannot be simulated")?;
+        ok.ok_or(RefineError::NotSimulable)?;
         if idx.len() != res.len() || res.is_empty() {
-            return Err("residual bookkeeping failed".into());
+            return Err(RefineError::Bookkeeping);
         }
         Ok(adequacy_of(&self.data, &res, &idx))
     }
