@@ -428,8 +428,9 @@ pub(crate) struct RawLog {
 /// use stickslip::ingest::{planned_samples, read, IngestOptions};
 /// let path = "datasets/char_N4.mcap".as_ref();
 /// let planned = planned_samples(path, &IngestOptions::default()).unwrap();
-/// let run = read(path, &IngestOptions::default())?;
-/// assert!(planned.abs_diff(run.samples() as u64) <= 1);
+/// let grid = read(path, &IngestOptions::default())?.samples() as u64;
+/// // Counted from the summary before decoding: within 1 % of the grid.
+/// assert!(planned.abs_diff(grid) <= grid / 100, "{planned} vs {grid}");
 /// # Ok::<(), stickslip::ingest::IngestError>(())
 /// ```
 pub fn planned_samples(path: &Path, opts: &IngestOptions) -> Option<u64> {
