@@ -666,13 +666,18 @@ pub fn fit_logs(
         ..Default::default()
     };
     let budget = opts.memory_bytes;
-    let planned: Vec<u64> = paths
-        .iter()
-        .map(|p| {
-            let n = crate::ingest::planned_samples(p, &ingest);
-            crate::limits::planned_fit_bytes(n, budget)
-        })
-        .collect();
+    // One log gets the whole budget whatever its size: nothing to count.
+    let planned: Vec<u64> = if paths.len() == 1 {
+        vec![0]
+    } else {
+        paths
+            .iter()
+            .map(|p| {
+                let n = crate::ingest::planned_samples(p, &ingest);
+                crate::limits::planned_fit_bytes(n, budget)
+            })
+            .collect()
+    };
     in_rounds(&planned, budget, opts, |i, o| {
         let p = &paths[i];
         let r = guarded(p, || {
