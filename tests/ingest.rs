@@ -843,8 +843,8 @@ fn a_log_longer_than_the_fit_budget_is_refused_early() {
 
 /// The sample count planned before a log is decoded (for memory planning
 /// of parallel fits) is its common grid's, for every format: the CSV and
-/// Parquet row counts, the MCAP summary's announcement, the longest TDMS
-/// channel or MAT variable.
+/// Parquet row counts, the longest TDMS channel or MAT variable exactly;
+/// the MCAP summary's announcement within its lost buffers.
 #[test]
 fn planned_samples_match_the_grid_in_every_format() {
     let mut logs: Vec<String> = [
@@ -873,10 +873,16 @@ fn planned_samples_match_the_grid_in_every_format() {
         let planned = ingest::planned_samples(&path, &IngestOptions::default())
             .unwrap_or_else(|| panic!("{log}: no count before decoding"));
         let grid = run.samples() as u64;
-        assert!(
-            planned.abs_diff(grid) <= grid / 100 + 1,
-            "{log}: planned {planned}, grid {grid}"
-        );
+        if log.ends_with(".mcap") {
+            // The summary counts the buffers written: a lost one is
+            // missing (char_N4: 19900 of 20000; the stepped sweep 0.3 %).
+            assert!(
+                planned <= grid && grid - planned <= grid / 100,
+                "{log}: planned {planned}, grid {grid}"
+            );
+        } else {
+            assert_eq!(planned, grid, "{log}");
+        }
     }
     // An MCAP log without a summary section announces nothing: only a
     // lower bound is known before decoding.

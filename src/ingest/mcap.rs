@@ -283,10 +283,9 @@ struct Over {
 }
 
 impl Collector<'_> {
-    /// The refusal of the pending [`Over`] (`all_seen`: every position
+    /// The refusal of a pending [`Over`] (`all_seen`: every position
     /// channel announced its count, so the longest is known).
-    fn refusal(&mut self, max: u64, all_seen: bool) -> IngestError {
-        let o = self.over.take().expect("a pending refusal");
+    fn refusal(&self, o: Over, max: u64, all_seen: bool) -> IngestError {
         IngestError::content(
             self.path,
             ContentError::OverFitBudget {
@@ -545,7 +544,9 @@ impl Collector<'_> {
                         .all(|q| self.accs.get(q).is_some_and(|a| !a.buffers.is_empty()));
                     let waited = self.accs.get(&q).map_or(0, |a| a.buffers.len()) > ANNOUNCE_WAIT;
                     if seen || waited || !o.announced {
-                        return Err(self.refusal(max, seen));
+                        if let Some(o) = self.over.take() {
+                            return Err(self.refusal(o, max, seen));
+                        }
                     }
                 }
             }
@@ -556,8 +557,8 @@ impl Collector<'_> {
     /// The raw log: rig metadata and data present, channels expanded on
     /// the log's origin (its first sensor sample).
     fn finish(mut self) -> Result<RawLog, IngestError> {
-        if let (Some(max), Some(_)) = (self.max_samples, &self.over) {
-            return Err(self.refusal(max, true));
+        if let (Some(max), Some(o)) = (self.max_samples, self.over.take()) {
+            return Err(self.refusal(o, max, true));
         }
         let Collector {
             path,
