@@ -653,6 +653,69 @@ fn a_sharp_stribeck_pad_is_not_read_as_static_dynamic() {
     assert!((vs / 0.001 - 1.0).abs() < 0.3, "v_s {vs}");
 }
 
+/// A Stribeck drop too fast for the log (v_s 0.5 mm/s: the drop is over
+/// within about 4 ms of breakaway, while x2 moves about 1 µm against 3 µm of
+/// noise) on the same rig: the static/dynamic law explains the log to the
+/// noise with its threshold 9 % high (0.5455 N [0.5392, 0.5519], missing
+/// the true 0.5 N by seven half-widths, before session 23). The profile in
+/// v_s (Stribeck refits with v_s held, issue 30 item 5) finds that a drop
+/// of 0.67 mm/s explains it at least as well with Rs 0.493 N: the interval
+/// is widened down to hold it, with a `threshold_not_identified` warning.
+/// The static/dynamic truth of the same rig is covered too, its interval
+/// widened the same way (the log cannot tell the two apart); a resolved
+/// drop (v_s 1 mm/s, the test above) is fitted as Stribeck, unwidened.
+#[test]
+fn a_drop_the_log_cannot_resolve_widens_the_threshold() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let rig = [
+        "--seed",
+        "1",
+        "--m1-kg",
+        "5",
+        "--m2-kg",
+        "1",
+        "--k1-n-per-m",
+        "400",
+        "--k2-n-per-m",
+        "400",
+        "--frequency-hz",
+        "2",
+        "--rs-n",
+        "0.5",
+        "--rd-n",
+        "0.38",
+    ];
+    for (name, law) in [
+        (
+            "drop.mcap",
+            &["--law", "stribeck", "--stribeck-velocity-m-per-s", "0.0005"][..],
+        ),
+        ("step.mcap", &["--law", "static-dynamic"][..]),
+    ] {
+        let log = dir.path().join(name);
+        common::synth_log(&log, None, &[&rig[..], law].concat());
+        let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
+        let fit = &j["fits"][0];
+        assert_eq!(fit["law"], "static-dynamic", "{name}: {}", fit["warnings"]);
+        assert_eq!(fit["adequate"], true, "{name}");
+        let rs = f(&fit["r_s_n"]);
+        let iv = &fit["r_s_interval_n"];
+        assert!(f(&iv[0]) <= 0.5 && 0.5 <= f(&iv[1]), "{name}: Rs {rs} {iv}");
+        assert!(
+            common::codes_of(fit).contains(&"threshold_not_identified"),
+            "{name}: {}",
+            fit["warnings"]
+        );
+        let dp = &fit["output_error"]["drop_profile"];
+        let (low, vs) = (f(&dp["r_s_n"]), f(&dp["v_s_m_per_s"]));
+        assert!(
+            low < rs && vs > f(&dp["resolution_m_per_s"]),
+            "{name}: {dp}"
+        );
+        assert!(f(&dp["delta_bic"]) < 10.0, "{name}: {dp}");
+    }
+}
+
 /// Sensors of log035 of the adequacy study (`scripts/adequacy_study.py`,
 /// seed 2026).
 const LOG035_SENSORS: &str = r#"{"x0": {"rate_hz": 2000.0, "noise": 4.6344569139542725e-06, "quant": 1e-06, "gain": 0.9915009879350125, "offset": -0.0002758866600327096, "lowpass_hz": null, "buffer_s": 0.05, "start_offset_ns": null, "jitter_ns": 0, "p_lost_buffer": 0.01, "p_dropout": 0.0002, "dropout_burst_max": 4, "noise_correlation_s": 0.0}, "x1": {"rate_hz": 2000.0, "noise": 1.3211884040952739e-06, "quant": 2.5e-06, "gain": 1.0088738747280388, "offset": -0.0015811718113713763, "lowpass_hz": 464.87158486949636, "buffer_s": 0.1, "start_offset_ns": null, "jitter_ns": 0, "p_lost_buffer": 0.01, "p_dropout": 0.0002, "dropout_burst_max": 4, "noise_correlation_s": 0.0}, "x2": {"rate_hz": 2000.0, "noise": 7.65873370268075e-06, "quant": 2.5e-06, "gain": 1.008504252696497, "offset": -0.0006003695612463269, "lowpass_hz": null, "buffer_s": 0.1, "start_offset_ns": null, "jitter_ns": 10000, "p_lost_buffer": 0.0, "p_dropout": 0.0002, "dropout_burst_max": 4, "noise_correlation_s": 0.001120088713682467}, "v2": {"rate_hz": 500.0, "noise": 0.0005806764151524515, "quant": 1e-05, "gain": 0.9977574256657924, "offset": -4.07865657244701e-05, "lowpass_hz": 155.8681394119809, "buffer_s": 0.05, "start_offset_ns": null, "jitter_ns": 0, "p_lost_buffer": 0.0, "p_dropout": 0.0, "dropout_burst_max": 4, "noise_correlation_s": 0.0}, "a2": null, "normal_force": {"rate_hz": 10.0, "noise": 0.0, "quant": 0.01, "gain": 1.004938218969958, "offset": 0.006984253039124148, "lowpass_hz": null, "buffer_s": 0.5, "start_offset_ns": null, "jitter_ns": 2000, "p_lost_buffer": 0.01, "p_dropout": 0.0, "dropout_burst_max": 4, "noise_correlation_s": 0.0}}"#;

@@ -475,7 +475,8 @@ fn band_draws_follow_the_precision_target() {
 
 /// The band's draws carry the sensors' common scale errors as common
 /// factors: on the output-error fit of `char_N4`, Rs/Rd of a draw scatters
-/// only as much as the ρ intervals say (they are precise: ±0.02 %), while
+/// only as much as the chosen law's ρ intervals say (they are precise:
+/// ±0.02 %), while
 /// the common level scatters by the two drive gains, each uniform on ±u
 /// (σ = u·√(2/3) = 0.82 % at u = 1 %). Drawing Rs and Rd independently
 /// from their newton intervals (±1.1 %, the drive gain whole in each) gave
@@ -496,9 +497,15 @@ fn band_draws_share_the_drive_gains() {
     let level: Vec<f64> = draws.iter().map(|l| (l.rd_n / central.rd_n).ln()).collect();
     let rel =
         |iv: Option<(f64, f64)>, c: f64| iv.map(|(lo, hi)| 0.5 * (hi - lo) / c / 1.96).unwrap();
+    // The draws take the chosen law's own ρs interval (the reported one is
+    // widened for the threshold's identifiability on this log).
+    let rho_s_interval = match fit.law_threshold_interval {
+        Some((_, rho)) => rho,
+        None => fit.rho_s_interval,
+    };
     let (ss, sd_) = (
         rel(
-            fit.rho_s_interval,
+            rho_s_interval,
             fit.law().expect("a sliding law").rs_n / fit.force_scale_n,
         ),
         rel(

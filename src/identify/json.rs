@@ -114,6 +114,9 @@ struct OutputErrorOut {
     drive: &'static str,
     seconds: f64,
     criteria: Vec<FamilyOut>,
+    /// The chosen static/dynamic law's profile against an unresolved
+    /// Stribeck drop (`null` for other laws).
+    drop_profile: Option<super::output_error::DropProfile>,
 }
 
 /// One structure test of the residuals.
@@ -394,6 +397,7 @@ impl LogFit {
                             reversal_bound_n: f.reversal_bound_n,
                         })
                         .collect(),
+                    drop_profile: o.drop_profile,
                 }
             }),
             gain_uncertainty: self.gain_uncertainty,

@@ -330,10 +330,7 @@ impl Default for IdentifyOptions {
 /// they are fitted on a log whose law explains it without them.
 const LAG_EVIDENCE_BIC: f64 = 10.0;
 
-/// Families closer than this in BIC to the chosen one are not told apart
-/// by the log: where they put Rs outside the chosen law's interval, the
-/// interval is widened to hold them (issue 30, item 5).
-const THRESHOLD_EVIDENCE_BIC: f64 = 10.0;
+use output_error::THRESHOLD_EVIDENCE_BIC;
 
 /// Which estimate a [`LogFit`]'s law and intervals are.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -407,8 +404,20 @@ pub struct LogFit {
     pub slope_scale: f64,
     /// Velocity scale A·√(K2/M2) (m/s) of the dimensionless v_s.
     pub velocity_scale_m_per_s: f64,
-    /// Rs interval (N) of the estimate used; for a never-sticking log, the bounds.
+    /// Rs interval (N) of the estimate used; for a never-sticking log, the
+    /// bounds. Where the log does not identify the breakaway threshold
+    /// (another family, or a Stribeck drop it cannot resolve, explains it
+    /// with Rs outside the chosen law's interval: `threshold_not_identified`)
+    /// it is widened to hold them.
     pub rs_interval_n: Option<Interval>,
+    /// The chosen law's own Rs interval (N) and ρs interval where
+    /// `rs_interval_n` was widened for the threshold's identifiability
+    /// (None: not widened). Draws of the chosen law (validation bands) use
+    /// these: the log pins that law's threshold to them (the static/dynamic
+    /// law with a widened low Rs is refused by the log; only a law with a
+    /// drop explains it).
+    #[serde(default)]
+    pub law_threshold_interval: Option<(Interval, Option<Interval>)>,
     /// Rd interval (N) of the estimate used.
     pub rd_interval_n: Option<Interval>,
     /// a interval (N·s/m) of the estimate used.
@@ -1195,6 +1204,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     if let Some(o) = output_error.as_ref() {
         warnings.extend(o.notes.iter().cloned());
     }
+    let mut law_threshold_interval = None;
     let (estimate, law, used) = match &mut output_error {
         Some(o) => {
             let iv = &o.intervals;
@@ -1245,7 +1255,32 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                         hi = hi.max(rs);
                     }
                 }
+                // A Stribeck drop the log does not resolve: the lowest Rs
+                // the profile in v_s admits, with its interval.
+                if let Some(dp) = o.drop_profile {
+                    if let (Some(rs), Some((a, _)), Some(vs), Some(vmax), Some(d)) = (
+                        dp.rs_n,
+                        dp.rs_interval_n,
+                        dp.vs_m_per_s,
+                        dp.vs_admitted_m_per_s,
+                        dp.delta_bic,
+                    ) {
+                        if rs < iv.0 {
+                            let low = a.min(rs).min(lo);
+                            warnings.push(Warning::DropNotResolved {
+                                vs_m_per_s: vs,
+                                vs_admitted_m_per_s: vmax,
+                                delta_bic: d,
+                                other_rs_n: rs,
+                                interval_n: iv,
+                                low_n: low,
+                            });
+                            lo = low;
+                        }
+                    }
+                }
                 if (lo, hi) != iv && iv.0 > 0.0 && iv.1 > 0.0 {
+                    law_threshold_interval = Some((iv, used.rho_s));
                     used.rs_n = Some((lo, hi));
                     used.rho_s = used.rho_s.map(|(l, h)| (l * lo / iv.0, h * hi / iv.1));
                 }
@@ -1312,6 +1347,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         slope_scale: ss,
         velocity_scale_m_per_s: a * rig.omega_ref(),
         rs_interval_n: used.rs_n,
+        law_threshold_interval,
         rd_interval_n: used.rd_n,
         slope_interval_n_s_per_m: used.slope_n_s_per_m,
         rho_s_interval: used.rho_s,

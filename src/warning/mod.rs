@@ -383,6 +383,25 @@ pub enum Warning {
         /// The chosen law's Rs interval before widening (N).
         interval_n: (f64, f64),
     },
+    /// The chosen static/dynamic law's threshold is not identified against
+    /// a Stribeck drop too fast for the log to resolve: with v_s held at a
+    /// value the criterion does not tell from the chosen law, the Stribeck
+    /// family puts Rs below the chosen law's interval, which is widened to
+    /// hold that fit's interval.
+    DropNotResolved {
+        /// The v_s (m/s) of that fit.
+        vs_m_per_s: f64,
+        /// The largest v_s (m/s) the criterion admits.
+        vs_admitted_m_per_s: f64,
+        /// Its BIC minus the chosen law's.
+        delta_bic: f64,
+        /// Its Rs (N).
+        other_rs_n: f64,
+        /// The chosen law's Rs interval before widening (N).
+        interval_n: (f64, f64),
+        /// The widened interval's low end (N).
+        low_n: f64,
+    },
     /// A real-pad extension (split threshold, contact spring) could not be
     /// refined.
     PadRefinementFailed {
@@ -727,7 +746,7 @@ impl Warning {
             ShortSticks { .. } => "short_sticks",
             BoundsContradict { .. } => "contradiction",
             LawChanged { .. } => "law_changed",
-            ThresholdNotIdentified { .. } => "threshold_not_identified",
+            ThresholdNotIdentified { .. } | DropNotResolved { .. } => "threshold_not_identified",
             NestedCoulomb { .. } => "parsimony",
             PadRefinementFailed { .. } => "refinement_failed",
             DirectionDependent { .. } | DirectionBounded { .. } => "direction_dependent",
@@ -1069,6 +1088,20 @@ mod tests {
                 format!(
                     "the never-sticks bounds contradict each other: the reversal forces bound Rs above by {:.4} N, the sliding level below by {:.4} N",
                     x, 1.3
+                ),
+            ),
+            (
+                DropNotResolved {
+                    vs_m_per_s: 4e-4,
+                    vs_admitted_m_per_s: 8e-4,
+                    delta_bic: 2.5,
+                    other_rs_n: 1.1,
+                    interval_n: (1.2, 1.3),
+                    low_n: 1.05,
+                },
+                format!(
+                    "this log does not identify the breakaway threshold: a Stribeck drop within a few samples of breakaway (v_s {:.3} mm/s; the criterion admits v_s up to {:.3} mm/s) explains it almost as well (ΔBIC {:.1}) with Rs {:.4} N, below the chosen law's interval [{:.4}, {:.4}] N; the Rs interval is widened down to {:.4} N",
+                    0.4, 0.8, 2.5, 1.1, 1.2, 1.3, 1.05
                 ),
             ),
             (
@@ -1475,7 +1508,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 77;
+    const VARIANTS: usize = 78;
 
     #[test]
     fn every_code_is_documented() {

@@ -46,6 +46,7 @@ impl fmt::Display for Warning {
             | BoundsContradict { .. }
             | LawChanged { .. }
             | ThresholdNotIdentified { .. }
+            | DropNotResolved { .. }
             | NestedCoulomb { .. }
             | PadRefinementFailed { .. }
             | DirectionDependent { .. }
@@ -365,6 +366,20 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             f,
             "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
             other.as_str()
+        ),
+        DropNotResolved {
+            vs_m_per_s,
+            vs_admitted_m_per_s,
+            delta_bic,
+            other_rs_n,
+            interval_n: (lo, hi),
+            low_n,
+        } => write!(
+            f,
+            "this log does not identify the breakaway threshold: a Stribeck drop within a few samples of breakaway (v_s {:.3} mm/s; the criterion admits v_s up to {:.3} mm/s) explains it {} (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, below the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened down to {low_n:.4} N",
+            vs_m_per_s * 1e3,
+            vs_admitted_m_per_s * 1e3,
+            if *delta_bic < 0.0 { "better" } else { "almost as well" }
         ),
         PadRefinementFailed { reason } => write!(
             f,

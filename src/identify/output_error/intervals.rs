@@ -94,8 +94,8 @@ pub struct PadFit {
 
 impl Refinement {
     /// Sandwich intervals over segments plus the calibration budget, and
-    /// the real-pad parameters' intervals; conditional on θ[`fixed`] where
-    /// given (a profile point: that parameter held, not estimated).
+    /// the real-pad parameters' intervals; conditional on the parameters
+    /// θⱼ, j in `fixed` (a profile point: those held, not estimated).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn intervals(
         &self,
@@ -105,7 +105,7 @@ impl Refinement {
         u: f64,
         rs_known: bool,
         inflation: f64,
-        fixed: Option<usize>,
+        fixed: &[usize],
     ) -> Option<(Intervals, PadFit)> {
         let Variances {
             q0,
@@ -153,15 +153,15 @@ impl Refinement {
     }
 
     /// The reported quantities at θ (see [`NQ`]) with their statistical
-    /// (sandwich) and calibration variances; conditional on θ[`fixed`]
-    /// where given.
+    /// (sandwich) and calibration variances; conditional on the parameters
+    /// θⱼ, j in `fixed`.
     pub(super) fn variances(
         &self,
         fam: Fam,
         th: &[f64],
         proj: &Proj,
         u: f64,
-        fixed: Option<usize>,
+        fixed: &[usize],
     ) -> Option<Variances> {
         let prob = self.problem(&self.data, fam);
         let p = th.len();
@@ -169,32 +169,26 @@ impl Refinement {
         prob.eval(th, Some(proj), Some(&mut r0))?;
         let m = r0.len();
         let jac = self.jacobian(&prob, fam.kind, th, proj, m)?;
-        let (hinv, cov, t975) = match fixed {
-            None => self.sandwich(&jac, &r0, p)?,
-            Some(fx) => {
-                // The held column out, and back as zero rows and columns.
-                let free: Vec<Vec<f64>> = jac
-                    .iter()
-                    .map(|row| {
-                        let mut r = row.clone();
-                        r.remove(fx);
-                        r
-                    })
-                    .collect();
-                let (h, c, t) = self.sandwich(&free, &r0, p - 1)?;
-                let expand = |a: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
-                    let mut out: Vec<Vec<f64>> = a
-                        .into_iter()
-                        .map(|mut row| {
-                            row.insert(fx, 0.0);
-                            row
-                        })
-                        .collect();
-                    out.insert(fx, vec![0.0; p]);
-                    out
-                };
-                (expand(h), expand(c), t)
-            }
+        let (hinv, cov, t975) = if fixed.is_empty() {
+            self.sandwich(&jac, &r0, p)?
+        } else {
+            // The held columns out, and back as zero rows and columns.
+            let free_ix: Vec<usize> = (0..p).filter(|j| !fixed.contains(j)).collect();
+            let free: Vec<Vec<f64>> = jac
+                .iter()
+                .map(|row| free_ix.iter().map(|&j| row[j]).collect())
+                .collect();
+            let (h, c, t) = self.sandwich(&free, &r0, free_ix.len())?;
+            let expand = |a: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
+                let mut out = vec![vec![0.0; p]; p];
+                for (i, row) in a.into_iter().enumerate() {
+                    for (k, v) in row.into_iter().enumerate() {
+                        out[free_ix[i]][free_ix[k]] = v;
+                    }
+                }
+                out
+            };
+            (expand(h), expand(c), t)
         };
         // The reported quantities as functions of θ (and the amplitude).
         let k2 = self.rig.k2;

@@ -109,6 +109,7 @@
 
 mod adequacy;
 mod data;
+mod drop;
 mod intervals;
 mod lm;
 mod problem;
@@ -119,6 +120,7 @@ pub use adequacy::{
     Adequacy, Evidence, Structure, MAX_NOISE_RATIO, MAX_STRUCTURE_EFFECT, MAX_STRUCTURE_Z,
 };
 use data::*;
+pub use drop::{DropProfile, THRESHOLD_EVIDENCE_BIC};
 pub use intervals::PadFit;
 pub use lm::Minimiser;
 pub use problem::Ext;
@@ -322,14 +324,19 @@ pub struct OutputErrorFit {
     /// sticks; else at least 0.5 % of the time in four or more phases):
     /// ρs is measured, not only bounded.
     pub sticks_found: bool,
-    /// The adequacy verdict of the chosen law.
     /// Whether the lags of x1 and x2 were fitted (`FamilyFit::delays_s`).
     pub position_delays: bool,
+    /// The adequacy verdict of the chosen law.
     pub adequacy: Adequacy,
     /// How strongly the data prefer the chosen family (None: one family).
     pub evidence: Option<Evidence>,
     /// Notes on the choice (parsimony), as warnings.
     pub notes: Vec<crate::warning::Warning>,
+    /// The chosen static/dynamic law's threshold against an unresolved
+    /// Stribeck drop ([`DropProfile`]; None for other laws and forced
+    /// ones).
+    #[serde(default)]
+    pub drop_profile: Option<DropProfile>,
 }
 
 /// Anchors at the middle of every stick run (ends excluded): M2 at rest,
@@ -857,6 +864,13 @@ impl Refinement {
             }
         }
         self.real_pads(&mut fits, &mut out, forced, u, t0);
+        if let (None, true, Some(iv)) = (forced, out.sticks_found, out.intervals.rs_n) {
+            if let Some(sd) = fits.iter().find(|f| {
+                f.kind == out.chosen.law.kind && f.ext == out.chosen.ext && f.ext.is_empty()
+            }) {
+                out.drop_profile = self.profile_drop(sd, iv, out.n_eff);
+            }
+        }
         Ok(out)
     }
 
@@ -1308,7 +1322,7 @@ impl Refinement {
                     u,
                     sticks_of(&families[i]),
                     adequacy.inflation,
-                    None,
+                    &[],
                 )
                 .ok_or(RefineError::TooFewSegmentsForIntervals)?;
             Ok((adequacy, intervals, pads))
@@ -1420,6 +1434,7 @@ impl Refinement {
             adequacy,
             evidence,
             notes,
+            drop_profile: None,
         })
     }
 

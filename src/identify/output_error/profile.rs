@@ -56,7 +56,7 @@ impl Refinement {
         let mut step = Self::ext_steps(fam, &base.th);
         step[0] = 0.0;
         // The calibration of the deviance, along ln κ (the last of θ).
-        let v = self.variances(fam, &base.th, &base.proj, u, Some(0))?;
+        let v = self.variances(fam, &base.th, &base.proj, u, &[0])?;
         let k = base.th.len() - 1;
         let scale = v.naive_stat[k] / v.stat[k];
         if !(scale.is_finite() && scale > 0.0) {
@@ -124,7 +124,7 @@ impl Refinement {
         let rs_upper_n = match hi {
             Some(_) => {
                 let proj = top.3.as_ref().unwrap_or(&base.proj);
-                let cal = self.variances(fam, &top.2, proj, u, None)?.var_cal[0];
+                let cal = self.variances(fam, &top.2, proj, u, &[])?.var_cal[0];
                 Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * cal).sqrt())
             }
             None => None,
@@ -132,7 +132,7 @@ impl Refinement {
         let mut kappa_interval: Option<Interval> = None;
         for (_, _, th, proj) in &kept {
             let proj = proj.as_ref().unwrap_or(&base.proj);
-            let Some((_, pads)) = self.intervals(fam, th, proj, u, true, inflation, Some(0)) else {
+            let Some((_, pads)) = self.intervals(fam, th, proj, u, true, inflation, &[0]) else {
                 continue;
             };
             if let Some((a, b)) = pads.contact_stiffness_interval {

@@ -397,18 +397,21 @@ fn draw_laws_gains(
     // characteristic log's drive gain is a common factor on top.
     let scale = |iv: Option<(f64, f64)>, s: f64| iv.map(|(lo, hi)| (lo * s, hi * s));
     let oe = fit.estimate == Estimate::OutputError;
+    // The chosen law's own threshold interval where the reported one was
+    // widened for the threshold's identifiability (the draws simulate the
+    // chosen law).
+    let (rs_n_iv, rho_s_iv) = match fit.law_threshold_interval {
+        Some((n, rho)) => (Some(n), rho),
+        None => (fit.rs_interval_n, fit.rho_s_interval),
+    };
     let (rs_iv, rd_iv, slope_iv) = if oe {
         (
-            scale(fit.rho_s_interval, fit.force_scale_n),
+            scale(rho_s_iv, fit.force_scale_n),
             scale(fit.rho_d_interval, fit.force_scale_n),
             scale(fit.dstar_interval, fit.slope_scale),
         )
     } else {
-        (
-            fit.rs_interval_n,
-            fit.rd_interval_n,
-            fit.slope_interval_n_s_per_m,
-        )
+        (rs_n_iv, fit.rd_interval_n, fit.slope_interval_n_s_per_m)
     };
     let tied = central.kind.family().tied_threshold();
     let mut rng = Rng::new(seed);
