@@ -531,3 +531,28 @@ fn fit_does_not_depend_on_thread_count() {
     };
     assert_eq!(run("1"), run("3"));
 }
+
+/// A Stribeck law forced on a log whose slip samples never come near the
+/// drop: on `char_N7.2.mcap` the equation-error scan found v_s 0.68 mm/s
+/// below slip speeds of several mm/s, and reported Rs 6.4e7 N (the
+/// coefficient of a column of values about 1e-8). A velocity scale below
+/// half the slowest slip sample is not one the data resolve: the law is
+/// not fitted, said so, and no absurd Rs is reported.
+#[test]
+fn a_stribeck_drop_below_every_slip_speed_is_not_extrapolated() {
+    let j = json_of(
+        bin()
+            .args(["fit", "--law", "stribeck"])
+            .arg(data("char_N7.2.mcap"))
+            .arg("--json"),
+    );
+    let fit = &j["fits"][0];
+    assert!(
+        common::codes_of(fit).contains(&"law_not_fitted"),
+        "{}",
+        fit["warnings"]
+    );
+    assert!(fit["stribeck"].is_null(), "{}", fit["stribeck"]);
+    let (rs, rd) = (f(&fit["r_s_n"]), f(&fit["r_d_n"]));
+    assert!(rs < 2.0 * rd, "Rs {rs} against Rd {rd}");
+}

@@ -12,12 +12,17 @@ use crate::model::LawKind;
 use crate::stats::golden_section;
 
 /// The velocity scale (m/s) of family `kind` the slip samples resolve, if
-/// any: None where
-/// the speeds span less than a factor 4 above `u_min` (the hysteresis
-/// threshold), or where the optimum sits at the scanned range's edge (not
-/// a peak the data resolve).
+/// any: None where the speeds span less than a factor 4 above `u_min` (the
+/// hysteresis threshold), or where the optimum sits at the scanned range's
+/// edge or below half the slowest slip sample's speed (not a peak the data
+/// resolve).
 pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> Option<f64> {
     let umax = samples.iter().map(|s| s.u).fold(0.0, f64::max);
+    // The slowest slip sample: a scale below it is an extrapolation (on
+    // `char_N7.2.mcap` forced to Stribeck, v_s 0.68 mm/s under slip
+    // samples of several mm/s gave Rs − Rd = 6.4e7 N from a column of
+    // values about 1e-8).
+    let uslow = samples.iter().map(|s| s.u).fold(f64::INFINITY, f64::min);
     let umin = u_min.max(1e-9);
     if umax <= 4.0 * umin {
         return None;
@@ -53,5 +58,5 @@ pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> O
     let step = (b - a) / m as f64;
     let lv = golden_section((best.0 - step).max(a), (best.0 + step).min(b), 30, cost);
     // At the bounds it is not a scale the data resolve.
-    (lv > a + 0.5 * step && lv < b - 0.5 * step).then(|| lv.exp())
+    (lv > a + 0.5 * step && lv < b - 0.5 * step && lv.exp() >= 0.5 * uslow).then(|| lv.exp())
 }
