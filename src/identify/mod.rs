@@ -1339,7 +1339,19 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         Measured::StickSlip(law)
     };
     let (normal_force_n, eta) = force_and_drive_checks(run, &base, &mut warnings);
-    let notes = characteristic_notes(&base, &ef);
+    let mut notes = characteristic_notes(&base, &ef);
+    // A forced law the equation error could not fit but the output error
+    // refined (from the simple families' optima): it was fitted.
+    if let (Some(k), Estimate::OutputError) = (opts.fit.law, estimate) {
+        let not_fitted = Warning::LawNotFitted { law: k };
+        if law.kind == k && warnings.contains(&not_fitted) {
+            warnings.retain(|w| *w != not_fitted);
+            notes.push(format!(
+                "law {}: no equation-error fit; refined by output error from the simple families' optima",
+                k.as_str()
+            ));
+        }
+    }
     Ok(LogFit {
         normal_force_n,
         eta,

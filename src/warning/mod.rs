@@ -77,6 +77,7 @@ pub const CODES: &[&str] = &[
     "contradiction",
     "law_changed",
     "threshold_not_identified",
+    "velocity_scale_not_identified",
     "parsimony",
     "direction_dependent",
     "contact_compliance",
@@ -401,6 +402,17 @@ pub enum Warning {
         interval_n: (f64, f64),
         /// The widened interval's low end (N).
         low_n: f64,
+    },
+    /// A forced law's velocity scale is below what the log resolves (its
+    /// drop happens within one sample: a step to the data).
+    VelocityScaleUnresolved {
+        /// The law.
+        law: LawKind,
+        /// Its fitted v_s (m/s).
+        vs_m_per_s: f64,
+        /// The speed (m/s) the slider gains within one sample after
+        /// breakaway, |Rs − Rd|/M2·dt.
+        resolution_m_per_s: f64,
     },
     /// A real-pad extension (split threshold, contact spring) could not be
     /// refined.
@@ -747,6 +759,7 @@ impl Warning {
             BoundsContradict { .. } => "contradiction",
             LawChanged { .. } => "law_changed",
             ThresholdNotIdentified { .. } | DropNotResolved { .. } => "threshold_not_identified",
+            VelocityScaleUnresolved { .. } => "velocity_scale_not_identified",
             NestedCoulomb { .. } => "parsimony",
             PadRefinementFailed { .. } => "refinement_failed",
             DirectionDependent { .. } | DirectionBounded { .. } => "direction_dependent",
@@ -1102,6 +1115,13 @@ mod tests {
                 format!(
                     "this log does not identify the breakaway threshold: a Stribeck drop within a few samples of breakaway (v_s {:.3} mm/s; the criterion admits v_s up to {:.3} mm/s) explains it almost as well (ΔBIC {:.1}) with Rs {:.4} N, below the chosen law's interval [{:.4}, {:.4}] N; the Rs interval is widened down to {:.4} N",
                     0.4, 0.8, 2.5, 1.1, 1.2, 1.3, 1.05
+                ),
+            ),
+            (
+                VelocityScaleUnresolved { law: s, vs_m_per_s: 2e-15, resolution_m_per_s: 1.5e-4 },
+                format!(
+                    "the {} law's velocity scale v_s = {:.2e} m/s is below what this log resolves (the slider gains {:.2e} m/s within one sample after breakaway): its drop is a step to the data, so v_s is not identified and the law acts as a step from Rs to Rd",
+                    s.as_str(), 2e-15, 1.5e-4
                 ),
             ),
             (
@@ -1508,7 +1528,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 78;
+    const VARIANTS: usize = 79;
 
     #[test]
     fn every_code_is_documented() {

@@ -47,6 +47,7 @@ impl fmt::Display for Warning {
             | LawChanged { .. }
             | ThresholdNotIdentified { .. }
             | DropNotResolved { .. }
+            | VelocityScaleUnresolved { .. }
             | NestedCoulomb { .. }
             | PadRefinementFailed { .. }
             | DirectionDependent { .. }
@@ -380,6 +381,15 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             vs_m_per_s * 1e3,
             vs_admitted_m_per_s * 1e3,
             if *delta_bic < 0.0 { "better" } else { "almost as well" }
+        ),
+        VelocityScaleUnresolved {
+            law,
+            vs_m_per_s,
+            resolution_m_per_s,
+        } => write!(
+            f,
+            "the {} law's velocity scale v_s = {vs_m_per_s:.2e} m/s is below what this log resolves (the slider gains {resolution_m_per_s:.2e} m/s within one sample after breakaway): its drop is a step to the data, so v_s is not identified and the law acts as a step from Rs to Rd",
+            law.as_str()
         ),
         PadRefinementFailed { reason } => write!(
             f,

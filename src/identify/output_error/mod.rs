@@ -810,6 +810,26 @@ impl Refinement {
                 Err(e) => last_err = e,
             }
         }
+        // A forced family without an equation-error start (the
+        // segmentation saw no stick; no Stribeck drop in the equation
+        // error) starts, as in `--law auto`, from the optima of the simple
+        // families it nests; those are refined for that only and do not
+        // compete.
+        if let (Some(k), true) = (forced, fits.is_empty()) {
+            let mut helpers: Vec<Refined> = Vec::new();
+            for &kind in LawKind::all() {
+                if kind != k && kind.family().selection() == Selection::Simple {
+                    if let Ok(Some(f)) = self.refine(kind, starts, bias, &helpers) {
+                        helpers.push(f);
+                    }
+                }
+            }
+            match self.refine(k, starts, bias, &helpers) {
+                Ok(Some(f)) => fits.push(f),
+                Ok(None) => {}
+                Err(e) => last_err = e,
+            }
+        }
         if fits.is_empty() {
             return Err(last_err);
         }
@@ -864,6 +884,23 @@ impl Refinement {
             }
         }
         self.real_pads(&mut fits, &mut out, forced, u, t0);
+        // A forced law with a velocity scale the log does not resolve (a
+        // drop within one sample: a step to the data) is said to be one.
+        if let Some(f) = forced
+            .filter(|k| k.family().has_velocity_scale())
+            .and_then(|k| fits.iter().find(|f| f.kind == k && f.ext.is_empty()))
+        {
+            let law = f.kind.family().unpack(&f.th);
+            if let (false, Some(vs)) = (self.resolves_drop(f), law.vs_m_per_s) {
+                let m2 = self.rig.k2 / (self.rig.omega * self.rig.omega);
+                out.notes
+                    .push(crate::warning::Warning::VelocityScaleUnresolved {
+                        law: f.kind,
+                        vs_m_per_s: vs,
+                        resolution_m_per_s: (law.rs_n - law.rd_n).abs() / m2 * self.data.dt,
+                    });
+            }
+        }
         if let (None, true, Some(iv)) = (forced, out.sticks_found, out.intervals.rs_n) {
             if let Some(sd) = fits.iter().find(|f| {
                 f.kind == out.chosen.law.kind && f.ext == out.chosen.ext && f.ext.is_empty()
