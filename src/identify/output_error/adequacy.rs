@@ -103,6 +103,13 @@ pub struct Structure {
     pub effect: f64,
 }
 
+/// The smallest x2 structure against velocity or drive phase (RMS of the
+/// bin means, in noise units) that makes an adequate static/dynamic law try
+/// the Stribeck family ([`Structure::suggests_a_sharper_drop`]): the sharp
+/// drops that needed it showed 0.05–0.15 (sharp-Stribeck rig, v_s 0.5–1
+/// mm/s); a 3000-s static/dynamic log showed 0.006 at z 4.
+pub const MIN_RESCUE_EFFECT: f64 = 0.02;
+
 /// The names a structure test can carry (channels, then what the residuals
 /// are binned against).
 const STRUCTURE_NAMES: [&str; 7] = [
@@ -162,6 +169,14 @@ impl Structure {
         self.z > MAX_STRUCTURE_Z
             && self.channel != "force"
             && (self.against == "velocity" || self.against == "drive phase")
+    }
+    /// x2's residuals follow the velocity or the drive phase significantly
+    /// and by at least [`MIN_RESCUE_EFFECT`] of the noise: an adequate
+    /// static/dynamic law then also tries the Stribeck family (a drop
+    /// sharper than the law has). The floor keeps a test whose z grows as
+    /// √n from calling every long log's tiny structure a drop.
+    pub fn suggests_a_sharper_drop(&self) -> bool {
+        self.channel == "x2" && self.follows_the_motion() && self.effect >= MIN_RESCUE_EFFECT
     }
     /// Counted in the verdict: the positions' tests are, the force's
     /// (accelerometer) tests are reported only.
@@ -351,5 +366,31 @@ pub(super) fn adequacy_of(d: &Data, res: &Res, idx: &[(usize, f64)]) -> Adequacy
         structure,
         adequate,
         inflation,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rescue's trigger: a significant x2 structure against velocity
+    /// or drive phase of at least [`MIN_RESCUE_EFFECT`]; the 3000-s log's
+    /// 0.006 at z 4.0 is not one, the sharp-Stribeck rig's 0.05 at z 4.4
+    /// is; x1, position, and insignificant structures never are.
+    #[test]
+    fn only_a_visible_x2_structure_suggests_a_sharper_drop() {
+        let s = |channel, against, z, effect| Structure {
+            channel,
+            against,
+            chi2_per_dof: 1.0,
+            z,
+            effect,
+        };
+        assert!(!s("x2", "velocity", 4.0, 0.006).suggests_a_sharper_drop());
+        assert!(s("x2", "drive phase", 4.4, 0.05).suggests_a_sharper_drop());
+        assert!(s("x2", "velocity", 8.5, 0.15).suggests_a_sharper_drop());
+        assert!(!s("x1", "velocity", 8.5, 0.15).suggests_a_sharper_drop());
+        assert!(!s("x2", "position", 8.5, 0.15).suggests_a_sharper_drop());
+        assert!(!s("x2", "velocity", 3.0, 0.15).suggests_a_sharper_drop());
     }
 }

@@ -837,16 +837,20 @@ impl Refinement {
         // A Stribeck pad: none of the simple families explains the log, or
         // the static/dynamic law (the Stribeck family's limit v_s → 0)
         // does, but x2's residuals follow the velocity or the drive phase
-        // significantly (z > 3.7, whatever the size): a sharp Stribeck drop
-        // is read as a static/dynamic law with Rs 12 % high otherwise. The
-        // Stribeck family (no closed form: the numerical engine, about ten
-        // times the cost) is refined only then, and competes by the same
-        // criterion.
+        // significantly (z > 3.7) by at least `MIN_RESCUE_EFFECT` of the
+        // noise (`Structure::suggests_a_sharper_drop`): a sharp Stribeck drop is read as a static/dynamic law
+        // with Rs 12 % high otherwise. The Stribeck family (no closed form:
+        // the numerical engine, about ten times the cost) is refined only
+        // then, and competes by the same criterion. (z grows as √n
+        // whatever the size: on a 3-million-sample log an x2 structure of
+        // 0.006 noise units reached z 4 and the rescue, tried and
+        // rejected, took 95 % of a 419-s fit. A drop too small to show
+        // above the floor is the drop profile's case: `drop.rs`.)
         let follows = out
             .adequacy
             .structure
             .iter()
-            .any(|s| s.channel == "x2" && s.follows_the_motion());
+            .any(Structure::suggests_a_sharper_drop);
         for &rescue in LawKind::all() {
             let Selection::Rescue { limit } = rescue.family().selection() else {
                 continue;
