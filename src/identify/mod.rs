@@ -913,7 +913,7 @@ fn refine(
         // and x2 are fitted with it. An inadequate law gives way to an
         // adequate lagged one; an adequate law only where the lags lower
         // the BIC (n_eff·ln S + k·ln n_eff, two more parameters, the
-        // lag-free fit's n_eff) by more than 10. (Fitted on every log the
+        // lag-free fit's n_eff) by more than 10 and shrink the signature. (Fitted on every log the
         // lags are not neutral: on a lag-free log with a decreasing law the
         // lagged search ended at a higher cost, D* 1.3 % off.)
         if let (Ok(o), true) = (&first, opts.lag_fallback && !opts.oe.position_delays) {
@@ -939,8 +939,19 @@ fn refine(
                     let k = |f: &output_error::FamilyFit| f.law.kind.family().params().len() as f64;
                     let delta_bic = n * (o2.chosen.cost / o.chosen.cost).ln()
                         + (k(&o2.chosen) + 2.0 - k(&o.chosen)) * n.ln();
+                    // An adequate law keeps lags only where they explain
+                    // the signature they were fitted for: the largest
+                    // significant structure against velocity or drive
+                    // phase shrinks. (On slow-sliding logs without any
+                    // delay a non-periodic x1 misfit — as strong against
+                    // time as against velocity — was read as x1 lagging
+                    // by −1.5 to −3 ms: BIC 15–61 lower, the structures
+                    // as large or larger, Rd −3 to −5.5 % with intervals
+                    // that missed.)
+                    let explains = output_error::motion_structure(&o2.adequacy.structure)
+                        < output_error::motion_structure(&o.adequacy.structure);
                     let keep = o2.adequacy.adequate
-                        && (!o.adequacy.adequate || delta_bic < -LAG_EVIDENCE_BIC);
+                        && (!o.adequacy.adequate || (delta_bic < -LAG_EVIDENCE_BIC && explains));
                     if keep {
                         let (d1, d2) = o2.chosen.delays_s;
                         let (i1, i2) = o2.chosen.delays_interval_s;

@@ -110,6 +110,17 @@ pub struct Structure {
 /// mm/s); a 3000-s static/dynamic log showed 0.006 at z 4.
 pub const MIN_RESCUE_EFFECT: f64 = 0.02;
 
+/// The largest significant structure (effect, in noise units; 0 where
+/// none) of x1's or x2's residuals against velocity or drive phase: the
+/// signature a position lag leaves ([`Structure::follows_the_motion`]).
+pub fn motion_structure(structure: &[Structure]) -> f64 {
+    structure
+        .iter()
+        .filter(|s| s.follows_the_motion())
+        .map(|s| s.effect)
+        .fold(0.0, f64::max)
+}
+
 /// The names a structure test can carry (channels, then what the residuals
 /// are binned against).
 const STRUCTURE_NAMES: [&str; 7] = [

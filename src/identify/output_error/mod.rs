@@ -117,7 +117,8 @@ mod profile;
 
 use adequacy::*;
 pub use adequacy::{
-    Adequacy, Evidence, Structure, MAX_NOISE_RATIO, MAX_STRUCTURE_EFFECT, MAX_STRUCTURE_Z,
+    motion_structure, Adequacy, Evidence, Structure, MAX_NOISE_RATIO, MAX_STRUCTURE_EFFECT,
+    MAX_STRUCTURE_Z,
 };
 use data::*;
 pub use drop::{DropProfile, THRESHOLD_EVIDENCE_BIC};
