@@ -913,9 +913,10 @@ fn refine(
         // and x2 are fitted with it. An inadequate law gives way to an
         // adequate lagged one; an adequate law only where the lags lower
         // the BIC (n_eff·ln S + k·ln n_eff, two more parameters, the
-        // lag-free fit's n_eff) by more than 10 and shrink the signature. (Fitted on every log the
-        // lags are not neutral: on a lag-free log with a decreasing law the
-        // lagged search ended at a higher cost, D* 1.3 % off.)
+        // lag-free fit's n_eff) by more than 10 and shrink the signature.
+        // (Fitted on every log the lags are not neutral: on a lag-free log
+        // with a decreasing law the lagged search ended at a higher cost,
+        // D* 1.3 % off.)
         if let (Ok(o), true) = (&first, opts.lag_fallback && !opts.oe.position_delays) {
             let signature = o.adequacy.structure.iter().any(|s| s.follows_the_motion());
             if !o.adequacy.adequate || signature {

@@ -10,8 +10,10 @@
 //! same free parameters as static/dynamic, so the costs compare directly)
 //! and keeps the values the criterion does not tell from the chosen law
 //! (ΔBIC below [`THRESHOLD_EVIDENCE_BIC`]); the lowest Rs among them, with
-//! its interval conditional on its v_s, widens the reported Rs interval,
-//! with a warning.
+//! the chosen law's half-widths around it, widens the reported Rs interval
+//! (in `identify`, with a `threshold_not_identified` warning). The chosen
+//! law's point estimate and its own interval (kept for draws of that law)
+//! do not move.
 
 use super::super::smooth::solve_small;
 use super::*;
@@ -59,10 +61,11 @@ pub struct DropProfile {
     /// Its v_s (m/s).
     #[serde(rename = "v_s_m_per_s")]
     pub vs_m_per_s: Option<f64>,
-    /// Its Rs 95 % interval conditional on that v_s (N).
+    /// Its Rs ± the chosen law's 95 % half-widths (N).
     #[serde(rename = "r_s_interval_n")]
     pub rs_interval_n: Option<Interval>,
-    /// Refits run (each on the numerical engine).
+    /// Points tried (each a Gauss–Newton minimisation on the numerical
+    /// engine).
     pub refits: usize,
 }
 

@@ -57,7 +57,9 @@
 //!   static-dynamic) is refined, static-dynamic also where the
 //!   segmentation saw no stick (from the best of a screen of thresholds
 //!   above the Coulomb optimum: the simulator says where sticks happen);
-//!   where the chosen simple family fails the adequacy test (below), the
+//!   where the chosen simple family fails the adequacy test (below), or
+//!   static/dynamic passes it but x2's residuals follow the motion (z >
+//!   3.7, at least 0.02 of the noise), the
 //!   Stribeck family `Rd + (Rs − Rd)·exp(−(v/v_s)²) + a·v` is refined too
 //!   (from the equation-error Stribeck law and from the static-dynamic
 //!   optimum with v_s at 3, 10 and 30 % of A·ω) on the numerical engine,
@@ -67,7 +69,9 @@
 //!   residuals within segments. The simplest family within 2 of the lowest
 //!   BIC is chosen, and one whose extra parameter's interval holds the
 //!   nested value gives way to Coulomb. A threshold the segmentation did
-//!   not see must beat every stick-free family by more than 10.
+//!   not see must beat every stick-free family by more than 10. A chosen
+//!   static/dynamic law gets the profile of `drop.rs`: how low a Stribeck
+//!   drop the log cannot resolve would put Rs.
 //! * **Real pads** (`docs/real-pads.md`): a static threshold split by
 //!   direction (Δ, in the gauge "equal dynamic levels": unknown sensor
 //!   zeros leave only that identifiable) and a contact spring (ln κ) are
@@ -839,10 +843,11 @@ impl Refinement {
         // the static/dynamic law (the Stribeck family's limit v_s → 0)
         // does, but x2's residuals follow the velocity or the drive phase
         // significantly (z > 3.7) by at least `MIN_RESCUE_EFFECT` of the
-        // noise (`Structure::suggests_a_sharper_drop`): a sharp Stribeck drop is read as a static/dynamic law
-        // with Rs 12 % high otherwise. The Stribeck family (no closed form:
-        // the numerical engine, about ten times the cost) is refined only
-        // then, and competes by the same criterion. (z grows as √n
+        // noise (`Structure::suggests_a_sharper_drop`): a sharp Stribeck
+        // drop is read as a static/dynamic law with Rs 12 % high otherwise.
+        // The Stribeck family (no closed form: the numerical engine, about
+        // ten times the cost) is refined only then, and competes by the
+        // same criterion. (z grows as √n
         // whatever the size: on a 3-million-sample log an x2 structure of
         // 0.006 noise units reached z 4 and the rescue, tried and
         // rejected, took 95 % of a 419-s fit. A drop too small to show
