@@ -600,6 +600,27 @@ fn short_stick_repeatability() {
     }
 }
 
+/// The sharp-Stribeck rig (5 kg, 1 kg, 400 N/m, 2 Hz, Rs 0.5 N, Rd 0.38 N,
+/// seed 1) as `synth` arguments; a test adds the law.
+const SHARP_RIG: [&str; 16] = [
+    "--seed",
+    "1",
+    "--m1-kg",
+    "5",
+    "--m2-kg",
+    "1",
+    "--k1-n-per-m",
+    "400",
+    "--k2-n-per-m",
+    "400",
+    "--frequency-hz",
+    "2",
+    "--rs-n",
+    "0.5",
+    "--rd-n",
+    "0.38",
+];
+
 /// A sharp Stribeck pad (the friction falls from Rs 0.5 N to Rd 0.38 N
 /// within about 1 mm/s) on another rig (5 kg, 1 kg, 400 N/m, 2 Hz): the
 /// static/dynamic law explains it to the noise but read Rs 12 % high with
@@ -614,27 +635,10 @@ fn a_sharp_stribeck_pad_is_not_read_as_static_dynamic() {
         &log,
         None,
         &[
-            "--seed",
-            "1",
-            "--m1-kg",
-            "5",
-            "--m2-kg",
-            "1",
-            "--k1-n-per-m",
-            "400",
-            "--k2-n-per-m",
-            "400",
-            "--frequency-hz",
-            "2",
-            "--law",
-            "stribeck",
-            "--rs-n",
-            "0.5",
-            "--rd-n",
-            "0.38",
-            "--stribeck-velocity-m-per-s",
-            "0.001",
-        ],
+            &SHARP_RIG[..],
+            &["--law", "stribeck", "--stribeck-velocity-m-per-s", "0.001"],
+        ]
+        .concat(),
     );
     let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
     let fit = &j["fits"][0];
@@ -667,24 +671,6 @@ fn a_sharp_stribeck_pad_is_not_read_as_static_dynamic() {
 #[test]
 fn a_drop_the_log_cannot_resolve_widens_the_threshold() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let rig = [
-        "--seed",
-        "1",
-        "--m1-kg",
-        "5",
-        "--m2-kg",
-        "1",
-        "--k1-n-per-m",
-        "400",
-        "--k2-n-per-m",
-        "400",
-        "--frequency-hz",
-        "2",
-        "--rs-n",
-        "0.5",
-        "--rd-n",
-        "0.38",
-    ];
     for (name, law) in [
         (
             "drop.mcap",
@@ -693,7 +679,7 @@ fn a_drop_the_log_cannot_resolve_widens_the_threshold() {
         ("step.mcap", &["--law", "static-dynamic"][..]),
     ] {
         let log = dir.path().join(name);
-        common::synth_log(&log, None, &[&rig[..], law].concat());
+        common::synth_log(&log, None, &[&SHARP_RIG[..], law].concat());
         let j = json_of(bin().arg("fit").arg(&log).arg("--json"));
         let fit = &j["fits"][0];
         assert_eq!(fit["law"], "static-dynamic", "{name}: {}", fit["warnings"]);
