@@ -15,7 +15,6 @@
 //! law's point estimate and its own interval (kept for draws of that law)
 //! do not move.
 
-use super::super::smooth::solve_small;
 use super::*;
 use crate::identify::Interval;
 
@@ -116,17 +115,7 @@ impl Refinement {
         let (_, step) = Self::start(sd.kind, &psd.unpack(&sd.th).0, sd.th[2]);
         let (c0, r0) = psd.residual_vector(&sd.th, &sd.proj)?;
         let p = sd.th.len();
-        let mut jac: Vec<Vec<f64>> = Vec::with_capacity(p);
-        for j in 0..p {
-            let h = super::lm::FD_STEP * step[j];
-            let mut t = sd.th.clone();
-            t[j] += h;
-            let (_, rp) = psd.residual_vector(&t, &sd.proj)?;
-            if rp.len() != r0.len() {
-                return None;
-            }
-            jac.push(rp.iter().zip(&r0).map(|(a, b)| (a - b) / h).collect());
-        }
+        let jac = super::lm::fd_jacobian(&psd, &sd.proj, &sd.th, &r0, &step)?;
         let mut a = vec![vec![0.0; p]; p];
         for i in 0..p {
             for k in 0..p {

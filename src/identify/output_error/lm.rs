@@ -36,6 +36,42 @@ pub enum Minimiser {
     NelderMead,
 }
 
+/// The forward-difference Jacobian, column by column, of `prob`'s residual
+/// vector `r` at θ `th` (with the start-state projection `proj`): steps of
+/// [`FD_STEP`] times `step`, backwards where the forward point cannot be
+/// simulated; a zero step gives a zero column (the parameter is held).
+/// None where neither point can be simulated.
+pub(super) fn fd_jacobian(
+    prob: &Problem<'_>,
+    proj: &Proj,
+    th: &[f64],
+    r: &[f64],
+    step: &[f64],
+) -> Option<Vec<Vec<f64>>> {
+    let mut jac: Vec<Vec<f64>> = Vec::with_capacity(th.len());
+    for j in 0..th.len() {
+        if step[j] == 0.0 {
+            jac.push(vec![0.0; r.len()]);
+            continue;
+        }
+        let h = FD_STEP * step[j];
+        let mut tp = th.to_vec();
+        tp[j] += h;
+        let (hh, rp) = match prob.residual_vector(&tp, proj) {
+            Some((_, rp)) if rp.len() == r.len() => (h, rp),
+            _ => {
+                tp[j] = th[j] - h;
+                match prob.residual_vector(&tp, proj) {
+                    Some((_, rp)) if rp.len() == r.len() => (-h, rp),
+                    _ => return None,
+                }
+            }
+        };
+        jac.push(rp.iter().zip(r).map(|(a, b)| (a - b) / hh).collect());
+    }
+    Some(jac)
+}
+
 impl Refinement {
     /// Levenberg–Marquardt (Marquardt's diagonal scaling, Nielsen's
     /// damping update) from `th0`; finite-difference steps `fd·step`
@@ -58,31 +94,7 @@ impl Refinement {
         let mut it = 0u64;
         'outer: while it < max_iters {
             it += 1;
-            // Jacobian, column by column.
-            let mut jac: Vec<Vec<f64>> = Vec::with_capacity(p);
-            for j in 0..p {
-                // A zero step holds the parameter fixed (a profile).
-                if step[j] == 0.0 {
-                    jac.push(vec![0.0; r.len()]);
-                    continue;
-                }
-                let h = FD_STEP * step[j];
-                let mut tp = th.clone();
-                tp[j] += h;
-                // Backwards where the forward point cannot be simulated.
-                let (hh, rp) = match prob.residual_vector(&tp, proj) {
-                    Some((_, rp)) if rp.len() == r.len() => (h, rp),
-                    _ => {
-                        tp[j] = th[j] - h;
-                        match prob.residual_vector(&tp, proj) {
-                            Some((_, rp)) if rp.len() == r.len() => (-h, rp),
-                            _ => return Err(fail),
-                        }
-                    }
-                };
-                let col: Vec<f64> = rp.iter().zip(&r).map(|(a, b)| (a - b) / hh).collect();
-                jac.push(col);
-            }
+            let jac = fd_jacobian(prob, proj, &th, &r, step).ok_or(fail.clone())?;
             let mut a = vec![vec![0.0; p]; p];
             let mut g = vec![0.0; p];
             for i in 0..p {
