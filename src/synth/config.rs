@@ -220,9 +220,10 @@ impl FrictionSpec {
 /// points and the sensor models are streamed through its observer; what
 /// stays is each logged value (16 bytes) until the writer is done, plus
 /// Parquet's own copy of the table. Measured at the typical rates (the
-/// growth of the peak resident set from 600 s to 1200 s logged): MCAP 16.2,
-/// CSV 15.6, Parquet 26.2; rounded up with margin to 32 (it was 200 when
-/// every request was materialised).
+/// growth of the peak resident set from 600 s to 1200 s logged): MCAP 16.6,
+/// CSV 15.9, Parquet 26.9 (a two-hour log's whole peak: 17.1, 16.3, 27.3);
+/// rounded up with margin to 32 (it was 200 when every request was
+/// materialised).
 pub const SYNTH_BYTES_PER_SAMPLE: f64 = 32.0;
 
 /// Most drive periods a synthetic test may simulate (warm-up included).
