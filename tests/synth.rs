@@ -571,3 +571,34 @@ fn continuous_sweep_converges_with_tolerance() {
     assert_eq!(f[10], 2.5);
     assert!(c.rig_record.contains_key("sweep_rate_hz_per_s"));
 }
+
+/// A two-hour log at the typical rates is written (synth streams the
+/// engine's samples through the sensor models; its peak memory and time
+/// are in docs/measurements.md, not asserted here). About 20 s and
+/// 550 MB of disk per format:
+/// `cargo test --release --test synth -- --ignored two_hour`.
+#[test]
+#[ignore]
+fn a_two_hour_log_is_written() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    for ext in ["mcap", "csv"] {
+        let out = dir.path().join(format!("long.{ext}"));
+        let o = stickslip(&[
+            "synth",
+            "--out",
+            out.to_str().expect("utf8"),
+            "--duration-s",
+            "7200",
+            "--json",
+        ]);
+        assert!(
+            o.status.success(),
+            "{ext}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).expect("one JSON object");
+        assert_eq!(v["duration_s"], 7200.0, "{ext}");
+        assert!(v["bytes"].as_u64().unwrap_or(0) > 50_000_000, "{ext}: {v}");
+        std::fs::remove_file(&out).expect("remove the log");
+    }
+}

@@ -30,10 +30,12 @@ pub fn write_parquet(run: &Run, target: &Path) -> Result<()> {
 /// Writes a rig table atomically: column `t` (s), then the named value
 /// columns (`None` written as null), with `meta` as the file's key-value
 /// metadata (the layout the Parquet ingest, [`crate::ingest::read`], expects).
-pub fn write_table(
+/// The columns are borrowed (a `Vec` or a slice each): only the table
+/// polars builds is a copy.
+pub fn write_table<C: AsRef<[Option<f64>]>>(
     target: &Path,
     t: &[f64],
-    columns: &[(&str, Vec<Option<f64>>)],
+    columns: &[(&str, C)],
     meta: &BTreeMap<String, String>,
 ) -> Result<()> {
     let fail = |e: PolarsError| Error::Input {
@@ -42,13 +44,14 @@ pub fn write_table(
     };
     let mut cols = vec![Column::new("t".into(), t.to_vec())];
     for (name, v) in columns {
+        let v = v.as_ref();
         if v.len() != t.len() {
             return Err(Error::Input {
                 path: target.to_path_buf(),
                 msg: format!("column {name} has {} rows, t has {}", v.len(), t.len()),
             });
         }
-        cols.push(Column::new((*name).into(), v.clone()));
+        cols.push(Column::new((*name).into(), v));
     }
     let mut df = DataFrame::new(t.len(), cols).map_err(fail)?;
     let kv: Vec<(String, String)> = meta.clone().into_iter().collect();

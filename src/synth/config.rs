@@ -215,9 +215,16 @@ impl FrictionSpec {
     }
 }
 
-/// Memory a synthetic log takes while built, per logged sample of any
-/// channel (bytes; measured 185 at the typical rates, rounded up).
-pub const SYNTH_BYTES_PER_SAMPLE: f64 = 200.0;
+/// Memory a synthetic log takes while built and written, per logged
+/// sample of any channel (bytes). The engine's requests, the low-pass
+/// points and the sensor models are streamed through its observer; what
+/// stays is each logged value (16 bytes) until the writer is done, plus
+/// Parquet's own copy of the table. Measured at the typical rates (the
+/// growth of the peak resident set from 600 s to 1200 s logged): MCAP 16.6,
+/// CSV 15.9, Parquet 26.9 (a two-hour log's whole peak: 17.1, 16.3, 27.3);
+/// rounded up with margin to 32 (it was 200 when every request was
+/// materialised).
+pub const SYNTH_BYTES_PER_SAMPLE: f64 = 32.0;
 
 /// Most drive periods a synthetic test may simulate (warm-up included).
 pub const MAX_SYNTH_PERIODS: f64 = 1e6;
@@ -578,11 +585,12 @@ impl SynthConfig {
         if matches!(self.format, LogFormat::Csv | LogFormat::Parquet) {
             rates.push(("table (--table-rate-hz)", self.table_rate_hz));
         }
-        // Memory: the log is built in memory before it is written, about
-        // SYNTH_BYTES_PER_SAMPLE per logged sample of every channel
-        // (measured: 1.13 MB per logged second at the typical 6 kHz of
-        // samples; 7200 s peaked at 8 GB). Checked after the per-channel
-        // limits, whose messages name the flag to change.
+        // Memory: the logged values are held until they are written, about
+        // SYNTH_BYTES_PER_SAMPLE per logged sample of every channel (at the
+        // typical 6 kHz of samples a two-hour log needs about 1.4 GB by
+        // this estimate; measured peaks: docs/measurements.md). Checked
+        // after the per-channel limits, whose messages name the flag to
+        // change.
         let total: f64 = rates.iter().map(|(_, r)| logged_s * r).sum();
         for (name, rate) in rates {
             let samples = logged_s * rate;

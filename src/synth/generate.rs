@@ -1,23 +1,366 @@
 //! Running the virtual rig: the exact trajectory sampled by each
 //! channel's sensor model, into DAQ buffers or table rows.
+//!
+//! Everything per sample is streamed through the engine's observer: each
+//! channel's request times (its samples, with the fine low-pass points
+//! before each sample of a low-passed channel) are generated lazily
+//! ([`ChannelRequests`]) and merged into one time-ordered stream
+//! ([`RequestMerge`], a k-way merge that breaks ties by channel order: the
+//! order a stable sort of every channel's request times gives). Each exact
+//! value goes through its channel's low-pass, gain and offset at once
+//! ([`Sink`]); only the noise-free sensed value of each logged sample is
+//! kept, in place in the channel's buffers, and the truth's amplitudes are
+//! accumulated on the way ([`ExactSummary`]). After the run, noise,
+//! saturation, quantisation and dropouts are applied in place (clip levels
+//! from fractions of the swing need the whole log), with the RNG draws in
+//! the order they always had.
 
+use super::butterworth::Butterworth;
 use super::*;
 
-/// A sample request: engine time and the channel/point it belongs to.
-#[derive(Clone, Copy)]
+/// One request of a channel: its time in seconds from the log start and
+/// whether it is a logged sample (else a fine low-pass point).
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Request {
-    pub(super) tau: f64,
-    pub(super) chan: u32,
+    /// Seconds from the log start (the time the value is measured at).
+    pub(super) t: f64,
+    /// A logged sample (true) or a fine point of the low-pass (false).
+    pub(super) real: bool,
 }
 
-/// The observer: hands out the merged request times, stores each
-/// channel's exact signal, and tracks the contact mode over the log.
+/// The sample plan of one channel.
+pub(super) struct Plan {
+    pub(super) quantity: Quantity,
+    pub(super) sensor: SensorModel,
+    pub(super) dt_ns: u64,
+    pub(super) shift_s: f64,
+    /// Per kept buffer: t0 (ns from the log start) and sample count.
+    pub(super) buffers: Vec<(u64, usize)>,
+    pub(super) lost: usize,
+    pub(super) first_offset_ns: u64,
+}
+
+impl Plan {
+    /// The time (s from the log start) at which sample `i` of the buffer
+    /// starting `t0` ns after the log start is measured: a delayed
+    /// channel's value stamped t was measured at t − delay.
+    fn sample_t(&self, t0: u64, i: usize) -> f64 {
+        (t0 + i as u64 * self.dt_ns) as f64 * 1e-9 + self.shift_s - self.sensor.delay_s
+    }
+
+    /// The time of the channel's last request (its last logged sample).
+    pub(super) fn last_t(&self) -> Option<f64> {
+        let &(t0, n) = self.buffers.last()?;
+        Some(self.sample_t(t0, n - 1))
+    }
+
+    /// The channel's requests in time order, generated lazily (`warm`:
+    /// the warm-up in s, before which a low-pass never starts).
+    pub(super) fn requests(&self, warm: f64) -> ChannelRequests<'_> {
+        let dt = self.dt_ns as f64 * 1e-9;
+        ChannelRequests {
+            plan: self,
+            tc: self.sensor.lowpass_hz.map(|fc| 1.0 / (2.0 * PI * fc)),
+            h: dt / LOWPASS_SUBSTEPS as f64,
+            warm,
+            b: 0,
+            i: 0,
+            prev: None,
+            fine: None,
+        }
+    }
+}
+
+/// The fine points still to come before a logged sample of a low-passed
+/// channel: `start + (t − start)·j/k` for j up to k − 1 (and `start`
+/// itself first, at j = 0, before the channel's first sample), then t.
+#[derive(Clone, Copy)]
+struct Fine {
+    start: f64,
+    t: f64,
+    k: usize,
+    j: usize,
+}
+
+/// The request times of one channel in time order, one at a time: the
+/// logged samples of its kept buffers and, for a low-passed channel, the
+/// points of a grid [`LOWPASS_SUBSTEPS`] times finer before each sample
+/// (first-order hold), starting 10 time constants per filter order before
+/// the first sample (or at the rig's start).
+pub(super) struct ChannelRequests<'a> {
+    plan: &'a Plan,
+    /// The first-order time constant 1/(2π f_c) of a low-passed channel.
+    tc: Option<f64>,
+    /// The fine grid's step (s).
+    h: f64,
+    warm: f64,
+    /// The next sample: buffer `b`, sample `i` in it.
+    b: usize,
+    i: usize,
+    /// The previous logged sample's time.
+    prev: Option<f64>,
+    fine: Option<Fine>,
+}
+
+impl Iterator for ChannelRequests<'_> {
+    type Item = Request;
+
+    fn next(&mut self) -> Option<Request> {
+        if let Some(f) = &mut self.fine {
+            let r = if f.j == 0 {
+                f.j = 1;
+                Request {
+                    t: f.start,
+                    real: false,
+                }
+            } else if f.j < f.k {
+                let j = f.j;
+                f.j += 1;
+                Request {
+                    t: f.start + (f.t - f.start) * j as f64 / f.k as f64,
+                    real: false,
+                }
+            } else {
+                let t = f.t;
+                self.fine = None;
+                Request { t, real: true }
+            };
+            return Some(r);
+        }
+        let plan = self.plan;
+        let t0 = loop {
+            let &(t0, n) = plan.buffers.get(self.b)?;
+            if self.i < n {
+                break t0;
+            }
+            self.b += 1;
+            self.i = 0;
+        };
+        let t = plan.sample_t(t0, self.i);
+        self.i += 1;
+        let prev = self.prev.replace(t);
+        let Some(tc) = self.tc else {
+            return Some(Request { t, real: true });
+        };
+        let start = match prev {
+            Some(p) => p,
+            // (10 time constants per order: higher orders settle later)
+            None => (t - 10.0 * tc * f64::from(plan.sensor.lowpass_order.max(1))).max(-self.warm),
+        };
+        let k = ((t - start) / self.h).ceil() as usize;
+        self.fine = Some(Fine {
+            start,
+            t,
+            k,
+            j: if prev.is_none() { 0 } else { 1 },
+        });
+        self.next()
+    }
+}
+
+/// Engine time τ of a request at `t` s from the log start (clamped at the
+/// rig's start).
+fn tau_of(t: f64, warm: f64, w: f64) -> f64 {
+    ((warm + t) * w).max(0.0)
+}
+
+/// Every channel's requests merged into one stream in engine time: the
+/// smallest τ first, ties in channel order (within a channel, request
+/// order), which is the order a stable sort of the concatenated requests
+/// by τ gives. Holds one pending request per channel.
+pub(super) struct RequestMerge<'a> {
+    chans: Vec<ChannelRequests<'a>>,
+    /// Per channel: its next request and that request's τ.
+    heads: Vec<Option<(f64, Request)>>,
+    /// The channel whose head comes next.
+    best: Option<usize>,
+    warm: f64,
+    w: f64,
+}
+
+impl<'a> RequestMerge<'a> {
+    /// The merged requests of `plans` (`warm`: warm-up in s, `w`: ω).
+    pub(super) fn new(plans: &'a [Plan], warm: f64, w: f64) -> Self {
+        let mut chans: Vec<ChannelRequests<'a>> = plans.iter().map(|p| p.requests(warm)).collect();
+        let heads = chans
+            .iter_mut()
+            .map(|c| c.next().map(|r| (tau_of(r.t, warm, w), r)))
+            .collect();
+        let mut m = Self {
+            chans,
+            heads,
+            best: None,
+            warm,
+            w,
+        };
+        m.find_best();
+        m
+    }
+
+    fn find_best(&mut self) {
+        let mut best: Option<(usize, f64)> = None;
+        for (c, h) in self.heads.iter().enumerate() {
+            if let Some((tau, _)) = h {
+                if best.is_none_or(|(_, b)| tau.total_cmp(&b).is_lt()) {
+                    best = Some((c, *tau));
+                }
+            }
+        }
+        self.best = best.map(|(c, _)| c);
+    }
+
+    /// The τ of the next request, if any.
+    pub(super) fn peek(&self) -> Option<f64> {
+        self.best.and_then(|c| self.heads[c].map(|(tau, _)| tau))
+    }
+
+    /// Takes the next request: its channel and the request.
+    pub(super) fn pop(&mut self) -> Option<(usize, Request)> {
+        let c = self.best?;
+        let (_, r) = self.heads[c]?;
+        let (warm, w) = (self.warm, self.w);
+        self.heads[c] = self.chans[c].next().map(|r| (tau_of(r.t, warm, w), r));
+        self.find_best();
+        Some((c, r))
+    }
+
+    /// How many requests are still to come.
+    pub(super) fn remaining(&mut self) -> usize {
+        let pending = self.heads.iter().filter(|h| h.is_some()).count();
+        pending + self.chans.iter_mut().map(|c| c.count()).sum::<usize>()
+    }
+}
+
+/// The first-order low-pass y' = (u − y)/tc, fed one point (t, u) at a
+/// time, exact for u linear between points; y starts at the first u.
+pub(super) struct FirstOrder {
+    tc: f64,
+    /// The previous point (t, u) and the output there.
+    prev: Option<(f64, f64, f64)>,
+}
+
+impl FirstOrder {
+    /// A filter with time constant `tc` (s), not yet started.
+    pub(super) fn new(tc: f64) -> Self {
+        Self { tc, prev: None }
+    }
+
+    /// Feeds (t, u) and returns y(t).
+    pub(super) fn push(&mut self, t: f64, u: f64) -> f64 {
+        let y = match self.prev {
+            None => u,
+            Some((tp, up, yn)) => {
+                let h = t - tp;
+                if h <= 0.0 {
+                    yn
+                } else {
+                    let tc = self.tc;
+                    let alpha = (-h / tc).exp();
+                    let b = (u - up) / h;
+                    u - b * tc + alpha * (yn - up + b * tc)
+                }
+            }
+        };
+        self.prev = Some((t, u, y));
+        y
+    }
+}
+
+/// The first-order low-pass over a whole series (points (t, u)).
+#[cfg(test)]
+pub(super) fn lowpass(t: &[f64], u: &[f64], tc: f64) -> Vec<f64> {
+    let mut f = FirstOrder::new(tc);
+    t.iter().zip(u).map(|(t, u)| f.push(*t, *u)).collect()
+}
+
+/// A channel's low-pass.
+enum Filter {
+    /// None: the exact value.
+    Through,
+    /// First order.
+    First(FirstOrder),
+    /// Butterworth of order ≥ 2.
+    Butter(Butterworth),
+}
+
+impl Filter {
+    fn of(s: &SensorModel) -> Self {
+        match s.lowpass_hz {
+            Some(fc) if s.lowpass_order >= 2 => {
+                Filter::Butter(Butterworth::new(fc, s.lowpass_order))
+            }
+            Some(fc) => Filter::First(FirstOrder::new(1.0 / (2.0 * PI * fc))),
+            None => Filter::Through,
+        }
+    }
+
+    fn push(&mut self, t: f64, u: f64) -> f64 {
+        match self {
+            Filter::Through => u,
+            Filter::First(f) => f.push(t, u),
+            Filter::Butter(f) => f.push(t, u),
+        }
+    }
+}
+
+/// Where one channel's values go while the engine runs: its low-pass and
+/// its buffers (allocated up front, one per kept buffer of the plan),
+/// filled in order with the noise-free sensed value of each logged sample.
+pub(super) struct Sink<'a> {
+    plan: &'a Plan,
+    filter: Filter,
+    buffers: Vec<Buffer>,
+    /// The buffer being filled.
+    b: usize,
+}
+
+impl<'a> Sink<'a> {
+    fn new(plan: &'a Plan) -> Self {
+        Self {
+            plan,
+            filter: Filter::of(&plan.sensor),
+            buffers: plan
+                .buffers
+                .iter()
+                .map(|&(t0, n)| Buffer {
+                    t0_ns: LOG_START_NS + t0,
+                    values: Vec::with_capacity(n),
+                })
+                .collect(),
+            b: 0,
+        }
+    }
+
+    /// Feeds the exact value `u` of request `r`; a logged sample keeps the
+    /// noise-free sensed value: gain (with its drift over time from the log
+    /// start) times the filtered signal, plus the offset.
+    fn push(&mut self, r: Request, u: f64) {
+        let v = self.filter.push(r.t, u);
+        if !r.real {
+            return;
+        }
+        let s = &self.plan.sensor;
+        let g = if s.gain_drift_per_s != 0.0 {
+            s.gain * (1.0 + s.gain_drift_per_s * r.t)
+        } else {
+            s.gain
+        };
+        while self.buffers[self.b].values.len() == self.plan.buffers[self.b].1 {
+            self.b += 1;
+        }
+        self.buffers[self.b].values.push(Some(g * v + s.offset));
+    }
+}
+
+/// The observer: hands out the merged request times, passes each
+/// channel's exact signal through its [`Sink`], accumulates the truth's
+/// exact summaries and tracks the contact mode over the log.
 pub(super) struct Collector<'a> {
-    pub(super) requests: &'a [Request],
-    pub(super) next: usize,
-    /// Per channel: exact signal at its requests, in order.
-    pub(super) out: Vec<Vec<f64>>,
-    pub(super) quantities: Vec<Quantity>,
+    pub(super) merge: RequestMerge<'a>,
+    pub(super) sinks: Vec<Sink<'a>>,
+    /// Requests delivered so far.
+    pub(super) delivered: usize,
+    pub(super) exact: ExactSummary,
     pub(super) drives: &'a Drives,
     pub(super) a: f64,
     pub(super) w: f64,
@@ -65,12 +408,13 @@ impl Observer for Collector<'_> {
         }
     }
     fn next_sample(&mut self) -> Option<f64> {
-        self.requests.get(self.next).map(|r| r.tau)
+        self.merge.peek()
     }
     fn sample(&mut self, tau: f64, x: &[f64; 4], dx: &[f64; 4]) {
-        let r = self.requests[self.next];
-        self.next += 1;
-        let q = self.quantities[r.chan as usize];
+        let (c, r) = self.merge.pop().expect("a sample the collector asked for");
+        self.delivered += 1;
+        let sink = &mut self.sinks[c];
+        let q = sink.plan.quantity;
         let (a, w) = (self.a, self.w);
         let u = match q {
             Quantity::X0 => a * self.drives.zeta0(tau),
@@ -80,7 +424,10 @@ impl Observer for Collector<'_> {
             Quantity::A2 => a * w * w * dx[3],
             Quantity::NormalForce => self.normal_force,
         };
-        self.out[r.chan as usize].push(u);
+        sink.push(r, u);
+        if r.real {
+            self.exact.push(q, r.t, u);
+        }
     }
     fn wants_extremes(&self) -> bool {
         false
@@ -89,22 +436,8 @@ impl Observer for Collector<'_> {
 
 impl SegmentObserver for Collector<'_> {}
 
-/// The sample plan of one channel.
-pub(super) struct Plan {
-    pub(super) quantity: Quantity,
-    pub(super) sensor: SensorModel,
-    pub(super) dt_ns: u64,
-    pub(super) shift_s: f64,
-    /// Per kept buffer: t0 (ns from the log start) and sample count.
-    pub(super) buffers: Vec<(u64, usize)>,
-    pub(super) lost: usize,
-    pub(super) first_offset_ns: u64,
-    /// Request times in seconds from the log start (with fine low-pass
-    /// points); `real[i]`: whether request i is a logged sample.
-    pub(super) req_t: Vec<f64>,
-    pub(super) real: Vec<bool>,
-}
-
+/// The sample plan of one channel: its buffers (kept and lost), drawn
+/// from its RNG stream.
 pub(super) fn plan_channel(
     cfg: &SynthConfig,
     q: Quantity,
@@ -152,40 +485,6 @@ pub(super) fn plan_channel(
             start += n;
         }
     }
-    // Request times: the samples, with fine points before each sample of a
-    // low-passed channel (first-order hold on a grid of dt/LOWPASS_SUBSTEPS).
-    let mut req_t = Vec::new();
-    let mut real = Vec::new();
-    let dt = dt_ns as f64 * 1e-9;
-    let lp_tc = sensor.lowpass_hz.map(|fc| 1.0 / (2.0 * PI * fc));
-    let warm = cfg.test.warmup_s();
-    let mut prev: Option<f64> = None;
-    for &(t0, n) in &buffers {
-        for i in 0..n {
-            // A delayed channel's value stamped t was measured at t − delay.
-            let t = (t0 + i as u64 * dt_ns) as f64 * 1e-9 + shift_s - sensor.delay_s;
-            if let Some(tc) = lp_tc {
-                let start = match prev {
-                    Some(p) => p,
-                    // (10 time constants per order: higher orders settle later)
-                    None => (t - 10.0 * tc * f64::from(sensor.lowpass_order.max(1))).max(-warm),
-                };
-                let h = dt / LOWPASS_SUBSTEPS as f64;
-                let k = ((t - start) / h).ceil() as usize;
-                if prev.is_none() {
-                    req_t.push(start);
-                    real.push(false);
-                }
-                for j in 1..k {
-                    req_t.push(start + (t - start) * j as f64 / k as f64);
-                    real.push(false);
-                }
-            }
-            req_t.push(t);
-            real.push(true);
-            prev = Some(t);
-        }
-    }
     Plan {
         quantity: q,
         sensor,
@@ -194,32 +493,7 @@ pub(super) fn plan_channel(
         buffers,
         lost,
         first_offset_ns,
-        req_t,
-        real,
     }
-}
-
-/// The first-order low-pass y' = (u − y)/tc over points (t, u), exact for
-/// u linear between points; y starts at u(t_0).
-pub(super) fn lowpass(t: &[f64], u: &[f64], tc: f64) -> Vec<f64> {
-    let mut y = Vec::with_capacity(u.len());
-    let Some(&u0) = u.first() else {
-        return y;
-    };
-    let mut yn = u0;
-    y.push(yn);
-    for i in 1..u.len() {
-        let h = t[i] - t[i - 1];
-        if h <= 0.0 {
-            y.push(yn);
-            continue;
-        }
-        let alpha = (-h / tc).exp();
-        let b = (u[i] - u[i - 1]) / h;
-        yn = u[i] - b * tc + alpha * (yn - u[i - 1] + b * tc);
-        y.push(yn);
-    }
-    y
 }
 
 pub(super) fn quantise(v: f64, q: f64) -> f64 {
@@ -267,10 +541,14 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         .map(|((q, s), r)| plan_channel(cfg, *q, *s, duration_s, r))
         .collect();
 
-    let requests = merged_requests(&plans, warm, w);
     let total_tau = (warm + duration_s) * w;
     // A CSV column shifted forward can ask past the end: run a bit longer.
-    let run_tau = requests.last().map_or(total_tau, |r| r.tau.max(total_tau));
+    let run_tau = plans
+        .iter()
+        .filter_map(Plan::last_t)
+        .map(|t| tau_of(t, warm, w))
+        .reduce(f64::max)
+        .map_or(total_tau, |tau| tau.max(total_tau));
     if let Some(s) = schedule.as_mut() {
         if run_tau > total_tau {
             drives = hold_last_frequency(s, run_tau - total_tau)?;
@@ -278,13 +556,10 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     }
 
     let mut col = Collector {
-        requests: &requests,
-        next: 0,
-        out: plans
-            .iter()
-            .map(|p| Vec::with_capacity(p.req_t.len()))
-            .collect(),
-        quantities: plans.iter().map(|p| p.quantity).collect(),
+        merge: RequestMerge::new(&plans, warm, w),
+        sinks: plans.iter().map(Sink::new).collect(),
+        delivered: 0,
+        exact: ExactSummary::new(cfg, &plans, &setpoints),
         drives: &drives,
         a: a_true,
         w,
@@ -319,24 +594,24 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
             }
         }
     }
-    if col.next != requests.len() {
+    let remaining = col.merge.remaining();
+    if remaining > 0 {
         return Err(SynthError::Sim(format!(
             "the engine delivered {} of {} samples",
-            col.next,
-            requests.len()
+            col.delivered,
+            col.delivered + remaining
         )));
     }
     if let Some(s) = col.stick_since.take() {
         col.add_stick(s, f64::INFINITY);
     }
-    let exact = std::mem::take(&mut col.out);
+    let sinks = std::mem::take(&mut col.sinks);
 
-    // Sensor models.
-    let channels: Vec<SynthChannel> = plans
-        .iter()
-        .zip(exact.iter())
+    // Sensor models: noise, saturation, quantisation, dropouts.
+    let channels: Vec<SynthChannel> = sinks
+        .into_iter()
         .zip(rngs.iter_mut())
-        .map(|((plan, u), rng)| sense(plan, u, rng))
+        .map(|(sink, rng)| sense(sink.plan, sink.buffers, rng))
         .collect();
 
     let rig_record = rig_record(cfg);
@@ -345,16 +620,7 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
     } else {
         0
     };
-    let mut truth = truth(
-        cfg,
-        &model,
-        &plans,
-        &exact,
-        &channels,
-        &rig_record,
-        &col,
-        &setpoints,
-    );
+    let mut truth = truth(cfg, &model, &channels, &rig_record, &col, &setpoints);
     if let (Some(r), Some(o)) = (defect_run, truth.as_object_mut()) {
         o.insert("defects".into(), defects::truth_of(cfg, &r));
     }
@@ -366,23 +632,6 @@ pub fn generate(cfg: &SynthConfig) -> Result<SynthLog, SynthError> {
         table_rows,
         truth,
     })
-}
-
-/// One merged, sorted request stream (engine τ, clamped at the start) of
-/// every channel's sample times.
-fn merged_requests(plans: &[Plan], warm: f64, w: f64) -> Vec<Request> {
-    let total: usize = plans.iter().map(|p| p.req_t.len()).sum();
-    let mut requests = Vec::with_capacity(total);
-    for (c, p) in plans.iter().enumerate() {
-        for &t in &p.req_t {
-            requests.push(Request {
-                tau: ((warm + t) * w).max(0.0),
-                chan: c as u32,
-            });
-        }
-    }
-    requests.sort_by(|a, b| a.tau.total_cmp(&b.tau));
-    requests
 }
 
 /// Holds the last frequency of a schedule for requests past its end
@@ -437,48 +686,30 @@ fn run_rig(
     Ok(end)
 }
 
-/// The sensor model of one channel over its exact signal `u`: low-pass,
-/// gain, offset (drifting linearly with the stamped time), noise,
-/// quantisation and dropouts, into its buffers.
-fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
+/// The rest of the sensor model of one channel, over the noise-free
+/// sensed values its [`Sink`] left in `buffers`: the offset's drift with
+/// the stamped time, noise, saturation, quantisation and dropouts, in
+/// place.
+fn sense(plan: &Plan, mut buffers: Vec<Buffer>, rng: &mut Rng) -> SynthChannel {
     let s = &plan.sensor;
-    let filtered = match s.lowpass_hz {
-        Some(fc) if s.lowpass_order >= 2 => {
-            super::butterworth::butterworth(&plan.req_t, u, fc, s.lowpass_order)
-        }
-        Some(fc) => lowpass(&plan.req_t, u, 1.0 / (2.0 * PI * fc)),
-        None => u.to_vec(),
-    };
-    // The noise-free sensed value of each logged sample: gain (with its
-    // drift over time from the log start) times the filtered signal, plus
-    // the offset.
-    let sensed: Vec<f64> = filtered
-        .iter()
-        .zip(&plan.req_t)
-        .zip(&plan.real)
-        .filter(|(_, r)| **r)
-        .map(|((v, t), _)| {
-            let g = if s.gain_drift_per_s != 0.0 {
-                s.gain * (1.0 + s.gain_drift_per_s * t)
-            } else {
-                s.gain
-            };
-            g * v + s.offset
-        })
-        .collect();
-    let (clip_lo, clip_hi) = clip_levels(s, &sensed);
-    let mut real = sensed.iter().copied();
-    let mut buffers = Vec::with_capacity(plan.buffers.len());
+    const SENSED: &str = "the engine delivered every sample";
+    let (clip_lo, clip_hi) = clip_levels(
+        s,
+        buffers
+            .iter()
+            .flat_map(|b| &b.values)
+            .map(|v| v.expect(SENSED)),
+    );
     let mut nulls = 0;
     let mut burst = 0u32;
     // Correlated noise: n_k = a·n_(k−1) + √(1 − a²)·σ·N(0, 1) (stationary σ).
     let ar = (s.noise_correlation_s > 0.0)
         .then(|| (-(plan.dt_ns as f64 * 1e-9) / s.noise_correlation_s).exp());
     let mut n_prev: Option<f64> = None;
-    for &(t0, n) in &plan.buffers {
-        let mut values = Vec::with_capacity(n);
-        for i in 0..n {
-            let y = real.next().expect("one value per sample");
+    for (buffer, &(t0, n)) in buffers.iter_mut().zip(&plan.buffers) {
+        assert_eq!(buffer.values.len(), n, "one value per sample");
+        for (i, value) in buffer.values.iter_mut().enumerate() {
+            let y = value.expect(SENSED);
             let t_stamp = (t0 + i as u64 * plan.dt_ns) as f64 * 1e-9 + plan.shift_s;
             let offset = s.offset + s.offset_drift_per_s * t_stamp;
             let noise = if s.noise > 0.0 {
@@ -500,15 +731,11 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
             if burst > 0 {
                 burst -= 1;
                 nulls += 1;
-                values.push(None);
+                *value = None;
             } else {
-                values.push(Some(v));
+                *value = Some(v);
             }
         }
-        buffers.push(Buffer {
-            t0_ns: LOG_START_NS + t0,
-            values,
-        });
     }
     let clipped = buffers
         .iter()
@@ -534,18 +761,16 @@ fn sense(plan: &Plan, u: &[f64], rng: &mut Rng) -> SynthChannel {
 
 /// The saturation levels of a channel (−∞/+∞: none) from its absolute
 /// levels and its fractions of the swing of the noise-free `sensed`
-/// values, the tighter of the two on each side.
-pub(super) fn clip_levels(s: &SensorModel, sensed: &[f64]) -> (f64, f64) {
+/// values (in sample order), the tighter of the two on each side.
+pub(super) fn clip_levels(s: &SensorModel, sensed: impl Iterator<Item = f64>) -> (f64, f64) {
     let (mut lo, mut hi) = (
         s.clip_low.unwrap_or(f64::NEG_INFINITY),
         s.clip_high.unwrap_or(f64::INFINITY),
     );
     if s.clip_low_fraction.is_some() || s.clip_high_fraction.is_some() {
-        let (mn, mx) = sensed
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(*v), b.max(*v))
-            });
+        let (mn, mx) = sensed.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
         if mx >= mn {
             let mid = 0.5 * (mx + mn);
             if let Some(f) = s.clip_high_fraction {
@@ -557,4 +782,117 @@ pub(super) fn clip_levels(s: &SensorModel, sensed: &[f64]) -> (f64, f64) {
         }
     }
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The request times of one channel as they were materialised before
+    /// the stream (`req_t`, `real`): the reference for [`ChannelRequests`].
+    fn materialised(plan: &Plan, warm: f64) -> Vec<Request> {
+        let mut out = Vec::new();
+        let dt = plan.dt_ns as f64 * 1e-9;
+        let lp_tc = plan.sensor.lowpass_hz.map(|fc| 1.0 / (2.0 * PI * fc));
+        let mut prev: Option<f64> = None;
+        for &(t0, n) in &plan.buffers {
+            for i in 0..n {
+                let t =
+                    (t0 + i as u64 * plan.dt_ns) as f64 * 1e-9 + plan.shift_s - plan.sensor.delay_s;
+                if let Some(tc) = lp_tc {
+                    let order = f64::from(plan.sensor.lowpass_order.max(1));
+                    let start = match prev {
+                        Some(p) => p,
+                        None => (t - 10.0 * tc * order).max(-warm),
+                    };
+                    let h = dt / LOWPASS_SUBSTEPS as f64;
+                    let k = ((t - start) / h).ceil() as usize;
+                    if prev.is_none() {
+                        out.push(Request {
+                            t: start,
+                            real: false,
+                        });
+                    }
+                    for j in 1..k {
+                        out.push(Request {
+                            t: start + (t - start) * j as f64 / k as f64,
+                            real: false,
+                        });
+                    }
+                }
+                out.push(Request { t, real: true });
+                prev = Some(t);
+            }
+        }
+        out
+    }
+
+    /// The lazy streams are the requests the collector used to
+    /// materialise: per channel the same times bit for bit, and merged the
+    /// stable sort by τ of all channels' requests (ties in channel order),
+    /// with a first-order, a Butterworth and an unfiltered channel, lost
+    /// buffers, a delay that reaches before the rig's start (τ clamped at
+    /// 0, where ties occur) and both table and DAQ plans.
+    #[test]
+    fn merged_stream_is_the_stable_sort_of_every_channel_request() {
+        // (warm-up, x2's delay, format, whether τ ties occur)
+        for (warm, delay, format, ties) in [
+            (0.0, 0.02, LogFormat::Mcap, true),
+            (1.0, -0.01, LogFormat::Mcap, false),
+            (0.0, 0.0, LogFormat::Csv, true),
+        ] {
+            let mut cfg = SynthConfig {
+                test: TestSpec::Characteristic {
+                    frequency_hz: 1.72,
+                    warmup_s: warm,
+                    duration_s: 1.5,
+                },
+                format,
+                ..SynthConfig::paper(3)
+            };
+            cfg.sensors.x1.p_lost_buffer = 0.3;
+            cfg.sensors.x2.delay_s = delay;
+            cfg.sensors.x0.lowpass_hz = Some(120.0);
+            cfg.sensors.x0.lowpass_order = 3;
+            let w = cfg.rig.omega_ref();
+            let plans: Vec<Plan> = cfg
+                .sensors
+                .channels()
+                .into_iter()
+                .map(|(q, s)| {
+                    let mut rng = Rng::with_stream(cfg.seed, 1 + q as u64);
+                    plan_channel(&cfg, q, s, 1.5, &mut rng)
+                })
+                .collect();
+            let mut all = Vec::new();
+            for (c, p) in plans.iter().enumerate() {
+                let lazy: Vec<Request> = p.requests(warm).collect();
+                let reference = materialised(p, warm);
+                assert_eq!(lazy.len(), reference.len(), "{:?}", p.quantity);
+                for (a, b) in lazy.iter().zip(&reference) {
+                    assert_eq!((a.t.to_bits(), a.real), (b.t.to_bits(), b.real));
+                }
+                let logged: usize = p.buffers.iter().map(|b| b.1).sum();
+                assert_eq!(lazy.iter().filter(|r| r.real).count(), logged);
+                assert_eq!(p.last_t(), lazy.last().map(|r| r.t));
+                all.extend(reference.into_iter().map(|r| (tau_of(r.t, warm, w), c, r)));
+            }
+            all.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let mut merge = RequestMerge::new(&plans, warm, w);
+            let mut merged = Vec::new();
+            while let Some(tau) = merge.peek() {
+                let (c, r) = merge.pop().expect("peeked");
+                merged.push((tau, c, r));
+            }
+            assert_eq!(merged.len(), all.len());
+            for (a, b) in merged.iter().zip(&all) {
+                assert_eq!(
+                    (a.0.to_bits(), a.1, a.2.t.to_bits()),
+                    (b.0.to_bits(), b.1, b.2.t.to_bits())
+                );
+            }
+            assert_eq!(all.windows(2).any(|p| p[0].0 == p[1].0), ties);
+            assert_eq!(merge.remaining(), 0);
+        }
+    }
 }

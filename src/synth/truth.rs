@@ -50,71 +50,154 @@ pub(super) fn rig_record(cfg: &SynthConfig) -> BTreeMap<String, String> {
     .to_map()
 }
 
-/// (max − min)/2 of the values at times in [t0, t1].
-pub(super) fn half_range(t: &[f64], u: &[f64], t0: f64, t1: f64) -> Option<f64> {
-    let mut lo = f64::INFINITY;
-    let mut hi = f64::NEG_INFINITY;
-    for (ti, ui) in t.iter().zip(u) {
-        if *ti >= t0 && *ti <= t1 {
-            lo = lo.min(*ui);
-            hi = hi.max(*ui);
-        }
-    }
-    (hi >= lo).then_some(0.5 * (hi - lo))
+/// The (min, max) of one channel's exact logged values over each response
+/// window, accumulated sample by sample (times non-decreasing).
+struct WindowRanges {
+    /// The next window (in `ExactSummary::order`) not yet opened.
+    next: usize,
+    /// Windows opened and not yet closed.
+    active: Vec<usize>,
+    /// Per window: (min, max); (+∞, −∞) while no sample fell in it.
+    range: Vec<(f64, f64)>,
 }
 
-/// The exact (noise-free) trajectory at the real samples of the X1, X2 and
-/// V2 channels, and the true drive amplitude the amplitudes are divided by.
-struct ExactSignals {
-    x1: Option<(Vec<f64>, Vec<f64>)>,
-    x2: Option<(Vec<f64>, Vec<f64>)>,
-    v2: Option<(Vec<f64>, Vec<f64>)>,
+impl WindowRanges {
+    fn new(n: usize) -> Self {
+        Self {
+            next: 0,
+            active: Vec::with_capacity(n.min(16)),
+            range: vec![(f64::INFINITY, f64::NEG_INFINITY); n],
+        }
+    }
+
+    /// Adds the value `u` at time `t` to every window [t0, t1] holding t.
+    fn push(&mut self, windows: &[(f64, f64)], order: &[usize], t: f64, u: f64) {
+        while let Some(&k) = order.get(self.next) {
+            if windows[k].0 > t {
+                break;
+            }
+            self.active.push(k);
+            self.next += 1;
+        }
+        self.active.retain(|&k| windows[k].1 >= t);
+        for &k in &self.active {
+            let r = &mut self.range[k];
+            *r = (r.0.min(u), r.1.max(u));
+        }
+    }
+
+    /// (max − min)/2 over window `k`, if a sample fell in it.
+    fn half_range(&self, k: usize) -> Option<f64> {
+        let (lo, hi) = self.range[k];
+        (hi >= lo).then_some(0.5 * (hi - lo))
+    }
+}
+
+/// What the truth needs of the exact (noise-free) trajectory at the logged
+/// samples of the X1, X2 and V2 channels, accumulated while the engine
+/// runs: the half ranges of x1 and x2 over the test's response windows
+/// ([`response_windows`]) and the largest |v2|.
+pub(super) struct ExactSummary {
+    /// The response windows [t0, t1] (s from the log start), in the order
+    /// the truth lists them.
+    windows: Vec<(f64, f64)>,
+    /// Window indices by start time.
+    order: Vec<usize>,
+    x1: Option<WindowRanges>,
+    x2: Option<WindowRanges>,
+    /// max |v2| so far (None: no V2 channel).
+    v2_max: Option<f64>,
     a_true: f64,
 }
 
-impl ExactSignals {
-    fn new(plans: &[Plan], exact: &[Vec<f64>], a_true: f64) -> ExactSignals {
-        // Exact signals at the real samples of a channel.
-        let exact_of = |q: Quantity| -> Option<(Vec<f64>, Vec<f64>)> {
-            let i = plans.iter().position(|p| p.quantity == q)?;
-            let p = &plans[i];
-            let (t, u): (Vec<f64>, Vec<f64>) = p
-                .req_t
-                .iter()
-                .zip(&exact[i])
-                .zip(&p.real)
-                .filter(|(_, r)| **r)
-                .map(|((t, u), _)| (*t, *u))
-                .unzip();
-            Some((t, u))
-        };
-        ExactSignals {
-            x1: exact_of(Quantity::X1),
-            x2: exact_of(Quantity::X2),
-            v2: exact_of(Quantity::V2),
-            a_true,
+impl ExactSummary {
+    /// An empty summary for the channels of `plans`.
+    pub(super) fn new(cfg: &SynthConfig, plans: &[Plan], setpoints: &[SynthSetpoint]) -> Self {
+        let windows = response_windows(cfg, setpoints);
+        let mut order: Vec<usize> = (0..windows.len()).collect();
+        order.sort_by(|a, b| windows[*a].0.total_cmp(&windows[*b].0));
+        let has = |q: Quantity| plans.iter().any(|p| p.quantity == q);
+        let n = windows.len();
+        ExactSummary {
+            x1: has(Quantity::X1).then(|| WindowRanges::new(n)),
+            x2: has(Quantity::X2).then(|| WindowRanges::new(n)),
+            v2_max: has(Quantity::V2).then_some(0.0),
+            windows,
+            order,
+            a_true: cfg.rig.drive_amplitude_true_m,
         }
     }
 
-    /// The amplitudes (a1, a2) over [t0, t1], relative to the true A.
-    fn amp(&self, t0: f64, t1: f64) -> (Value, Value) {
-        let a = |s: &Option<(Vec<f64>, Vec<f64>)>| {
-            s.as_ref()
-                .and_then(|(t, u)| half_range(t, u, t0, t1))
+    /// Adds the exact value `u` of a logged sample of `q` measured at `t`
+    /// (s from the log start).
+    pub(super) fn push(&mut self, q: Quantity, t: f64, u: f64) {
+        let ranges = match q {
+            Quantity::X1 => self.x1.as_mut(),
+            Quantity::X2 => self.x2.as_mut(),
+            Quantity::V2 => {
+                if let Some(m) = self.v2_max.as_mut() {
+                    *m = m.max(u.abs());
+                }
+                None
+            }
+            _ => None,
+        };
+        if let Some(r) = ranges {
+            r.push(&self.windows, &self.order, t, u);
+        }
+    }
+
+    /// The amplitudes (a1, a2) over response window `k`, relative to the
+    /// true A.
+    fn amp(&self, k: usize) -> (Value, Value) {
+        let a = |r: &Option<WindowRanges>| {
+            r.as_ref()
+                .and_then(|r| r.half_range(k))
                 .map_or(Value::Null, |v| num(v / self.a_true))
         };
         (a(&self.x1), a(&self.x2))
     }
 }
 
+/// The windows (s from the log start) the truth gives amplitudes over, in
+/// its order: the last 5 s of a characteristic test, the settle window of
+/// each step of a stepped sweep, 1.5 drive periods either side of each
+/// setpoint message of a continuous one.
+fn response_windows(cfg: &SynthConfig, setpoints: &[SynthSetpoint]) -> Vec<(f64, f64)> {
+    let duration = cfg.test.duration_s();
+    match &cfg.test {
+        TestSpec::Characteristic { .. } => vec![((duration - 5.0).max(0.0), duration)],
+        TestSpec::Stepped {
+            setpoints_hz,
+            dwell_s,
+            ramp_s,
+            preroll_s,
+        } => steps(setpoints_hz, dwell_s, *ramp_s, *preroll_s)
+            .iter()
+            .map(|s| s.window)
+            .collect(),
+        TestSpec::Continuous { .. } => setpoints
+            .iter()
+            .map(|sp| {
+                let (t, half) = continuous_window(sp);
+                (t - half, t + half)
+            })
+            .collect(),
+    }
+}
+
+/// A setpoint message's time (s from the log start) and the half width of
+/// its response window (1.5 drive periods).
+fn continuous_window(sp: &SynthSetpoint) -> (f64, f64) {
+    let t = (sp.t_ns - LOG_START_NS) as f64 * 1e-9;
+    (t, 1.5 / sp.frequency_hz)
+}
+
 /// The truth entry of a log (`truth.json`): rig, law, drive, the collector's
 /// counts, the sensors of each channel and the response of the test.
-#[allow(clippy::too_many_arguments)]
 pub(super) fn truth(
     cfg: &SynthConfig,
     model: &Model,
-    plans: &[Plan],
-    exact: &[Vec<f64>],
     channels: &[SynthChannel],
     rig_record: &BTreeMap<String, String>,
     col: &Collector<'_>,
@@ -134,8 +217,7 @@ pub(super) fn truth(
         }
     };
     let duration = cfg.test.duration_s();
-    let ex = ExactSignals::new(plans, exact, a_true);
-    let v2 = &ex.v2;
+    let ex = &col.exact;
     let sensors = sensors_json(cfg, channels);
     let mut e = json!({
         "test": cfg.test.kind().as_str(),
@@ -171,7 +253,7 @@ pub(super) fn truth(
         "duration_s": duration,
         "stick_fraction": col.stick_time / (duration * w),
         "n_stick_slip_events": col.events_in_log,
-        "max_abs_v2_m_per_s": v2.as_ref().map_or(Value::Null, |(_, u)| num(u.iter().fold(0.0f64, |m, x| m.max(x.abs())))),
+        "max_abs_v2_m_per_s": ex.v2_max.map_or(Value::Null, num),
         "channels": channels.iter().map(|c| if cfg.format.is_table() { c.quantity.name() } else { c.quantity.topic() }).collect::<Vec<_>>(),
         "sensors": sensors,
         "seed": cfg.seed,
@@ -229,7 +311,7 @@ pub(super) fn truth(
             .collect();
         obj.insert("column_time_shifts_s".into(), json!(shifts));
     }
-    insert_response(obj, cfg, &ex, setpoints, w);
+    insert_response(obj, cfg, ex, setpoints, w);
     e
 }
 
@@ -311,21 +393,19 @@ fn defect_keys(o: &mut serde_json::Map<String, Value>, c: &SynthChannel, n_sampl
 
 /// Inserts the response of the test into the truth entry: the last 5 s of
 /// a characteristic test, each step of a stepped sweep, each setpoint of a
-/// continuous one.
+/// continuous one (the amplitudes over [`response_windows`], in order).
 fn insert_response(
     obj: &mut serde_json::Map<String, Value>,
     cfg: &SynthConfig,
-    ex: &ExactSignals,
+    ex: &ExactSummary,
     setpoints: &[SynthSetpoint],
     w: f64,
 ) {
-    let duration = cfg.test.duration_s();
-    let amp = |t0: f64, t1: f64| ex.amp(t0, t1);
     match &cfg.test {
         TestSpec::Characteristic { frequency_hz, .. } => {
             obj.insert("drive_frequency_hz".into(), json!(frequency_hz));
             obj.insert("eta".into(), json!(2.0 * PI * frequency_hz / w));
-            let (a1, a2) = amp((duration - 5.0).max(0.0), duration);
+            let (a1, a2) = ex.amp(0);
             obj.insert("a1_last5s".into(), a1);
             obj.insert("a2_last5s".into(), a2);
         }
@@ -336,7 +416,23 @@ fn insert_response(
             preroll_s,
         } => {
             obj.insert("sweep_kind".into(), json!("stepped"));
-            let steps = stepped_response(setpoints_hz, dwell_s, *ramp_s, *preroll_s, w, ex);
+            let steps: Vec<Value> = steps(setpoints_hz, dwell_s, *ramp_s, *preroll_s)
+                .iter()
+                .enumerate()
+                .map(|(k, s)| {
+                    let (t0, t_end) = s.window;
+                    let (a1, a2) = ex.amp(k);
+                    json!({
+                        "frequency_hz": s.frequency_hz,
+                        "eta": 2.0 * PI * s.frequency_hz / w,
+                        "t_setpoint_s": s.t_setpoint,
+                        "t_dwell_start_s": s.t_dwell_start,
+                        "t_end_s": t_end,
+                        "settle_window_s": [t0, t_end],
+                        "a1": a1, "a2": a2,
+                    })
+                })
+                .collect();
             obj.insert("response".into(), Value::Array(steps));
         }
         TestSpec::Continuous {
@@ -352,10 +448,10 @@ fn insert_response(
             );
             let resp: Vec<Value> = setpoints
                 .iter()
-                .map(|sp| {
-                    let t = (sp.t_ns - LOG_START_NS) as f64 * 1e-9;
-                    let half = 1.5 / sp.frequency_hz;
-                    let (a1, a2) = amp(t - half, t + half);
+                .enumerate()
+                .map(|(k, sp)| {
+                    let (t, _) = continuous_window(sp);
+                    let (a1, a2) = ex.amp(k);
                     json!({"t_s": t, "frequency_hz": sp.frequency_hz,
                            "eta": 2.0 * PI * sp.frequency_hz / w, "a1": a1, "a2": a2})
                 })
@@ -365,16 +461,18 @@ fn insert_response(
     }
 }
 
+/// One step of a stepped sweep: its setpoint, the times of its setpoint
+/// message and dwell start, and its settle window [t0, t_end] (s).
+struct Step {
+    frequency_hz: f64,
+    t_setpoint: f64,
+    t_dwell_start: f64,
+    window: (f64, f64),
+}
+
 /// The steps of a stepped sweep: times of each setpoint, dwell and settle
-/// window, and the amplitudes over that window.
-fn stepped_response(
-    setpoints_hz: &[f64],
-    dwell_s: &[f64],
-    ramp_s: f64,
-    preroll_s: f64,
-    w: f64,
-    ex: &ExactSignals,
-) -> Vec<Value> {
+/// window (the last whole drive periods of the dwell, at most 5 s).
+fn steps(setpoints_hz: &[f64], dwell_s: &[f64], ramp_s: f64, preroll_s: f64) -> Vec<Step> {
     let mut t = preroll_s;
     let mut steps = Vec::new();
     for (i, &fr) in setpoints_hz.iter().enumerate() {
@@ -388,16 +486,12 @@ fn stepped_response(
         let period = 1.0 / fr;
         let n = ((d.min(5.0)) / period).floor().max(1.0);
         let t0 = (t_end - n * period).max(t);
-        let (a1, a2) = ex.amp(t0, t_end);
-        steps.push(json!({
-            "frequency_hz": fr,
-            "eta": 2.0 * PI * fr / w,
-            "t_setpoint_s": t_set,
-            "t_dwell_start_s": t,
-            "t_end_s": t_end,
-            "settle_window_s": [t0, t_end],
-            "a1": a1, "a2": a2,
-        }));
+        steps.push(Step {
+            frequency_hz: fr,
+            t_setpoint: t_set,
+            t_dwell_start: t,
+            window: (t0, t_end),
+        });
         t = t_end;
     }
     steps

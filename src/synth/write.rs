@@ -119,6 +119,14 @@ fn mcap_err(path: &Path, e: mcap::McapError) -> Error {
     }
 }
 
+/// A message of an MCAP log: buffer `.1` of channel `.0`, or setpoint
+/// message `.0`.
+#[derive(Clone, Copy)]
+enum Message {
+    Buffer(usize, usize),
+    Setpoint(usize),
+}
+
 fn write_mcap(log: &SynthLog, path: &Path) -> Result<()> {
     let (compression, summary) = match log.config.format {
         LogFormat::McapLz4 => (Some(Compression::Lz4), true),
@@ -136,9 +144,10 @@ fn write_mcap(log: &SynthLog, path: &Path) -> Result<()> {
         let buf_schema = w
             .add_schema("daq_buffer", "jsonschema", BUFFER_SCHEMA.as_bytes())
             .map_err(|e| mcap_err(path, e))?;
-        // (log time, channel id, payload), written in time order.
-        let mut msgs: Vec<(u64, u16, Vec<u8>)> = Vec::new();
-        for c in &log.channels {
+        // (log time, channel id, message): what to write, in time order;
+        // each payload is made only when it is written.
+        let mut msgs: Vec<(u64, u16, Message)> = Vec::new();
+        for (ci, c) in log.channels.iter().enumerate() {
             let q = c.quantity;
             let md: BTreeMap<String, String> = [
                 ("sample_rate_hz".to_string(), c.sensor.rate_hz.to_string()),
@@ -149,9 +158,8 @@ fn write_mcap(log: &SynthLog, path: &Path) -> Result<()> {
             let id = w
                 .add_channel(buf_schema, q.topic(), "json", &md)
                 .map_err(|e| mcap_err(path, e))?;
-            for b in &c.buffers {
-                let payload = json!({"t0_ns": b.t0_ns, "dt_ns": c.dt_ns, "value": b.values});
-                msgs.push((b.t0_ns, id, payload.to_string().into_bytes()));
+            for (bi, b) in c.buffers.iter().enumerate() {
+                msgs.push((b.t0_ns, id, Message::Buffer(ci, bi)));
             }
         }
         if !log.setpoints.is_empty() {
@@ -161,21 +169,30 @@ fn write_mcap(log: &SynthLog, path: &Path) -> Result<()> {
             let id = w
                 .add_channel(sp_schema, "/drive/setpoint", "json", &BTreeMap::new())
                 .map_err(|e| mcap_err(path, e))?;
-            for s in &log.setpoints {
-                let payload = json!({"t_ns": s.t_ns, "frequency_hz": s.frequency_hz,
-                                     "amplitude_m": s.amplitude_m});
-                msgs.push((s.t_ns, id, payload.to_string().into_bytes()));
+            for (si, s) in log.setpoints.iter().enumerate() {
+                msgs.push((s.t_ns, id, Message::Setpoint(si)));
             }
         }
         msgs.sort_by_key(|m| (m.0, m.1));
-        for (i, (t, id, data)) in msgs.iter().enumerate() {
+        for (i, (t, id, m)) in msgs.iter().enumerate() {
+            let payload = match *m {
+                Message::Buffer(ci, bi) => {
+                    let (c, b) = (&log.channels[ci], &log.channels[ci].buffers[bi]);
+                    json!({"t0_ns": b.t0_ns, "dt_ns": c.dt_ns, "value": b.values})
+                }
+                Message::Setpoint(si) => {
+                    let s = &log.setpoints[si];
+                    json!({"t_ns": s.t_ns, "frequency_hz": s.frequency_hz,
+                           "amplitude_m": s.amplitude_m})
+                }
+            };
             let header = MessageHeader {
                 channel_id: *id,
                 sequence: i as u32,
                 log_time: *t,
                 publish_time: *t,
             };
-            w.write_to_known_channel(&header, data)
+            w.write_to_known_channel(&header, payload.to_string().as_bytes())
                 .map_err(|e| mcap_err(path, e))?;
         }
         w.write_metadata(&Metadata {
@@ -325,11 +342,12 @@ fn write_parquet(log: &SynthLog, path: &Path) -> Result<()> {
     let t: Vec<f64> = (0..log.table_rows)
         .map(|i| (i as u64 * dt) as f64 * 1e-9)
         .collect();
-    let mut cols: Vec<(&str, Vec<Option<f64>>)> = Vec::new();
+    let setpoint = setpoint_column(log);
+    let mut cols: Vec<(&str, &[Option<f64>])> = Vec::new();
     for c in &log.channels {
-        cols.push((c.quantity.name(), c.buffers[0].values.clone()));
+        cols.push((c.quantity.name(), &c.buffers[0].values));
     }
-    if let Some(s) = setpoint_column(log) {
+    if let Some(s) = &setpoint {
         cols.push(("setpoint_hz", s));
     }
     debug_assert!(log
