@@ -254,13 +254,13 @@ def cases():
             c.append(case("hang", f"{cmd[0]} of a CSV of {rows / 1e6:g} million (empty) rows", cmd + ["big.csv"],
                           [("emptyrows", "big.csv", rows), ("copyas", MAP, "big.map.toml")], says="into shorter logs" if cmd == ["ingest"] else "split the log"))
     if os.environ.get("SWEEP_LONG"):
-        # Long logs (issue 29; SWEEP_LONG=1, about 1 min and 400 MB of disk
-        # each): a two-hour 1 kHz CSV is ingested (under 2 GB), its fit is
-        # refused with the numbers after the ingest.
+        # Long logs (issue 29; SWEEP_LONG=1, 400 MB of disk each): a
+        # two-hour 1 kHz CSV is ingested and fitted within the budget
+        # (about 1 and 5 min; peaks in docs/measurements.md).
         c.append(case("hang", "ingest of a two-hour 1 kHz CSV (7.2 million rows, 380 MB)", ["ingest", "long.csv", "--json"],
                       [("tiled", "long.csv", 360)], ok=True))
-        c.append(case("hang", "fit of a two-hour 1 kHz CSV: refused before its columns are read", FIT + ["long.csv"],
-                      [("tiled", "long.csv", 360)], says="split the log"))  # refused before the columns are read
+        c.append(case("hang", "fit of a two-hour 1 kHz CSV: fitted within the budget", FIT + ["long.csv"],
+                      [("tiled", "long.csv", 360)], ok=True))
         # A two-hour synthetic log is written (streamed synth; about 20 s,
         # 0.7-1.2 GB peak and 90-410 MB of disk each; peaks in
         # docs/measurements.md, not checked here).

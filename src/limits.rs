@@ -30,12 +30,12 @@ pub const MAX_FAMILY_POINTS: u64 = MEMORY_BUDGET_BYTES / FAMILY_POINT_BYTES;
 /// Memory the fit of one log takes per sample of its common grid (bytes,
 /// all copies counted: the run, the contact signals, the equation-error
 /// and output-error fits, one calibration re-fit at a time: more run at
-/// once only where [`concurrent_refits`] allows). Measured on a 7-column
-/// 1 kHz CSV log: 600 s peaked at 425 MB, 1200 s at 761 MB (560 bytes per
-/// sample above about 90 MB); 3000 s at 1.61 GB with one thread and with
-/// five (537 bytes per sample); rounded up (`docs/measurements.md`, issue
-/// 29).
-pub const FIT_BYTES_PER_SAMPLE: u64 = 600;
+/// once only where [`concurrent_refits`] allows). Measured on two-hour
+/// 1 kHz logs (7.2 million samples; peak resident memory with one and two
+/// threads): a 7-column CSV 264–267 bytes per sample, an MCAP log 264;
+/// rounded up (`docs/measurements.md`, "A two-hour log fitted within the
+/// budget", issue 29). Was 600 before the fit's columns were shared.
+pub const FIT_BYTES_PER_SAMPLE: u64 = 275;
 
 /// Memory one calibration re-fit of a log takes beside the fit itself, per
 /// sample (bytes): its characteristic (the contact signals, the
@@ -96,7 +96,7 @@ pub fn rounds(planned: &[u64], budget: u64) -> Vec<std::ops::Range<usize>> {
 }
 
 /// Most samples one log may have to be fitted within [`MEMORY_BUDGET_BYTES`]
-/// (3.33 million: 55 min at 1 kHz).
+/// (7.27 million: two hours and a minute at 1 kHz).
 pub const MAX_FIT_SAMPLES: u64 = MEMORY_BUDGET_BYTES / FIT_BYTES_PER_SAMPLE;
 
 /// Checks a family of `curves` × `points` steady states (and `shards`

@@ -82,33 +82,38 @@ pub struct DriveFit {
 /// frequency beyond which the metadata are set aside (with a warning).
 pub const DRIVE_FREQUENCY_TOLERANCE: f64 = 0.02;
 
+/// A sample column of a [`Contact`], shared (not copied) with the grid,
+/// with the re-fits whose gains leave it unchanged and with the
+/// output-error data.
+pub use crate::ingest::Column;
+
 /// Contact force and the corrected signals it was computed from, on the
 /// run's common time base (NaN where data are missing).
 #[derive(Debug, Clone)]
 pub struct Contact {
     /// Grid times (s).
-    pub t: Vec<f64>,
+    pub t: Column,
     /// Grid spacing (s).
     pub dt: f64,
     /// Spring rate K2 (N/m).
     pub k2_n_per_m: f64,
     /// Position of M1 as used (m).
-    pub x1: Vec<f64>,
+    pub x1: Column,
     /// Position of M2 as used (m).
-    pub x2: Vec<f64>,
+    pub x2: Column,
     /// Velocity of M2 after offset and lag correction (m/s).
-    pub v2: Vec<f64>,
+    pub v2: Column,
     /// Smoothed velocity of M2 (m/s).
-    pub v2_smooth: Vec<f64>,
+    pub v2_smooth: Column,
     /// Acceleration of M2 used in eq. 7 (m/s²).
-    pub a2: Vec<f64>,
+    pub a2: Column,
     /// Velocity of M1 (smoothed derivative of x1, m/s).
-    pub v1: Vec<f64>,
-    /// Passive force `−K2·(x2 − x1) + d·ẋ1` (N, bias included): the contact
-    /// force while M2 sticks (ẋ2 = ẍ2 = 0).
-    pub passive: Vec<f64>,
+    pub v1: Column,
+    /// Damping d of the rig (N·s/m), for the passive force
+    /// ([`Contact::passive_at`]).
+    pub d_n_s_per_m: f64,
     /// Contact force by eq. 7 (N, bias included).
-    pub r: Vec<f64>,
+    pub r: Column,
     /// The drive fit.
     pub drive: DriveFit,
     /// Velocity offset removed (m/s).
@@ -120,7 +125,7 @@ pub struct Contact {
     /// The accelerometer alone (offset and lag removed; NaN where it has no
     /// data), if there is one: the model-adequacy test compares it with
     /// the simulated acceleration.
-    pub a2_sensor: Option<Vec<f64>>,
+    pub a2_sensor: Option<Column>,
     /// Lag removed from a2 relative to v2 (s), if there is an accelerometer.
     pub a2_lag_s: Option<f64>,
     /// Where ẍ2 came from: `accelerometer` or `savitzky-golay`.
@@ -132,6 +137,20 @@ pub struct Contact {
     /// How many of `warnings` the velocity stage gave (the acceleration
     /// stage's follow): what [`compute_reusing`] keeps of a base.
     pub(crate) velocity_warnings: usize,
+}
+
+impl Contact {
+    /// Passive force `−K2·(x2 − x1) + d·ẋ1` at sample `i` (N, bias
+    /// included): the contact force while M2 sticks (ẋ2 = ẍ2 = 0).
+    /// Computed where it is used, not stored (one column less per contact).
+    pub fn passive_at(&self, i: usize) -> f64 {
+        -self.k2_n_per_m * (self.x2[i] - self.x1[i]) + self.d_n_s_per_m * self.v1[i]
+    }
+
+    /// The passive force of every sample ([`Contact::passive_at`]).
+    pub fn passive(&self) -> Vec<f64> {
+        (0..self.t.len()).map(|i| self.passive_at(i)).collect()
+    }
 }
 
 /// Fits `x ≈ c + a·cos ωt + b·sin ωt` at angular frequency `w`; returns
@@ -578,8 +597,17 @@ pub(crate) fn compute_reusing(
     let rig = &run.rig;
     let dt = 1.0 / rs.rate_hz;
     let scale = |v: &[f64], k: f64| -> Vec<f64> { v.iter().map(|x| x * k).collect() };
-    let x1 = scale(&rs.x1, g.x1);
-    let x2 = scale(&rs.x2, g.x2);
+    // A column whose gain the base shares is the base's (not a copy).
+    let x1: Column = match base {
+        Some((bg, c)) if bg.x1 == g.x1 => c.x1.clone(),
+        _ if g.x1 == 1.0 => rs.x1.clone(),
+        _ => scale(&rs.x1, g.x1).into(),
+    };
+    let x2: Column = match base {
+        Some((bg, c)) if bg.x2 == g.x2 => c.x2.clone(),
+        _ if g.x2 == 1.0 => rs.x2.clone(),
+        _ => scale(&rs.x2, g.x2).into(),
+    };
 
     let drive = match base {
         Some((bg, c)) if bg.x0 == g.x0 => c.drive,
@@ -604,7 +632,7 @@ pub(crate) fn compute_reusing(
             let v2_raw = scale(&rs.v2, g.v2);
             let (v2, lag, offset) = velocity(run, v2_raw, &x2, dx2, (dt, half), &mut warnings);
             let v2_smooth = savgol(&v2, dt, half, 3, 0);
-            (v2, lag, offset, v2_smooth)
+            (v2.into(), lag, offset, v2_smooth.into())
         }
     };
     let velocity_warnings = warnings.len();
@@ -626,24 +654,27 @@ pub(crate) fn compute_reusing(
             let dv2 = savgol(&v2, dt, half, 3, 1);
             let acc = acceleration(scale(a, g.a2), &v2, &dv2, (dt, half), &mut warnings);
             a2_offset = acc.offset;
-            a2_sensor = Some(acc.sensor);
-            (acc.merged, Some(acc.lag), "accelerometer")
+            a2_sensor = Some(acc.sensor.into());
+            (acc.merged.into(), Some(acc.lag), "accelerometer")
         }
-        _ => (savgol(&v2, dt, half, 3, 1), None, "savitzky-golay"),
+        _ => (savgol(&v2, dt, half, 3, 1).into(), None, "savitzky-golay"),
     };
     let v1 = match base {
         Some((bg, c)) if bg.x1 == g.x1 => c.v1.clone(),
-        _ => savgol(&x1, dt, half, 3, 1),
+        _ => savgol(&x1, dt, half, 3, 1).into(),
     };
     let (m2, k2, d) = (rig.m2_kg, rig.k2_n_per_m, rig.d_n_s_per_m);
-    let passive: Vec<f64> = (0..rs.len())
-        .map(|i| -k2 * (x2[i] - x1[i]) + d * v1[i])
-        .collect();
     let r: Vec<f64> = (0..rs.len())
-        .map(|i| passive[i] - m2 * a2[i] - d * v2[i])
+        .map(|i| {
+            let passive = -k2 * (x2[i] - x1[i]) + d * v1[i];
+            passive - m2 * a2[i] - d * v2[i]
+        })
         .collect();
     Some(Contact {
-        t: rs.t.clone(),
+        t: match base {
+            Some((_, c)) => c.t.clone(),
+            None => rs.t.clone(),
+        },
         dt,
         k2_n_per_m: k2,
         x1,
@@ -652,8 +683,8 @@ pub(crate) fn compute_reusing(
         v2_smooth,
         a2,
         v1,
-        passive,
-        r,
+        d_n_s_per_m: d,
+        r: r.into(),
         drive,
         v2_offset,
         a2_offset,

@@ -266,10 +266,15 @@ fn characteristic_reusing(
             return Ok(ch);
         }
     }
+    // (The contact force is this contact's own column: changed in place.)
+    let (k2, d) = (contact.k2_n_per_m, contact.d_n_s_per_m);
+    let (x1, x2, v1) = (&contact.x1, &contact.x2, &contact.v1);
+    let passive_at = |i: usize| -k2 * (x2[i] - x1[i]) + d * v1[i];
+    let r = std::sync::Arc::make_mut(&mut contact.r);
     for (i, st) in seg.stick.iter().enumerate() {
         if *st {
             // The physics gives ẋ2 = ẍ2 = 0 while sticking.
-            contact.r[i] = contact.passive[i];
+            r[i] = passive_at(i);
         }
     }
     Ok(Characteristic {

@@ -271,12 +271,13 @@ pub fn apply(run: &mut Run) -> Vec<Clipped> {
             }
         }
         let grid_t = run.resampled.t.clone();
-        let col = match q {
-            Quantity::X0 => Some(&mut run.resampled.x0),
-            Quantity::X1 => Some(&mut run.resampled.x1),
-            Quantity::X2 => Some(&mut run.resampled.x2),
-            Quantity::V2 => Some(&mut run.resampled.v2),
-            Quantity::A2 => run.resampled.a2.as_mut(),
+        let rs = &mut run.resampled;
+        let col: Option<&mut [f64]> = match q {
+            Quantity::X0 => Some(&mut rs.x0),
+            Quantity::X1 => Some(std::sync::Arc::make_mut(&mut rs.x1)),
+            Quantity::X2 => Some(std::sync::Arc::make_mut(&mut rs.x2)),
+            Quantity::V2 => Some(&mut rs.v2),
+            Quantity::A2 => rs.a2.as_deref_mut(),
             Quantity::NormalForce => None,
         };
         if let Some(col) = col {
@@ -417,7 +418,7 @@ mod tests {
         for v in c.v.iter_mut() {
             *v = v.min(rail);
         }
-        for v in run.resampled.x1.iter_mut() {
+        for v in std::sync::Arc::make_mut(&mut run.resampled.x1).iter_mut() {
             *v = v.min(rail);
         }
         let found = apply(&mut run);

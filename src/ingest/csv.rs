@@ -10,7 +10,9 @@
 
 use super::rig::RigMeta;
 use super::run::{median_interval, Setpoint};
-use super::{ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, SampleCount};
+use super::{
+    Column, ContentError, IngestError, LogFormat, Quantity, RawChannel, RawLog, SampleCount,
+};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::io::{BufRead, Read};
@@ -357,12 +359,24 @@ pub(crate) fn read(
     check_rate(&map_path, &time_spec, dt_s)?;
     let t0 = time[0] + time_spec.shift_s;
     let mut channels = Vec::new();
+    // Channels of one shift share their times (one column, not one each).
+    let mut times: Vec<(f64, Column)> = Vec::new();
     for (q, spec) in &cmap.channels {
         let v = columns.next().expect("one column per channel");
-        let t = time
+        let t = match times
             .iter()
-            .map(|t| t + time_spec.shift_s + spec.shift_s - t0)
-            .collect();
+            .find(|(s, _)| s.to_bits() == spec.shift_s.to_bits())
+        {
+            Some((_, t)) => t.clone(),
+            None => {
+                let t: Column = time
+                    .iter()
+                    .map(|t| t + time_spec.shift_s + spec.shift_s - t0)
+                    .collect();
+                times.push((spec.shift_s, t.clone()));
+                t
+            }
+        };
         channels.push(RawChannel {
             quantity: *q,
             source: spec.name.clone(),

@@ -841,7 +841,7 @@ fn expand(q: Quantity, acc: Acc, origin: u64, warnings: &mut Vec<Warning>) -> Ra
         quantity: q,
         source: acc.topic,
         dt_s,
-        t,
+        t: t.into(),
         v: acc.values,
     }
 }
@@ -1030,7 +1030,7 @@ mod tests {
         let r = &run.resampled;
         assert_eq!(r.rate_hz, 1000.0);
         // value = time since T0, so on the grid x1(t) = t wherever defined.
-        for (t, x) in r.t.iter().zip(&r.x1) {
+        for (t, x) in r.t.iter().zip(r.x1.iter()) {
             if x.is_finite() {
                 assert!((x - t).abs() < 1e-12, "{t}: {x}");
             }

@@ -40,7 +40,7 @@ pub use delays::{
 };
 pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
 pub(crate) use run::interpolate;
-pub use run::{Channel, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
+pub use run::{Channel, Column, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
 
 /// Options of [`read`].
 #[derive(Debug, Clone, Default)]
@@ -392,8 +392,9 @@ pub(crate) struct RawChannel {
     pub source: String,
     /// Nominal sample interval (s).
     pub dt_s: f64,
-    /// Sample times (s) on the reader's clock (any origin).
-    pub t: Vec<f64>,
+    /// Sample times (s) on the reader's clock (any origin); channels of
+    /// one table share theirs.
+    pub t: Column,
     /// Values in SI, NaN for a dropout.
     pub v: Vec<f64>,
 }
@@ -533,7 +534,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
 /// or the sensors were not connected, and any fit of it would be made up.
 fn check_signal(path: &Path, run: &Run) -> Result<(), IngestError> {
     let r = &run.resampled;
-    let flat: Vec<&str> = [("x0", &r.x0), ("x1", &r.x1), ("x2", &r.x2)]
+    let flat: Vec<&str> = [("x0", &r.x0[..]), ("x1", &r.x1), ("x2", &r.x2)]
         .into_iter()
         .filter(|(_, v)| {
             let mut finite = v.iter().copied().filter(|x| x.is_finite());

@@ -126,13 +126,15 @@ fn read_inner(path: &Path, max_samples: Option<u64>) -> Result<RawLog, IngestErr
         ));
     }
     let mut channels = Vec::new();
+    // One time column, shared by every channel.
+    let shared: super::Column = time.as_slice().into();
     for q in Quantity::ALL {
         if let Some(v) = column(path, &df, q.name())? {
             channels.push(RawChannel {
                 quantity: q,
                 source: q.name().to_string(),
                 dt_s,
-                t: time.clone(),
+                t: shared.clone(),
                 v,
             });
         }

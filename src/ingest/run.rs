@@ -92,8 +92,9 @@ pub struct Channel {
     pub source: String,
     /// Nominal sample rate (Hz).
     pub rate_hz: f64,
-    /// Sample times (s from log start), strictly increasing.
-    pub t: Vec<f64>,
+    /// Sample times (s from log start), strictly increasing (shared by
+    /// the channels of a table that were sampled together).
+    pub t: Column,
     /// Values (SI), NaN where the sensor dropped out.
     pub v: Vec<f64>,
     /// Number of null (dropout) samples.
@@ -111,19 +112,23 @@ impl Channel {
     }
 }
 
+/// A grid column that later stages share instead of copying (the
+/// contact force's times and positions at unit gain are these).
+pub type Column = std::sync::Arc<[f64]>;
+
 /// All channels on one uniform time base (NaN where there is no data).
 #[derive(Debug, Clone)]
 pub struct Resampled {
     /// Grid rate (Hz).
     pub rate_hz: f64,
     /// Grid times (s from log start): `i / rate_hz`.
-    pub t: Vec<f64>,
+    pub t: Column,
     /// Drive displacement x0 (m).
     pub x0: Vec<f64>,
     /// Main mass displacement x1 (m).
-    pub x1: Vec<f64>,
+    pub x1: Column,
     /// Absorber mass displacement x2 (m).
-    pub x2: Vec<f64>,
+    pub x2: Column,
     /// Absorber mass velocity (m/s); all NaN when the log has no velocity
     /// channel ([`Run::has_velocity`]).
     pub v2: Vec<f64>,
@@ -251,9 +256,10 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         .map(|(c, dropouts)| {
             let mut t = c.t;
             // x - (+0.0) == x for every x: an MCAP log's times already
-            // start at +0.0, so they skip this pass.
+            // start at +0.0, so they skip this pass (and a table's shared
+            // times stay shared).
             if origin.to_bits() != 0 {
-                for x in &mut t {
+                for x in std::sync::Arc::make_mut(&mut t).iter_mut() {
                     *x -= origin;
                 }
             }
@@ -335,7 +341,7 @@ fn align_channels(
     let mut changed = false;
     if let Some(v) = est.velocity.filter(|v| v.drift_corrected) {
         if let Some(c) = channels.iter_mut().find(|c| c.quantity == Quantity::V2) {
-            for (x, t) in c.v.iter_mut().zip(&c.t) {
+            for (x, t) in c.v.iter_mut().zip(c.t.iter()) {
                 *x -= v.drift_m_per_s2 * (t - tm);
             }
             changed = true;
@@ -367,7 +373,7 @@ fn align_channels(
             continue;
         }
         if let Some(c) = channels.iter_mut().find(|c| c.quantity == q) {
-            for t in c.t.iter_mut() {
+            for t in std::sync::Arc::make_mut(&mut c.t).iter_mut() {
                 *t += s;
             }
             changed = true;
@@ -591,13 +597,13 @@ fn resample(
     Ok(Resampled {
         rate_hz,
         x0,
-        x1,
-        x2,
+        x1: x1.into(),
+        x2: x2.into(),
         v2,
         a2: take(Quantity::A2),
         normal_force: take(Quantity::NormalForce),
         setpoint_hz,
-        t: grid,
+        t: grid.into(),
     })
 }
 

@@ -42,9 +42,10 @@ fn line_at(p: &[f64], a: usize, b: usize, at: f64) -> Option<(f64, f64)> {
 /// force, minus two noise levels so noise cannot inflate it.
 pub(super) fn stuck_lower_bound(c: &Contact) -> f64 {
     let half = c.half_window;
-    let p = savgol(&c.passive, c.dt, half, 3, 0);
+    let passive = c.passive();
+    let p = savgol(&passive, c.dt, half, 3, 0);
     let noise = mad_sigma(
-        &c.passive
+        &passive
             .iter()
             .zip(&p)
             .map(|(a, b)| a - b)
@@ -63,6 +64,7 @@ pub(super) fn stuck_lower_bound(c: &Contact) -> f64 {
 pub(super) fn breakaways(c: &Contact, seg: &Segmentation, gauge: &Gauge<'_>) -> Vec<Brk> {
     let n = c.r.len();
     let half = c.half_window;
+    let passive = c.passive();
     let mut brks = Vec::new();
     for b in &seg.breakaways {
         let end = b.at.floor() as usize;
@@ -75,7 +77,7 @@ pub(super) fn breakaways(c: &Contact, seg: &Segmentation, gauge: &Gauge<'_>) -> 
         if !(k1.is_finite() && k2.is_finite()) {
             continue;
         }
-        if let Some((p, _)) = line_at(&c.passive, start, end.min(n - 1), b.at) {
+        if let Some((p, _)) = line_at(&passive, start, end.min(n - 1), b.at) {
             brks.push(Brk {
                 f: b.direction * p,
                 k1,
@@ -99,11 +101,12 @@ pub(super) fn reversal_upper_bound(
 ) -> Option<f64> {
     let n = c.r.len();
     let half = c.half_window;
+    let passive = c.passive();
     let mut best = f64::INFINITY;
     for rv in &seg.reversals {
         let i = rv.at.round() as usize;
         let (a, b) = (i.saturating_sub(half), (i + half).min(n - 1));
-        let Some((p, dp)) = line_at(&c.passive, a, b, rv.at) else {
+        let Some((p, dp)) = line_at(&passive, a, b, rv.at) else {
             continue;
         };
         let acc = c.a2[i.min(n - 1)].abs();
@@ -113,7 +116,7 @@ pub(super) fn reversal_upper_bound(
         } else {
             0.0
         };
-        let sig = (dp * sig_t).abs() + mad_sigma(&c.passive[a..=b]) / ((b - a + 1) as f64).sqrt();
+        let sig = (dp * sig_t).abs() + mad_sigma(&passive[a..=b]) / ((b - a + 1) as f64).sqrt();
         let (k1, k2) = gauge.at(i.min(n - 1));
         let bound = rv.direction * (p - offset_at(coef, k1, k2)) + 2.0 * sig;
         if bound.is_finite() {

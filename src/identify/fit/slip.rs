@@ -133,19 +133,6 @@ pub(super) fn rss(
         .sum()
 }
 
-/// [`rss`] with the regressors `rows` of the samples already evaluated.
-pub(super) fn rss_rows(samples: &[Sample], rows: &[Row], coef: &[f64], w: Option<&[f64]>) -> f64 {
-    samples
-        .iter()
-        .zip(rows)
-        .enumerate()
-        .map(|(k, (smp, x))| {
-            let wi = w.map_or(1.0, |w| w[k]);
-            wi * (smp.r - x.iter().zip(coef).map(|(a, b)| a * b).sum::<f64>()).powi(2)
-        })
-        .sum()
-}
-
 /// Robust (Huber IRLS) fit of one slip model; returns coefficients, final
 /// weights and residuals.
 pub(super) fn irls(
@@ -157,13 +144,13 @@ pub(super) fn irls(
     let mut coef = Vec::new();
     let mut res = vec![0.0; samples.len()];
     let mut prev: Option<Vec<f64>> = None;
-    // The regressors do not change between iterations: evaluated once.
-    let rows: Vec<Row> = samples.iter().map(|smp| basis(kind, smp, vs)).collect();
+    // The regressors are evaluated where they are used, not stored (a row
+    // per slip sample would be the largest array of the fit).
+    let p = samples.first().map_or(0, |smp| basis(kind, smp, vs).len());
     for _ in 0..8 {
-        let p = rows.first().map_or(0, |r| r.len());
         let mut ne = Normal::new(p);
-        for ((smp, wi), x) in samples.iter().zip(&w).zip(&rows) {
-            ne.add(x, smp.r, *wi);
+        for (smp, wi) in samples.iter().zip(&w) {
+            ne.add(&basis(kind, smp, vs), smp.r, *wi);
         }
         coef = ne.solve()?;
         // Converged: the weights would not change the fit any more.
@@ -173,7 +160,8 @@ pub(super) fn irls(
                 .all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + b.abs()))
         });
         prev = Some(coef.clone());
-        for ((rk, smp), x) in res.iter_mut().zip(samples).zip(&rows) {
+        for (rk, smp) in res.iter_mut().zip(samples) {
+            let x = basis(kind, smp, vs);
             *rk = smp.r - x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();
         }
         let sigma = mad_sigma(&res).max(1e-12);

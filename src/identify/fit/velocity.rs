@@ -5,8 +5,7 @@
 //! profiled residual sum.
 
 use super::basis;
-use super::slip::{rss_rows, Sample};
-use super::Row;
+use super::slip::{rss, Sample};
 use crate::identify::smooth::Normal;
 use crate::model::LawKind;
 use crate::stats::golden_section;
@@ -27,20 +26,16 @@ pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> O
     if umax <= 4.0 * umin {
         return None;
     }
-    // The regressors at one v_s, evaluated once for the normal equations
-    // and the residual sum (one call of the family's basis per sample).
-    let rows = std::cell::RefCell::new(Vec::<Row>::with_capacity(samples.len()));
+    // The regressors at one v_s, evaluated where they are used (twice per
+    // sample: the normal equations, then the residual sum), not stored.
     let cost = |lv: f64| {
         let vs = lv.exp();
-        let mut rows = rows.borrow_mut();
-        rows.clear();
-        rows.extend(samples.iter().map(|smp| basis(kind, smp, vs)));
-        let mut ne = Normal::new(rows[0].len());
-        for (smp, x) in samples.iter().zip(rows.iter()) {
-            ne.add(x, smp.r, 1.0);
+        let mut ne = Normal::new(basis(kind, &samples[0], vs).len());
+        for smp in samples {
+            ne.add(&basis(kind, smp, vs), smp.r, 1.0);
         }
         match ne.solve() {
-            Some(c) => rss_rows(samples, &rows, &c, None),
+            Some(c) => rss(samples, &c, None, kind, vs),
             None => f64::INFINITY,
         }
     };

@@ -339,8 +339,8 @@ pub(super) fn adequacy_of(d: &Data, res: &Res, idx: &[(usize, f64)]) -> Adequacy
                 .map(|&(j, _)| (w * d.t[j] - d.phase).rem_euclid(2.0 * PI))
                 .collect(),
         ),
-        ("velocity", idx.iter().map(|&(j, _)| d.v2s[j]).collect()),
-        ("position", idx.iter().map(|&(j, _)| d.x2s[j]).collect()),
+        ("velocity", idx.iter().map(|&(j, _)| d.v2s_at(j)).collect()),
+        ("position", idx.iter().map(|&(j, _)| d.x2s_at(j)).collect()),
         ("time", idx.iter().map(|&(j, _)| d.t[j]).collect()),
     ];
     let mut structure = Vec::new();

@@ -11,18 +11,23 @@ pub(super) struct Anchor {
     pub(super) x2_stick: Option<f64>,
 }
 
-/// The data the cost needs (owned, so a copy with perturbed gains is cheap).
+/// A sample column shared between copies of [`Data`] (and with the
+/// contact force's signals).
+pub(super) type Column = std::sync::Arc<[f64]>;
+
+/// The data the cost needs (owned; the columns shared, so a copy with
+/// perturbed gains copies no column).
 #[derive(Debug, Clone)]
 pub(super) struct Data {
-    pub(super) t: Vec<f64>,
-    pub(super) x1: Vec<f64>,
-    pub(super) x2: Vec<f64>,
-    pub(super) x1s: Vec<f64>,
-    pub(super) v1s: Vec<f64>,
-    pub(super) x2s: Vec<f64>,
-    pub(super) v2s: Vec<f64>,
+    pub(super) t: Column,
+    pub(super) x1: Column,
+    pub(super) x2: Column,
+    pub(super) x1s: Column,
+    pub(super) v1s: Column,
+    pub(super) x2s: Column,
+    pub(super) v2s: Column,
     /// Drive channel minus its offset (m), for the sampled drive.
-    pub(super) x0: Vec<f64>,
+    pub(super) x0: Column,
     pub(super) anchors: Vec<Anchor>,
     pub(super) segs: Vec<(usize, usize)>,
     /// The compared samples of each segment: every stride-th sample after
@@ -40,23 +45,58 @@ pub(super) struct Data {
     pub(super) sig: (f64, f64),
     /// The accelerometer (m/s², NaN where it has no data) and its noise,
     /// if the log has one.
-    pub(super) a2: Option<(Vec<f64>, f64)>,
+    pub(super) a2: Option<(Column, f64)>,
     /// Profile the x1, x2 lags behind the drive out of the residuals.
     pub(super) delays: bool,
+    /// Sensor gains applied as the columns are read (x0; x1 to x1, x1s
+    /// and v1s; x2 to x2 and x2s; v2 to v2s): a copy with perturbed gains
+    /// shares every column ([`Data::scaled`]).
+    pub(super) gains: Gains,
 }
 
 impl Data {
-    /// The same data with the sensor gains multiplied by `g` (x0, x1, x2, v2).
+    /// x1 at sample `j`, with its gain.
+    pub(super) fn x1_at(&self, j: usize) -> f64 {
+        self.x1[j] * self.gains.x1
+    }
+    /// x2 at sample `j`, with its gain.
+    pub(super) fn x2_at(&self, j: usize) -> f64 {
+        self.x2[j] * self.gains.x2
+    }
+    /// Smoothed x1 at sample `j`, with x1's gain.
+    pub(super) fn x1s_at(&self, j: usize) -> f64 {
+        self.x1s[j] * self.gains.x1
+    }
+    /// Smoothed ẋ1 at sample `j`, with x1's gain.
+    pub(super) fn v1s_at(&self, j: usize) -> f64 {
+        self.v1s[j] * self.gains.x1
+    }
+    /// Smoothed x2 at sample `j`, with x2's gain.
+    pub(super) fn x2s_at(&self, j: usize) -> f64 {
+        self.x2s[j] * self.gains.x2
+    }
+    /// Smoothed ẋ2 at sample `j`, with v2's gain.
+    pub(super) fn v2s_at(&self, j: usize) -> f64 {
+        self.v2s[j] * self.gains.v2
+    }
+    /// The drive at sample `j`, with its gain.
+    pub(super) fn x0_at(&self, j: usize) -> f64 {
+        self.x0[j] * self.gains.x0
+    }
+
+    /// The same data with the sensor gains multiplied by `g` (x0, x1, x2,
+    /// v2): every column shared, the gains applied as they are read (the
+    /// same products as scaled copies of the columns, bit for bit; a copy
+    /// per perturbed gain was up to three columns of a long log).
     pub(super) fn scaled(&self, g: &Gains) -> Data {
-        let s = |v: &[f64], k: f64| v.iter().map(|x| x * k).collect::<Vec<_>>();
         let mut d = self.clone();
-        d.x1 = s(&self.x1, g.x1);
-        d.x1s = s(&self.x1s, g.x1);
-        d.v1s = s(&self.v1s, g.x1);
-        d.x2 = s(&self.x2, g.x2);
-        d.x2s = s(&self.x2s, g.x2);
-        d.v2s = s(&self.v2s, g.v2);
-        d.x0 = s(&self.x0, g.x0);
+        d.gains = Gains {
+            x0: self.gains.x0 * g.x0,
+            x1: self.gains.x1 * g.x1,
+            x2: self.gains.x2 * g.x2,
+            v2: self.gains.v2 * g.v2,
+            a2: self.gains.a2 * g.a2,
+        };
         d.a = self.a * g.x0;
         for an in d.anchors.iter_mut() {
             an.x2_stick = an.x2_stick.map(|x| x * g.x2);

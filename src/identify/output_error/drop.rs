@@ -113,9 +113,10 @@ impl Refinement {
         // bias, the two gains).
         let psd = self.problem(&self.data, sd.fam());
         let (_, step) = Self::start(sd.kind, &psd.unpack(&sd.th).0, sd.th[2]);
-        let (c0, r0) = psd.residual_vector(&sd.th, &sd.proj)?;
+        let sd_proj = self.proj_of(sd.fam(), &sd.proj_at)?;
+        let (c0, r0) = psd.residual_vector(&sd.th, &sd_proj)?;
         let p = sd.th.len();
-        let jac = super::lm::fd_jacobian(&psd, &sd.proj, &sd.th, &r0, &step)?;
+        let jac = super::lm::fd_jacobian(&psd, &sd_proj, &sd.th, &r0, &step)?;
         let mut a = vec![vec![0.0; p]; p];
         for i in 0..p {
             for k in 0..p {
@@ -130,7 +131,7 @@ impl Refinement {
         // Gauss–Newton from `t` (static/dynamic layout) at v_s: the point
         // and its cost.
         let descend = |mut t: Vec<f64>, vs: f64| -> Option<(Vec<f64>, f64)> {
-            let (mut c, mut r) = pst.residual_vector(&to_st(&t, vs), &sd.proj)?;
+            let (mut c, mut r) = pst.residual_vector(&to_st(&t, vs), &sd_proj)?;
             for _ in 0..GN_ITERATIONS {
                 let g: Vec<f64> = (0..p).map(|i| dot(&jac[i], &r)).collect();
                 let delta = solve_small(&a, &g)?;
@@ -138,7 +139,7 @@ impl Refinement {
                 let mut better = None;
                 for _ in 0..4 {
                     let tn: Vec<f64> = t.iter().zip(&delta).map(|(x, d)| x - scale * d).collect();
-                    match pst.residual_vector(&to_st(&tn, vs), &sd.proj) {
+                    match pst.residual_vector(&to_st(&tn, vs), &sd_proj) {
                         Some((cn, rn)) if cn < c && rn.len() == r.len() => {
                             better = Some((tn, cn, rn));
                             break;

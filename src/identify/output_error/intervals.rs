@@ -170,15 +170,12 @@ impl Refinement {
         let m = r0.len();
         let jac = self.jacobian(&prob, fam.kind, th, proj, m)?;
         let (hinv, cov, t975) = if fixed.is_empty() {
-            self.sandwich(&jac, &r0, p)?
+            let all: Vec<usize> = (0..p).collect();
+            self.sandwich(&jac, p, &all, &r0)?
         } else {
             // The held columns out, and back as zero rows and columns.
             let free_ix: Vec<usize> = (0..p).filter(|j| !fixed.contains(j)).collect();
-            let free: Vec<Vec<f64>> = jac
-                .iter()
-                .map(|row| free_ix.iter().map(|&j| row[j]).collect())
-                .collect();
-            let (h, c, t) = self.sandwich(&free, &r0, free_ix.len())?;
+            let (h, c, t) = self.sandwich(&jac, p, &free_ix, &r0)?;
             let expand = |a: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
                 let mut out = vec![vec![0.0; p]; p];
                 for (i, row) in a.into_iter().enumerate() {
@@ -248,8 +245,9 @@ impl Refinement {
         })
     }
 
-    /// The Jacobian of the residuals by central differences (2m rows: r1
-    /// and r2 per sample; `m` samples).
+    /// The Jacobian of the residuals by central differences, row-major
+    /// (2m rows: r1 and r2 per sample, `m` samples; one column per
+    /// parameter): one allocation, not one per row.
     fn jacobian(
         &self,
         prob: &Problem<'_>,
@@ -257,11 +255,11 @@ impl Refinement {
         th: &[f64],
         proj: &Proj,
         m: usize,
-    ) -> Option<Vec<Vec<f64>>> {
+    ) -> Option<Vec<f64>> {
         let p = th.len();
         let (law, _, _, _) = prob.unpack(th);
         let kl = n_params(kind);
-        let mut jac = vec![vec![0.0; p]; 2 * m];
+        let mut jac = vec![0.0; 2 * m * p];
         for j in 0..p {
             let h = if j < kl {
                 kind.family()
@@ -288,33 +286,41 @@ impl Refinement {
                 return None;
             }
             for i in 0..m {
-                jac[2 * i][j] = (rp[i].1 - rm[i].1) / (2.0 * h);
-                jac[2 * i + 1][j] = (rp[i].2 - rm[i].2) / (2.0 * h);
+                jac[2 * i * p + j] = (rp[i].1 - rm[i].1) / (2.0 * h);
+                jac[(2 * i + 1) * p + j] = (rp[i].2 - rm[i].2) / (2.0 * h);
             }
         }
         Some(jac)
     }
 
-    /// The sandwich over shooting segments: H⁻¹ (H = JᵀJ), the covariance
-    /// H⁻¹·(Σ g_k g_kᵀ)·H⁻¹ with the small-sample factor K/(K − p), and
-    /// Student t's 97.5 % point for K − p degrees of freedom (K: segments
-    /// with residuals). None with too few segments.
+    /// The sandwich over shooting segments for the Jacobian columns
+    /// `cols` of `jac` (row-major, `stride` columns, 2m rows): H⁻¹
+    /// (H = JᵀJ), the covariance H⁻¹·(Σ g_k g_kᵀ)·H⁻¹ with the small-sample
+    /// factor K/(K − p), and Student t's 97.5 % point for K − p degrees of
+    /// freedom (K: segments with residuals, p the columns). None with too
+    /// few segments.
     #[allow(clippy::type_complexity)]
     fn sandwich(
         &self,
-        jac: &[Vec<f64>],
+        jac: &[f64],
+        stride: usize,
+        cols: &[usize],
         r0: &Res,
-        p: usize,
     ) -> Option<(Vec<Vec<f64>>, Vec<Vec<f64>>, f64)> {
         let m = r0.len();
+        let p = cols.len();
         // H = JᵀJ and the per-segment scores g_k = J_kᵀ r_k.
         let nseg = self.data.segs.len();
         let mut hm = vec![vec![0.0; p]; p];
         let mut g = vec![vec![0.0; p]; nseg];
+        let mut jr = vec![0.0; p];
         for i in 0..m {
             let s = r0[i].0 as usize;
             for (row, r) in [(2 * i, r0[i].1), (2 * i + 1, r0[i].2)] {
-                let jr = &jac[row];
+                let full = &jac[row * stride..(row + 1) * stride];
+                for (v, &c) in jr.iter_mut().zip(cols) {
+                    *v = full[c];
+                }
                 for a in 0..p {
                     g[s][a] += jr[a] * r;
                     for b in 0..p {
@@ -363,7 +369,7 @@ impl Refinement {
         th: &[f64],
         proj: &Proj,
         u: f64,
-        lin: (&Res, &[Vec<f64>], &[Vec<f64>]),
+        lin: (&Res, &[f64], &[Vec<f64>]),
         quantities: &impl Fn(&[f64], f64) -> [f64; NQ],
         q0: &[f64; NQ],
     ) -> Option<[f64; NQ]> {
@@ -392,7 +398,7 @@ impl Refinement {
                 for i in 0..m {
                     let (d1, d2) = (rp[i].1 - r0[i].1, rp[i].2 - r0[i].2);
                     for a in 0..p {
-                        jtr[a] += jac[2 * i][a] * d1 + jac[2 * i + 1][a] * d2;
+                        jtr[a] += jac[2 * i * p + a] * d1 + jac[(2 * i + 1) * p + a] * d2;
                     }
                 }
                 let mut t = th.to_vec();

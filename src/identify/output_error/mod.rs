@@ -611,13 +611,13 @@ impl Refinement {
             t: c.t.clone(),
             x1: c.x1.clone(),
             x2: c.x2.clone(),
-            x1s,
-            v1s,
-            x2s,
+            x1s: x1s.into(),
+            v1s: v1s.into(),
+            x2s: x2s.into(),
             // Slip starts take ẋ2 from x2 (its gain is estimated with the
             // law; the velocity channel's is not).
-            v2s: savgol(&c.x2, c.dt, h, 3, 1),
-            x0: x0c,
+            v2s: savgol(&c.x2, c.dt, h, 3, 1).into(),
+            x0: x0c.into(),
             anchors,
             segs,
             compared,
@@ -628,6 +628,7 @@ impl Refinement {
             dt: c.dt,
             means: sums.map(|s| s / cn),
             delays: opts.position_delays,
+            gains: Gains::default(),
             sig: (pos_noise(&c.x1).max(1e-8), pos_noise(&c.x2).max(1e-8)),
             a2: c
                 .a2_sensor
@@ -709,7 +710,7 @@ impl Refinement {
         fam: Fam,
         starts: &[Vec<f64>],
         step: &[f64],
-    ) -> Result<(Vec<f64>, f64, u64, Proj), RefineError> {
+    ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
         let prob = self.problem(&self.data, fam);
         let (mut th, proj, _) = starts
             .iter()
@@ -726,6 +727,10 @@ impl Refinement {
         let mut proj = prob
             .projection(&th, Some(&proj.corrected()))
             .ok_or(fail.clone())?;
+        let mut at = ProjAt {
+            th: th.clone(),
+            dx: proj.current(),
+        };
         let mut iterations = 0;
         let mut cost = f64::INFINITY;
         for pass in 0..2 {
@@ -747,12 +752,25 @@ impl Refinement {
                 let q = prob
                     .projection(&th, Some(&proj.current()))
                     .ok_or(fail.clone())?;
-                proj = prob
-                    .projection(&th, Some(&q.corrected()))
-                    .ok_or(fail.clone())?;
+                let dx = q.corrected();
+                proj = prob.projection(&th, Some(&dx)).ok_or(fail.clone())?;
+                at = ProjAt { th: th.clone(), dx };
             }
         }
-        Ok((th, cost, iterations, proj))
+        Ok((th, cost, iterations, at))
+    }
+
+    /// A refined family's start-state projection, computed again where it
+    /// was (see [`ProjAt`]).
+    fn proj(&self, f: &Refined) -> Result<Proj, RefineError> {
+        self.proj_of(f.fam(), &f.proj_at)
+            .ok_or(RefineError::NotSimulable)
+    }
+
+    /// The start-state projection of `fam` computed again at `at`.
+    fn proj_of(&self, fam: Fam, at: &ProjAt) -> Option<Proj> {
+        self.problem(&self.data, fam)
+            .projection(&at.th, Some(&at.dx))
     }
 
     /// Nelder–Mead from `th` with simplex steps `steps`.
@@ -1060,14 +1078,14 @@ impl Refinement {
                 cands.push(g);
             }
         }
-        let (th, cost, it, proj) = self.minimise(kind.into(), &cands, &step)?;
+        let (th, cost, it, proj_at) = self.minimise(kind.into(), &cands, &step)?;
         Ok(Some(Refined {
             kind,
             ext: Ext::default(),
             th,
             cost,
             iterations: it,
-            proj,
+            proj_at,
             start: th_ee,
         }))
     }
@@ -1116,14 +1134,14 @@ impl Refinement {
         }
         let len = cands[0].len();
         cands.extend(extra.iter().filter(|t| t.len() == len).cloned());
-        let (th, cost, it, proj) = self.minimise(fam, &cands, &step)?;
+        let (th, cost, it, proj_at) = self.minimise(fam, &cands, &step)?;
         Ok(Refined {
             kind: base.kind,
             ext,
             th,
             cost,
             iterations: it,
-            proj,
+            proj_at,
             start: cands[0].clone(),
         })
     }
@@ -1153,8 +1171,9 @@ impl Refinement {
             .max_by_key(|f| f.fam().n_params())
             .expect("non-empty");
         let mut res = Res::new();
+        let proj = self.proj(richest)?;
         self.problem(&self.data, richest.fam())
-            .eval(&richest.th, Some(&richest.proj), Some(&mut res))
+            .eval(&richest.th, Some(&proj), Some(&mut res))
             .ok_or(RefineError::NotSimulable)?;
         let seg: Vec<u32> = res.iter().map(|r| r.0).collect();
         let r1: Vec<f64> = res.iter().map(|r| r.1).collect();
@@ -1174,7 +1193,6 @@ impl Refinement {
                 th,
                 cost,
                 iterations: it,
-                proj,
                 ..
             } = f;
             let prob = self.problem(&self.data, f.fam());
@@ -1185,7 +1203,11 @@ impl Refinement {
             let rms = self.rms(&prob, th);
             prob.sticks.set((0, 0));
             prob.dirs.set(DirStats::default());
-            let m = prob.eval(th, Some(proj), None).map_or(0, |_| n);
+            let m = self
+                .proj(f)
+                .ok()
+                .and_then(|proj| prob.eval(th, Some(&proj), None))
+                .map_or(0, |_| n);
             let (ss, runs) = prob.sticks.get();
             let dirs = prob.dirs.get();
             let fs = self.data.a * self.rig.k2;
@@ -1360,12 +1382,13 @@ impl Refinement {
         let sticks_of = |f: &FamilyFit| self.sticks_of(f);
         let assess = |i: usize| -> Result<(Adequacy, Intervals, PadFit), RefineError> {
             let f = &fits[i];
-            let adequacy = self.adequacy(f.fam(), &f.th, &f.proj)?;
+            let proj = self.proj(f)?;
+            let adequacy = self.adequacy(f.fam(), &f.th, &proj)?;
             let (intervals, pads) = self
                 .intervals(
                     f.fam(),
                     &f.th,
-                    &f.proj,
+                    &proj,
                     u,
                     sticks_of(&families[i]),
                     adequacy.inflation,

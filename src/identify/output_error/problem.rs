@@ -437,6 +437,11 @@ impl Problem<'_> {
         }
         let mut sum = 0.0;
         let mut n = 0usize;
+        if let Some(o) = out.as_deref_mut() {
+            // Sized once (grown by doubling it would hold up to twice the
+            // residuals: the largest array of a long log's intervals).
+            o.reserve_exact(runs.iter().map(|(buf, _, _)| buf.len() / 2).sum());
+        }
         for (k, (buf, o, fits)) in runs.iter().enumerate() {
             self.note(o);
             if !o.ok || !fits {
@@ -547,15 +552,28 @@ pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// One refined family: θ̂, its cost, the Nelder–Mead iterations, the
-/// start-state projection the cost refers to, and its start θ.
+/// Where a start-state projection was computed: θ and the start
+/// corrections. [`Problem::projection`] at these gives it again, bit for
+/// bit; a refined family keeps this, not the projection (whose columns
+/// are the size of the residuals for each free start component: with
+/// every family's held at once they were the largest arrays of a long
+/// log's fit).
+#[derive(Debug, Clone)]
+pub(super) struct ProjAt {
+    pub(super) th: Vec<f64>,
+    pub(super) dx: Vec<[f64; 4]>,
+}
+
+/// One refined family: θ̂, its cost, the Nelder–Mead iterations, where
+/// the start-state projection the cost refers to was computed, and its
+/// start θ.
 pub(super) struct Refined {
     pub(super) kind: LawKind,
     pub(super) ext: Ext,
     pub(super) th: Vec<f64>,
     pub(super) cost: f64,
     pub(super) iterations: u64,
-    pub(super) proj: Proj,
+    pub(super) proj_at: ProjAt,
     pub(super) start: Vec<f64>,
 }
 
@@ -715,8 +733,8 @@ impl Segments<'_> {
         let (p1, p2) = cx.off;
         let an = d.anchors[d.segs[k].0];
         let i = an.i;
-        let z1 = (d.x1s[i] / g1 - p1) / a + dx[0];
-        let dz1 = d.v1s[i] / g1 / (a * w) + dx[1];
+        let z1 = (d.x1s_at(i) / g1 - p1) / a + dx[0];
+        let dz1 = d.v1s_at(i) / g1 / (a * w) + dx[1];
         // A start outside the friction cone slides along F.
         let mode_of = |f: f64, zs: f64| {
             if f > cx.thr.0 {
@@ -734,8 +752,8 @@ impl Segments<'_> {
             // (P = κ(ζ2 − ζs) = F, M2's inertia neglected at the anchor;
             // the free start components absorb the rest).
             (Some(_), Some(kappa)) => {
-                let z2 = (d.x2s[i] / g2 - p2) / a + dx[2];
-                let dz2 = d.v2s[i] / g2 / (a * w) + dx[3];
+                let z2 = (d.x2s_at(i) / g2 - p2) / a + dx[2];
+                let dz2 = d.v2s_at(i) / g2 / (a * w) + dx[3];
                 let f = z1 - z2 + self.rig.absorber.damping * (dz1 - dz2);
                 Init {
                     x: [z1, dz1, z2, dz2],
@@ -751,9 +769,9 @@ impl Segments<'_> {
                 }
             }
             (None, _) => {
-                let v = d.v2s[i] / g2 / (a * w) + dx[3];
+                let v = d.v2s_at(i) / g2 / (a * w) + dx[3];
                 Init {
-                    x: [z1, dz1, (d.x2s[i] / g2 - p2) / a + dx[2], v],
+                    x: [z1, dz1, (d.x2s_at(i) / g2 - p2) / a + dx[2], v],
                     mode: Mode::Slip { dir: v.signum() },
                 }
             }
@@ -804,7 +822,7 @@ impl Segments<'_> {
                 (None, DriveModel::Harmonic) => return None,
                 (None, DriveModel::Sampled) => {
                     let hi = (end + 3).min(d.x0.len());
-                    let values: Vec<f64> = d.x0[i..hi].iter().map(|x| x / d.a).collect();
+                    let values: Vec<f64> = (i..hi).map(|k| d.x0_at(k) / d.a).collect();
                     let drive = Drive::Sampled {
                         dt: d.dt * w,
                         values,
@@ -876,9 +894,9 @@ impl Observer for Collect<'_, '_> {
         let d = self.d;
         let j = self.list[self.pos].0;
         self.buf
-            .push((d.x1[j] / self.g.0 - self.off.0 - d.a * x[0]) / d.sig.0);
+            .push((d.x1_at(j) / self.g.0 - self.off.0 - d.a * x[0]) / d.sig.0);
         self.buf
-            .push((d.x2[j] / self.g.1 - self.off.1 - d.a * x[2]) / d.sig.1);
+            .push((d.x2_at(j) / self.g.1 - self.off.1 - d.a * x[2]) / d.sig.1);
         let stuck = match self.slider {
             Some(sliding) => !sliding,
             None => x[3] == 0.0 && dx[3] == 0.0,

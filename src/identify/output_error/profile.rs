@@ -56,7 +56,8 @@ impl Refinement {
         let mut step = Self::ext_steps(fam, &base.th);
         step[0] = 0.0;
         // The calibration of the deviance, along ln κ (the last of θ).
-        let v = self.variances(fam, &base.th, &base.proj, u, &[0])?;
+        let base_proj = self.proj_of(fam, &base.proj_at)?;
+        let v = self.variances(fam, &base.th, &base_proj, u, &[0])?;
         let k = base.th.len() - 1;
         let scale = v.naive_stat[k] / v.stat[k];
         if !(scale.is_finite() && scale > 0.0) {
@@ -64,7 +65,7 @@ impl Refinement {
         }
         let crit = (v.t975 * inflation.max(1.0)).powi(2);
         // (Rs, cost, θ, projection; None: the base's own.)
-        type Point = (f64, f64, Vec<f64>, Option<Proj>);
+        type Point = (f64, f64, Vec<f64>, Option<ProjAt>);
         let mut points: Vec<Point> = vec![(rs0, base.cost, base.th.clone(), None)];
         let cmin = |pts: &[Point]| pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
         let deviance = |c: f64, cm: f64| (c - cm) * scale;
@@ -123,16 +124,21 @@ impl Refinement {
         let top = kept.iter().max_by(|a, b| a.0.total_cmp(&b.0))?;
         let rs_upper_n = match hi {
             Some(_) => {
-                let proj = top.3.as_ref().unwrap_or(&base.proj);
-                let cal = self.variances(fam, &top.2, proj, u, &[])?.var_cal[0];
+                let proj = match &top.3 {
+                    Some(at) => self.proj_of(fam, at)?,
+                    None => self.proj_of(fam, &base.proj_at)?,
+                };
+                let cal = self.variances(fam, &top.2, &proj, u, &[])?.var_cal[0];
                 Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * cal).sqrt())
             }
             None => None,
         };
         let mut kappa_interval: Option<Interval> = None;
         for (_, _, th, proj) in &kept {
-            let proj = proj.as_ref().unwrap_or(&base.proj);
-            let Some((_, pads)) = self.intervals(fam, th, proj, u, true, inflation, &[0]) else {
+            let Some(proj) = self.proj_of(fam, proj.as_ref().unwrap_or(&base.proj_at)) else {
+                continue;
+            };
+            let Some((_, pads)) = self.intervals(fam, th, &proj, u, true, inflation, &[0]) else {
                 continue;
             };
             if let Some((a, b)) = pads.contact_stiffness_interval {
