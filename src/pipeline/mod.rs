@@ -279,10 +279,18 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     };
     let clock = std::time::Instant::now();
     progress.stage("reading logs");
+    // Only a validation's sweep is read again as recorded (its amplitudes);
+    // every other log is used on its common grid (the fit, the report's
+    // characteristic), so its channels as recorded go once it is read.
+    let sweeps: std::collections::BTreeSet<&PathBuf> =
+        plan.validate.iter().map(|v| &v.sweep).collect();
     let runs: BTreeMap<PathBuf, crate::Result<Run>> = logs
         .par_iter()
         .map(|p| {
-            let r = ingest::read(p, &IngestOptions::default()).map_err(crate::Error::from);
+            let mut r = ingest::read(p, &IngestOptions::default()).map_err(crate::Error::from);
+            if let (Ok(run), false) = (&mut r, sweeps.contains(p)) {
+                run.channels = Vec::new();
+            }
             progress.advance(1);
             (p.clone(), r)
         })
