@@ -284,17 +284,36 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     // characteristic), so its channels as recorded go once it is read.
     let sweeps: std::collections::BTreeSet<&PathBuf> =
         plan.validate.iter().map(|v| &v.sweep).collect();
-    let runs: BTreeMap<PathBuf, crate::Result<Run>> = logs
-        .par_iter()
-        .map(|p| {
-            let mut r = ingest::read(p, &IngestOptions::default()).map_err(crate::Error::from);
-            if let (Ok(run), false) = (&mut r, sweeps.contains(p)) {
-                run.channels = Vec::new();
-            }
-            progress.advance(1);
-            (p.clone(), r)
-        })
-        .collect();
+    // Read in consecutive rounds whose planned memory fits the budget
+    // together (each log's samples counted before it is decoded, as `fit`
+    // does; a log of unknown length plans the whole budget), the logs of a
+    // round in parallel: long logs are not all decoded at once.
+    let budget = IdentifyOptions::default().memory_bytes;
+    let planned: Vec<u64> = if logs.len() == 1 {
+        vec![0]
+    } else {
+        logs.iter()
+            .map(|p| {
+                let n = ingest::planned_samples(p, &IngestOptions::default());
+                crate::limits::planned_fit_bytes(n, budget)
+            })
+            .collect()
+    };
+    let mut runs: BTreeMap<PathBuf, crate::Result<Run>> = BTreeMap::new();
+    for round in crate::limits::rounds(&planned, budget) {
+        let read: Vec<(PathBuf, crate::Result<Run>)> = logs[round]
+            .par_iter()
+            .map(|p| {
+                let mut r = ingest::read(p, &IngestOptions::default()).map_err(crate::Error::from);
+                if let (Ok(run), false) = (&mut r, sweeps.contains(p)) {
+                    run.channels = Vec::new();
+                }
+                progress.advance(1);
+                (p.clone(), r)
+            })
+            .collect();
+        runs.extend(read);
+    }
     // One rig: every log of the plan that could be read.
     let read_rigs: Vec<(PathBuf, RigMeta)> = logs
         .iter()
