@@ -37,6 +37,17 @@ pub const MAX_FAMILY_POINTS: u64 = MEMORY_BUDGET_BYTES / FAMILY_POINT_BYTES;
 /// budget", issue 29). Was 600 before the fit's columns were shared.
 pub const FIT_BYTES_PER_SAMPLE: u64 = 275;
 
+/// Memory a fit takes beside its per-sample part (bytes): the program,
+/// thread stacks and the blocks the allocator keeps, which weigh most on
+/// logs of a few hundred thousand samples. Resident memory above
+/// [`FIT_BYTES_PER_SAMPLE`] per sample, one thread: 14 MB at 20 000
+/// samples (bundled logs), 38 MB at 0.6 million (MCAP), 39 MB at 1 million
+/// (CSV); at 7.2 million the per-sample figure holds it. Rounded up. Counted
+/// where several logs share the budget ([`planned_fit_bytes`]) and beside
+/// a fit's concurrent re-fits ([`concurrent_refits`]); a log alone may use
+/// the whole budget ([`MAX_FIT_SAMPLES`]).
+pub const FIT_FIXED_BYTES: u64 = 50_000_000;
+
 /// Memory one calibration re-fit of a log takes beside the fit itself, per
 /// sample (bytes): its characteristic (the contact signals, the
 /// segmentation) and its equation-error fit. Measured with all five
@@ -52,7 +63,9 @@ pub const REFIT_BYTES_PER_SAMPLE: u64 = 150;
 /// ([`REFIT_BYTES_PER_SAMPLE`]) must fit, whatever the thread count. At
 /// least one.
 pub fn concurrent_refits(samples: u64, budget: u64) -> usize {
-    let base = samples.saturating_mul(FIT_BYTES_PER_SAMPLE);
+    let base = samples
+        .saturating_mul(FIT_BYTES_PER_SAMPLE)
+        .saturating_add(FIT_FIXED_BYTES);
     let each = samples.saturating_mul(REFIT_BYTES_PER_SAMPLE).max(1);
     let extra = budget.saturating_sub(base) / each;
     usize::try_from(extra.saturating_add(1)).unwrap_or(usize::MAX)
@@ -66,7 +79,9 @@ pub fn planned_fit_bytes(samples: Option<u64>, budget: u64) -> u64 {
     match samples {
         None => budget,
         Some(n) if n > MAX_FIT_SAMPLES => REFUSAL_BYTES,
-        Some(n) => n.saturating_mul(FIT_BYTES_PER_SAMPLE),
+        Some(n) => n
+            .saturating_mul(FIT_BYTES_PER_SAMPLE)
+            .saturating_add(FIT_FIXED_BYTES),
     }
 }
 
@@ -292,13 +307,15 @@ mod tests {
         assert!(concurrent_refits(20_000, b) >= 5);
         assert_eq!(concurrent_refits(MAX_FIT_SAMPLES, b), 1);
         assert_eq!(concurrent_refits(u64::MAX, b), 1);
-        assert_eq!(concurrent_refits(0, b) as u64, b + 1);
+        assert_eq!(concurrent_refits(0, b) as u64, b - FIT_FIXED_BYTES + 1);
         let mut last = usize::MAX;
         for n in [1_000u64, 100_000, 1_000_000, 2_000_000, 3_000_000] {
             let c = concurrent_refits(n, b);
             assert!(c <= last, "{n}: {c} > {last}");
             last = c;
-            let peak = n * FIT_BYTES_PER_SAMPLE + (c as u64 - 1) * n * REFIT_BYTES_PER_SAMPLE;
+            let peak = FIT_FIXED_BYTES
+                + n * FIT_BYTES_PER_SAMPLE
+                + (c as u64 - 1) * n * REFIT_BYTES_PER_SAMPLE;
             assert!(
                 c == 1 || peak <= b,
                 "{n} samples, {c} at once: {peak} bytes"
@@ -335,7 +352,10 @@ mod tests {
         }
         assert_eq!(next, planned.len());
         assert_eq!(planned_fit_bytes(None, 7), 7);
-        assert_eq!(planned_fit_bytes(Some(10), 7), 10 * FIT_BYTES_PER_SAMPLE);
+        assert_eq!(
+            planned_fit_bytes(Some(10), 7),
+            FIT_FIXED_BYTES + 10 * FIT_BYTES_PER_SAMPLE
+        );
         assert_eq!(
             planned_fit_bytes(Some(MAX_FIT_SAMPLES + 1), MEMORY_BUDGET_BYTES),
             REFUSAL_BYTES
