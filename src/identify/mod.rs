@@ -1466,6 +1466,56 @@ mod tests {
     /// every f64 so that distinct values print differently).
     /// [`fit_logs`] drops the channels as recorded before fitting: the
     /// fit must not read them (the same result, bit for bit, without them).
+    /// A refined family's projection computed again where it is used (as
+    /// on long logs) gives the fit of the projection kept (as on short
+    /// ones), bit for bit, but for the evaluations the computing takes.
+    /// char_N4 (sticks) and law_stribeck (the numerical engine, the
+    /// Stribeck family refined).
+    #[test]
+    fn projections_computed_again_give_the_kept_ones_fit() {
+        fn strip(v: &mut serde_json::Value) {
+            match v {
+                serde_json::Value::Object(m) => {
+                    m.retain(|k, _| !k.contains("seconds") && k != "evaluations");
+                    m.values_mut().for_each(strip);
+                }
+                serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
+                _ => {}
+            }
+        }
+        for log in ["char_N4.mcap", "law_stribeck.mcap"] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("datasets")
+                .join(log);
+            let run = crate::ingest::read(&path, &IngestOptions::default()).unwrap();
+            let fit = |keep: usize| {
+                let opts = IdentifyOptions {
+                    fit: FitOptions {
+                        bootstrap: 0,
+                        ..Default::default()
+                    },
+                    oe: output_error::OeOptions {
+                        keep_projection_values: keep,
+                        ..Default::default()
+                    },
+                    ..Default::default()
+                };
+                let f = fit_log(&run, &opts).unwrap();
+                let evals = f.output_error.as_ref().expect("refined").evaluations;
+                let mut v = serde_json::to_value(&f).unwrap();
+                strip(&mut v);
+                (v.to_string(), evals)
+            };
+            let (kept, kept_evals) = fit(usize::MAX);
+            let (again, again_evals) = fit(0);
+            assert_eq!(kept, again, "{log}");
+            assert!(
+                again_evals > kept_evals,
+                "{log}: {again_evals} {kept_evals}"
+            );
+        }
+    }
+
     #[test]
     fn the_fit_does_not_read_the_recorded_channels() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");

@@ -207,6 +207,12 @@ pub struct OeOptions {
     /// Off by default: `IdentifyOptions::lag_fallback` turns them on where
     /// the law without them is not adequate.
     pub position_delays: bool,
+    /// A refined family keeps its start-state projection where it has at
+    /// most this many column values (8 bytes each); a larger one is
+    /// computed again where it is used (the same projection, bit for bit;
+    /// five evaluations each time), so that a long log's families do not
+    /// each hold one. 0: always computed again.
+    pub keep_projection_values: usize,
 }
 
 impl Default for OeOptions {
@@ -217,6 +223,8 @@ impl Default for OeOptions {
             span: 3,
             minimiser: Minimiser::default(),
             position_delays: false,
+            // 2 MB a family: logs of up to about two minutes at 1 kHz.
+            keep_projection_values: 1 << 18,
         }
     }
 }
@@ -482,6 +490,7 @@ pub struct Refinement {
     never_sticks: bool,
     evals: std::cell::Cell<usize>,
     hints: PadHints,
+    keep_projection_values: usize,
 }
 
 /// What the real-pad screen (`crate::identify::pads`) saw: the extensions
@@ -653,6 +662,7 @@ impl Refinement {
             never_sticks: seg.never_sticks(),
             evals: std::cell::Cell::new(0),
             hints: PadHints::default(),
+            keep_projection_values: opts.keep_projection_values,
         })
     }
 
@@ -730,6 +740,7 @@ impl Refinement {
         let mut at = ProjAt {
             th: th.clone(),
             dx: proj.current(),
+            kept: None,
         };
         let mut iterations = 0;
         let mut cost = f64::INFINITY;
@@ -754,23 +765,34 @@ impl Refinement {
                     .ok_or(fail.clone())?;
                 let dx = q.corrected();
                 proj = prob.projection(&th, Some(&dx)).ok_or(fail.clone())?;
-                at = ProjAt { th: th.clone(), dx };
+                at = ProjAt {
+                    th: th.clone(),
+                    dx,
+                    kept: None,
+                };
             }
+        }
+        if proj.values() <= self.keep_projection_values {
+            at.kept = Some(std::sync::Arc::new(proj));
         }
         Ok((th, cost, iterations, at))
     }
 
-    /// A refined family's start-state projection, computed again where it
-    /// was (see [`ProjAt`]).
-    fn proj(&self, f: &Refined) -> Result<Proj, RefineError> {
+    /// A refined family's start-state projection: kept, or computed again
+    /// where it was (see [`ProjAt`]).
+    fn proj(&self, f: &Refined) -> Result<std::sync::Arc<Proj>, RefineError> {
         self.proj_of(f.fam(), &f.proj_at)
             .ok_or(RefineError::NotSimulable)
     }
 
-    /// The start-state projection of `fam` computed again at `at`.
-    fn proj_of(&self, fam: Fam, at: &ProjAt) -> Option<Proj> {
+    /// The start-state projection of `fam` at `at`: kept, or computed again.
+    fn proj_of(&self, fam: Fam, at: &ProjAt) -> Option<std::sync::Arc<Proj>> {
+        if let Some(p) = &at.kept {
+            return Some(p.clone());
+        }
         self.problem(&self.data, fam)
             .projection(&at.th, Some(&at.dx))
+            .map(std::sync::Arc::new)
     }
 
     /// Nelder–Mead from `th` with simplex steps `steps`.

@@ -554,14 +554,16 @@ pub(super) fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Where a start-state projection was computed: θ and the start
 /// corrections. [`Problem::projection`] at these gives it again, bit for
-/// bit; a refined family keeps this, not the projection (whose columns
-/// are the size of the residuals for each free start component: with
-/// every family's held at once they were the largest arrays of a long
-/// log's fit).
-#[derive(Debug, Clone)]
+/// bit; a refined family keeps this, and the projection itself only where
+/// it is small (`OeOptions::keep_projection_values`: its columns are the
+/// size of the residuals for each free start component, and with every
+/// family's held at once they were the largest arrays of a long log's
+/// fit).
+#[derive(Clone)]
 pub(super) struct ProjAt {
     pub(super) th: Vec<f64>,
     pub(super) dx: Vec<[f64; 4]>,
+    pub(super) kept: Option<std::sync::Arc<Proj>>,
 }
 
 /// One refined family: θ̂, its cost, the Nelder–Mead iterations, where
@@ -634,6 +636,13 @@ pub(super) struct Proj {
 }
 
 impl Proj {
+    /// The number of column values it holds.
+    pub(super) fn values(&self) -> usize {
+        self.segs
+            .iter()
+            .map(|s| s.cols.iter().map(Vec::len).sum::<usize>())
+            .sum()
+    }
     /// The least-squares start corrections.
     pub(super) fn corrected(&self) -> Vec<[f64; 4]> {
         self.segs.iter().map(|s| s.next).collect()
