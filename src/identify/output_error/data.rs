@@ -13,7 +13,7 @@ pub(super) struct Anchor {
 
 /// A sample column shared between copies of [`Data`] (and with the
 /// contact force's signals).
-pub(super) type Column = std::sync::Arc<[f64]>;
+pub(super) use crate::ingest::Column;
 
 /// The data the cost needs (owned; the columns shared, so a copy with
 /// perturbed gains copies no column).
