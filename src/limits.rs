@@ -58,10 +58,10 @@ pub const FIT_FIXED_BYTES: u64 = 50_000_000;
 pub const REFIT_BYTES_PER_SAMPLE: u64 = 150;
 
 /// How many of a log's calibration re-fits may run at once within `budget`
-/// bytes: the fit itself ([`FIT_BYTES_PER_SAMPLE`], which counts one
-/// re-fit) and every further concurrent re-fit
-/// ([`REFIT_BYTES_PER_SAMPLE`]) must fit, whatever the thread count. At
-/// least one.
+/// bytes: the fit itself ([`FIT_FIXED_BYTES`] plus [`FIT_BYTES_PER_SAMPLE`]
+/// per sample, which counts one re-fit) and every further concurrent
+/// re-fit ([`REFIT_BYTES_PER_SAMPLE`]) must fit, whatever the thread
+/// count. At least one.
 pub fn concurrent_refits(samples: u64, budget: u64) -> usize {
     let base = samples
         .saturating_mul(FIT_BYTES_PER_SAMPLE)

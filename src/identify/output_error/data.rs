@@ -95,7 +95,8 @@ impl Data {
             x1: self.gains.x1 * g.x1,
             x2: self.gains.x2 * g.x2,
             v2: self.gains.v2 * g.v2,
-            a2: self.gains.a2 * g.a2,
+            // (The accelerometer's column is not scaled, as before.)
+            a2: self.gains.a2,
         };
         d.a = self.a * g.x0;
         for an in d.anchors.iter_mut() {
