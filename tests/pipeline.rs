@@ -45,3 +45,58 @@ fn an_unread_log_does_not_shift_the_fits_of_the_others() {
     assert!(fits[1]["log"].as_str().unwrap().ends_with("char_N4.mcap"));
     assert_eq!(fits[1]["law"], "static-dynamic");
 }
+
+/// A sweep beyond the bytes `run` keeps from its reading to its
+/// validation is read again there: the same validation, bit for bit, as
+/// with the sweep kept (the library's `pipeline::run` with
+/// `held_sweep_bytes` 0 against the default).
+#[test]
+fn a_sweep_read_again_validates_as_one_kept() {
+    use stickslip::pipeline::{self, Options, Plan};
+    let dir = tempfile::tempdir().unwrap();
+    let plan_path = dir.path().join("plan.toml");
+    std::fs::write(
+        &plan_path,
+        format!(
+            "[[validate]]\ncharacteristic = {:?}\nsweep = {:?}\n",
+            data("char_N4.mcap").display().to_string(),
+            data("sweep_continuous_N4.mcap").display().to_string()
+        ),
+    )
+    .unwrap();
+    let plan = Plan::read(&plan_path).unwrap();
+    let json_of = |held_sweep_bytes: u64| {
+        let opts = Options {
+            samples: 40,
+            figures: false,
+            held_sweep_bytes,
+            ..Options::default()
+        };
+        let report = pipeline::run(&plan, &opts, &()).unwrap();
+        assert!(report.errors.is_empty(), "{:?}", report.errors);
+        assert!(report
+            .logs
+            .values()
+            .all(|l| l.as_ref().unwrap().figure.is_none()));
+        let mut v = report.to_json(&plan, &plan_path);
+        drop_wall_times(&mut v);
+        v
+    };
+    let kept = json_of(u64::MAX);
+    let read_again = json_of(0);
+    assert!(kept["validations"][0].get("error").is_none(), "{kept}");
+    assert_eq!(kept, read_again);
+}
+
+/// Drops the wall-time keys (`seconds`, `stage_seconds`) from a JSON value.
+fn drop_wall_times(v: &mut Value) {
+    match v {
+        Value::Object(m) => {
+            m.remove("seconds");
+            m.remove("stage_seconds");
+            m.values_mut().for_each(drop_wall_times);
+        }
+        Value::Array(a) => a.iter_mut().for_each(drop_wall_times),
+        _ => {}
+    }
+}

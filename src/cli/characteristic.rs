@@ -138,9 +138,11 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
         crate::report::characteristic_plot::characteristic_figure(
             &crate::report::characteristic_plot::CharacteristicFigure {
                 title: &title,
-                contact: c,
-                stick: &ch.segmentation.stick,
-                bias_n: bias,
+                points: &crate::report::characteristic_plot::CharacteristicPoints::new(
+                    c,
+                    &ch.segmentation.stick,
+                    bias,
+                ),
                 law,
                 law_label: "fitted",
                 // The equation-error law's Rs is NaN where only bounded.

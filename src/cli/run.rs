@@ -80,6 +80,8 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
         samples: args.samples,
         band_coverage_se: args.band_coverage_se,
         allow_mixed_rigs: args.allow_mixed_rigs,
+        figures: args.report.is_some(),
+        ..pipeline::Options::default()
     };
     let result = pipeline::run(&plan, &opts, &Bar(bar.clone()));
     bar.finish_and_clear();
@@ -123,14 +125,13 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     } else {
         let t = &stages;
         eprintln!(
-            "done in {:.1} s (ingest {:.1} s, fit {:.1} s, then {:.1} s side by side: validate {:.1} s, batch {:.1} s and the other fits {:.1} s; report {:.1} s)",
+            "done in {:.1} s (ingest {:.1} s, fit {:.1} s, then {:.1} s side by side: validate {:.1} s and batch {:.1} s; report {:.1} s)",
             t0.elapsed().as_secs_f64(),
             t.ingest,
             t.fit,
             t.side_by_side,
             t.validate,
             t.batch,
-            t.fit_beside,
             t.report
         );
     }

@@ -24,6 +24,7 @@ pub mod checks;
 use crate::batch::{self as vb, Batch};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, RigMeta, Run};
+use crate::report::characteristic_plot::CharacteristicPoints;
 use crate::report::{batch_plot, batch_view, html, sections, views};
 use crate::validate::{self, ValidateOptions, Validation};
 use rayon::prelude::*;
@@ -69,8 +70,9 @@ pub struct Plan {
 pub const MAX_PLAN_BYTES: u64 = 4_000_000;
 
 /// Most entries of a plan (fit, batch and [[validate]] together): each
-/// holds a log's run, fit and predictions (a plan of 10 000 entries grew to
-/// 7.8 GB), so this many fit the memory budget.
+/// keeps a log's rig record, fit, figure points and predictions to the end
+/// (a plan of 10 000 entries grew to 7.8 GB when each kept its log), so
+/// this many fit the memory budget.
 pub const MAX_PLAN_ENTRIES: usize = 1000;
 
 fn plan_err(path: &Path, msg: impl Into<String>) -> crate::Error {
@@ -112,7 +114,7 @@ impl Plan {
             return Err(plan_err(
                 path,
                 format!(
-                    "the plan has {entries} entries (fit, batch, [[validate]]); at most {MAX_PLAN_ENTRIES} fit {} (each holds a log's run, fit and prediction, up to about {} MB): split it into several plans",
+                    "the plan has {entries} entries (fit, batch, [[validate]]); at most {MAX_PLAN_ENTRIES} fit {} (each keeps a log's rig record, fit, figure points and prediction, up to about {} MB): split it into several plans",
                     crate::io::budget::budget_text(),
                     crate::io::budget::MEMORY_BUDGET_BYTES / MAX_PLAN_ENTRIES as u64 / 1_000_000
                 ),
@@ -174,6 +176,14 @@ pub struct Options {
     pub band_coverage_se: f64,
     /// Use logs whose rig constants differ by more than 1 % together.
     pub allow_mixed_rigs: bool,
+    /// Keep what the report's characteristic figures draw of each fitted
+    /// log ([`LogRecord::figure`]); without it [`PipelineReport::write_report`]
+    /// shows the fits without figures.
+    pub figures: bool,
+    /// Bytes of sweeps kept from their reading to their validation (a
+    /// quarter of the budget by default); a sweep beyond them is read again
+    /// when it is validated.
+    pub held_sweep_bytes: u64,
 }
 
 impl Default for Options {
@@ -182,6 +192,8 @@ impl Default for Options {
             samples: ValidateOptions::default().predict.samples,
             band_coverage_se: ValidateOptions::default().predict.band_coverage_se,
             allow_mixed_rigs: false,
+            figures: true,
+            held_sweep_bytes: IdentifyOptions::default().memory_bytes / 4,
         }
     }
 }
@@ -198,20 +210,17 @@ pub trait Progress: Sync {
 impl Progress for () {}
 
 /// Wall seconds per stage of [`run`] (and of the report, when written).
-/// `fit_beside`, `validate` and `batch` run side by side: each is its own
-/// wall time from when a thread takes it up, and together they overlap
-/// (`overlapping` names them; `side_by_side` is their joint wall time), so
-/// the stages do not add up to the total.
+/// `validate` and `batch` run side by side: each is its own wall time from
+/// when a thread takes it up, and together they overlap (`overlapping`
+/// names them; `side_by_side` is their joint wall time), so the stages do
+/// not add up to the total.
 #[derive(Debug, Clone, Default, serde::Serialize)]
 pub struct StageSeconds {
-    /// Reading every log (in parallel).
+    /// Reading every log (in parallel, in rounds that fit the memory).
     pub ingest: f64,
-    /// Fitting the characteristic logs the validations and the batch need,
-    /// each once (in parallel).
+    /// Fitting every characteristic log once (in parallel, each round's
+    /// logs right after their reading).
     pub fit: f64,
-    /// Fitting the other characteristic logs (the plan's `fit` list), each
-    /// once, beside the validations and the batch.
-    pub fit_beside: f64,
     /// All validations (beside the batch).
     pub validate: f64,
     /// The batch comparison (beside the validations).
@@ -225,14 +234,25 @@ pub struct StageSeconds {
     pub overlapping: Vec<&'static str>,
 }
 
+/// What [`run`] keeps of a log once it is read (and fitted): its rig
+/// record and what its report figure draws; the log's samples go.
+#[derive(Debug, Clone)]
+pub struct LogRecord {
+    /// The log's rig record.
+    pub rig: RigMeta,
+    /// What the characteristic figure draws (a fitted characteristic log,
+    /// with [`Options::figures`]).
+    pub figure: Option<CharacteristicPoints>,
+}
+
 /// Everything [`run`] produced, per log and per validation, with the
 /// errors of what failed (each reported once).
 #[derive(Debug)]
 pub struct PipelineReport {
     /// Wall seconds per stage.
     pub seconds: StageSeconds,
-    /// Every log of the plan as read.
-    pub runs: BTreeMap<PathBuf, crate::Result<Run>>,
+    /// Every log of the plan as read (what is kept of it).
+    pub logs: BTreeMap<PathBuf, crate::Result<LogRecord>>,
     /// The fit of every characteristic log.
     pub fits: BTreeMap<PathBuf, crate::Result<LogFit>>,
     /// The validations, in plan order.
@@ -245,10 +265,13 @@ pub struct PipelineReport {
     pub log_sha256: BTreeMap<PathBuf, Option<String>>,
 }
 
-/// Runs the plan: reads every log once, fits every characteristic log
-/// once, then validates and compares (batch) side by side. Fails as a whole
-/// only where the logs that could be read come from different rigs (unless
-/// `opts.allow_mixed_rigs`).
+/// Runs the plan: reads every log once, in rounds whose planned memory
+/// fits the budget, and fits each round's characteristic logs as soon as
+/// they are read, keeping only their fits and [`LogRecord`]s (so a plan of
+/// many long logs streams); then validates and compares (batch) side by
+/// side. Fails as a whole only where the logs that could be read come from
+/// different rigs (unless `opts.allow_mixed_rigs`): refused once such a log
+/// is read, before its round is fitted.
 pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Result<PipelineReport> {
     let logs = plan.logs();
     let chars = plan.characteristic_logs();
@@ -274,11 +297,9 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         .map(|p| (p.clone(), identify::artifact::sha256_file(p).ok()))
         .collect();
     let mut seconds = StageSeconds {
-        overlapping: vec!["fit_beside", "validate", "batch"],
+        overlapping: vec!["validate", "batch"],
         ..StageSeconds::default()
     };
-    let clock = std::time::Instant::now();
-    progress.stage("reading logs");
     // Only a validation's sweep is read again as recorded (its amplitudes);
     // every other log is used on its common grid (the fit, the report's
     // characteristic), so its channels as recorded go once it is read.
@@ -287,7 +308,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     // Read in consecutive rounds whose planned memory fits the budget
     // together (each log's samples counted before it is decoded, as `fit`
     // does; a log of unknown length plans the whole budget), the logs of a
-    // round in parallel: long logs are not all decoded at once.
+    // round in parallel, then fitted: long logs are not all held at once.
     let budget = IdentifyOptions::default().memory_bytes;
     let planned: Vec<u64> = if logs.len() == 1 {
         vec![0]
@@ -299,8 +320,17 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
             })
             .collect()
     };
-    let mut runs: BTreeMap<PathBuf, crate::Result<Run>> = BTreeMap::new();
+    let mut records: BTreeMap<PathBuf, crate::Result<LogRecord>> = BTreeMap::new();
+    let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = BTreeMap::new();
+    let mut figure_errors: Vec<String> = Vec::new();
+    // Sweeps kept from their reading to their validation (within
+    // `opts.held_sweep_bytes`; the others are read again).
+    let mut held: BTreeMap<PathBuf, Run> = BTreeMap::new();
+    let mut held_bytes = 0u64;
+    let mut read_rigs: Vec<(PathBuf, RigMeta)> = Vec::new();
     for round in crate::limits::rounds(&planned, budget) {
+        let clock = std::time::Instant::now();
+        progress.stage("reading logs");
         let read: Vec<(PathBuf, crate::Result<Run>)> = logs[round]
             .par_iter()
             .map(|p| {
@@ -312,50 +342,170 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
                 (p.clone(), r)
             })
             .collect();
-        runs.extend(read);
-    }
-    // One rig: every log of the plan that could be read.
-    let read_rigs: Vec<(PathBuf, RigMeta)> = logs
-        .iter()
-        .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
-        .collect();
-    checks::refuse_mixed_rigs(&read_rigs, opts.allow_mixed_rigs)?;
-    seconds.ingest = clock.elapsed().as_secs_f64();
+        // One rig: every log of the plan read so far (refused before the
+        // round is fitted).
+        read_rigs.extend(
+            read.iter()
+                .filter_map(|(p, r)| r.as_ref().ok().map(|r| (p.clone(), r.rig.clone()))),
+        );
+        checks::refuse_mixed_rigs(&read_rigs, opts.allow_mixed_rigs)?;
+        seconds.ingest += clock.elapsed().as_secs_f64();
 
-    let clock = std::time::Instant::now();
-    progress.stage("fitting friction laws");
-    // The logs that were read are fitted (in parallel, panic-guarded);
-    // the others keep their read error.
-    let fit_some = |logs: &[PathBuf]| -> BTreeMap<PathBuf, crate::Result<LogFit>> {
-        // A saved fit is used as it is; the other logs are fitted.
-        let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = logs
-            .iter()
-            .filter_map(|p| {
-                let f = saved
-                    .get(p)?
-                    .clone()
-                    .map_err(|cause| crate::Error::Skipped {
-                        path: p.clone(),
-                        stage: "its saved fit failed",
-                        cause,
-                    });
-                Some((p.clone(), f))
+        let clock = std::time::Instant::now();
+        progress.stage("fitting friction laws");
+        let round_fits = fit_round(&read, &sweeps, &saved, progress);
+        // What is kept of each log: its rig record and, for a fitted
+        // characteristic log, what its figure draws (in parallel).
+        let figures: Vec<(Option<CharacteristicPoints>, Option<String>)> = read
+            .par_iter()
+            .map(|(p, r)| match (r, round_fits.get(p)) {
+                (Ok(run), Some(Ok(f))) if opts.figures => match sections::fit_points(run, f) {
+                    Ok(points) => (Some(points), None),
+                    Err(e) => (None, Some(e.to_string())),
+                },
+                _ => (None, None),
             })
             .collect();
-        progress.advance(fits.len() as u64);
-        let logs: Vec<PathBuf> = logs
+        fits.extend(round_fits);
+        for ((p, r), (figure, error)) in read.into_iter().zip(figures) {
+            figure_errors.extend(error);
+            let rec = r.map(|run| {
+                let rig = run.rig.clone();
+                if sweeps.contains(&p) {
+                    let bytes = run_bytes(&run);
+                    if held_bytes.saturating_add(bytes) <= opts.held_sweep_bytes {
+                        held_bytes += bytes;
+                        held.insert(p.clone(), run);
+                    }
+                }
+                LogRecord { rig, figure }
+            });
+            records.insert(p, rec);
+        }
+        seconds.fit += clock.elapsed().as_secs_f64();
+    }
+
+    // The validations and the batch need nothing from each other: they run
+    // side by side (each collected in order).
+    progress.stage("validating against sweeps; batch: worst-case amplitudes");
+    let mut vopts = ValidateOptions::default();
+    vopts.predict.samples = opts.samples;
+    vopts.predict.band_coverage_se = opts.band_coverage_se;
+    let validate_all = || -> (Vec<(Pair, crate::Result<Validation>)>, f64) {
+        let clock = std::time::Instant::now();
+        // Sweeps not held are read again, in rounds that fit the memory.
+        let planned_v: Vec<u64> = plan
+            .validate
             .iter()
-            .filter(|p| !saved.contains_key(*p))
-            .cloned()
+            .map(|v| match logs.iter().position(|p| p == &v.sweep) {
+                Some(i) if !held.contains_key(&v.sweep) => planned[i],
+                _ => 0,
+            })
             .collect();
-        let read: Vec<&Run> = logs.iter().filter_map(|p| runs[p].as_ref().ok()).collect();
-        let mut fitted =
-            identify::fit_runs(&read, &IdentifyOptions::default(), &|| progress.advance(1))
-                .into_iter();
-        for p in &logs {
-            // One fit per log read, in order: only a log that was read takes
-            // the next fit.
-            let f = match &runs[p] {
+        let mut out = Vec::with_capacity(plan.validate.len());
+        for round in crate::limits::rounds(&planned_v, budget) {
+            let done: Vec<(Pair, crate::Result<Validation>)> = plan.validate[round]
+                .par_iter()
+                .map(|pair| {
+                    let r = validate_pair(pair, &records, &fits, &held, &vopts);
+                    progress.advance(1);
+                    (pair.clone(), r)
+                })
+                .collect();
+            out.extend(done);
+        }
+        (out, clock.elapsed().as_secs_f64())
+    };
+    let run_batch = || {
+        let clock = std::time::Instant::now();
+        let b = (!plan.batch.is_empty()).then(|| batch_of(plan, &records, &fits));
+        (b, clock.elapsed().as_secs_f64())
+    };
+    let clock = std::time::Instant::now();
+    let ((validations, tv), (batch, tb)) = rayon::join(validate_all, run_batch);
+    seconds.side_by_side = clock.elapsed().as_secs_f64();
+    (seconds.validate, seconds.batch) = (tv, tb);
+    drop(held);
+    let mut errors: Vec<String> = records
+        .values()
+        .filter_map(|r| r.as_ref().err().map(|e| e.to_string()))
+        .collect();
+    // A log that was not read is reported once, by its read error.
+    errors.extend(fits.values().filter_map(|r| match r {
+        Err(crate::Error::Skipped { .. }) | Ok(_) => None,
+        Err(e) => Some(e.to_string()),
+    }));
+    errors.extend(figure_errors);
+    progress.advance(1);
+    errors.extend(
+        validations
+            .iter()
+            .filter_map(|(_, r)| r.as_ref().err().map(|e| e.to_string())),
+    );
+    if let Some(Err(e)) = &batch {
+        errors.push(e.to_string());
+    }
+    Ok(PipelineReport {
+        seconds,
+        logs: records,
+        fits,
+        validations,
+        batch,
+        errors,
+        log_sha256,
+    })
+}
+
+/// Heap bytes of a run's samples (grid columns and recorded channels).
+fn run_bytes(run: &Run) -> u64 {
+    let g = &run.resampled;
+    let grid = g.t.len()
+        + g.x0.len()
+        + g.x1.len()
+        + g.x2.len()
+        + g.v2.len()
+        + [&g.a2, &g.normal_force, &g.setpoint_hz]
+            .iter()
+            .map(|c| c.as_ref().map_or(0, Vec::len))
+            .sum::<usize>();
+    let channels: usize = run.channels.iter().map(|c| c.t.len() + c.v.len()).sum();
+    8 * (grid + channels) as u64
+}
+
+/// The fits of the characteristic logs of one round of reads (`read`, in
+/// plan order): a saved fit is used as it is, a log that was read is
+/// fitted (in parallel, panic-guarded), one that was not keeps its read
+/// error.
+fn fit_round(
+    read: &[(PathBuf, crate::Result<Run>)],
+    sweeps: &std::collections::BTreeSet<&PathBuf>,
+    saved: &BTreeMap<PathBuf, std::result::Result<LogFit, String>>,
+    progress: &dyn Progress,
+) -> BTreeMap<PathBuf, crate::Result<LogFit>> {
+    let chars: Vec<&(PathBuf, crate::Result<Run>)> =
+        read.iter().filter(|(p, _)| !sweeps.contains(p)).collect();
+    let to_fit: Vec<&Run> = chars
+        .iter()
+        .filter(|(p, _)| !saved.contains_key(p))
+        .filter_map(|(_, r)| r.as_ref().ok())
+        .collect();
+    let mut fitted = identify::fit_runs(&to_fit, &IdentifyOptions::default(), &|| {
+        progress.advance(1)
+    })
+    .into_iter();
+    let mut fits = BTreeMap::new();
+    for (p, r) in chars {
+        let f = if let Some(s) = saved.get(p) {
+            progress.advance(1);
+            s.clone().map_err(|cause| crate::Error::Skipped {
+                path: p.clone(),
+                stage: "its saved fit failed",
+                cause,
+            })
+        } else {
+            match r {
+                // One fit per log read, in order: only a log that was read
+                // takes the next fit.
                 Ok(_) => fitted.next().unwrap_or_else(|| {
                     Err(crate::Error::Identify {
                         path: p.clone(),
@@ -370,108 +520,59 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
                         cause: e.to_string(),
                     })
                 }
-            };
-            fits.insert(p.clone(), f);
-        }
-        fits
-    };
-    // The fits the validations and the batch need come first; the others
-    // (logs only fitted) run beside the validations and the batch.
-    let needed = |p: &PathBuf| {
-        plan.batch.contains(p) || plan.validate.iter().any(|v| &v.characteristic == p)
-    };
-    let (first, beside): (Vec<PathBuf>, Vec<PathBuf>) = chars.iter().cloned().partition(needed);
-    let fits = fit_some(&first);
-    seconds.fit = clock.elapsed().as_secs_f64();
-    // The validations and the batch need nothing from each other: they run
-    // side by side (each collected in order).
-    progress.stage("validating against sweeps; batch: worst-case amplitudes");
-    let mut vopts = ValidateOptions::default();
-    vopts.predict.samples = opts.samples;
-    vopts.predict.band_coverage_se = opts.band_coverage_se;
-    let validate_all = || -> (Vec<(Pair, crate::Result<Validation>)>, f64) {
-        let clock = std::time::Instant::now();
-        let v = plan
-            .validate
-            .par_iter()
-            .map(|pair| {
-                let r = match (
-                    &fits[&pair.characteristic],
-                    &runs[&pair.characteristic],
-                    &runs[&pair.sweep],
-                ) {
-                    (Ok(f), Ok(cr), Ok(sr)) => validate::validate(f, cr, sr, &vopts),
-                    (Err(e), _, _) | (_, Err(e), _) | (_, _, Err(e)) => {
-                        Err(crate::Error::Skipped {
-                            path: pair.sweep.clone(),
-                            stage: "not validated",
-                            cause: e.to_string(),
-                        })
-                    }
-                };
-                progress.advance(1);
-                (pair.clone(), r)
-            })
-            .collect();
-        (v, clock.elapsed().as_secs_f64())
-    };
-    let run_batch = || {
-        let clock = std::time::Instant::now();
-        let b = (!plan.batch.is_empty()).then(|| batch_of(plan, &runs, &fits));
-        (b, clock.elapsed().as_secs_f64())
-    };
-    let fit_beside = || {
-        let clock = std::time::Instant::now();
-        let f = fit_some(&beside);
-        (f, clock.elapsed().as_secs_f64())
-    };
-    let clock = std::time::Instant::now();
-    let (((validations, tv), (batch, tb)), (more_fits, tf)) =
-        rayon::join(|| rayon::join(validate_all, run_batch), fit_beside);
-    seconds.side_by_side = clock.elapsed().as_secs_f64();
-    (seconds.validate, seconds.batch, seconds.fit_beside) = (tv, tb, tf);
-    let mut fits = fits;
-    fits.extend(more_fits);
-    let mut errors: Vec<String> = runs
-        .values()
-        .filter_map(|r| r.as_ref().err().map(|e| e.to_string()))
-        .collect();
-    // A log that was not read is reported once, by its read error.
-    errors.extend(fits.values().filter_map(|r| match r {
-        Err(crate::Error::Skipped { .. }) | Ok(_) => None,
-        Err(e) => Some(e.to_string()),
-    }));
-    progress.advance(1);
-    errors.extend(
-        validations
-            .iter()
-            .filter_map(|(_, r)| r.as_ref().err().map(|e| e.to_string())),
-    );
-    if let Some(Err(e)) = &batch {
-        errors.push(e.to_string());
+            }
+        };
+        fits.insert(p.clone(), f);
     }
-    Ok(PipelineReport {
-        seconds,
-        runs,
-        fits,
-        validations,
-        batch,
-        errors,
-        log_sha256,
-    })
+    fits
+}
+
+/// One validation: the characteristic log's fit and rig record against
+/// its sweep (held, or read again).
+fn validate_pair(
+    pair: &Pair,
+    records: &BTreeMap<PathBuf, crate::Result<LogRecord>>,
+    fits: &BTreeMap<PathBuf, crate::Result<LogFit>>,
+    held: &BTreeMap<PathBuf, Run>,
+    vopts: &ValidateOptions,
+) -> crate::Result<Validation> {
+    let skipped = |e: &dyn std::fmt::Display| crate::Error::Skipped {
+        path: pair.sweep.clone(),
+        stage: "not validated",
+        cause: e.to_string(),
+    };
+    let (f, cr) = match (
+        &fits[&pair.characteristic],
+        &records[&pair.characteristic],
+        &records[&pair.sweep],
+    ) {
+        (Ok(f), Ok(cr), Ok(_)) => (f, cr),
+        (Err(e), _, _) => return Err(skipped(e)),
+        (_, Err(e), _) | (_, _, Err(e)) => return Err(skipped(e)),
+    };
+    let reread;
+    let sweep = match held.get(&pair.sweep) {
+        Some(run) => run,
+        None => {
+            reread =
+                ingest::read(&pair.sweep, &IngestOptions::default()).map_err(crate::Error::from)?;
+            &reread
+        }
+    };
+    validate::validate_fit(f, &pair.characteristic, &cr.rig, sweep, vopts)
 }
 
 /// The batch of the plan: its logs that were read and fitted, each test
 /// once (a stuck or never-sticking log enters as a bound).
 fn batch_of(
     plan: &Plan,
-    runs: &BTreeMap<PathBuf, crate::Result<Run>>,
+    records: &BTreeMap<PathBuf, crate::Result<LogRecord>>,
     fits: &BTreeMap<PathBuf, crate::Result<LogFit>>,
 ) -> crate::Result<Batch> {
     let both: Vec<(PathBuf, &LogFit, &RigMeta)> = plan
         .batch
         .iter()
-        .filter_map(|p| match (&fits[p], &runs[p]) {
+        .filter_map(|p| match (&fits[p], &records[p]) {
             (Ok(f), Ok(r)) => Some((p.clone(), f, &r.rig)),
             _ => None,
         })
@@ -506,7 +607,7 @@ fn batch_of(
         rigs = plan
             .batch
             .iter()
-            .filter_map(|p| runs[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
+            .filter_map(|p| records[p].as_ref().ok().map(|r| (p.clone(), r.rig.clone())))
             .collect();
     }
     let Some((_, rig)) = rigs.first() else {
@@ -531,8 +632,8 @@ impl PipelineReport {
             .iter()
             .map(|p| {
                 let sha = self.log_sha256.get(p).cloned().flatten();
-                match (&self.fits[p], &self.runs[p]) {
-                    (Ok(f), Ok(run)) => identify::artifact::record(f, p, sha.as_deref(), &run.rig),
+                match (&self.fits[p], &self.logs[p]) {
+                    (Ok(f), Ok(log)) => identify::artifact::record(f, p, sha.as_deref(), &log.rig),
                     (Ok(f), Err(_)) => f.to_json(p),
                     (Err(e), _) => {
                         identify::artifact::failed_record(p, sha.as_deref(), &e.to_string())
@@ -640,8 +741,13 @@ impl PipelineReport {
             }
         }
         for p in &plan.characteristic_logs() {
-            page.fits.push(match (&self.fits[p], &self.runs[p]) {
-                (Ok(f), Ok(run)) => sections::fit_section(&rd, p, run, f)?,
+            page.fits.push(match (&self.fits[p], &self.logs[p]) {
+                (Ok(f), Ok(log)) => match &log.figure {
+                    Some(points) => {
+                        sections::fit_section_of(&rd, p, points, log.rig.notes.as_deref(), f)?
+                    }
+                    None => views::fit_view(p, f, log.rig.notes.as_deref(), None),
+                },
                 (Err(e), _) | (_, Err(e)) => views::fit_error_view(p, &e.to_string()),
             });
         }
@@ -655,17 +761,13 @@ impl PipelineReport {
         page.timings = vec![
             html::KeyValue::new("ingest (all logs, in parallel)", f(t.ingest)),
             html::KeyValue::new(
-                "fit (the logs validation and batch use, each once, in parallel)",
+                "fit (every characteristic log once, in parallel, as it is read)",
                 f(t.fit),
-            ),
-            html::KeyValue::new(
-                "fit of the other logs (beside validation and batch)",
-                f(t.fit_beside),
             ),
             html::KeyValue::new("validate (beside the batch)", f(t.validate)),
             html::KeyValue::new("batch (beside the validations)", f(t.batch)),
             html::KeyValue::new(
-                "the three above together (wall, side by side on the cores)",
+                "the two above together (wall, side by side on the cores)",
                 f(t.side_by_side),
             ),
             html::KeyValue::new(

@@ -17,12 +17,8 @@ use std::path::Path;
 pub struct CharacteristicFigure<'a> {
     /// Title (escaped by the SVG backend).
     pub title: &'a str,
-    /// Contact force and signals.
-    pub contact: &'a Contact,
-    /// Stick flag per sample.
-    pub stick: &'a [bool],
-    /// Force bias removed from R (N).
-    pub bias_n: f64,
+    /// What is drawn of the log ([`CharacteristicPoints::new`]).
+    pub points: &'a CharacteristicPoints,
     /// The fitted law (None for a stuck log).
     pub law: Option<SiLaw>,
     /// Legend name of `law` (e.g. "fitted", "output error (used)").
@@ -38,6 +34,66 @@ pub struct CharacteristicFigure<'a> {
     pub alternative: Option<SiLaw>,
     /// Legend name of `alternative`.
     pub alternative_label: &'a str,
+}
+
+/// Most samples each time panel draws (two drive periods): beyond, every
+/// k-th sample (a 560-pixel panel shows no more).
+pub const MAX_TIME_PANEL_POINTS: usize = 4096;
+
+/// Most points the R(ẋ2) panel draws: every (n / 2500)-th sample.
+pub const MAX_CHARACTERISTIC_POINTS: usize = 2500;
+
+/// What the characteristic figure draws of a log, taken once from its
+/// contact signals: at most a few thousand points whatever the log's
+/// length, so a pipeline keeps these, not the log, until its report.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CharacteristicPoints {
+    /// Time (s), R − bias (N) and ẋ2 (m/s; 0 in stick) over the first two
+    /// drive periods (every k-th sample beyond [`MAX_TIME_PANEL_POINTS`]).
+    head: Vec<[f64; 3]>,
+    /// The R(ẋ2) panel's ranges over every sample: (ẋ2, R), padded.
+    v_range: (f64, f64),
+    r_range: (f64, f64),
+    /// Every (n / 2500)-th sample's (ẋ2, R) where both are finite.
+    points: Vec<(f64, f64)>,
+}
+
+impl CharacteristicPoints {
+    /// The points of contact signals `c` with stick flags `stick`
+    /// (ẋ2 drawn as 0 there) and the force bias `bias_n` removed from R.
+    pub fn new(c: &Contact, stick: &[bool], bias_n: f64) -> Self {
+        let n = c.t.len().min(c.r.len()).min(c.v2.len()).min(stick.len());
+        let r = |i: usize| c.r[i] - bias_n;
+        let v = |i: usize| if stick[i] { 0.0 } else { c.v2[i] };
+        let n_show = ((2.0 / c.drive.frequency_hz) / c.dt).round() as usize;
+        let n_show = n_show.clamp(2, n.max(2)).min(n);
+        let head = if n_show >= 2 {
+            let every = n_show.div_ceil(MAX_TIME_PANEL_POINTS);
+            (0..n_show)
+                .step_by(every)
+                .map(|i| [c.t[i], r(i), v(i)])
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let step = (n / MAX_CHARACTERISTIC_POINTS).max(1);
+        Self {
+            head,
+            v_range: range((0..n).map(v)),
+            r_range: range((0..n).map(r)),
+            points: (0..n)
+                .step_by(step)
+                .map(|i| (v(i), r(i)))
+                .filter(|(v, r)| v.is_finite() && r.is_finite())
+                .collect(),
+        }
+    }
+
+    /// Heap bytes held.
+    pub fn bytes(&self) -> usize {
+        self.head.capacity() * std::mem::size_of::<[f64; 3]>()
+            + self.points.capacity() * std::mem::size_of::<(f64, f64)>()
+    }
 }
 
 /// Draws the figure to `path` (SVG), atomically.
@@ -57,7 +113,12 @@ pub fn characteristic_figure(fig: &CharacteristicFigure<'_>, path: &Path) -> Res
 /// equation-error law (the one fitted to these very points) where the
 /// output error refined it, else the Stribeck alternative. A stuck log
 /// shows no law; a never-sticking one no static threshold.
-pub fn fit_figure(log: &Path, ch: &Characteristic, f: &LogFit, path: &Path) -> Result<()> {
+pub fn fit_figure(
+    log: &Path,
+    points: &CharacteristicPoints,
+    f: &LogFit,
+    path: &Path,
+) -> Result<()> {
     let e = &f.fit;
     let split = f.pads().filter(|_| f.direction_dependent());
     let (law, law_label, alternative, alternative_label) = if f.stuck() {
@@ -81,9 +142,7 @@ pub fn fit_figure(log: &Path, ch: &Characteristic, f: &LogFit, path: &Path) -> R
     characteristic_figure(
         &CharacteristicFigure {
             title: &title,
-            contact: &ch.contact,
-            stick: &ch.segmentation.stick,
-            bias_n: if e.bias_n.is_finite() { e.bias_n } else { 0.0 },
+            points,
             law,
             law_label,
             threshold: !f.never_sticks() && !split.is_some_and(|p| p.plus_bounded),
@@ -92,6 +151,17 @@ pub fn fit_figure(log: &Path, ch: &Characteristic, f: &LogFit, path: &Path) -> R
             alternative_label,
         },
         path,
+    )
+}
+
+/// The points [`fit_figure`] draws of a log's characteristic `ch` with its
+/// fit `f` (the fit's force bias removed).
+pub fn fit_points(ch: &Characteristic, f: &LogFit) -> CharacteristicPoints {
+    let bias = f.fit.bias_n;
+    CharacteristicPoints::new(
+        &ch.contact,
+        &ch.segmentation.stick,
+        if bias.is_finite() { bias } else { 0.0 },
     )
 }
 
@@ -129,32 +199,18 @@ fn draw(fig: &CharacteristicFigure<'_>, root: &Area<'_>) -> DrawResult {
     let root = root.titled(fig.title, ("sans-serif", 20)).map_err(e)?;
     let (left, right) = root.split_horizontally(560);
     let (l_top, l_bot) = left.split_vertically(240);
-    let c = fig.contact;
-    let n = c.t.len();
-    let r: Vec<f64> = c.r.iter().map(|x| x - fig.bias_n).collect();
-    let v: Vec<f64> = (0..n)
-        .map(|i| if fig.stick[i] { 0.0 } else { c.v2[i] })
-        .collect();
-    time_panels(c, &l_top, &l_bot, &r, &v)?;
-    characteristic_panel(fig, &right, &r, &v)
+    time_panels(&fig.points.head, &l_top, &l_bot)?;
+    characteristic_panel(fig, &right)
 }
 
-/// Left: two drive periods of R(t) and ẋ2(t).
-fn time_panels<'a>(
-    c: &Contact,
-    l_top: &Area<'a>,
-    l_bot: &Area<'a>,
-    r: &[f64],
-    v: &[f64],
-) -> DrawResult {
-    let n = c.t.len();
+/// Left: two drive periods of R(t) and ẋ2(t) (`head`: t, R, ẋ2).
+fn time_panels<'a>(head: &[[f64; 3]], l_top: &Area<'a>, l_bot: &Area<'a>) -> DrawResult {
     let (blue, red) = (BLUE, RED);
-    let n_show = ((2.0 / c.drive.frequency_hz) / c.dt).round() as usize;
-    let n_show = n_show.clamp(2, n.max(2)).min(n);
-    if n_show >= 2 {
-        let (t0, t1) = (c.t[0], c.t[n_show - 1]);
-        for (panel, ys, col, label) in [(l_top, r, blue, "R [N]"), (l_bot, v, red, "ẋ2 [m/s]")] {
-            let (lo, hi) = range(ys[..n_show].iter().copied());
+    if let (Some(first), Some(last)) = (head.first(), head.last()) {
+        let (t0, t1) = (first[0], last[0]);
+        for (panel, col_i, col, label) in [(l_top, 1, blue, "R [N]"), (l_bot, 2, red, "ẋ2 [m/s]")]
+        {
+            let (lo, hi) = range(head.iter().map(|p| p[col_i]));
             let mut chart = ChartBuilder::on(panel)
                 .margin(8)
                 .x_label_area_size(32)
@@ -172,7 +228,8 @@ fn time_panels<'a>(
                 .map_err(e)?;
             // Finite runs as separate lines (gaps stay gaps).
             let mut run: Vec<(f64, f64)> = Vec::new();
-            for (&t, &y) in c.t.iter().zip(ys.iter()).take(n_show) {
+            for p in head {
+                let (t, y) = (p[0], p[col_i]);
                 if y.is_finite() {
                     run.push((t, y));
                 } else if !run.is_empty() {
@@ -222,16 +279,10 @@ fn law_curve(
 }
 
 /// Right: R against ẋ2 over the whole log, the laws over it.
-fn characteristic_panel(
-    fig: &CharacteristicFigure<'_>,
-    right: &Area<'_>,
-    r: &[f64],
-    v: &[f64],
-) -> DrawResult {
-    let n = fig.contact.t.len();
+fn characteristic_panel(fig: &CharacteristicFigure<'_>, right: &Area<'_>) -> DrawResult {
     let (blue, red) = (BLUE, RED);
-    let (vlo, vhi) = range(v.iter().copied());
-    let mut rr = range(r.iter().copied());
+    let (vlo, vhi) = fig.points.v_range;
+    let mut rr = fig.points.r_range;
     let sides = |l: &SiLaw| -> (Option<f64>, Option<f64>) {
         let plus = fig.threshold.then_some(l.rs_n);
         let minus = match fig.minus_threshold_n {
@@ -265,13 +316,12 @@ fn characteristic_panel(
         .draw()
         .map_err(e)?;
     // At most ~2500 points keep the SVG small.
-    let step = (n / 2500).max(1);
     chart
         .draw_series(
-            (0..n)
-                .step_by(step)
-                .filter(|&i| v[i].is_finite() && r[i].is_finite())
-                .map(|i| Circle::new((v[i], r[i]), 1, blue.mix(0.35).filled())),
+            fig.points
+                .points
+                .iter()
+                .map(|&(v, r)| Circle::new((v, r), 1, blue.mix(0.35).filled())),
         )
         .map_err(e)?
         .label("measured")
@@ -315,6 +365,51 @@ fn characteristic_panel(
 mod tests {
     use super::*;
     use crate::model::LawKind;
+
+    /// The points kept of a log are a few thousand whatever its length:
+    /// a log 40 times as long at a 40th of the drive frequency keeps at
+    /// most [`MAX_TIME_PANEL_POINTS`] of its two periods and about
+    /// [`MAX_CHARACTERISTIC_POINTS`] of R(ẋ2), with the ranges of every
+    /// sample (the tiles': the short log's).
+    #[test]
+    fn the_points_kept_are_bounded_whatever_the_length() {
+        let run = crate::ingest::read(
+            "datasets/char_N4.mcap".as_ref(),
+            &crate::ingest::IngestOptions::default(),
+        )
+        .unwrap();
+        let ch = crate::identify::characteristic(&run, &Default::default()).unwrap();
+        let (c, stick) = (&ch.contact, &ch.segmentation.stick);
+        let n = c.t.len();
+        let short = CharacteristicPoints::new(c, stick, 0.1);
+        let n_show = ((2.0 / c.drive.frequency_hz) / c.dt).round() as usize;
+        assert!(n_show < MAX_TIME_PANEL_POINTS && n_show > 100, "{n_show}");
+        assert_eq!(short.head.len(), n_show);
+        assert_eq!(
+            short.head[7],
+            [c.t[7], c.r[7] - 0.1, if stick[7] { 0.0 } else { c.v2[7] }]
+        );
+        assert!(short.points.len() <= 2 * MAX_CHARACTERISTIC_POINTS);
+        let k = 40;
+        let tile = |x: &[f64]| -> crate::ingest::Column { (0..k * n).map(|i| x[i % n]).collect() };
+        let mut long = c.clone();
+        long.t = (0..k * n).map(|i| i as f64 * c.dt).collect();
+        long.r = tile(&c.r);
+        long.v2 = tile(&c.v2);
+        long.drive.frequency_hz /= k as f64;
+        let long_stick: Vec<bool> = (0..k * n).map(|i| stick[i % n]).collect();
+        let p = CharacteristicPoints::new(&long, &long_stick, 0.1);
+        assert!(p.head.len() <= MAX_TIME_PANEL_POINTS, "{}", p.head.len());
+        assert!(
+            p.head.len() >= MAX_TIME_PANEL_POINTS / 2,
+            "{}",
+            p.head.len()
+        );
+        assert!(p.points.len() <= 2 * MAX_CHARACTERISTIC_POINTS);
+        assert!(p.points.len() >= MAX_CHARACTERISTIC_POINTS / 2);
+        assert_eq!((p.v_range, p.r_range), (short.v_range, short.r_range));
+        assert!(p.bytes() < 200_000, "{}", p.bytes());
+    }
 
     /// A split threshold is drawn from −Rs⁻ to +Rs⁺ at ẋ2 = 0; a side not
     /// given joins the sliding level there; the branches are the law's.

@@ -16,15 +16,32 @@ pub fn fit_section(
     run: &Run,
     f: &LogFit,
 ) -> crate::Result<html::FitView> {
-    let name = format!("characteristic_{}.svg", html::stem(log));
+    let points = fit_points(run, f)?;
+    fit_section_of(dir, log, &points, run.rig.notes.as_deref(), f)
+}
+
+/// What the fit section of `run` (fitted as `f`) draws: its characteristic
+/// (at unit gains), a few thousand points.
+pub fn fit_points(
+    run: &Run,
+    f: &LogFit,
+) -> crate::Result<characteristic_plot::CharacteristicPoints> {
     let ch = identify::characteristic(run, &identify::Gains::default())?;
-    characteristic_plot::fit_figure(log, &ch, f, &dir.file(&name)?)?;
-    Ok(views::fit_view(
-        log,
-        f,
-        run.rig.notes.as_deref(),
-        Some(name),
-    ))
+    Ok(characteristic_plot::fit_points(&ch, f))
+}
+
+/// [`fit_section`] from the points kept of the log ([`fit_points`]) and
+/// its rig record's notes.
+pub fn fit_section_of(
+    dir: &html::ReportDir,
+    log: &Path,
+    points: &characteristic_plot::CharacteristicPoints,
+    notes: Option<&str>,
+    f: &LogFit,
+) -> crate::Result<html::FitView> {
+    let name = format!("characteristic_{}.svg", html::stem(log));
+    characteristic_plot::fit_figure(log, points, f, &dir.file(&name)?)?;
+    Ok(views::fit_view(log, f, notes, Some(name)))
 }
 
 /// Writes the validation figure and returns its view for the report.
