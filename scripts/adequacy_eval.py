@@ -21,7 +21,8 @@ for name, fam, *_ in rows:
         stuck=f.get('stuck'), never_sticks=f.get('never_sticks'), true_stick=t['stick_fraction'],
         rs_err=None if f.get('r_s_n') is None else f['r_s_n'] / trs - 1, rd_err=None if f.get('r_d_n') is None else f['r_d_n'] / trd - 1,
         miss_rs=m_rs, miss_rd=m_rd, nr=(ad.get('noise_ratio_x1'), ad.get('noise_ratio_x2')),
-        flagged=[(x['channel'], x['against'], round(x['z'], 1), round(x['effect'], 2)) for x in ad.get('structure', []) if x['channel'] != 'force' and x['z'] > 3.7 and x['effect'] > 0.5],
+        flagged=[(x['channel'], x['against'], round(x['z'], 1), round(x['effect'], 2)) for x in ad.get('structure', []) if 'force' not in x['channel'] and x['z'] > 3.7 and x['effect'] > 0.5],
+        force=[(x['channel'], x['against'], round(x['z'], 1), round(x['effect'], 2)) for x in ad.get('structure', []) if 'force' in x['channel']],
         inflation=ad.get('interval_inflation')))
 json.dump(res, open(f'{OUT}/eval.json', 'w'), indent=1)
 n = len(res); adq = sum(bool(r['adequate']) for r in res)
