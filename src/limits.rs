@@ -114,32 +114,59 @@ pub fn rounds(planned: &[u64], budget: u64) -> Vec<std::ops::Range<usize>> {
 /// (7.27 million: two hours and a minute at 1 kHz).
 pub const MAX_FIT_SAMPLES: u64 = MEMORY_BUDGET_BYTES / FIT_BYTES_PER_SAMPLE;
 
+/// Why a family of steady states is refused ([`check_family`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum FamilyError {
+    /// More steady states than [`MAX_FAMILY_POINTS`].
+    #[error("{curves} curves x {points} etas = {:.3e} steady states would need {} (about {FAMILY_POINT_BYTES} bytes each), over {}: at most {MAX_FAMILY_POINTS} steady states per family; use fewer --rho-s values or --points, or run several families", *.curves as f64 * *.points as f64, human(*.curves as f64 * *.points as f64 * FAMILY_POINT_BYTES as f64), budget_text())]
+    TooLarge {
+        /// Curves of the family.
+        curves: u64,
+        /// Points (η values) per curve.
+        points: u64,
+    },
+    /// Curve or point indices that do not fit in 32 bits.
+    #[error("{curves} curves x {points} etas: indices beyond 2^32 cannot be stored")]
+    IndicesTooLarge {
+        /// Curves of the family.
+        curves: u64,
+        /// Points (η values) per curve.
+        points: u64,
+    },
+    /// More shards than steady states.
+    #[error("{shards} shards for a family of {curves} curves x {points} etas: at most one shard per steady state ({units})")]
+    TooManyShards {
+        /// Shards asked for.
+        shards: u64,
+        /// Curves of the family.
+        curves: u64,
+        /// Points (η values) per curve.
+        points: u64,
+        /// Steady states of the family (at least 1).
+        units: u64,
+    },
+}
+
 /// Checks a family of `curves` × `points` steady states (and `shards`
 /// slices of it) against the budget: `Err` says what is too large, with
 /// the numbers and what to change.
-pub fn check_family(curves: u64, points: u64, shards: u64) -> Result<(), String> {
+pub fn check_family(curves: u64, points: u64, shards: u64) -> Result<(), FamilyError> {
     let total = curves.checked_mul(points);
     match total {
         Some(t) if t <= MAX_FAMILY_POINTS => {}
-        _ => {
-            let t = curves as f64 * points as f64;
-            return Err(format!(
-                "{curves} curves x {points} etas = {t:.3e} steady states would need {} (about {FAMILY_POINT_BYTES} bytes each), over {}: at most {MAX_FAMILY_POINTS} steady states per family; use fewer --rho-s values or --points, or run several families",
-                human(t * FAMILY_POINT_BYTES as f64),
-                budget_text()
-            ));
-        }
+        _ => return Err(FamilyError::TooLarge { curves, points }),
     }
     if curves > u64::from(u32::MAX) || points > u64::from(u32::MAX) {
-        return Err(format!(
-            "{curves} curves x {points} etas: indices beyond 2^32 cannot be stored"
-        ));
+        return Err(FamilyError::IndicesTooLarge { curves, points });
     }
     let units = total.unwrap_or(0).max(1);
     if shards > units {
-        return Err(format!(
-            "{shards} shards for a family of {curves} curves x {points} etas: at most one shard per steady state ({units})"
-        ));
+        return Err(FamilyError::TooManyShards {
+            shards,
+            curves,
+            points,
+            units,
+        });
     }
     Ok(())
 }
@@ -287,14 +314,17 @@ mod tests {
         assert_eq!(human(9.0e9), "9.0 GB");
         assert!(max_threads() >= THREADS_PER_CORE);
         assert!(check_family(13, 141, 4).is_ok());
-        let e = check_family(10_000, 100_000, 1).unwrap_err();
+        let e = check_family(10_000, 100_000, 1).unwrap_err().to_string();
         assert!(
             e.contains("1.000e9 steady states") && e.contains("1200.0 GB"),
             "{e}"
         );
         assert!(check_family(1, 4_294_967_297, 1).is_err());
         assert!(check_family(u64::MAX, 2, 1).is_err());
-        assert!(check_family(2, 3, 7).unwrap_err().contains("7 shards"));
+        assert!(check_family(2, 3, 7)
+            .unwrap_err()
+            .to_string()
+            .contains("7 shards"));
     }
 
     /// The calibration re-fits of a log run as many at once as fit the

@@ -248,57 +248,118 @@ impl Default for BatchOptions {
     }
 }
 
+/// What is wrong with [`BatchOptions`] ([`BatchOptions::check_typed`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum OptionsError {
+    /// The η range is not 0 < min < max.
+    #[error("eta range [{min}, {max}] must be 0 < min < max")]
+    EtaRange {
+        /// Its lower end.
+        min: f64,
+        /// Its upper end.
+        max: f64,
+    },
+    /// Too few or too many η points.
+    #[error("eta points must be between 2 and 100000")]
+    EtaPoints,
+    /// The coarse η stride is outside 1..=the η points.
+    #[error(
+        "eta coarse stride {stride} must be between 1 (every point) and the eta points ({points})"
+    )]
+    EtaCoarseStride {
+        /// The stride.
+        stride: usize,
+        /// The η points.
+        points: usize,
+    },
+    /// The fine η step or half-width is negative or not finite.
+    #[error("fine eta step and half-width must be finite and >= 0")]
+    EtaFine,
+    /// The fine η windows would be too long.
+    #[error("fine eta windows of more than 10000 points")]
+    EtaFineTooLong,
+    /// ρ-min is not finite and positive.
+    #[error("rho-min must be finite and > 0")]
+    RhoMin,
+    /// ρ-max is not finite and above ρ-min.
+    #[error("rho-max must be finite and > rho-min")]
+    RhoMax,
+    /// Too few or too many ρ points.
+    #[error("rho points must be between 4 and 10000")]
+    RhoPoints,
+    /// The setting tolerance is not a fraction in [0, 0.5).
+    #[error("setting tolerance must be a fraction in [0, 0.5)")]
+    SettingTolerance,
+    /// The window is negative or not finite.
+    #[error("window must be finite and >= 0")]
+    Window,
+    /// The drive amplitude is not finite and positive.
+    #[error("drive amplitude must be finite and > 0")]
+    DriveAmplitude,
+    /// The normal-force gain uncertainty is not a fraction in [0, 0.5).
+    #[error("normal-force gain uncertainty must be a fraction in [0, 0.5)")]
+    NormalForceGainUncertainty,
+}
+
 impl BatchOptions {
-    /// Checks the options (what is wrong, for an error line).
+    /// Checks the options (what is wrong, for an error line): the message
+    /// of [`BatchOptions::check_typed`]'s error. Kept returning text for
+    /// its caller in `cli::batch` (an adapter until that file moves to
+    /// [`OptionsError`]).
     pub fn check(&self) -> std::result::Result<(), String> {
+        self.check_typed().map_err(|e| e.to_string())
+    }
+
+    /// Checks the options: the first thing wrong with them.
+    pub fn check_typed(&self) -> std::result::Result<(), OptionsError> {
         let pos = |x: f64| x.is_finite() && x > 0.0;
         if let Some((a, b)) = self.eta_range {
             if !(pos(a) && pos(b) && a < b) {
-                return Err(format!("eta range [{a}, {b}] must be 0 < min < max"));
+                return Err(OptionsError::EtaRange { min: a, max: b });
             }
         }
         if !(2..=100_000).contains(&self.eta_points) {
-            return Err("eta points must be between 2 and 100000".into());
+            return Err(OptionsError::EtaPoints);
         }
         if !(1..=self.eta_points).contains(&self.eta_coarse_stride) {
-            return Err(format!(
-                "eta coarse stride {} must be between 1 (every point) and the eta points ({})",
-                self.eta_coarse_stride, self.eta_points
-            ));
+            return Err(OptionsError::EtaCoarseStride {
+                stride: self.eta_coarse_stride,
+                points: self.eta_points,
+            });
         }
         let nonneg = |x: f64| x.is_finite() && x >= 0.0;
         if !(nonneg(self.eta_fine_step) && nonneg(self.eta_fine_halfwidth)) {
-            return Err("fine eta step and half-width must be finite and >= 0".into());
+            return Err(OptionsError::EtaFine);
         }
         if self.eta_fine_step > 0.0 && self.eta_fine_halfwidth / self.eta_fine_step > 5000.0 {
-            return Err("fine eta windows of more than 10000 points".into());
+            return Err(OptionsError::EtaFineTooLong);
         }
         if !pos(self.rho_min) {
-            return Err("rho-min must be finite and > 0".into());
+            return Err(OptionsError::RhoMin);
         }
         if let Some(m) = self.rho_max {
             if !(pos(m) && m > self.rho_min) {
-                return Err("rho-max must be finite and > rho-min".into());
+                return Err(OptionsError::RhoMax);
             }
         }
         if !(4..=10_000).contains(&self.rho_points) {
-            return Err("rho points must be between 4 and 10000".into());
+            return Err(OptionsError::RhoPoints);
         }
         if !(self.setting_tolerance.is_finite() && (0.0..0.5).contains(&self.setting_tolerance)) {
-            return Err("setting tolerance must be a fraction in [0, 0.5)".into());
+            return Err(OptionsError::SettingTolerance);
         }
         if !(self.window.is_finite() && self.window >= 0.0) {
-            return Err("window must be finite and >= 0".into());
+            return Err(OptionsError::Window);
         }
         if let Some(a) = self.drive_amplitude_m {
             if !pos(a) {
-                return Err("drive amplitude must be finite and > 0".into());
+                return Err(OptionsError::DriveAmplitude);
             }
         }
         if !(self.normal_force_gain_uncertainty.is_finite()
             && (0.0..0.5).contains(&self.normal_force_gain_uncertainty))
         {
-            return Err("normal-force gain uncertainty must be a fraction in [0, 0.5)".into());
+            return Err(OptionsError::NormalForceGainUncertainty);
         }
         Ok(())
     }
@@ -683,7 +744,8 @@ pub fn batch_with_progress(
     opts: &BatchOptions,
     tick: &(dyn Fn(u64) + Sync),
 ) -> Result<Batch> {
-    opts.check().map_err(BatchError::Options)?;
+    opts.check_typed()
+        .map_err(|e| BatchError::Options(e.to_string()))?;
     if fits.is_empty() {
         return Err(BatchError::Empty.into());
     }
@@ -781,6 +843,7 @@ pub fn batch_with_progress(
     let (recommendation, cliff, recommendation_reason) = match outcome {
         Ok((r, c)) => (Some(r), c, None),
         Err(reason) => {
+            let reason = reason.to_string();
             warnings.push(crate::warning::Warning::NoRecommendation {
                 reason: reason.clone(),
             });

@@ -44,7 +44,60 @@ pub(super) struct Search<'a> {
 }
 
 /// The recommendation and its cliff, or why there is none.
-pub(super) type Outcome = Result<(Recommendation, Option<Cliff>), String>;
+pub(super) type Outcome = Result<(Recommendation, Option<Cliff>), NoRecommendation>;
+
+/// What the logs' contradiction adds to [`NoRecommendation::Unbounded`]
+/// and [`NoRecommendation::BoxTooWide`] when they are unresolved.
+const UNRESOLVED: &str = " (the logs contradict each other on Rs and the data do not say which is off: see the conflicts)";
+
+/// Why the search recommends no normal force (the reason of
+/// [`crate::warning::Warning::NoRecommendation`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(super) enum NoRecommendation {
+    /// The μs box reaches down to zero or is unbounded.
+    #[error("{mu_words}{} reaches down to zero or is unbounded: the logs do not pin down the static friction, so no normal force can be shown to keep the main mass quiet; add logs at normal forces where the absorber sticks and slips", if *.unresolved { UNRESOLVED } else { "" })]
+    Unbounded {
+        /// The μ interval in words.
+        mu_words: String,
+        /// Whether the logs contradict each other unresolved.
+        unresolved: bool,
+    },
+    /// The μs box spans too wide a factor.
+    #[error("{mu_words}{} spans a factor of {factor:.0}: any normal force could be anywhere from sliding freely to stuck; add logs at normal forces where the absorber sticks and slips", if *.unresolved { UNRESOLVED } else { "" })]
+    BoxTooWide {
+        /// The μ interval in words.
+        mu_words: String,
+        /// Whether the logs contradict each other unresolved.
+        unresolved: bool,
+        /// Upper over lower end of the μs interval.
+        factor: f64,
+    },
+    /// No coarse node's whole box is inside the ρs grid.
+    #[error("no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}, setting ±{:.0} %) inside the grid; widen --rho-min/--rho-max", 100.0 * .setting_tolerance)]
+    NoBoxInGrid {
+        /// Lower end of the grid.
+        rho_min: f64,
+        /// Upper end of the grid.
+        rho_max: f64,
+        /// The μ interval in words.
+        mu_words: String,
+        /// The setting tolerance (fraction).
+        setting_tolerance: f64,
+    },
+    /// No node's whole box was evaluated.
+    #[error("no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}) evaluated; widen --rho-min/--rho-max")]
+    NoBoxEvaluated {
+        /// Lower end of the grid.
+        rho_min: f64,
+        /// Upper end of the grid.
+        rho_max: f64,
+        /// The μ interval in words.
+        mu_words: String,
+    },
+    /// The recommended node is no longer in the table.
+    #[error("the recommended node left the table")]
+    NodeLeftTable,
+}
 
 impl Search<'_> {
     /// Runs the search on `table` (worst cases added as needed); a failed
@@ -71,10 +124,11 @@ impl Search<'_> {
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _)| i)
         else {
-            return Ok(Err(format!(
-                "no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({}) evaluated; widen --rho-min/--rho-max",
-                self.mu_words
-            )));
+            return Ok(Err(NoRecommendation::NoBoxEvaluated {
+                rho_min,
+                rho_max,
+                mu_words: self.mu_words.clone(),
+            }));
         };
         let rho_rec = table.nodes[best].0;
         let (box_a, box_b) = (rho_rec * fa, rho_rec * fb);
@@ -91,7 +145,7 @@ impl Search<'_> {
             in_box.iter().copied().fold(0.0, f64::max),
         );
         let Some(best) = table.find(rho_rec) else {
-            return Ok(Err("the recommended node left the table".into()));
+            return Ok(Err(NoRecommendation::NodeLeftTable));
         };
         let w_rec = table.nodes[best].1[0];
         // Window of settings within `window` of the robust optimum.
@@ -123,29 +177,30 @@ impl Search<'_> {
     }
 
     /// Why a box too wide (or unbounded) is not searched.
-    fn no_box_reason(&self) -> String {
-        let mu_words = &self.mu_words;
-        let why = if self.unresolved {
-            " (the logs contradict each other on Rs and the data do not say which is off: see the conflicts)"
-        } else {
-            ""
-        };
+    fn no_box_reason(&self) -> NoRecommendation {
+        let mu_words = self.mu_words.clone();
+        let unresolved = self.unresolved;
         if self.fa <= 0.0 || !self.fb.is_finite() {
-            format!(
-                "{mu_words}{why} reaches down to zero or is unbounded: the logs do not pin down the static friction, so no normal force can be shown to keep the main mass quiet; add logs at normal forces where the absorber sticks and slips"
-            )
+            NoRecommendation::Unbounded {
+                mu_words,
+                unresolved,
+            }
         } else {
-            format!(
-                "{mu_words}{why} spans a factor of {:.0}: any normal force could be anywhere from sliding freely to stuck; add logs at normal forces where the absorber sticks and slips",
-                self.mu_s_interval.1 / self.mu_s_interval.0
-            )
+            NoRecommendation::BoxTooWide {
+                mu_words,
+                unresolved,
+                factor: self.mu_s_interval.1 / self.mu_s_interval.0,
+            }
         }
     }
 
     /// Stage 2: the region of good candidates (coarse robust value at the
     /// estimated ratio within 25 % of the best), over their whole boxes and
     /// one coarse step beyond, on the finer grid with every ratio.
-    fn refine_region(&self, table: &mut Table<'_>) -> Result<Result<(), String>, SimError> {
+    fn refine_region(
+        &self,
+        table: &mut Table<'_>,
+    ) -> Result<Result<(), NoRecommendation>, SimError> {
         let (fa, fb) = (self.fa, self.fb);
         let (rho_min, rho_max, steps) = (self.rho_min, self.rho_max, self.steps);
         let coarse_rob: Vec<Option<f64>> = self
@@ -154,11 +209,12 @@ impl Search<'_> {
             .map(|r| table.robust(r * fa, r * fb, true))
             .collect();
         let Some(rmin) = coarse_rob.iter().flatten().copied().min_by(f64::total_cmp) else {
-            return Ok(Err(format!(
-                "no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({}, setting ±{:.0} %) inside the grid; widen --rho-min/--rho-max",
-                self.mu_words,
-                100.0 * self.opts.setting_tolerance
-            )));
+            return Ok(Err(NoRecommendation::NoBoxInGrid {
+                rho_min,
+                rho_max,
+                mu_words: self.mu_words.clone(),
+                setting_tolerance: self.opts.setting_tolerance,
+            }));
         };
         let q = (rho_max / rho_min).powf(1.0 / steps as f64);
         let (fine_steps, factor) = if self.opts.refine {

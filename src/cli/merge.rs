@@ -393,9 +393,9 @@ fn merge_fits(args: &MergeArgs) -> crate::Result<()> {
             });
         }
         for f in &part.fits {
-            crate::identify::artifact::entry_of(f).map_err(|msg| crate::Error::Input {
+            crate::identify::artifact::entry_of(f).map_err(|e| crate::Error::Input {
                 path: args.parts[i].clone(),
-                msg,
+                msg: e.to_string(),
             })?;
         }
     }

@@ -213,7 +213,7 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
     };
     let specs = curve_specs(&args, &rhos)?;
     crate::io::budget::check_family(specs.len() as u64, args.points as u64, shard.count as u64)
-        .map_err(bad)?;
+        .map_err(|e| bad(e.to_string()))?;
     let etas = sweep::eta_grid(args.eta_min, args.eta_max, args.points);
     let cfg = SteadyConfig {
         max_periods: args.max_periods,

@@ -37,6 +37,70 @@ const NON_FINITE: &str = "$non_finite_f64";
 /// budget (the JSON tree takes a few times the text).
 pub const MAX_FITS_BYTES: u64 = 256_000_000;
 
+/// Why a fit record cannot be read back ([`FitArtifact::from_record`],
+/// [`entry_of`]).
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    /// The record has no `log`.
+    #[error("a record without `log`")]
+    NoLog,
+    /// The record has no valid `log_sha256`.
+    #[error("the record of {log} has no `log_sha256` (64 hex digits)")]
+    NoSha256 {
+        /// The log as the record names it.
+        log: String,
+    },
+    /// The record has no `artifact`.
+    #[error("the record of {log} has no `artifact` (records written by `stickslip fit` have one; `batch` and `run` records do not)")]
+    NoArtifact {
+        /// The log as the record names it.
+        log: String,
+    },
+    /// The artifact is of another format than [`FORMAT`].
+    #[error("the record of {log} is artifact format {}, this stickslip reads format {FORMAT}: refit with this version", .format.map_or("?".into(), |f| f.to_string()))]
+    Format {
+        /// The log as the record names it.
+        log: String,
+        /// The artifact's format (None: missing or not a number).
+        format: Option<u64>,
+    },
+    /// The artifact does not read back as a fit.
+    #[error("the artifact of {log} cannot be read: {source}")]
+    Unreadable {
+        /// The log as the record names it.
+        log: String,
+        /// Why.
+        source: ExactJsonError,
+    },
+}
+
+/// Why a value has no exact JSON form ([`to_exact_json`]) or cannot be
+/// read back from it ([`from_exact_json`]).
+#[derive(Debug, thiserror::Error)]
+pub enum ExactJsonError {
+    /// The value could not be serialized (what serde said).
+    #[error(transparent)]
+    Serialize(ciborium::value::Error),
+    /// The JSON does not deserialize to the type asked for (what serde said).
+    #[error(transparent)]
+    Deserialize(ciborium::value::Error),
+    /// An integer beyond the range of JSON's (i64 and u64).
+    #[error("integer {0} out of range")]
+    IntegerOutOfRange(i128),
+    /// A map key that is not text.
+    #[error("a map key that is not text")]
+    NonTextKey,
+    /// A value JSON cannot hold (bytes, tags; its debug form).
+    #[error("a value JSON cannot hold ({0})")]
+    Unrepresentable(String),
+    /// A JSON number that is not an f64.
+    #[error("a number out of range")]
+    NumberOutOfRange,
+    /// A non-finite float's name that is not `NaN`, `inf` or `-inf`.
+    #[error("`{0}` is not a non-finite float")]
+    NotNonFinite(String),
+}
+
 /// The saved state of one fit.
 #[derive(Serialize, Deserialize)]
 struct Saved {
@@ -135,30 +199,32 @@ impl FitArtifact {
     }
 
     /// Reads one record back (`Err`: what is wrong with it).
-    pub fn from_record(v: &Value) -> std::result::Result<Self, String> {
+    pub fn from_record(v: &Value) -> std::result::Result<Self, RecordError> {
         let log = v
             .get("log")
             .and_then(Value::as_str)
-            .ok_or("a record without `log`")?;
+            .ok_or(RecordError::NoLog)?;
         let sha = v
             .get("log_sha256")
             .and_then(Value::as_str)
             .filter(|s| is_sha256(s))
-            .ok_or_else(|| format!("the record of {log} has no `log_sha256` (64 hex digits)"))?;
-        let art = v.get("artifact").ok_or_else(|| {
-            format!("the record of {log} has no `artifact` (records written by `stickslip fit` have one; `batch` and `run` records do not)")
-        })?;
+            .ok_or_else(|| RecordError::NoSha256 { log: log.into() })?;
+        let art = v
+            .get("artifact")
+            .ok_or_else(|| RecordError::NoArtifact { log: log.into() })?;
         match art.get("format").and_then(Value::as_u64) {
             Some(f) if f == u64::from(FORMAT) => {}
-            other => {
-                return Err(format!(
-                    "the record of {log} is artifact format {}, this stickslip reads format {FORMAT}: refit with this version",
-                    other.map_or("?".into(), |f| f.to_string())
-                ))
+            format => {
+                return Err(RecordError::Format {
+                    log: log.into(),
+                    format,
+                })
             }
         }
-        let saved: Saved = from_exact_json(art)
-            .map_err(|e| format!("the artifact of {log} cannot be read: {e}"))?;
+        let saved: Saved = from_exact_json(art).map_err(|source| RecordError::Unreadable {
+            log: log.into(),
+            source,
+        })?;
         Ok(FitArtifact {
             log: PathBuf::from(log),
             log_sha256: sha.to_string(),
@@ -221,8 +287,8 @@ impl FitSet {
         let entries = records
             .iter()
             .map(entry_of)
-            .collect::<std::result::Result<Vec<_>, String>>()
-            .map_err(bad)?;
+            .collect::<std::result::Result<Vec<_>, RecordError>>()
+            .map_err(|e| bad(e.to_string()))?;
         if entries.is_empty() {
             return Err(bad("holds no fits".into()));
         }
@@ -279,12 +345,12 @@ fn same_path(a: &Path, b: &Path) -> bool {
 }
 
 /// Reads one record: a fit with its artifact, or a failed log.
-pub fn entry_of(v: &Value) -> std::result::Result<FitEntry, String> {
+pub fn entry_of(v: &Value) -> std::result::Result<FitEntry, RecordError> {
     if let Some(err) = v.get("error").and_then(Value::as_str) {
         let log = v
             .get("log")
             .and_then(Value::as_str)
-            .ok_or("a record without `log`")?;
+            .ok_or(RecordError::NoLog)?;
         return Ok(FitEntry::Failed(FailedFit {
             log: PathBuf::from(log),
             log_sha256: v
@@ -299,17 +365,19 @@ pub fn entry_of(v: &Value) -> std::result::Result<FitEntry, String> {
 
 /// A value as exact JSON (see the module doc): `Err` names what JSON
 /// cannot hold (a map with keys that are not text, bytes, tags).
-pub fn to_exact_json<T: Serialize>(x: &T) -> std::result::Result<Value, String> {
-    let c = Cbor::serialized(x).map_err(|e| e.to_string())?;
+pub fn to_exact_json<T: Serialize>(x: &T) -> std::result::Result<Value, ExactJsonError> {
+    let c = Cbor::serialized(x).map_err(ExactJsonError::Serialize)?;
     cbor_to_json(c)
 }
 
 /// Reads a value back from [`to_exact_json`]'s form.
-pub fn from_exact_json<T: DeserializeOwned>(v: &Value) -> std::result::Result<T, String> {
-    json_to_cbor(v)?.deserialized().map_err(|e| e.to_string())
+pub fn from_exact_json<T: DeserializeOwned>(v: &Value) -> std::result::Result<T, ExactJsonError> {
+    json_to_cbor(v)?
+        .deserialized()
+        .map_err(ExactJsonError::Deserialize)
 }
 
-fn cbor_to_json(c: Cbor) -> std::result::Result<Value, String> {
+fn cbor_to_json(c: Cbor) -> std::result::Result<Value, ExactJsonError> {
     Ok(match c {
         Cbor::Null => Value::Null,
         Cbor::Bool(b) => Value::Bool(b),
@@ -321,7 +389,7 @@ fn cbor_to_json(c: Cbor) -> std::result::Result<Value, String> {
             } else if let Ok(s) = i64::try_from(i) {
                 json!(s)
             } else {
-                return Err(format!("integer {i} out of range"));
+                return Err(ExactJsonError::IntegerOutOfRange(i));
             }
         }
         Cbor::Float(x) if x.is_finite() => json!(x),
@@ -344,17 +412,17 @@ fn cbor_to_json(c: Cbor) -> std::result::Result<Value, String> {
             let mut out = Map::new();
             for (k, v) in m {
                 let Cbor::Text(k) = k else {
-                    return Err("a map key that is not text".into());
+                    return Err(ExactJsonError::NonTextKey);
                 };
                 out.insert(k, cbor_to_json(v)?);
             }
             Value::Object(out)
         }
-        other => return Err(format!("a value JSON cannot hold ({other:?})")),
+        other => return Err(ExactJsonError::Unrepresentable(format!("{other:?}"))),
     })
 }
 
-fn json_to_cbor(v: &Value) -> std::result::Result<Cbor, String> {
+fn json_to_cbor(v: &Value) -> std::result::Result<Cbor, ExactJsonError> {
     Ok(match v {
         Value::Null => Cbor::Null,
         Value::Bool(b) => Cbor::Bool(*b),
@@ -365,7 +433,7 @@ fn json_to_cbor(v: &Value) -> std::result::Result<Cbor, String> {
             } else if let Some(i) = n.as_i64() {
                 Cbor::Integer(i.into())
             } else {
-                Cbor::Float(n.as_f64().ok_or("a number out of range")?)
+                Cbor::Float(n.as_f64().ok_or(ExactJsonError::NumberOutOfRange)?)
             }
         }
         Value::Array(a) => Cbor::Array(
@@ -380,14 +448,14 @@ fn json_to_cbor(v: &Value) -> std::result::Result<Cbor, String> {
                         "NaN" => f64::NAN,
                         "inf" => f64::INFINITY,
                         "-inf" => f64::NEG_INFINITY,
-                        _ => return Err(format!("`{name}` is not a non-finite float")),
+                        _ => return Err(ExactJsonError::NotNonFinite(name.clone())),
                     }));
                 }
             }
             Cbor::Map(
                 m.iter()
                     .map(|(k, v)| Ok((Cbor::Text(k.clone()), json_to_cbor(v)?)))
-                    .collect::<std::result::Result<_, String>>()?,
+                    .collect::<std::result::Result<_, ExactJsonError>>()?,
             )
         }
     })

@@ -125,7 +125,7 @@ pub(crate) fn parse_map_for(
         if !spec.shift_s.is_finite() {
             return Err(bad(format!("column entry `{key}`: shift_s must be finite")));
         }
-        check_own_rate(&key, &spec, kind).map_err(bad)?;
+        check_own_rate(&key, &spec, kind).map_err(|e| bad(e.to_string()))?;
         match key.as_str() {
             "time" => time = Some(spec),
             "setpoint_hz" => setpoint_hz = Some(spec),
@@ -186,33 +186,48 @@ pub(crate) fn parse_map_for(
     })
 }
 
+/// What is wrong with the MAT-only keys `rate_hz` and `t0_s` of a map
+/// entry ([`check_own_rate`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum OwnRateError {
+    /// The keys in a map of a log that carries its own times.
+    #[error("column entry `{key}`: rate_hz and t0_s apply to MAT variables only (a {} log carries its own times)", .kind.what())]
+    NotMat { key: String, kind: MapKind },
+    /// The keys on the `time` entry.
+    #[error("column entry `time`: rate_hz and t0_s belong to the variables, not to `time`")]
+    OnTime,
+    /// `t0_s` without `rate_hz`.
+    #[error("column entry `{key}`: t0_s needs rate_hz")]
+    T0WithoutRate { key: String },
+    /// An implausible rate.
+    #[error("column entry `{key}`: rate_hz {rate} is outside the plausible {:.0}-{:.0e} Hz of a rig log", RATE_RANGE_HZ.0, RATE_RANGE_HZ.1)]
+    Rate { key: String, rate: f64 },
+    /// A `t0_s` that is not finite.
+    #[error("column entry `{key}`: t0_s must be finite")]
+    T0NotFinite { key: String },
+}
+
 /// Checks the MAT-only keys `rate_hz` and `t0_s` of entry `key`.
-fn check_own_rate(key: &str, spec: &ColumnSpec, kind: MapKind) -> Result<(), String> {
+fn check_own_rate(key: &str, spec: &ColumnSpec, kind: MapKind) -> Result<(), OwnRateError> {
     if spec.rate_hz.is_none() && spec.t0_s.is_none() {
         return Ok(());
     }
+    let owned = || key.to_string();
     if kind != MapKind::Mat {
-        return Err(format!(
-            "column entry `{key}`: rate_hz and t0_s apply to MAT variables only (a {} log carries its own times)",
-            kind.what()
-        ));
+        return Err(OwnRateError::NotMat { key: owned(), kind });
     }
     if key == "time" {
-        return Err(
-            "column entry `time`: rate_hz and t0_s belong to the variables, not to `time`".into(),
-        );
+        return Err(OwnRateError::OnTime);
     }
     let Some(rate) = spec.rate_hz else {
-        return Err(format!("column entry `{key}`: t0_s needs rate_hz"));
+        return Err(OwnRateError::T0WithoutRate { key: owned() });
     };
     let (lo, hi) = RATE_RANGE_HZ;
     if !(rate >= lo && rate <= hi) {
-        return Err(format!(
-            "column entry `{key}`: rate_hz {rate} is outside the plausible {lo:.0}-{hi:.0e} Hz of a rig log"
-        ));
+        return Err(OwnRateError::Rate { key: owned(), rate });
     }
     if spec.t0_s.is_some_and(|t| !t.is_finite()) {
-        return Err(format!("column entry `{key}`: t0_s must be finite"));
+        return Err(OwnRateError::T0NotFinite { key: owned() });
     }
     Ok(())
 }

@@ -104,6 +104,128 @@ impl Var {
     }
 }
 
+/// The text of [`MatError::V73`].
+const V73: &str = "is a MATLAB -v7.3 MAT-file (HDF5), which is not read: in MATLAB, save it as level 5 with save('NAME.mat', ..., '-v7') (or -v6)";
+
+/// What is wrong with an element or array (within [`MatError::At`]).
+#[derive(Debug, thiserror::Error)]
+enum Fault {
+    #[error("truncated element tag")]
+    TruncatedTag,
+    #[error("small element of {n} bytes (at most 4)")]
+    SmallElement { n: usize },
+    #[error("element of {n} bytes, only {remain} remain")]
+    ElementLength { n: usize, remain: usize },
+    #[error("data of element type {dtype} is not numeric")]
+    NotNumeric { dtype: u32 },
+    #[error("{bytes} data bytes are not a whole number of {size}-byte values")]
+    PartialValues { bytes: usize, size: usize },
+    #[error("odd number of UTF-16 bytes")]
+    OddUtf16,
+    #[error("char data of element type {dtype}")]
+    CharType { dtype: u32 },
+    #[error("structs nested more than {MAX_DEPTH} deep")]
+    TooDeep,
+    #[error("no array flags")]
+    NoFlags,
+    #[error("no dimensions")]
+    NoDimensions,
+    #[error("no array name")]
+    NoName,
+    #[error("dimensions overflow")]
+    DimensionsOverflow,
+    #[error("{values} values for dimensions {dims}")]
+    ValueCount { values: usize, dims: String },
+    #[error("no field name length")]
+    NoFieldNameLength,
+    #[error("bad field names")]
+    BadFieldNames,
+    #[error("field `{field}` is not an array")]
+    FieldNotArray { field: String },
+    #[error("corrupt zlib data ({0})")]
+    Zlib(std::io::Error),
+    #[error("declares {n} bytes, more than its {compressed} compressed bytes can hold (or over {})", crate::limits::human(MAX_INFLATED as f64))]
+    Oversized { n: u64, compressed: usize },
+    #[error("inflates to {got} bytes, its tag declares {n}")]
+    ShortInflate { got: usize, n: u64 },
+    #[error("compressed data of element type {dtype}, not an array")]
+    CompressedNotArray { dtype: u32 },
+}
+
+/// Why the MAT parser refuses a file or a mapped variable; the reader
+/// reports it as [`IngestError::Invalid`] with the file.
+#[derive(Debug, thiserror::Error)]
+enum MatError {
+    /// An element or array of `what` (e.g. `variable `x``) is bad.
+    #[error("{what}: {fault}")]
+    At { what: String, fault: Fault },
+    /// A -v7.3 (HDF5) file.
+    #[error("{V73}")]
+    V73,
+    #[error("not a level-5 MAT-file: {len} bytes, shorter than its 128-byte header")]
+    HeaderTooShort { len: usize },
+    #[error("not a level-5 MAT-file (no IM/MI byte-order mark in its header; MATLAB 4 files are not read): save it with -v7 or -v6")]
+    NoByteOrderMark,
+    #[error("not a level-5 MAT-file: header version 0x{version:04x} (0x0100 expected)")]
+    HeaderVersion { version: u16 },
+    #[error("truncated MAT-file: {stray} stray bytes at byte {at}")]
+    StrayBytes { stray: usize, at: usize },
+    #[error("truncated or corrupt MAT-file: the variable at byte {at} claims {n} bytes, only {remain} remain")]
+    VariableLength { at: usize, n: usize, remain: usize },
+    #[error("corrupt MAT-file: element type {dtype} at byte {at} (a variable is type 14 or 15)")]
+    ElementType { dtype: u32, at: usize },
+    #[error("no rig metadata: the MAT-file has no struct variable `rig` (variables: {})", none_or_list(.names))]
+    NoRig { names: Vec<String> },
+    #[error("variable `rig` is a {}, not a struct of char arrays", class_name(*.class))]
+    RigNotStruct { class: u8 },
+    #[error("variable `rig` is a {dims} struct array; one struct is expected")]
+    RigArray { dims: String },
+    #[error("rig field `{key}` holds {n} numbers; a text or one number is expected")]
+    RigFieldNumbers { key: String, n: usize },
+    #[error("rig field `{key}` is a struct; a text or one number is expected")]
+    RigFieldStruct { key: String },
+    #[error("rig field `{key}` is a {}; a text or one number is expected", if *.class >= 6 && *.class <= 15 { "complex number" } else { class_name(*.class) })]
+    RigFieldClass { key: String, class: u8 },
+    #[error("variable {name:?} (mapped to {what} by {}) is not in the MAT-file (variables: {})", .map.display(), none_or_list(.names))]
+    VariableMissing {
+        name: String,
+        what: String,
+        map: std::path::PathBuf,
+        names: Vec<String>,
+    },
+    #[error("variable {name:?} (mapped to {what}) is a {}, not a numeric vector", class_name(*.class))]
+    NotNumericVariable {
+        name: String,
+        what: String,
+        class: u8,
+    },
+    #[error("variable {name:?} (mapped to {what}) is complex")]
+    Complex { name: String, what: String },
+    #[error("variable {name:?} (mapped to {what}) is a {dims} matrix, not a vector")]
+    Matrix {
+        name: String,
+        what: String,
+        dims: String,
+    },
+}
+
+/// `none`, or the names joined by `, `.
+fn none_or_list(names: &[String]) -> String {
+    if names.is_empty() {
+        "none".to_string()
+    } else {
+        names.join(", ")
+    }
+}
+
+/// A [`MatError::At`] of `what`.
+fn at(what: &str, fault: Fault) -> MatError {
+    MatError::At {
+        what: what.to_string(),
+        fault,
+    }
+}
+
 /// Byte order of the file.
 #[derive(Debug, Clone, Copy)]
 struct Endian(bool /* little */);
@@ -141,25 +263,28 @@ fn element(
     pos: usize,
     e: Endian,
     what: &str,
-) -> Result<(u32, std::ops::Range<usize>, usize), String> {
+) -> Result<(u32, std::ops::Range<usize>, usize), MatError> {
     if b.len().saturating_sub(pos) < 8 {
-        return Err(format!("{what}: truncated element tag"));
+        return Err(at(what, Fault::TruncatedTag));
     }
     let first = e.u32(&b[pos..]);
     if first >> 16 != 0 {
         // Small element: type and size in one word, data in the next 4 bytes.
         let n = (first >> 16) as usize;
         if n > 4 {
-            return Err(format!("{what}: small element of {n} bytes (at most 4)"));
+            return Err(at(what, Fault::SmallElement { n }));
         }
         return Ok((first & 0xFFFF, pos + 4..pos + 4 + n, pos + 8));
     }
     let n = e.u32(&b[pos + 4..]) as usize;
     let start = pos + 8;
     if n > b.len() - start {
-        return Err(format!(
-            "{what}: element of {n} bytes, only {} remain",
-            b.len() - start
+        return Err(at(
+            what,
+            Fault::ElementLength {
+                n,
+                remain: b.len() - start,
+            },
         ));
     }
     let next = start + n.div_ceil(8) * 8;
@@ -167,22 +292,21 @@ fn element(
 }
 
 /// Numbers of a numeric element as f64.
-fn numbers(t: u32, d: &[u8], e: Endian, what: &str) -> Result<Vec<f64>, String> {
+fn numbers(t: u32, d: &[u8], e: Endian, what: &str) -> Result<Vec<f64>, MatError> {
     let size = match t {
         MI_INT8 | MI_UINT8 => 1,
         MI_INT16 | MI_UINT16 => 2,
         MI_INT32 | MI_UINT32 | MI_SINGLE => 4,
         MI_DOUBLE | MI_INT64 | MI_UINT64 => 8,
-        other => {
-            return Err(format!(
-                "{what}: data of element type {other} is not numeric"
-            ))
-        }
+        other => return Err(at(what, Fault::NotNumeric { dtype: other })),
     };
     if !d.len().is_multiple_of(size) {
-        return Err(format!(
-            "{what}: {} data bytes are not a whole number of {size}-byte values",
-            d.len()
+        return Err(at(
+            what,
+            Fault::PartialValues {
+                bytes: d.len(),
+                size,
+            },
         ));
     }
     Ok(d.chunks_exact(size)
@@ -202,12 +326,12 @@ fn numbers(t: u32, d: &[u8], e: Endian, what: &str) -> Result<Vec<f64>, String> 
 }
 
 /// Text of a char array's data element (column-major rows joined by `\n`).
-fn text(t: u32, d: &[u8], e: Endian, dims: &[usize], what: &str) -> Result<String, String> {
+fn text(t: u32, d: &[u8], e: Endian, dims: &[usize], what: &str) -> Result<String, MatError> {
     let chars: Vec<char> = match t {
         MI_UTF8 => return Ok(String::from_utf8_lossy(d).into_owned()),
         MI_UINT16 | MI_UTF16 => {
             if !d.len().is_multiple_of(2) {
-                return Err(format!("{what}: odd number of UTF-16 bytes"));
+                return Err(at(what, Fault::OddUtf16));
             }
             let units: Vec<u16> = d.chunks_exact(2).map(|c| e.u16(c)).collect();
             char::decode_utf16(units)
@@ -219,7 +343,7 @@ fn text(t: u32, d: &[u8], e: Endian, dims: &[usize], what: &str) -> Result<Strin
             .map(|c| char::from_u32(e.u32(c)).unwrap_or(char::REPLACEMENT_CHARACTER))
             .collect(),
         MI_UINT8 | MI_INT8 => d.iter().map(|&c| c as char).collect(),
-        other => return Err(format!("{what}: char data of element type {other}")),
+        other => return Err(at(what, Fault::CharType { dtype: other })),
     };
     let rows = dims.first().copied().unwrap_or(1).max(1);
     if rows == 1 || !chars.len().is_multiple_of(rows) {
@@ -240,13 +364,13 @@ fn matrix(
     depth: usize,
     keep: &dyn Fn(&str) -> bool,
     what: &str,
-) -> Result<Var, String> {
+) -> Result<Var, MatError> {
     if depth > MAX_DEPTH {
-        return Err(format!("{what}: structs nested more than {MAX_DEPTH} deep"));
+        return Err(at(what, Fault::TooDeep));
     }
     let (t, flags, mut pos) = element(b, 0, e, what)?;
     if t != MI_UINT32 || flags.len() < 8 {
-        return Err(format!("{what}: no array flags"));
+        return Err(at(what, Fault::NoFlags));
     }
     let f = e.u32(&b[flags.start..]);
     let class = (f & 0xFF) as u8;
@@ -254,7 +378,7 @@ fn matrix(
     let (t, d, next) = element(b, pos, e, what)?;
     pos = next;
     if t != MI_INT32 || d.is_empty() || d.len() % 4 != 0 {
-        return Err(format!("{what}: no dimensions"));
+        return Err(at(what, Fault::NoDimensions));
     }
     let dims: Vec<usize> = b[d]
         .chunks_exact(4)
@@ -263,7 +387,7 @@ fn matrix(
     let (t, d, next) = element(b, pos, e, what)?;
     pos = next;
     if t != MI_INT8 && t != MI_UINT8 {
-        return Err(format!("{what}: no array name"));
+        return Err(at(what, Fault::NoName));
     }
     let name = String::from_utf8_lossy(&b[d]).into_owned();
     let what = if name.is_empty() {
@@ -275,7 +399,7 @@ fn matrix(
     let elements = dims
         .iter()
         .try_fold(1usize, |a, &d| a.checked_mul(d))
-        .ok_or_else(|| format!("{what}: dimensions overflow"))?;
+        .ok_or_else(|| at(what, Fault::DimensionsOverflow))?;
     let decode = depth > 0 || keep(&name);
     let value = match class {
         _ if !decode => Value::Other(class),
@@ -283,13 +407,16 @@ fn matrix(
             let (t, d, next) = element(b, pos, e, what)?;
             let v = numbers(t, &b[d], e, what)?;
             if v.len() != elements {
-                return Err(format!(
-                    "{what}: {} values for dimensions {}",
-                    v.len(),
-                    dims.iter()
-                        .map(|d| d.to_string())
-                        .collect::<Vec<_>>()
-                        .join("x")
+                return Err(at(
+                    what,
+                    Fault::ValueCount {
+                        values: v.len(),
+                        dims: dims
+                            .iter()
+                            .map(|d| d.to_string())
+                            .collect::<Vec<_>>()
+                            .join("x"),
+                    },
                 ));
             }
             if complex {
@@ -306,13 +433,13 @@ fn matrix(
             let (t, d, next) = element(b, pos, e, what)?;
             pos = next;
             if t != MI_INT32 || d.len() != 4 {
-                return Err(format!("{what}: no field name length"));
+                return Err(at(what, Fault::NoFieldNameLength));
             }
             let len = e.u32(&b[d.start..]) as usize;
             let (t, d, next) = element(b, pos, e, what)?;
             pos = next;
             if (t != MI_INT8 && t != MI_UINT8) || len == 0 || d.len() % len != 0 {
-                return Err(format!("{what}: bad field names"));
+                return Err(at(what, Fault::BadFieldNames));
             }
             let names: Vec<String> = b[d]
                 .chunks_exact(len)
@@ -328,7 +455,7 @@ fn matrix(
                     let (t, d, next) = element(b, pos, e, what)?;
                     pos = next;
                     if t != MI_MATRIX {
-                        return Err(format!("{what}: field `{n}` is not an array"));
+                        return Err(at(what, Fault::FieldNotArray { field: n.clone() }));
                     }
                     let fw = format!("{what}, field `{n}`");
                     let v = if d.is_empty() {
@@ -372,123 +499,110 @@ fn field_value(v: Var) -> Value {
 }
 
 /// The header's verdict: byte order, or why the file is not read.
-fn header(buf: &[u8]) -> Result<Endian, String> {
+fn header(buf: &[u8]) -> Result<Endian, MatError> {
     const HDF5: &[u8] = b"\x89HDF\r\n\x1a\n";
-    let v73 = "is a MATLAB -v7.3 MAT-file (HDF5), which is not read: in MATLAB, save it as level 5 with save('NAME.mat', ..., '-v7') (or -v6)";
     if buf.starts_with(HDF5) || buf.get(512..520) == Some(HDF5) {
-        return Err(v73.into());
+        return Err(MatError::V73);
     }
     if buf.len() < 128 {
-        return Err(format!(
-            "not a level-5 MAT-file: {} bytes, shorter than its 128-byte header",
-            buf.len()
-        ));
+        return Err(MatError::HeaderTooShort { len: buf.len() });
     }
     if buf.starts_with(b"MATLAB 7.3") {
-        return Err(v73.into());
+        return Err(MatError::V73);
     }
     let e = match &buf[126..128] {
         b"IM" => Endian(true),
         b"MI" => Endian(false),
-        _ => {
-            return Err(
-                "not a level-5 MAT-file (no IM/MI byte-order mark in its header; MATLAB 4 files are not read): save it with -v7 or -v6"
-                    .into(),
-            )
-        }
+        _ => return Err(MatError::NoByteOrderMark),
     };
     match e.u16(&buf[124..126]) {
         0x0100 => Ok(e),
-        0x0200 => Err(v73.into()),
-        v => Err(format!(
-            "not a level-5 MAT-file: header version 0x{v:04x} (0x0100 expected)"
-        )),
+        0x0200 => Err(MatError::V73),
+        version => Err(MatError::HeaderVersion { version }),
     }
 }
 
 /// Inflates a `-v7` variable: at most what its own tag declares.
-fn inflate(data: &[u8], e: Endian, at: usize) -> Result<Vec<u8>, String> {
-    let what = || format!("compressed variable at byte {at}");
+fn inflate(data: &[u8], e: Endian, byte: usize) -> Result<Vec<u8>, MatError> {
+    let what = format!("compressed variable at byte {byte}");
     let mut z = flate2::read::ZlibDecoder::new(data);
     let mut tag = [0u8; 8];
     z.read_exact(&mut tag)
-        .map_err(|err| format!("{}: corrupt zlib data ({err})", what()))?;
+        .map_err(|err| at(&what, Fault::Zlib(err)))?;
     let n = u64::from(e.u32(&tag[4..]));
     let limit = (data.len() as u64)
         .saturating_mul(1032)
         .saturating_add(64)
         .min(MAX_INFLATED);
     if n > limit {
-        return Err(format!(
-            "{}: declares {n} bytes, more than its {} compressed bytes can hold (or over {})",
-            what(),
-            data.len(),
-            crate::limits::human(MAX_INFLATED as f64)
+        return Err(at(
+            &what,
+            Fault::Oversized {
+                n,
+                compressed: data.len(),
+            },
         ));
     }
     let mut out = tag.to_vec();
     let got = (&mut z)
         .take(n)
         .read_to_end(&mut out)
-        .map_err(|err| format!("{}: corrupt zlib data ({err})", what()))?;
+        .map_err(|err| at(&what, Fault::Zlib(err)))?;
     if (got as u64) < n {
-        return Err(format!(
-            "{}: inflates to {got} bytes, its tag declares {n}",
-            what()
-        ));
+        return Err(at(&what, Fault::ShortInflate { got, n }));
     }
     Ok(out)
 }
 
 /// Every top-level variable of the file (data decoded where `keep` says).
-fn variables(buf: &[u8], keep: &dyn Fn(&str) -> bool) -> Result<Vec<Var>, String> {
+fn variables(buf: &[u8], keep: &dyn Fn(&str) -> bool) -> Result<Vec<Var>, MatError> {
     let e = header(buf)?;
     let mut vars = Vec::new();
     let mut pos = 128;
     while pos < buf.len() {
-        let at = pos;
+        let byte = pos;
         if buf.len() - pos < 8 {
             // Trailing padding.
             if buf[pos..].iter().all(|&x| x == 0) {
                 break;
             }
-            return Err(format!(
-                "truncated MAT-file: {} stray bytes at byte {at}",
-                buf.len() - pos
-            ));
+            return Err(MatError::StrayBytes {
+                stray: buf.len() - pos,
+                at: byte,
+            });
         }
         let t = e.u32(&buf[pos..]);
         let n = e.u32(&buf[pos + 4..]) as usize;
         let start = pos + 8;
         if n > buf.len() - start {
-            return Err(format!(
-                "truncated or corrupt MAT-file: the variable at byte {at} claims {n} bytes, only {} remain",
-                buf.len() - start
-            ));
+            return Err(MatError::VariableLength {
+                at: byte,
+                n,
+                remain: buf.len() - start,
+            });
         }
         let body = &buf[start..start + n];
-        let what = format!("variable at byte {at}");
+        let what = format!("variable at byte {byte}");
         match t {
             MI_MATRIX => {
                 vars.push(matrix(body, e, 0, keep, &what)?);
                 pos = (start + n.div_ceil(8) * 8).min(buf.len());
             }
             MI_COMPRESSED => {
-                let inner = inflate(body, e, at)?;
+                let inner = inflate(body, e, byte)?;
                 let (t, d, _) = element(&inner, 0, e, &what)?;
                 if t != MI_MATRIX {
-                    return Err(format!(
-                        "{what}: compressed data of element type {t}, not an array"
-                    ));
+                    return Err(at(&what, Fault::CompressedNotArray { dtype: t }));
                 }
                 vars.push(matrix(&inner[d], e, 0, keep, &what)?);
                 pos = start + n;
             }
             0 if buf[pos..].iter().all(|&x| x == 0) => break,
             other => {
-                return Err(format!(
-                "corrupt MAT-file: element type {other} at byte {at} (a variable is type 14 or 15)"
-            ))
+                return Err(MatError::ElementType {
+                    dtype: other,
+                    at: byte,
+                })
             }
         }
     }
@@ -496,29 +610,18 @@ fn variables(buf: &[u8], keep: &dyn Fn(&str) -> bool) -> Result<Vec<Var>, String
 }
 
 /// The `rig` struct as key/value strings.
-fn rig_map(vars: &[Var]) -> Result<BTreeMap<String, String>, String> {
+fn rig_map(vars: &[Var]) -> Result<BTreeMap<String, String>, MatError> {
     let Some(rig) = vars.iter().find(|v| v.name == "rig") else {
-        let names: Vec<&str> = vars.iter().map(|v| v.name.as_str()).take(20).collect();
-        return Err(format!(
-            "no rig metadata: the MAT-file has no struct variable `rig` (variables: {})",
-            if names.is_empty() {
-                "none".to_string()
-            } else {
-                names.join(", ")
-            }
-        ));
+        let names: Vec<String> = vars.iter().map(|v| v.name.clone()).take(20).collect();
+        return Err(MatError::NoRig { names });
     };
     let Value::Struct(fields) = &rig.value else {
-        return Err(format!(
-            "variable `rig` is a {}, not a struct of char arrays",
-            class_name(rig.class)
-        ));
+        return Err(MatError::RigNotStruct { class: rig.class });
     };
     if rig.dims.iter().product::<usize>() != 1 {
-        return Err(format!(
-            "variable `rig` is a {} struct array; one struct is expected",
-            rig.dims_text()
-        ));
+        return Err(MatError::RigArray {
+            dims: rig.dims_text(),
+        });
     }
     let mut out = BTreeMap::new();
     for (k, v) in fields {
@@ -527,25 +630,17 @@ fn rig_map(vars: &[Var]) -> Result<BTreeMap<String, String>, String> {
             Value::Numeric(x) if x.len() == 1 => format!("{}", x[0]),
             Value::Numeric(x) if x.is_empty() => String::new(),
             Value::Numeric(x) => {
-                return Err(format!(
-                    "rig field `{k}` holds {} numbers; a text or one number is expected",
-                    x.len()
-                ))
+                return Err(MatError::RigFieldNumbers {
+                    key: k.clone(),
+                    n: x.len(),
+                })
             }
-            Value::Struct(_) => {
-                return Err(format!(
-                    "rig field `{k}` is a struct; a text or one number is expected"
-                ))
-            }
+            Value::Struct(_) => return Err(MatError::RigFieldStruct { key: k.clone() }),
             Value::Other(c) => {
-                return Err(format!(
-                    "rig field `{k}` is a {}; a text or one number is expected",
-                    if *c >= 6 && *c <= 15 {
-                        "complex number"
-                    } else {
-                        class_name(*c)
-                    }
-                ))
+                return Err(MatError::RigFieldClass {
+                    key: k.clone(),
+                    class: *c,
+                })
             }
         };
         out.insert(k.clone(), s);
@@ -555,43 +650,39 @@ fn rig_map(vars: &[Var]) -> Result<BTreeMap<String, String>, String> {
 
 /// A mapped variable's values (scaled), refusing what is not a real numeric
 /// vector.
-fn vector(vars: &[Var], spec: &ColumnSpec, what: &str, map: &Path) -> Result<Vec<f64>, String> {
+fn vector(vars: &[Var], spec: &ColumnSpec, what: &str, map: &Path) -> Result<Vec<f64>, MatError> {
     let Some(v) = vars.iter().find(|v| v.name == spec.name) else {
         let names: Vec<String> = vars
             .iter()
             .take(20)
             .map(|v| format!("{:?}", v.name))
             .collect();
-        return Err(format!(
-            "variable {:?} (mapped to {what} by {}) is not in the MAT-file (variables: {})",
-            spec.name,
-            map.display(),
-            if names.is_empty() {
-                "none".to_string()
-            } else {
-                names.join(", ")
-            }
-        ));
+        return Err(MatError::VariableMissing {
+            name: spec.name.clone(),
+            what: what.to_string(),
+            map: map.to_path_buf(),
+            names,
+        });
     };
     let Value::Numeric(x) = &v.value else {
-        return Err(format!(
-            "variable {:?} (mapped to {what}) is a {}, not a numeric vector",
-            spec.name,
-            class_name(v.class)
-        ));
+        return Err(MatError::NotNumericVariable {
+            name: spec.name.clone(),
+            what: what.to_string(),
+            class: v.class,
+        });
     };
     if v.complex {
-        return Err(format!(
-            "variable {:?} (mapped to {what}) is complex",
-            spec.name
-        ));
+        return Err(MatError::Complex {
+            name: spec.name.clone(),
+            what: what.to_string(),
+        });
     }
     if v.dims.iter().filter(|&&d| d > 1).count() > 1 {
-        return Err(format!(
-            "variable {:?} (mapped to {what}) is a {} matrix, not a vector",
-            spec.name,
-            v.dims_text()
-        ));
+        return Err(MatError::Matrix {
+            name: spec.name.clone(),
+            what: what.to_string(),
+            dims: v.dims_text(),
+        });
     }
     Ok(x.iter().map(|v| v * spec.scale()).collect())
 }
@@ -607,14 +698,15 @@ pub(crate) fn read(
 ) -> Result<RawLog, IngestError> {
     let buf = std::fs::read(path).map_err(|e| IngestError::io(path, e))?;
     let bad = |m: String| IngestError::invalid(path, m);
+    let mat = |e: MatError| IngestError::invalid(path, e.to_string());
     // The header first: a -v7.3 file is refused before its map is needed.
-    header(&buf).map_err(bad)?;
+    header(&buf).map_err(mat)?;
     let (map_path, cmap) = csv::read_map(path, map, MapKind::Mat)?;
     let mut wanted: Vec<&str> = vec!["rig"];
     wanted.extend(cmap.channels.iter().map(|(_, s)| s.name.as_str()));
     wanted.extend(cmap.time.iter().map(|s| s.name.as_str()));
     wanted.extend(cmap.setpoint_hz.iter().map(|s| s.name.as_str()));
-    let vars = variables(&buf, &|n: &str| wanted.contains(&n)).map_err(bad)?;
+    let vars = variables(&buf, &|n: &str| wanted.contains(&n)).map_err(mat)?;
     for (i, v) in vars.iter().enumerate() {
         if wanted.contains(&v.name.as_str()) && vars[..i].iter().any(|w| w.name == v.name) {
             return Err(bad(format!("variable `{}` appears twice", v.name)));
@@ -649,11 +741,11 @@ pub(crate) fn read(
         }
     }
     let rig =
-        RigMeta::from_map(&rig_map(&vars).map_err(bad)?).map_err(|e| IngestError::rig(path, e))?;
+        RigMeta::from_map(&rig_map(&vars).map_err(mat)?).map_err(|e| IngestError::rig(path, e))?;
     // The time base of the variables without their own rate.
     let time = match &cmap.time {
         Some(tspec) => {
-            let time = vector(&vars, tspec, "time", &map_path).map_err(bad)?;
+            let time = vector(&vars, tspec, "time", &map_path).map_err(mat)?;
             if time.len() < 2 {
                 return Err(bad(format!(
                     "too little data: the time variable {:?} has {} values",
@@ -704,7 +796,7 @@ pub(crate) fn read(
     };
     let mut channels = Vec::new();
     for (q, spec) in &cmap.channels {
-        let v = vector(&vars, spec, q.name(), &map_path).map_err(bad)?;
+        let v = vector(&vars, spec, q.name(), &map_path).map_err(mat)?;
         let (t, dt_s) = timing(spec, v.len())?;
         channels.push(RawChannel {
             quantity: *q,
@@ -718,7 +810,7 @@ pub(crate) fn read(
     csv::check_drive_amplitude(&map_path, &cmap, &channels).map_err(|e| in_log(path, e))?;
     let setpoints = match &cmap.setpoint_hz {
         Some(spec) => {
-            let v = vector(&vars, spec, "setpoint_hz", &map_path).map_err(bad)?;
+            let v = vector(&vars, spec, "setpoint_hz", &map_path).map_err(mat)?;
             let (t, _) = timing(spec, v.len())?;
             csv::setpoints(path, spec, &t, &v, (0.0, 0.0))?
         }
@@ -763,14 +855,17 @@ mod tests {
         assert!(header(&le_header()).is_ok());
         let mut v73 = le_header();
         v73[..10].copy_from_slice(b"MATLAB 7.3");
-        assert!(header(&v73).unwrap_err().contains("-v7.3"));
+        assert!(header(&v73).unwrap_err().to_string().contains("-v7.3"));
         let mut hdf = vec![0u8; 600];
         hdf[512..520].copy_from_slice(b"\x89HDF\r\n\x1a\n");
-        assert!(header(&hdf).unwrap_err().contains("-v7"));
-        assert!(header(b"short").unwrap_err().contains("128-byte"));
+        assert!(header(&hdf).unwrap_err().to_string().contains("-v7"));
+        assert!(header(b"short")
+            .unwrap_err()
+            .to_string()
+            .contains("128-byte"));
         let mut v4 = le_header();
         v4[126..128].copy_from_slice(b"xx");
-        assert!(header(&v4).unwrap_err().contains("level-5"));
+        assert!(header(&v4).unwrap_err().to_string().contains("level-5"));
     }
 
     #[test]
@@ -782,10 +877,12 @@ mod tests {
         let mut z = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
         std::io::Write::write_all(&mut z, &inner).unwrap();
         let data = z.finish().unwrap();
-        let e = inflate(&data, Endian(true), 128).unwrap_err();
+        let e = inflate(&data, Endian(true), 128).unwrap_err().to_string();
         assert!(e.contains("declares 4294967295 bytes"), "{e}");
         // Garbage is an error, not a panic.
-        let e = inflate(&[0x78, 0x9c, 1, 2, 3, 4, 5], Endian(true), 128).unwrap_err();
+        let e = inflate(&[0x78, 0x9c, 1, 2, 3, 4, 5], Endian(true), 128)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("corrupt zlib"), "{e}");
     }
 }

@@ -957,10 +957,10 @@ mod tests {
             path
         }
 
-        fn read(&self) -> Result<super::super::Run, String> {
+        fn read(&self) -> Result<super::super::Run, super::super::IngestError> {
             let dir = tempfile::tempdir().expect("tempdir");
             let p = self.write(dir.path(), "fixture.mcap");
-            ingest(&p, &IngestOptions::default()).map_err(|e| e.to_string())
+            ingest(&p, &IngestOptions::default())
         }
     }
 
@@ -1050,7 +1050,7 @@ mod tests {
         let x1 = run.channel(Quantity::X1).expect("x1");
         assert!((x1.v[5] - x1.t[5] * 1e-3).abs() < 1e-15);
         f.channels[1].2.insert("unit".into(), "furlong".into());
-        let e = f.read().unwrap_err();
+        let e = f.read().unwrap_err().to_string();
         assert!(
             e.contains("/mass1/position") && e.contains("furlong"),
             "{e}"
@@ -1066,7 +1066,7 @@ mod tests {
                 T0 + 50_000_000
             );
             f.messages.push((2, T0 + 50_000_000, text.into_bytes()));
-            let e = f.read().unwrap_err();
+            let e = f.read().unwrap_err().to_string();
             assert!(
                 e.contains("NaN/Infinity") && e.contains("/mass2/position"),
                 "{e}"
@@ -1078,7 +1078,7 @@ mod tests {
             T0 + 50_000_000
         );
         f.messages.push((2, T0 + 50_000_000, text.into_bytes()));
-        let e = f.read().unwrap_err();
+        let e = f.read().unwrap_err().to_string();
         assert!(
             e.contains("/mass2/position") && e.contains("log time"),
             "{e}"
@@ -1189,7 +1189,7 @@ mod tests {
         for (edit, needle) in cases {
             let mut f = Fixture::good();
             edit(&mut f);
-            let e = f.read().unwrap_err();
+            let e = f.read().unwrap_err().to_string();
             assert!(
                 e.contains("fixture.mcap") && e.contains(needle),
                 "{needle}: {e}"

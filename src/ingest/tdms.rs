@@ -143,6 +143,140 @@ struct File {
     warnings: Vec<Warning>,
 }
 
+/// What is wrong with a segment's metadata where a [`Cur`] reads it
+/// (within [`TdmsError::Metadata`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum MetaFault {
+    /// A field runs past the metadata's bytes.
+    #[error("{what} needs {n} bytes, only {remain} remain")]
+    Short {
+        what: &'static str,
+        n: usize,
+        remain: usize,
+    },
+    /// A property of a data type this reader does not know.
+    #[error("property of unsupported type {}", type_name(*.dtype))]
+    PropertyType { dtype: u32 },
+    /// An array dimension other than 1.
+    #[error("object {path:?} has array dimension {dim} (TDMS allows only 1)")]
+    Dimension { path: String, dim: u32 },
+    /// A value count whose bytes overflow.
+    #[error("object {path:?}: {count} values overflow")]
+    CountOverflow { path: String, count: u64 },
+    /// Data of a type this reader does not read.
+    #[error("object {path:?} holds {} data, which is not read", type_name(*.dtype))]
+    DataType { path: String, dtype: u32 },
+    /// A raw data index whose length does not match what it holds.
+    #[error("object {path:?}: raw data index length {len} does not match its content")]
+    IndexLength { path: String, len: u32 },
+}
+
+/// Why the TDMS parser refuses a file ([`parse`], [`decode`]); the reader
+/// reports it as [`IngestError::Invalid`] with the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+enum TdmsError {
+    /// The file is the index file, not the data.
+    #[error("is a TDMS index file (.tdms_index), not the data: give the .tdms file")]
+    IndexFile,
+    /// The file does not start with a segment tag.
+    #[error("not a TDMS file (no `TDSm` segment tag at its start)")]
+    NotTdms,
+    /// Bytes after the last segment too few for a lead-in.
+    #[error("truncated TDMS file: {stray} stray bytes at byte {seg} where segment {segment} should start (a segment lead-in is {LEAD_IN} bytes)")]
+    StrayBytes {
+        stray: usize,
+        seg: usize,
+        segment: usize,
+    },
+    /// A segment without its tag.
+    #[error("corrupt TDMS file: segment {segment} at byte {seg} does not start with `TDSm`")]
+    NoTag { segment: usize, seg: usize },
+    /// A big-endian segment.
+    #[error("segment {segment} at byte {seg} is big-endian: only little-endian TDMS files are read (docs/rig-log-format.md); save the file as little-endian")]
+    BigEndian { segment: usize, seg: usize },
+    /// A segment of DAQmx raw data.
+    #[error("segment {segment} at byte {seg} holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead")]
+    DaqmxSegment { segment: usize, seg: usize },
+    /// A TDMS version other than 4712 or 4713.
+    #[error("segment {segment} at byte {seg}: TDMS version {version} is not 4712 or 4713")]
+    Version {
+        segment: usize,
+        seg: usize,
+        version: u32,
+    },
+    /// A segment longer than the bytes after it.
+    #[error("truncated or corrupt TDMS file: segment {segment} at byte {seg} claims {seg_len} bytes after its lead-in, only {room} remain")]
+    SegmentLength {
+        segment: usize,
+        seg: usize,
+        seg_len: u64,
+        room: u64,
+    },
+    /// Raw data beyond the segment's end.
+    #[error("corrupt TDMS file: segment {segment} at byte {seg} puts its raw data {raw_off} bytes in, beyond its {seg_len} bytes")]
+    RawOffset {
+        segment: usize,
+        seg: usize,
+        raw_off: u64,
+        seg_len: u64,
+    },
+    /// Corrupt metadata where a [`Cur`] reads it.
+    #[error("corrupt TDMS metadata in the segment at byte {seg}: {fault} at byte {pos}")]
+    Metadata {
+        seg: usize,
+        pos: usize,
+        fault: MetaFault,
+    },
+    /// An object path that is not `/'group'/'channel'`.
+    #[error("corrupt TDMS metadata in segment {segment} at byte {seg}: object path {path:?} is not /'group'/'channel'")]
+    ObjectPath {
+        segment: usize,
+        seg: usize,
+        path: String,
+    },
+    /// An object reusing a raw data index it never had.
+    #[error("corrupt TDMS metadata in segment {segment} at byte {seg}: object {path:?} reuses a raw data index it never had")]
+    ReusedIndex {
+        segment: usize,
+        seg: usize,
+        path: String,
+    },
+    /// A channel of DAQmx raw data.
+    #[error("channel {path:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead")]
+    DaqmxChannel {
+        path: String,
+        segment: usize,
+        seg: usize,
+    },
+    /// Raw data sizes that overflow.
+    #[error("corrupt TDMS file: segment {segment} at byte {seg}: raw data sizes overflow")]
+    SizeOverflow { segment: usize, seg: usize },
+    /// A string channel in interleaved data.
+    #[error("segment {segment} at byte {seg}: string channel {name:?} in interleaved data")]
+    InterleavedString {
+        segment: usize,
+        seg: usize,
+        name: String,
+    },
+    /// Interleaved channels of different lengths.
+    #[error("corrupt TDMS file: segment {segment} at byte {seg} interleaves channels of different lengths")]
+    InterleavedLengths { segment: usize, seg: usize },
+    /// Raw data that is not a whole number of chunks.
+    #[error("corrupt TDMS file: segment {segment} at byte {seg} has {len} bytes of raw data, not a whole number of {chunk}-byte chunks")]
+    PartialChunk {
+        segment: usize,
+        seg: usize,
+        len: usize,
+        chunk: u64,
+    },
+    /// A mapped channel whose data are not numbers.
+    #[error("channel {name:?} holds {} data, not numbers", type_name(*.dtype))]
+    NotNumbers { name: String, dtype: u32 },
+    /// More values than memory can index.
+    #[error("too many values")]
+    TooManyValues,
+}
+
 /// A bounds-checked little-endian reader over a byte range of the file.
 struct Cur<'a> {
     buf: &'a [u8],
@@ -153,34 +287,36 @@ struct Cur<'a> {
 }
 
 impl<'a> Cur<'a> {
-    fn err(&self, what: &str) -> String {
-        format!(
-            "corrupt TDMS metadata in the segment at byte {}: {what} at byte {}",
-            self.seg, self.pos
-        )
+    fn err(&self, fault: MetaFault) -> TdmsError {
+        TdmsError::Metadata {
+            seg: self.seg,
+            pos: self.pos,
+            fault,
+        }
     }
-    fn take(&mut self, n: usize, what: &str) -> Result<&'a [u8], String> {
+    fn take(&mut self, n: usize, what: &'static str) -> Result<&'a [u8], TdmsError> {
         if n > self.end - self.pos {
-            return Err(self.err(&format!(
-                "{what} needs {n} bytes, only {} remain",
-                self.end - self.pos
-            )));
+            return Err(self.err(MetaFault::Short {
+                what,
+                n,
+                remain: self.end - self.pos,
+            }));
         }
         let s = &self.buf[self.pos..self.pos + n];
         self.pos += n;
         Ok(s)
     }
-    fn u32(&mut self, what: &str) -> Result<u32, String> {
+    fn u32(&mut self, what: &'static str) -> Result<u32, TdmsError> {
         let b = self.take(4, what)?;
         Ok(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
     }
-    fn u64(&mut self, what: &str) -> Result<u64, String> {
+    fn u64(&mut self, what: &'static str) -> Result<u64, TdmsError> {
         let b = self.take(8, what)?;
         let mut a = [0u8; 8];
         a.copy_from_slice(b);
         Ok(u64::from_le_bytes(a))
     }
-    fn string(&mut self, what: &str) -> Result<String, String> {
+    fn string(&mut self, what: &'static str) -> Result<String, TdmsError> {
         let n = self.u32(what)? as usize;
         let b = self.take(n, what)?;
         Ok(String::from_utf8_lossy(b).into_owned())
@@ -244,7 +380,7 @@ fn split_path(path: &str) -> Option<Vec<String>> {
 }
 
 /// Reads a property value of type `t`.
-fn read_prop(c: &mut Cur, t: u32) -> Result<Prop, String> {
+fn read_prop(c: &mut Cur, t: u32) -> Result<Prop, TdmsError> {
     // A boolean property (0x21) reads as its byte.
     let num = |b: &[u8]| -> f64 {
         if t == 0x21 {
@@ -271,7 +407,7 @@ fn read_prop(c: &mut Cur, t: u32) -> Result<Prop, String> {
                 let b = c.take(n, "a property value")?;
                 Ok(Prop::Num(num(b)))
             }
-            None => Err(c.err(&format!("property of unsupported type {}", type_name(t)))),
+            None => Err(c.err(MetaFault::PropertyType { dtype: t })),
         },
     }
 }
@@ -279,12 +415,12 @@ fn read_prop(c: &mut Cur, t: u32) -> Result<Prop, String> {
 /// Parses the segments of a whole TDMS file, keeping properties of the root
 /// and of wanted channels, and where the wanted channels' values are.
 fn parse(path: &Path, buf: &[u8], wanted: &[&str]) -> Result<File, IngestError> {
-    let bad = |m: String| IngestError::invalid(path, m);
+    let bad = |e: TdmsError| IngestError::invalid(path, e.to_string());
     if buf.len() < 4 || &buf[..4] != b"TDSm" {
         return Err(bad(if buf.starts_with(b"TDSh") {
-            "is a TDMS index file (.tdms_index), not the data: give the .tdms file".into()
+            TdmsError::IndexFile
         } else {
-            "not a TDMS file (no `TDSm` segment tag at its start)".into()
+            TdmsError::NotTdms
         }));
     }
     let mut objects: Vec<Object> = vec![Object {
@@ -376,35 +512,32 @@ struct LeadIn {
 /// Reads and checks the lead-in of segment number `segment` at byte `pos`
 /// of `buf`: its tag, byte order, DAQmx flag, version, and that its length
 /// and raw data offset fit in the file.
-fn lead_in(buf: &[u8], pos: usize, segment: usize) -> Result<LeadIn, String> {
+fn lead_in(buf: &[u8], pos: usize, segment: usize) -> Result<LeadIn, TdmsError> {
     let seg = pos;
     if buf.len() - pos < LEAD_IN {
-        return Err(format!(
-            "truncated TDMS file: {} stray bytes at byte {seg} where segment {segment} should start (a segment lead-in is {LEAD_IN} bytes)",
-            buf.len() - pos
-        ));
+        return Err(TdmsError::StrayBytes {
+            stray: buf.len() - pos,
+            seg,
+            segment,
+        });
     }
     if &buf[pos..pos + 4] != b"TDSm" {
-        return Err(format!(
-            "corrupt TDMS file: segment {segment} at byte {seg} does not start with `TDSm`"
-        ));
+        return Err(TdmsError::NoTag { segment, seg });
     }
     let toc = le_u32(buf, pos + 4);
     if toc & TOC_BIG_ENDIAN != 0 {
-        return Err(format!(
-            "segment {segment} at byte {seg} is big-endian: only little-endian TDMS files are read (docs/rig-log-format.md); save the file as little-endian"
-        ));
+        return Err(TdmsError::BigEndian { segment, seg });
     }
     if toc & TOC_DAQMX != 0 {
-        return Err(format!(
-            "segment {segment} at byte {seg} holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
-        ));
+        return Err(TdmsError::DaqmxSegment { segment, seg });
     }
     let version = le_u32(buf, pos + 8);
     if version != 4712 && version != 4713 {
-        return Err(format!(
-            "segment {segment} at byte {seg}: TDMS version {version} is not 4712 or 4713"
-        ));
+        return Err(TdmsError::Version {
+            segment,
+            seg,
+            version,
+        });
     }
     let next = le_u64(buf, pos + 12);
     let raw_off = le_u64(buf, pos + 20);
@@ -415,14 +548,20 @@ fn lead_in(buf: &[u8], pos: usize, segment: usize) -> Result<LeadIn, String> {
     let unfinished = next == u64::MAX;
     let seg_len = if unfinished { room } else { next };
     if seg_len > room {
-        return Err(format!(
-            "truncated or corrupt TDMS file: segment {segment} at byte {seg} claims {seg_len} bytes after its lead-in, only {room} remain"
-        ));
+        return Err(TdmsError::SegmentLength {
+            segment,
+            seg,
+            seg_len,
+            room,
+        });
     }
     if raw_off > seg_len {
-        return Err(format!(
-            "corrupt TDMS file: segment {segment} at byte {seg} puts its raw data {raw_off} bytes in, beyond its {seg_len} bytes"
-        ));
+        return Err(TdmsError::RawOffset {
+            segment,
+            seg,
+            raw_off,
+            seg_len,
+        });
     }
     Ok(LeadIn {
         toc,
@@ -440,14 +579,14 @@ fn object_id(
     p: &str,
     wanted: &[&str],
     (segment, seg): (usize, usize),
-) -> Result<usize, String> {
+) -> Result<usize, TdmsError> {
     if let Some(&id) = by_path.get(p) {
         return Ok(id);
     }
-    let parts = split_path(p).ok_or_else(|| {
-        format!(
-            "corrupt TDMS metadata in segment {segment} at byte {seg}: object path {p:?} is not /'group'/'channel'"
-        )
+    let parts = split_path(p).ok_or_else(|| TdmsError::ObjectPath {
+        segment,
+        seg,
+        path: p.to_string(),
     })?;
     let name = parts.join("/");
     let is_channel = parts.len() == 2;
@@ -471,59 +610,70 @@ fn raw_index(
     obj: &mut Object,
     p: &str,
     (segment, seg): (usize, usize),
-) -> Result<Option<Index>, String> {
+) -> Result<Option<Index>, TdmsError> {
     let raw_index = c.u32("a raw data index")?;
     Ok(match raw_index {
         0xFFFF_FFFF => None,
         0 => match obj.last_index {
             Some(ix) => Some(ix),
             None => {
-                return Err(format!(
-                    "corrupt TDMS metadata in segment {segment} at byte {seg}: object {p:?} reuses a raw data index it never had"
-                ))
+                return Err(TdmsError::ReusedIndex {
+                    segment,
+                    seg,
+                    path: p.to_string(),
+                })
             }
         },
         0x6912_0000 | 0x6913_0000 | 0x0000_1269 | 0x0000_126A => {
-            return Err(format!(
-                "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
-            ))
+            return Err(TdmsError::DaqmxChannel {
+                path: p.to_string(),
+                segment,
+                seg,
+            })
         }
         len => {
             let start = c.pos;
             let dtype = c.u32("a data type")?;
             if dtype == T_DAQMX {
-                return Err(format!(
-                    "channel {p:?} (segment {segment} at byte {seg}) holds DAQmx raw data, which is not read: export the channels as plain TDMS data (scaled values) instead"
-                ));
+                return Err(TdmsError::DaqmxChannel {
+                    path: p.to_string(),
+                    segment,
+                    seg,
+                });
             }
             let dim = c.u32("an array dimension")?;
             if dim != 1 {
-                return Err(c.err(&format!(
-                    "object {p:?} has array dimension {dim} (TDMS allows only 1)"
-                )));
+                return Err(c.err(MetaFault::Dimension {
+                    path: p.to_string(),
+                    dim,
+                }));
             }
             let count = c.u64("a value count")?;
             let bytes = if dtype == T_STRING {
                 c.u64("a string data size")?
             } else {
                 match type_size(dtype) {
-                    Some(s) => count
-                        .checked_mul(s as u64)
-                        .ok_or_else(|| c.err(&format!("object {p:?}: {count} values overflow")))?,
+                    Some(s) => count.checked_mul(s as u64).ok_or_else(|| {
+                        c.err(MetaFault::CountOverflow {
+                            path: p.to_string(),
+                            count,
+                        })
+                    })?,
                     None if count == 0 => 0,
                     None => {
-                        return Err(c.err(&format!(
-                            "object {p:?} holds {} data, which is not read",
-                            type_name(dtype)
-                        )))
+                        return Err(c.err(MetaFault::DataType {
+                            path: p.to_string(),
+                            dtype,
+                        }))
                     }
                 }
             };
             // The index length counts its own 4 bytes.
             if (c.pos - start + 4) as u64 != u64::from(len) {
-                return Err(c.err(&format!(
-                    "object {p:?}: raw data index length {len} does not match its content"
-                )));
+                return Err(c.err(MetaFault::IndexLength {
+                    path: p.to_string(),
+                    len,
+                }));
             }
             let ix = Index {
                 dtype,
@@ -545,7 +695,7 @@ fn place_data(
     interleaved: bool,
     unfinished: bool,
     warnings: &mut Vec<Warning>,
-) -> Result<(), String> {
+) -> Result<(), TdmsError> {
     let with_data: Vec<(usize, Index)> = active
         .iter()
         .filter_map(|&(id, ix)| ix.filter(|i| i.count > 0).map(|i| (id, i)))
@@ -553,22 +703,20 @@ fn place_data(
     if with_data.is_empty() {
         return Ok(());
     }
-    let overflow =
-        || format!("corrupt TDMS file: segment {segment} at byte {seg}: raw data sizes overflow");
+    let overflow = || TdmsError::SizeOverflow { segment, seg };
     let chunk: u64 = if interleaved {
         let n = with_data[0].1.count;
         let mut stride = 0u64;
         for (id, ix) in &with_data {
             if ix.dtype == T_STRING {
-                return Err(format!(
-                    "segment {segment} at byte {seg}: string channel {:?} in interleaved data",
-                    objects[*id].name
-                ));
+                return Err(TdmsError::InterleavedString {
+                    segment,
+                    seg,
+                    name: objects[*id].name.clone(),
+                });
             }
             if ix.count != n {
-                return Err(format!(
-                    "corrupt TDMS file: segment {segment} at byte {seg} interleaves channels of different lengths"
-                ));
+                return Err(TdmsError::InterleavedLengths { segment, seg });
             }
             stride = stride
                 .checked_add(type_size(ix.dtype).unwrap_or(0) as u64)
@@ -588,9 +736,12 @@ fn place_data(
     let chunks = len64 / chunk;
     if chunks == 0 || !len64.is_multiple_of(chunk) {
         if !unfinished {
-            return Err(format!(
-                "corrupt TDMS file: segment {segment} at byte {seg} has {len} bytes of raw data, not a whole number of {chunk}-byte chunks"
-            ));
+            return Err(TdmsError::PartialChunk {
+                segment,
+                seg,
+                len,
+                chunk,
+            });
         }
         warnings.push(Warning::UnfinishedSegment {
             byte: seg,
@@ -606,11 +757,10 @@ fn place_data(
         let obj = &mut objects[*id];
         if obj.wanted && chunks > 0 {
             if ix.dtype == T_STRING || size == 0 {
-                return Err(format!(
-                    "channel {:?} holds {} data, not numbers",
-                    obj.name,
-                    type_name(ix.dtype)
-                ));
+                return Err(TdmsError::NotNumbers {
+                    name: obj.name.clone(),
+                    dtype: ix.dtype,
+                });
             }
             let (piece_start, stride) = if interleaved {
                 (start + offset, chunk / ix.count as usize)
@@ -636,8 +786,8 @@ fn place_data(
 
 /// The values of a channel: numbers as f64; timestamps as seconds after
 /// `time_origin` (2^-64 s since 1904), or after the channel's first one.
-fn decode(buf: &[u8], obj: &Object, time_origin: Option<i128>) -> Result<Vec<f64>, String> {
-    let n = usize::try_from(obj.values).map_err(|_| "too many values".to_string())?;
+fn decode(buf: &[u8], obj: &Object, time_origin: Option<i128>) -> Result<Vec<f64>, TdmsError> {
+    let n = usize::try_from(obj.values).map_err(|_| TdmsError::TooManyValues)?;
     let mut out = Vec::with_capacity(n);
     let mut origin = time_origin;
     for p in &obj.pieces {
@@ -654,11 +804,10 @@ fn decode(buf: &[u8], obj: &Object, time_origin: Option<i128>) -> Result<Vec<f64
                         ticks_to_s(ts - o)
                     }
                     (other, None) => {
-                        return Err(format!(
-                            "channel {:?} holds {} data, not numbers",
-                            obj.name,
-                            type_name(other)
-                        ))
+                        return Err(TdmsError::NotNumbers {
+                            name: obj.name.clone(),
+                            dtype: other,
+                        })
                     }
                 };
                 out.push(v);
@@ -785,7 +934,7 @@ pub(crate) fn read(
     let mut channels = Vec::new();
     let mut setpoints = Vec::new();
     for (q, spec, obj, timing) in &entries {
-        let raw = decode(&buf, obj, None).map_err(bad)?;
+        let raw = decode(&buf, obj, None).map_err(|e| bad(e.to_string()))?;
         let factor = unit_scale(path, &map_path, *q, spec, obj)?;
         let (t, dt_s) = sample_times(path, timing, obj, raw.len(), table.as_ref(), reference)?;
         match q {
@@ -994,7 +1143,7 @@ fn time_table<'a>(
         }
     }
     let is_stamp = tobj.pieces.iter().any(|p| p.dtype == T_TIMESTAMP);
-    let raw = decode(buf, tobj, None).map_err(bad)?;
+    let raw = decode(buf, tobj, None).map_err(|e| bad(e.to_string()))?;
     let time: Vec<f64> = raw.iter().map(|t| t * tspec.scale()).collect();
     if time.len() < 2 {
         return Err(bad(format!(

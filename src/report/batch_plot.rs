@@ -4,7 +4,7 @@
 //! uncertainty box) beside it; the measured settings, the recommendation
 //! with its window and the cliff where the η1 peak returns marked.
 
-use super::plot::{colour, plot_err, register_font};
+use super::plot::{backend, colour, plot_err, register_font, DrawError, DrawResult};
 use crate::batch::{Batch, StaticObs};
 use crate::error::Result;
 use plotters::coord::combinators::LogCoord;
@@ -25,10 +25,9 @@ pub fn batch_figure(b: &Batch, title: &str, path: &Path) -> Result<()> {
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
-type DrawResult = std::result::Result<(), String>;
 
-fn e(x: DrawingAreaErrorKind<std::io::Error>) -> String {
-    x.to_string()
+fn e(x: DrawingAreaErrorKind<std::io::Error>) -> DrawError {
+    backend(x)
 }
 
 /// Whether `x` can be drawn on a log axis.
@@ -77,7 +76,7 @@ fn draw(b: &Batch, title: &str, root: &Area<'_>) -> DrawResult {
 /// The axis ranges `(x0, x1, y0, y1)` over the drawable (positive) normal
 /// forces and amplitudes of the curves and the logs; an error when there
 /// is nothing to draw.
-fn ranges(b: &Batch) -> std::result::Result<(f64, f64, f64, f64), String> {
+fn ranges(b: &Batch) -> DrawResult<(f64, f64, f64, f64)> {
     let xs = b
         .curve
         .iter()
@@ -94,7 +93,7 @@ fn ranges(b: &Batch) -> std::result::Result<(f64, f64, f64, f64), String> {
         .filter(|y| pos(*y));
     let (ymin, ymax) = ys.fold((f64::INFINITY, 0.0f64), |(a, c), y| (a.min(y), c.max(y)));
     if !(pos(xmin) && pos(xmax) && pos(ymin) && pos(ymax)) {
-        return Err("nothing to draw".into());
+        return Err(DrawError::NothingToDraw);
     }
     let (x0, x1) = (xmin / 1.15, xmax * 1.15);
     let (y0, y1) = ((ymin / 1.5).min(0.5), ymax * 2.0);

@@ -54,6 +54,37 @@ pub struct FrcFigure {
     pub eta_range: (f64, f64),
 }
 
+/// Why a figure could not be drawn (the doors, e.g. [`frc`], name the file
+/// through [`plot_err`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub(crate) enum DrawError {
+    /// The plotting backend failed (its message).
+    #[error("{0}")]
+    Backend(String),
+    /// The figure's η range is empty or not finite.
+    #[error("no η range to draw ({lo} to {hi})")]
+    NoEtaRange {
+        /// Lower end.
+        lo: f64,
+        /// Upper end.
+        hi: f64,
+    },
+    /// A work-precision figure without a row that has an error.
+    #[error("no rows with an error to plot")]
+    NoErrorRows,
+    /// The batch figure has no positive normal force or amplitude.
+    #[error("nothing to draw")]
+    NothingToDraw,
+}
+
+/// Result of a drawing step.
+pub(crate) type DrawResult<T = ()> = std::result::Result<T, DrawError>;
+
+/// A plotting backend's error as a [`DrawError::Backend`].
+pub(crate) fn backend<E: std::error::Error + Send + Sync>(x: DrawingAreaErrorKind<E>) -> DrawError {
+    DrawError::Backend(x.to_string())
+}
+
 pub(crate) fn plot_err(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::Input {
         path: path.to_path_buf(),
@@ -85,8 +116,7 @@ pub fn frc(fig: &FrcFigure, path: &Path) -> Result<()> {
             let tmp = crate::io::temp_beside(&dest, Some("png"))?;
             {
                 let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
-                let r =
-                    draw_frc(fig, &root).and_then(|_| root.present().map_err(|e| e.to_string()));
+                let r = draw_frc(fig, &root).and_then(|_| root.present().map_err(backend));
                 if let Err(e) = r {
                     return Err(plot_err(path, e));
                 }
@@ -160,8 +190,8 @@ pub(crate) fn eta_markers<DB: DrawingBackend>(
     (lo, hi): (f64, f64),
     ymax: f64,
     colour: RGBColor,
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     for (name, v) in markers {
         if v > lo && v < hi {
             chart
@@ -184,17 +214,14 @@ pub(crate) fn eta_markers<DB: DrawingBackend>(
     Ok(())
 }
 
-fn draw_frc<DB: DrawingBackend>(
-    fig: &FrcFigure,
-    root: &DrawingArea<DB, Shift>,
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+fn draw_frc<DB: DrawingBackend>(fig: &FrcFigure, root: &DrawingArea<DB, Shift>) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     root.fill(&WHITE).map_err(e)?;
     let root = root.titled(&fig.title, ("sans-serif", 26)).map_err(e)?;
     let panels = root.split_evenly((2, 1));
     let (lo, hi) = fig.eta_range;
     if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-        return Err(format!("no η range to draw ({lo} to {hi})"));
+        return Err(DrawError::NoEtaRange { lo, hi });
     }
     let grid: Vec<f64> = (0..=800)
         .map(|i| lo + (hi - lo) * i as f64 / 800.0)
@@ -212,8 +239,8 @@ fn frc_panel<DB: DrawingBackend>(
     panel: &DrawingArea<DB, Shift>,
     which: usize,
     grid: &[f64],
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     let (lo, hi) = fig.eta_range;
     let data_max = fig
         .curves
@@ -266,8 +293,8 @@ fn frc_limits<DB: DrawingBackend>(
     which: usize,
     ymax: f64,
     grid: &[f64],
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     let (lo, hi) = fig.eta_range;
     let ab = &fig.absorber;
     let (eta1, eta2) = ab.eta_linear();
@@ -304,8 +331,8 @@ fn frc_curves<DB: DrawingBackend>(
     chart: &mut FrcChart<'_, DB>,
     fig: &FrcFigure,
     which: usize,
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     let n = fig.curves.len();
     for (i, c) in fig.curves.iter().enumerate() {
         let col = colour(i, n);
@@ -313,9 +340,7 @@ fn frc_curves<DB: DrawingBackend>(
         // Break the line where a point has no amplitude.
         let mut seg: Vec<(f64, f64)> = Vec::new();
         let mut first = true;
-        let mut flush = |seg: &mut Vec<(f64, f64)>,
-                         chart: &mut FrcChart<'_, DB>|
-         -> std::result::Result<(), String> {
+        let mut flush = |seg: &mut Vec<(f64, f64)>, chart: &mut FrcChart<'_, DB>| -> DrawResult {
             if seg.is_empty() {
                 return Ok(());
             }
@@ -347,8 +372,8 @@ fn frc_coexisting<DB: DrawingBackend>(
     fig: &FrcFigure,
     which: usize,
     ymax: f64,
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     let marks: Vec<(f64, f64)> = fig
         .curves
         .iter()
@@ -395,8 +420,8 @@ pub fn work_precision(rows: &[crate::sim::workprec::WpRow], path: &Path) -> Resu
 fn draw_wp<DB: DrawingBackend>(
     rows: &[crate::sim::workprec::WpRow],
     root: &DrawingArea<DB, Shift>,
-) -> std::result::Result<(), String> {
-    let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+) -> DrawResult {
+    let e = backend::<DB::ErrorType>;
     root.fill(&WHITE).map_err(e)?;
     let pts: Vec<(&str, f64, f64)> = rows
         .iter()
@@ -412,7 +437,7 @@ fn draw_wp<DB: DrawingBackend>(
         (a.min(p.2), b.max(p.2))
     });
     if pts.is_empty() {
-        return Err("no rows with an error to plot".into());
+        return Err(DrawError::NoErrorRows);
     }
     let mut chart = ChartBuilder::on(root)
         .caption(

@@ -6,7 +6,7 @@
 //! measured value outside the replay band is ringed; a third panel shows
 //! the residuals.
 
-use super::plot::{colour, plot_err, register_font};
+use super::plot::{backend, colour, plot_err, register_font, DrawError, DrawResult};
 use crate::error::Result;
 use crate::model::Absorber;
 use crate::validate::frc::MeasuredFrc;
@@ -34,10 +34,9 @@ pub fn validation_figure(
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, plotters::coord::Shift>;
 type Chart<'a, 'b> = ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
-type DrawResult = std::result::Result<(), String>;
 
-fn e(x: DrawingAreaErrorKind<std::io::Error>) -> String {
-    x.to_string()
+fn e(x: DrawingAreaErrorKind<std::io::Error>) -> DrawError {
+    backend(x)
 }
 
 /// What both amplitude panels and the residual panel share: the measured
