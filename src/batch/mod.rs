@@ -248,7 +248,7 @@ impl Default for BatchOptions {
     }
 }
 
-/// What is wrong with [`BatchOptions`] ([`BatchOptions::check_typed`]).
+/// What is wrong with [`BatchOptions`] ([`BatchOptions::check`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum OptionsError {
     /// The η range is not 0 < min < max.
@@ -302,16 +302,8 @@ pub enum OptionsError {
 }
 
 impl BatchOptions {
-    /// Checks the options (what is wrong, for an error line): the message
-    /// of [`BatchOptions::check_typed`]'s error. Kept returning text for
-    /// its caller in `cli::batch` (an adapter until that file moves to
-    /// [`OptionsError`]).
-    pub fn check(&self) -> std::result::Result<(), String> {
-        self.check_typed().map_err(|e| e.to_string())
-    }
-
     /// Checks the options: the first thing wrong with them.
-    pub fn check_typed(&self) -> std::result::Result<(), OptionsError> {
+    pub fn check(&self) -> std::result::Result<(), OptionsError> {
         let pos = |x: f64| x.is_finite() && x > 0.0;
         if let Some((a, b)) = self.eta_range {
             if !(pos(a) && pos(b) && a < b) {
@@ -744,7 +736,7 @@ pub fn batch_with_progress(
     opts: &BatchOptions,
     tick: &(dyn Fn(u64) + Sync),
 ) -> Result<Batch> {
-    opts.check_typed()
+    opts.check()
         .map_err(|e| BatchError::Options(e.to_string()))?;
     if fits.is_empty() {
         return Err(BatchError::Empty.into());

@@ -132,7 +132,8 @@ fn options(a: &BatchArgs) -> crate::Result<BatchOptions> {
             ..d.steady
         },
     };
-    o.check().map_err(|m| arg_err("batch options", &m))?;
+    o.check()
+        .map_err(|m| arg_err("batch options", &m.to_string()))?;
     Ok(o)
 }
 

@@ -5,7 +5,7 @@
 //! by direction is drawn as it is: up to Rs⁺ towards +, down to −Rs⁻
 //! towards − (a side only bounded is not drawn).
 
-use super::plot::{plot_err, register_font};
+use super::plot::{backend as e, plot_err, register_font, DrawResult};
 use crate::error::Result;
 use crate::identify::{Characteristic, Contact, Estimate, LogFit};
 use crate::model::SiLaw;
@@ -183,12 +183,6 @@ fn range(v: impl Iterator<Item = f64>) -> (f64, f64) {
 /// The sliding friction of a law at velocity v (signed).
 fn law_force(l: &SiLaw, v: f64) -> f64 {
     l.sliding_n(v.abs()) * v.signum()
-}
-
-type DrawResult = std::result::Result<(), String>;
-
-fn e(x: DrawingAreaErrorKind<std::io::Error>) -> String {
-    x.to_string()
 }
 
 const BLUE: RGBColor = RGBColor(31, 78, 156);
