@@ -271,3 +271,43 @@ fn paper_worst_case_cliff() {
     let (e1, _) = ab.eta_linear();
     assert!((lo.eta - e1).abs() < 0.03, "the η1 peak: {lo:?}");
 }
+
+/// Logs whose planned memory does not fit the budget together are checked
+/// in rounds, let go, then read again and fitted in rounds: the fits are
+/// those of the logs read once (a budget of 60 MB makes two rounds of
+/// char_N4 and char_N7.2, planned at 50 MB plus 275 bytes per sample each),
+/// and a sweep among them still stops the batch before any fitting.
+#[test]
+fn logs_over_the_budget_together_are_checked_then_fitted_in_rounds() {
+    use stickslip::identify::IdentifyOptions;
+    use stickslip::pipeline::checks::fit_characteristic_logs;
+    let logs = [data("char_N4.mcap"), data("char_N7.2.mcap")];
+    let fits = |memory_bytes: u64| {
+        let opts = IdentifyOptions {
+            memory_bytes,
+            ..IdentifyOptions::default()
+        };
+        fit_characteristic_logs(&logs, &opts, &|| {}).unwrap()
+    };
+    let once = fits(IdentifyOptions::default().memory_bytes);
+    let rounds = fits(60_000_000);
+    assert_eq!(once.len(), 2);
+    for (a, b) in once.iter().zip(&rounds) {
+        let (a, b) = (&a.as_ref().unwrap().1, &b.as_ref().unwrap().1);
+        assert_eq!(a.law(), b.law());
+        assert_eq!(a.rs_interval_n, b.rs_interval_n);
+        assert_eq!(a.rd_interval_n, b.rd_interval_n);
+    }
+    let with_sweep = [data("char_N4.mcap"), data("sweep_stepped_N4.mcap")];
+    let opts = IdentifyOptions {
+        memory_bytes: 60_000_000,
+        ..IdentifyOptions::default()
+    };
+    let e = fit_characteristic_logs(&with_sweep, &opts, &|| panic!("fitted"))
+        .expect_err("a sweep is refused");
+    assert!(
+        e.to_string()
+            .contains("a batch compares characteristic logs only"),
+        "{e}"
+    );
+}

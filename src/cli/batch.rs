@@ -329,18 +329,17 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
         ProgressBar::hidden()
     };
     bar.set_message("fitting logs");
-    // Read every log first: a log that cannot be read or is not a
+    // Every log is checked first: a log that cannot be read or is not a
     // characteristic test stops the batch before any fitting.
-    bar.set_message("reading logs");
-    let runs = match crate::pipeline::checks::read_characteristic_logs(&to_fit) {
-        Ok(r) => r,
-        Err(e) => {
-            bar.finish_and_clear();
-            return Err(e);
-        }
-    };
-    bar.set_message("fitting logs");
-    let run_refs: Vec<&crate::ingest::Run> = runs.iter().collect();
+    bar.set_message("reading and fitting logs");
+    let fitted =
+        match crate::pipeline::checks::fit_characteristic_logs(&to_fit, &iopts, &|| bar.inc(1)) {
+            Ok(f) => f,
+            Err(e) => {
+                bar.finish_and_clear();
+                return Err(e);
+            }
+        };
     // The saved fits first (in their file's order), then the logs fitted now.
     let mut fits: Vec<(PathBuf, crate::Result<(RigMeta, LogFit)>)> = Vec::new();
     let mut shas: Vec<Option<String>> = Vec::new();
@@ -358,12 +357,9 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
             ),
         });
     }
-    for (run, f) in runs
-        .iter()
-        .zip(identify::fit_runs(&run_refs, &iopts, &|| bar.inc(1)))
-    {
-        shas.push(artifact::sha256_file(&run.source).ok());
-        fits.push((run.source.clone(), f.map(|f| (run.rig.clone(), f))));
+    for (p, f) in to_fit.iter().zip(fitted) {
+        shas.push(artifact::sha256_file(p).ok());
+        fits.push((p.clone(), f));
     }
     let mut errors = Vec::new();
     let mut good: Vec<(PathBuf, LogFit)> = Vec::new();

@@ -135,14 +135,34 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         .transpose()?;
     say("reading logs");
     let clock = Instant::now();
-    let (char_run, sweep_run) = match &args.characteristic {
-        Some(c) => {
+    // Both logs are read at once where their planned memory fits the
+    // budget together; otherwise the sweep is read for its rig, let go,
+    // and read again once the characteristic log is fitted and let go.
+    let together = args.characteristic.as_deref().is_none_or(|c| {
+        let budget = IdentifyOptions::default().memory_bytes;
+        let planned = |p: &Path| {
+            let n = ingest::planned_samples(p, &IngestOptions::default());
+            crate::limits::planned_fit_bytes(n, budget)
+        };
+        planned(c).saturating_add(planned(&args.sweep)) <= budget
+    });
+    let (char_run, sweep_run, sweep_rig) = match &args.characteristic {
+        Some(c) if together => {
             let (a, b) = read_pair(c, &args.sweep)?;
-            (Some(a), b)
+            let rig = b.rig.clone();
+            (Some(a), Some(b), rig)
         }
-        None => (None, ingest::read(&args.sweep, &IngestOptions::default())?),
+        Some(c) => {
+            let rig = ingest::read(&args.sweep, &IngestOptions::default())?.rig;
+            (Some(ingest::read(c, &IngestOptions::default())?), None, rig)
+        }
+        None => {
+            let b = ingest::read(&args.sweep, &IngestOptions::default())?;
+            let rig = b.rig.clone();
+            (None, Some(b), rig)
+        }
     };
-    let t_ingest = clock.elapsed().as_secs_f64();
+    let mut t_ingest = clock.elapsed().as_secs_f64();
     let characteristic = args
         .characteristic
         .clone()
@@ -156,7 +176,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     crate::pipeline::checks::refuse_mixed_rigs(
         &[
             (characteristic.clone(), char_rig.clone()),
-            (args.sweep.clone(), sweep_run.rig.clone()),
+            (args.sweep.clone(), sweep_rig),
         ],
         args.allow_mixed_rigs,
     )?;
@@ -176,7 +196,23 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         }
         (None, None) => return Err(need_one()),
     };
+    // What the report draws of the characteristic log; the log goes.
+    let figure = match (&char_run, &args.report) {
+        (Some(run), Some(_)) => Some((sections::fit_points(run, &fit)?, run.rig.notes.clone())),
+        _ => None,
+    };
+    let had_char = char_run.is_some();
+    drop(char_run);
     let t_fit = clock.elapsed().as_secs_f64();
+    let sweep_run = match sweep_run {
+        Some(run) => run,
+        None => {
+            let clock = Instant::now();
+            let run = ingest::read(&args.sweep, &IngestOptions::default())?;
+            t_ingest += clock.elapsed().as_secs_f64();
+            run
+        }
+    };
     say(&format!(
         "measuring the sweep and predicting it (at most {} laws for the bands)",
         args.samples
@@ -202,9 +238,16 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             .collect();
         let rd = html::ReportDir::create(dir, &inputs)?;
         let section = sections::validation_section(&rd, &characteristic, &args.sweep, &fit, &v)?;
-        // The fit's section draws the characteristic: it needs the log.
-        let fits = match &char_run {
-            Some(run) => vec![sections::fit_section(&rd, &characteristic, run, &fit)?],
+        // The fit's section draws the characteristic (its points, taken
+        // from the log).
+        let fits = match &figure {
+            Some((points, notes)) => vec![sections::fit_section(
+                &rd,
+                &characteristic,
+                points,
+                notes.as_deref(),
+                &fit,
+            )?],
             None => Vec::new(),
         };
         let page = html::Page {
@@ -212,9 +255,9 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             version: env!("CARGO_PKG_VERSION").into(),
             command: std::env::args().collect::<Vec<_>>().join(" "),
             summary: vec![],
-            warnings: match &char_run {
-                Some(_) => vec![],
-                None => vec![format!(
+            warnings: match had_char {
+                true => vec![],
+                false => vec![format!(
                     "the fit of {} is from {}; give --characteristic to draw its characteristic",
                     characteristic.display(),
                     args.fit.as_deref().unwrap_or(Path::new("?")).display()
@@ -228,7 +271,14 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
                 .map(|p| html::input_file(p))
                 .collect::<crate::Result<_>>()?,
             timings: [
-                ("ingest (both logs, in parallel)", t_ingest),
+                (
+                    if together {
+                        "ingest (both logs, in parallel)"
+                    } else {
+                        "ingest (one log at a time: too long to hold both)"
+                    },
+                    t_ingest,
+                ),
                 ("fit", t_fit),
                 ("validate", t_validate),
             ]

@@ -118,17 +118,22 @@ pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<crate::warning::Wa
 
 /// Reads logs in parallel (results in the order given) and checks that
 /// each is a characteristic test, before any fitting: the first log that
-/// cannot be read, or that records another test (a sweep), is the error.
+/// cannot be read (a log too long to fit is refused before it is
+/// decoded), or that records another test (a sweep), is the error. Their
+/// channels as recorded are dropped: the fit reads the common grid only.
 pub fn read_characteristic_logs(paths: &[PathBuf]) -> crate::Result<Vec<crate::ingest::Run>> {
     use rayon::prelude::*;
+    let opts = crate::ingest::IngestOptions {
+        max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+        ..Default::default()
+    };
     let runs: Vec<crate::Result<crate::ingest::Run>> = paths
         .par_iter()
         // `ingest::read` guards its decoders against panics itself.
         .map(|p| {
-            Ok(crate::ingest::read(
-                p,
-                &crate::ingest::IngestOptions::default(),
-            )?)
+            let mut run = crate::ingest::read(p, &opts)?;
+            run.channels = Vec::new();
+            Ok(run)
         })
         .collect();
     let mut out = Vec::with_capacity(runs.len());
@@ -146,4 +151,50 @@ pub fn read_characteristic_logs(paths: &[PathBuf]) -> crate::Result<Vec<crate::i
         out.push(run);
     }
     Ok(out)
+}
+
+/// Checks the logs as [`read_characteristic_logs`] does, then fits them
+/// (in parallel, results in the order given). Where the logs' planned
+/// memory ([`crate::limits::planned_fit_bytes`], counted before any is
+/// decoded) fits `opts.memory_bytes` together, they are read once, checked
+/// and fitted; otherwise they are checked in rounds that fit it, each log
+/// let go once checked, then read again and fitted in rounds
+/// ([`crate::identify::fit_logs`]): a batch of long logs is never held at
+/// once.
+pub fn fit_characteristic_logs(
+    paths: &[PathBuf],
+    opts: &crate::identify::IdentifyOptions,
+    tick: &(dyn Fn() + Sync),
+) -> crate::Result<Vec<crate::Result<(RigMeta, crate::identify::LogFit)>>> {
+    let budget = opts.memory_bytes;
+    let planned: Vec<u64> = if paths.len() <= 1 {
+        vec![0; paths.len()]
+    } else {
+        let ingest = crate::ingest::IngestOptions {
+            max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+            ..Default::default()
+        };
+        paths
+            .iter()
+            .map(|p| {
+                let n = crate::ingest::planned_samples(p, &ingest);
+                crate::limits::planned_fit_bytes(n, budget)
+            })
+            .collect()
+    };
+    let rounds = crate::limits::rounds(&planned, budget);
+    if rounds.len() <= 1 {
+        let runs = read_characteristic_logs(paths)?;
+        let refs: Vec<&crate::ingest::Run> = runs.iter().collect();
+        let fits = crate::identify::fit_runs(&refs, opts, tick);
+        return Ok(runs
+            .iter()
+            .zip(fits)
+            .map(|(run, f)| f.map(|f| (run.rig.clone(), f)))
+            .collect());
+    }
+    for round in rounds {
+        read_characteristic_logs(&paths[round])?;
+    }
+    Ok(crate::identify::fit_logs(paths, opts, tick))
 }

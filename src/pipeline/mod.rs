@@ -744,7 +744,7 @@ impl PipelineReport {
             page.fits.push(match (&self.fits[p], &self.logs[p]) {
                 (Ok(f), Ok(log)) => match &log.figure {
                     Some(points) => {
-                        sections::fit_section_of(&rd, p, points, log.rig.notes.as_deref(), f)?
+                        sections::fit_section(&rd, p, points, log.rig.notes.as_deref(), f)?
                     }
                     None => views::fit_view(p, f, log.rig.notes.as_deref(), None),
                 },

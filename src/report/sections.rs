@@ -7,19 +7,6 @@ use crate::ingest::Run;
 use crate::validate::Validation;
 use std::path::Path;
 
-/// Writes the characteristic figure of a fitted log (paper Figs. 8–9; what
-/// it shows is [`characteristic_plot::fit_figure`]'s call) and
-/// returns its fit section for the report.
-pub fn fit_section(
-    dir: &html::ReportDir,
-    log: &Path,
-    run: &Run,
-    f: &LogFit,
-) -> crate::Result<html::FitView> {
-    let points = fit_points(run, f)?;
-    fit_section_of(dir, log, &points, run.rig.notes.as_deref(), f)
-}
-
 /// What the fit section of `run` (fitted as `f`) draws: its characteristic
 /// (at unit gains), a few thousand points.
 pub fn fit_points(
@@ -30,9 +17,11 @@ pub fn fit_points(
     Ok(characteristic_plot::fit_points(&ch, f))
 }
 
-/// [`fit_section`] from the points kept of the log ([`fit_points`]) and
-/// its rig record's notes.
-pub fn fit_section_of(
+/// Writes the characteristic figure of a fitted log (paper Figs. 8–9; what
+/// it shows is [`characteristic_plot::fit_figure`]'s call) from the points
+/// kept of it ([`fit_points`]) and returns its fit section for the report,
+/// with its rig record's notes.
+pub fn fit_section(
     dir: &html::ReportDir,
     log: &Path,
     points: &characteristic_plot::CharacteristicPoints,
