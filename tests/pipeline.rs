@@ -49,7 +49,7 @@ fn an_unread_log_does_not_shift_the_fits_of_the_others() {
 /// A sweep beyond the bytes `run` keeps from its reading to its
 /// validation is read again there: the same validation, bit for bit, as
 /// with the sweep kept (the library's `pipeline::run` with
-/// `held_sweep_bytes` 0 against the default).
+/// `hold_sweeps` false against the default).
 #[test]
 fn a_sweep_read_again_validates_as_one_kept() {
     use stickslip::pipeline::{self, Options, Plan};
@@ -65,11 +65,11 @@ fn a_sweep_read_again_validates_as_one_kept() {
     )
     .unwrap();
     let plan = Plan::read(&plan_path).unwrap();
-    let json_of = |held_sweep_bytes: u64| {
+    let json_of = |hold_sweeps: bool| {
         let opts = Options {
             samples: 40,
             figures: false,
-            held_sweep_bytes,
+            hold_sweeps,
             ..Options::default()
         };
         let report = pipeline::run(&plan, &opts, &()).unwrap();
@@ -82,8 +82,8 @@ fn a_sweep_read_again_validates_as_one_kept() {
         drop_wall_times(&mut v);
         v
     };
-    let kept = json_of(u64::MAX);
-    let read_again = json_of(0);
+    let kept = json_of(true);
+    let read_again = json_of(false);
     assert!(kept["validations"][0].get("error").is_none(), "{kept}");
     assert_eq!(kept, read_again);
 }

@@ -180,10 +180,10 @@ pub struct Options {
     /// log ([`LogRecord::figure`]); without it [`PipelineReport::write_report`]
     /// shows the fits without figures.
     pub figures: bool,
-    /// Bytes of sweeps kept from their reading to their validation (a
-    /// quarter of the budget by default); a sweep beyond them is read again
-    /// when it is validated.
-    pub held_sweep_bytes: u64,
+    /// Keep the sweeps from their reading to their validation where the
+    /// plan's logs fit the memory budget together (one round of reads);
+    /// otherwise, or without it, each sweep is read again when validated.
+    pub hold_sweeps: bool,
 }
 
 impl Default for Options {
@@ -193,7 +193,7 @@ impl Default for Options {
             band_coverage_se: ValidateOptions::default().predict.band_coverage_se,
             allow_mixed_rigs: false,
             figures: true,
-            held_sweep_bytes: IdentifyOptions::default().memory_bytes / 4,
+            hold_sweeps: true,
         }
     }
 }
@@ -323,12 +323,14 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     let mut records: BTreeMap<PathBuf, crate::Result<LogRecord>> = BTreeMap::new();
     let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = BTreeMap::new();
     let mut figure_errors: Vec<String> = Vec::new();
-    // Sweeps kept from their reading to their validation (within
-    // `opts.held_sweep_bytes`; the others are read again).
+    let rounds = crate::limits::rounds(&planned, budget);
+    // Sweeps kept from their reading to their validation: only where every
+    // log fits the budget together (their planned memory counted in it);
+    // the others are read again when validated.
+    let hold = opts.hold_sweeps && rounds.len() <= 1;
     let mut held: BTreeMap<PathBuf, Run> = BTreeMap::new();
-    let mut held_bytes = 0u64;
     let mut read_rigs: Vec<(PathBuf, RigMeta)> = Vec::new();
-    for round in crate::limits::rounds(&planned, budget) {
+    for round in rounds {
         let clock = std::time::Instant::now();
         progress.stage("reading logs");
         let read: Vec<(PathBuf, crate::Result<Run>)> = logs[round]
@@ -371,12 +373,8 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
             figure_errors.extend(error);
             let rec = r.map(|run| {
                 let rig = run.rig.clone();
-                if sweeps.contains(&p) {
-                    let bytes = run_bytes(&run);
-                    if held_bytes.saturating_add(bytes) <= opts.held_sweep_bytes {
-                        held_bytes += bytes;
-                        held.insert(p.clone(), run);
-                    }
+                if hold && sweeps.contains(&p) {
+                    held.insert(p.clone(), run);
                 }
                 LogRecord { rig, figure }
             });
@@ -454,22 +452,6 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
         errors,
         log_sha256,
     })
-}
-
-/// Heap bytes of a run's samples (grid columns and recorded channels).
-fn run_bytes(run: &Run) -> u64 {
-    let g = &run.resampled;
-    let grid = g.t.len()
-        + g.x0.len()
-        + g.x1.len()
-        + g.x2.len()
-        + g.v2.len()
-        + [&g.a2, &g.normal_force, &g.setpoint_hz]
-            .iter()
-            .map(|c| c.as_ref().map_or(0, Vec::len))
-            .sum::<usize>();
-    let channels: usize = run.channels.iter().map(|c| c.t.len() + c.v.len()).sum();
-    8 * (grid + channels) as u64
 }
 
 /// The fits of the characteristic logs of one round of reads (`read`, in
