@@ -154,7 +154,12 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         }
         Some(c) => {
             let rig = ingest::read(&args.sweep, &IngestOptions::default())?.rig;
-            (Some(ingest::read(c, &IngestOptions::default())?), None, rig)
+            // A log too long to fit is refused before it is decoded.
+            let fit_read = IngestOptions {
+                max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+                ..IngestOptions::default()
+            };
+            (Some(ingest::read(c, &fit_read)?), None, rig)
         }
         None => {
             let b = ingest::read(&args.sweep, &IngestOptions::default())?;
@@ -162,6 +167,12 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             (None, Some(b), rig)
         }
     };
+    // The fit and the figure read the characteristic log's common grid
+    // only: its channels as recorded go.
+    let char_run = char_run.map(|mut run| {
+        run.channels = Vec::new();
+        run
+    });
     let mut t_ingest = clock.elapsed().as_secs_f64();
     let characteristic = args
         .characteristic
