@@ -56,10 +56,20 @@ pub struct ValidateArgs {
     pub json: bool,
 }
 
-/// Reads two logs in parallel.
-pub(crate) fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
+/// How the characteristic log is read: one too long to fit is refused
+/// before it is decoded.
+fn fit_read() -> IngestOptions {
+    IngestOptions {
+        max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+        ..IngestOptions::default()
+    }
+}
+
+/// Reads the characteristic log `a` (as [`fit_read`]) and the sweep `b`
+/// in parallel.
+fn read_pair(a: &Path, b: &Path) -> crate::Result<(Run, Run)> {
     let (ra, rb) = rayon::join(
-        || ingest::read(a, &IngestOptions::default()),
+        || ingest::read(a, &fit_read()),
         || ingest::read(b, &IngestOptions::default()),
     );
     Ok((ra?, rb?))
@@ -154,12 +164,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         }
         Some(c) => {
             let rig = ingest::read(&args.sweep, &IngestOptions::default())?.rig;
-            // A log too long to fit is refused before it is decoded.
-            let fit_read = IngestOptions {
-                max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
-                ..IngestOptions::default()
-            };
-            (Some(ingest::read(c, &fit_read)?), None, rig)
+            (Some(ingest::read(c, &fit_read())?), None, rig)
         }
         None => {
             let b = ingest::read(&args.sweep, &IngestOptions::default())?;
