@@ -148,13 +148,10 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
     // Both logs are read at once where their planned memory fits the
     // budget together; otherwise the sweep is read for its rig, let go,
     // and read again once the characteristic log is fitted and let go.
-    let together = args.characteristic.as_deref().is_none_or(|c| {
+    let together = args.characteristic.as_ref().is_none_or(|c| {
         let budget = IdentifyOptions::default().memory_bytes;
-        let planned = |p: &Path| {
-            let n = ingest::planned_samples(p, &IngestOptions::default());
-            crate::limits::planned_fit_bytes(n, budget)
-        };
-        planned(c).saturating_add(planned(&args.sweep)) <= budget
+        let planned = identify::planned_fit_memory(&[c.clone(), args.sweep.clone()], budget);
+        planned.iter().fold(0u64, |a, &b| a.saturating_add(b)) <= budget
     });
     let (char_run, sweep_run, sweep_rig) = match &args.characteristic {
         Some(c) if together => {

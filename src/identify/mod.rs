@@ -680,18 +680,7 @@ pub fn fit_logs(
         ..Default::default()
     };
     let budget = opts.memory_bytes;
-    // One log gets the whole budget whatever its size: nothing to count.
-    let planned: Vec<u64> = if paths.len() == 1 {
-        vec![0]
-    } else {
-        paths
-            .iter()
-            .map(|p| {
-                let n = crate::ingest::planned_samples(p, &ingest);
-                crate::limits::planned_fit_bytes(n, budget)
-            })
-            .collect()
-    };
+    let planned = planned_fit_memory(paths, budget);
     in_rounds(&planned, budget, opts, |i, o| {
         let p = &paths[i];
         let r = guarded(p, || {
@@ -705,6 +694,28 @@ pub fn fit_logs(
         tick();
         r
     })
+}
+
+/// The planned memory of fitting each log of `paths` within `budget`
+/// ([`crate::limits::planned_fit_bytes`] of its samples, counted before it
+/// is decoded by [`crate::ingest::planned_samples`], one log at a time).
+/// A single log gets the whole budget whatever its size: nothing is
+/// counted (0).
+pub fn planned_fit_memory(paths: &[PathBuf], budget: u64) -> Vec<u64> {
+    if paths.len() <= 1 {
+        return vec![0; paths.len()];
+    }
+    let ingest = crate::ingest::IngestOptions {
+        max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
+        ..Default::default()
+    };
+    paths
+        .iter()
+        .map(|p| {
+            let n = crate::ingest::planned_samples(p, &ingest);
+            crate::limits::planned_fit_bytes(n, budget)
+        })
+        .collect()
 }
 
 /// Fits logs already read, in parallel, panic-guarded and in rounds that

@@ -167,21 +167,7 @@ pub fn fit_characteristic_logs(
     tick: &(dyn Fn() + Sync),
 ) -> crate::Result<Vec<crate::Result<(RigMeta, crate::identify::LogFit)>>> {
     let budget = opts.memory_bytes;
-    let planned: Vec<u64> = if paths.len() <= 1 {
-        vec![0; paths.len()]
-    } else {
-        let ingest = crate::ingest::IngestOptions {
-            max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
-            ..Default::default()
-        };
-        paths
-            .iter()
-            .map(|p| {
-                let n = crate::ingest::planned_samples(p, &ingest);
-                crate::limits::planned_fit_bytes(n, budget)
-            })
-            .collect()
-    };
+    let planned = crate::identify::planned_fit_memory(paths, budget);
     let rounds = crate::limits::rounds(&planned, budget);
     if rounds.len() <= 1 {
         let runs = read_characteristic_logs(paths)?;

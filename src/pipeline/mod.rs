@@ -310,16 +310,7 @@ pub fn run(plan: &Plan, opts: &Options, progress: &dyn Progress) -> crate::Resul
     // does; a log of unknown length plans the whole budget), the logs of a
     // round in parallel, then fitted: long logs are not all held at once.
     let budget = IdentifyOptions::default().memory_bytes;
-    let planned: Vec<u64> = if logs.len() == 1 {
-        vec![0]
-    } else {
-        logs.iter()
-            .map(|p| {
-                let n = ingest::planned_samples(p, &IngestOptions::default());
-                crate::limits::planned_fit_bytes(n, budget)
-            })
-            .collect()
-    };
+    let planned = identify::planned_fit_memory(&logs, budget);
     let mut records: BTreeMap<PathBuf, crate::Result<LogRecord>> = BTreeMap::new();
     let mut fits: BTreeMap<PathBuf, crate::Result<LogFit>> = BTreeMap::new();
     let mut figure_errors: Vec<String> = Vec::new();
