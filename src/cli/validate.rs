@@ -268,13 +268,14 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             version: env!("CARGO_PKG_VERSION").into(),
             command: std::env::args().collect::<Vec<_>>().join(" "),
             summary: vec![],
-            warnings: match had_char {
-                true => vec![],
-                false => vec![format!(
+            warnings: if had_char {
+                vec![]
+            } else {
+                vec![format!(
                     "the fit of {} is from {}; give --characteristic to draw its characteristic",
                     characteristic.display(),
                     args.fit.as_deref().unwrap_or(Path::new("?")).display()
-                )],
+                )]
             },
             batch: None,
             validations: vec![section],
