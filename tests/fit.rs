@@ -14,7 +14,7 @@
 
 mod common;
 
-use common::{bin, data, f, json_of, truth};
+use common::{bin, data, f, json_of, truth, without_seconds};
 use serde_json::Value;
 use std::process::Command;
 use std::sync::OnceLock;
@@ -500,18 +500,6 @@ fn law_names_are_the_contract_spelling() {
     );
     let v: Value = serde_json::from_slice(&res.stdout).unwrap();
     assert_eq!(v["fits"][0]["law"], "coulomb");
-}
-
-/// Drops wall-time keys (`seconds`, `stage_seconds`, …) from a JSON value.
-fn without_seconds(v: &mut Value) {
-    match v {
-        Value::Object(m) => {
-            m.retain(|k, _| !k.contains("seconds"));
-            m.values_mut().for_each(without_seconds);
-        }
-        Value::Array(a) => a.iter_mut().for_each(without_seconds),
-        _ => {}
-    }
 }
 
 /// The output-error refinement simulates a log's segments in parallel and

@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{bin, data};
+use common::{bin, data, without_seconds};
 use serde_json::Value;
 
 #[test]
@@ -79,24 +79,11 @@ fn a_sweep_read_again_validates_as_one_kept() {
             .values()
             .all(|l| l.as_ref().unwrap().figure.is_none()));
         let mut v = report.to_json(&plan, &plan_path);
-        drop_wall_times(&mut v);
+        without_seconds(&mut v);
         v
     };
     let kept = json_of(true);
     let read_again = json_of(false);
     assert!(kept["validations"][0].get("error").is_none(), "{kept}");
     assert_eq!(kept, read_again);
-}
-
-/// Drops the wall-time keys (`seconds`, `stage_seconds`) from a JSON value.
-fn drop_wall_times(v: &mut Value) {
-    match v {
-        Value::Object(m) => {
-            m.remove("seconds");
-            m.remove("stage_seconds");
-            m.values_mut().for_each(drop_wall_times);
-        }
-        Value::Array(a) => a.iter_mut().for_each(drop_wall_times),
-        _ => {}
-    }
 }

@@ -100,3 +100,15 @@ pub const STUDY_RIG: [&str; 14] = [
     "--normal-force",
     "2.0",
 ];
+
+/// Drops wall-time keys (`seconds`, `stage_seconds`, …) from a JSON value.
+pub fn without_seconds(v: &mut Value) {
+    match v {
+        Value::Object(m) => {
+            m.retain(|k, _| !k.contains("seconds"));
+            m.values_mut().for_each(without_seconds);
+        }
+        Value::Array(a) => a.iter_mut().for_each(without_seconds),
+        _ => {}
+    }
+}
