@@ -577,15 +577,23 @@ fn study_case(rig: TestRig, defect: &str, seed: u64, dir: &Path) -> Case {
 }
 
 fn study(defect: &str) {
+    // STUDY_FROM..=STUDY_N, STUDY_CASE (A or B) and STUDY_DIR (kept logs)
+    // look at one case again.
     let n: u64 = env_or("STUDY_N", 20);
-    let dir = tempfile::tempdir().unwrap();
+    let from: u64 = env_or("STUDY_FROM", 1);
+    let only = std::env::var("STUDY_CASE").unwrap_or_default();
+    let tmp = tempfile::tempdir().unwrap();
+    let kept = std::env::var_os("STUDY_DIR").filter(|d| !d.is_empty());
+    let dir = kept.as_deref().map_or(tmp.path(), Path::new);
     for rig in [RIG_A, RIG_B] {
-        let seeds: Vec<u64> = (1..=n).collect();
+        if !rig.name.starts_with(only.as_str()) {
+            continue;
+        }
+        let seeds: Vec<u64> = (from..=n).collect();
         let cases: Vec<Case> = std::thread::scope(|s| {
             let handles: Vec<_> = seeds
                 .chunks(seeds.len().div_ceil(2).max(1))
                 .map(|chunk| {
-                    let dir = dir.path();
                     s.spawn(move || {
                         chunk
                             .iter()

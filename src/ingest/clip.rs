@@ -36,7 +36,7 @@
 //! value carries noise (noise added after the saturating stage) is not
 //! detected: the test relies on the rail value being constant.
 
-use super::{Quantity, Run};
+use super::{Channel, Quantity, Resampled, Run};
 
 /// Fewest samples of a flat run at the extreme that can be saturation.
 pub const MIN_RUN: usize = 3;
@@ -230,49 +230,39 @@ fn saturated(
     judged > 0
 }
 
-/// Finds the saturated channels of `run`, sets their saturated samples and
-/// the grid rows interpolated from them to NaN, and adds one warning per
-/// saturated side. Returns what it found.
-pub fn apply(run: &mut Run) -> Vec<Clipped> {
+/// Finds the saturated runs of every motion channel (the normal force is
+/// a static level, not tested), blanks their samples (NaN) and returns
+/// them with the index of their channel. Called before anything reads the
+/// channels (the delay estimation included), so no estimate sees a rail
+/// value as a measurement.
+pub(crate) fn mark(channels: &mut [Channel]) -> Vec<(usize, Clipped)> {
     let mut found = Vec::new();
-    for ci in 0..run.channels.len() {
-        let c = &run.channels[ci];
+    for (ci, c) in channels.iter_mut().enumerate() {
         if c.quantity == Quantity::NormalForce {
             continue;
         }
-        let dt = 1.0 / c.rate_hz;
-        let clipped = detect(c.quantity, &c.t, &c.v, dt);
-        if clipped.is_empty() {
-            continue;
-        }
-        // Grid rows strictly between the valid samples around each run.
-        let mut spans = Vec::new();
-        {
-            let c = &run.channels[ci];
-            for cl in &clipped {
-                for &(i0, i1) in &cl.runs {
-                    let lo = if i0 > 0 {
-                        c.t[i0 - 1]
-                    } else {
-                        f64::NEG_INFINITY
-                    };
-                    let hi = c.t.get(i1 + 1).copied().unwrap_or(f64::INFINITY);
-                    spans.push((lo, hi));
-                }
-            }
-        }
-        let q = run.channels[ci].quantity;
-        let c = &mut run.channels[ci];
-        for cl in &clipped {
+        let clipped = detect(c.quantity, &c.t, &c.v, 1.0 / c.rate_hz);
+        for cl in clipped {
             for &(i0, i1) in &cl.runs {
                 for x in &mut c.v[i0..=i1] {
                     *x = f64::NAN;
                 }
             }
+            found.push((ci, cl));
         }
-        let grid_t = run.resampled.t.clone();
-        let rs = &mut run.resampled;
-        let col: Option<&mut [f64]> = match q {
+    }
+    found
+}
+
+/// Blanks (NaN) the grid rows strictly between the valid samples around
+/// each clipped run of `found` (the runs [`mark`] returned for these
+/// channels): the interpolation would otherwise bridge a short run. Called
+/// again whenever the grid is rebuilt (channels re-stamped by a delay).
+pub(crate) fn blank_grid(channels: &[Channel], found: &[(usize, Clipped)], rs: &mut Resampled) {
+    for (ci, cl) in found {
+        let c = &channels[*ci];
+        let grid_t = rs.t.clone();
+        let col: Option<&mut [f64]> = match c.quantity {
             Quantity::X0 => Some(&mut rs.x0),
             Quantity::X1 => Some(std::sync::Arc::make_mut(&mut rs.x1)),
             Quantity::X2 => Some(std::sync::Arc::make_mut(&mut rs.x2)),
@@ -280,23 +270,36 @@ pub fn apply(run: &mut Run) -> Vec<Clipped> {
             Quantity::A2 => rs.a2.as_deref_mut(),
             Quantity::NormalForce => None,
         };
-        if let Some(col) = col {
-            for (lo, hi) in spans {
-                let start = grid_t.partition_point(|t| *t <= lo);
-                for r in start..grid_t.len() {
-                    if grid_t[r] >= hi {
-                        break;
-                    }
-                    col[r] = f64::NAN;
+        let Some(col) = col else { continue };
+        for &(i0, i1) in &cl.runs {
+            let lo = if i0 > 0 {
+                c.t[i0 - 1]
+            } else {
+                f64::NEG_INFINITY
+            };
+            let hi = c.t.get(i1 + 1).copied().unwrap_or(f64::INFINITY);
+            let start = grid_t.partition_point(|t| *t <= lo);
+            for r in start..grid_t.len() {
+                if grid_t[r] >= hi {
+                    break;
                 }
+                col[r] = f64::NAN;
             }
         }
-        for cl in &clipped {
-            run.warnings.push(cl.warning());
-        }
-        found.extend(clipped);
     }
-    found
+}
+
+/// Detects saturation in every motion channel of `run`, blanks the clipped
+/// samples and the grid rows between their neighbours, adds a warning per
+/// clipped side and returns what it found. `ingest::read` does this before
+/// estimating the channel delays; a run it returned has nothing left to
+/// find (its rail samples are already NaN).
+pub fn apply(run: &mut Run) -> Vec<Clipped> {
+    let found = mark(&mut run.channels);
+    blank_grid(&run.channels, &found, &mut run.resampled);
+    run.warnings
+        .extend(found.iter().map(|(_, cl)| cl.warning()));
+    found.into_iter().map(|(_, cl)| cl).collect()
 }
 
 #[cfg(test)]

@@ -516,7 +516,7 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
     if opts.map.is_some() && !format.needs_map() {
         raw.warnings.push(crate::warning::Warning::MapIgnored);
     }
-    let mut run = run::build(path, raw)?;
+    let run = run::build(path, raw)?;
     check_signal(path, &run)?;
     // Rig constants the engines cannot integrate (fit, validate and batch
     // simulate the rig): refused with the numbers.
@@ -525,7 +525,6 @@ pub fn read(path: &Path, opts: &IngestOptions) -> Result<Run, IngestError> {
         .constants()
         .check_integrable(drive_hz)
         .map_err(|e| IngestError::content(path, e.into()))?;
-    clip::apply(&mut run);
     Ok(run)
 }
 

@@ -286,7 +286,11 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         s.t_s -= origin;
     }
     setpoints.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    // Saturated runs are blanked before anything reads the channels: a
+    // rail value taken for a measurement biases the delay estimation.
+    let clipped = super::clip::mark(&mut out_channels);
     let mut resampled = resample(path, &out_channels, &setpoints)?;
+    super::clip::blank_grid(&out_channels, &clipped, &mut resampled);
     let delays = align_channels(
         path,
         &rig,
@@ -295,6 +299,7 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
         &declared_shifts,
         &mut warnings,
     )?;
+    super::clip::blank_grid(&out_channels, &clipped, &mut resampled);
     let has_acceleration = resampled.a2.is_some();
     for c in &out_channels {
         let bad = c.dropouts;
@@ -306,6 +311,7 @@ pub(crate) fn build(path: &Path, raw: RawLog) -> Result<Run, IngestError> {
             });
         }
     }
+    warnings.extend(clipped.iter().map(|(_, cl)| cl.warning()));
     Ok(Run {
         source: path.to_path_buf(),
         format,
