@@ -1,8 +1,10 @@
 //! Shared statistics, one implementation each: distribution quantiles
 //! (statrs), sample medians and quantiles, the robust σ, the one seeded
-//! random number generator ([`Rng`]) and the one line search
-//! ([`golden_section`], argmin's).
+//! random number generator ([`Rng`]), the one line search
+//! ([`golden_section`], argmin's) and cluster-robust least squares on
+//! smoothed signals ([`regress`]).
 
+pub mod regress;
 mod rng;
 
 use argmin::core::{CostFunction, Executor};
