@@ -251,6 +251,7 @@ struct FitOut<'a> {
     kt_interval_n_per_m: Iv,
     contact_stiffness_lower_bound: Option<f64>,
     pad_screen: &'a super::pads::PadScreen,
+    spring_screen: Option<&'a super::springs::SpringScreen>,
 }
 
 impl LogFit {
@@ -432,6 +433,7 @@ impl LogFit {
                 .map(|(l, h)| (l * self.k2_n_per_m(), h * self.k2_n_per_m()))),
             contact_stiffness_lower_bound: self.contact_stiffness_lower_bound(),
             pad_screen: &self.pad_screen,
+            spring_screen: self.spring_screen.as_ref(),
         };
         crate::io::json::to_value(out)
     }

@@ -144,6 +144,7 @@ pub mod pads;
 pub mod positions;
 pub mod segment;
 pub mod smooth;
+pub mod springs;
 
 pub use crate::error::IdentifyError;
 use crate::model::{LawKind, SiLaw};
@@ -455,6 +456,10 @@ pub struct LogFit {
     /// The real-pad screen (direction dependence, contact compliance).
     #[serde(default)]
     pub pad_screen: pads::PadScreen,
+    /// The coupling spring's linearity by M1's equation (`None` where it
+    /// cannot be measured; a nonlinear spring is a contradiction).
+    #[serde(default)]
+    pub spring_screen: Option<springs::SpringScreen>,
 }
 
 /// What a log measured of its friction law.
@@ -1229,6 +1234,17 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
     };
     let (mut output_error, no_stick) = refine(run, &base, &mut ef, opts, hints, &mut warnings);
     let mut contradictions = Vec::new();
+    // The model's springs are linear: a coupling spring that is not makes
+    // the fit inadequate whatever its residuals (the law absorbs it).
+    let spring_screen = springs::SpringScreen::of(&run.resampled, rig);
+    if let Some(s) = spring_screen.filter(|s| s.flagged) {
+        contradictions.push(Warning::NonlinearSpring {
+            change: s.stiffness_change,
+            interval: s.interval,
+            z: s.z,
+            max_stretch_m: s.max_stretch_m,
+        });
+    }
     if let Some(o) = output_error.as_ref() {
         warnings.extend(o.notes.iter().cloned());
     }
@@ -1407,6 +1423,7 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
         untested,
         fit: ef,
         pad_screen,
+        spring_screen,
     })
 }
 

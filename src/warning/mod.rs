@@ -81,6 +81,7 @@ pub const CODES: &[&str] = &[
     "parsimony",
     "direction_dependent",
     "contact_compliance",
+    "nonlinear_spring",
     "untested",
     "inadequate",
     "normal_force",
@@ -450,6 +451,18 @@ pub enum Warning {
         /// behind the spring (Rs ≥ Rd only).
         threshold_unresolved: bool,
     },
+    /// M1's equation shows a coupling spring that is not linear (the
+    /// model's is): the fit is not adequate, whatever its residuals.
+    NonlinearSpring {
+        /// Stiffness change at the largest stretch (fraction of K2).
+        change: f64,
+        /// Its 95 % interval.
+        interval: (f64, f64),
+        /// The change over its standard error.
+        z: f64,
+        /// The largest stretch x1 − x2 (m).
+        max_stretch_m: f64,
+    },
     /// A family's extra parameter is consistent with Coulomb: Coulomb chosen.
     NestedCoulomb {
         /// The family set aside.
@@ -764,6 +777,7 @@ impl Warning {
             PadRefinementFailed { .. } => "refinement_failed",
             DirectionDependent { .. } | DirectionBounded { .. } => "direction_dependent",
             ContactCompliance { .. } => "contact_compliance",
+            NonlinearSpring { .. } => "nonlinear_spring",
             Untested { .. } => "untested",
             Inadequate { .. } => "inadequate",
             NormalForceNegative { .. } | NormalForceZero | LogNormalForceZero { .. } => {
@@ -1298,6 +1312,12 @@ mod tests {
                 ),
             ),
             (
+                NonlinearSpring { change: 0.075, interval: (0.049, 0.101), z: 5.8, max_stretch_m: 2.2e-3 },
+                "the coupling spring is not linear: by M1's equation of motion (friction-free) its stiffness changes by +7.5 % [+4.9, +10.1] (z 5.8) at the largest stretch x1 − x2 of 2.200 mm; \
+                 the model's springs are linear, so the fitted law absorbs the difference (adequate: false)"
+                    .to_string(),
+            ),
+            (
                 ContactCompliance { kappa: 20.0, interval: (15.0, 27.0), kt_n_per_m: 13400.0, presliding_m: 4e-5, threshold_unresolved: true },
                 format!(
                     "the contact is compliant (pre-sliding): κ = kt/K2 = {:.3} [{:.3}, {:.3}], kt = {:.0} N/m, up to {:.1} µm before sliding{}",
@@ -1528,7 +1548,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 79;
+    const VARIANTS: usize = 80;
 
     #[test]
     fn every_code_is_documented() {

@@ -53,6 +53,7 @@ impl fmt::Display for Warning {
             | DirectionDependent { .. }
             | DirectionBounded { .. }
             | ContactCompliance { .. }
+            | NonlinearSpring { .. }
             | Untested { .. }
             | Inadequate { .. } => fmt_refinement(self, f),
             NormalForceNegative { .. }
@@ -440,6 +441,21 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             } else {
                 ""
             }
+        ),
+        NonlinearSpring {
+            change,
+            interval,
+            z,
+            max_stretch_m,
+        } => write!(
+            f,
+            "the coupling spring is not linear: by M1's equation of motion (friction-free) its stiffness changes by {:+.1} % [{:+.1}, {:+.1}] (z {:.1}) at the largest stretch x1 − x2 of {:.3} mm; \
+             the model's springs are linear, so the fitted law absorbs the difference (adequate: false)",
+            100.0 * change,
+            100.0 * interval.0,
+            100.0 * interval.1,
+            z,
+            max_stretch_m * 1e3
         ),
         NestedCoulomb { law } => write!(
             f,
