@@ -211,11 +211,7 @@ pub(crate) mod ext {
 
 /// Writes a JSON result to `path` (pretty, atomically: `--out`).
 pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> crate::Result<()> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| crate::Error::Input {
-        path: path.to_path_buf(),
-        msg: e.to_string(),
-    })?;
-    crate::io::write_atomic(path, text.as_bytes())
+    crate::io::json::write_pretty(path, value)
 }
 
 /// Prints one JSON object on stdout (non-finite numbers become `null`).
