@@ -209,11 +209,6 @@ pub(crate) mod ext {
     pub const FIGURE: &[&str] = &["svg", "png"];
 }
 
-/// Writes a JSON result to `path` (pretty, atomically: `--out`).
-pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> crate::Result<()> {
-    crate::io::json::write_pretty(path, value)
-}
-
 /// Prints one JSON object on stdout (non-finite numbers become `null`).
 /// A closed stdout (e.g. `| head`) is not an error of the job; any other
 /// write error (a full disk) is, and fails the command before its outputs

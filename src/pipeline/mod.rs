@@ -21,6 +21,10 @@
 
 pub mod batch;
 pub mod checks;
+pub mod fit;
+pub mod job;
+pub mod merge;
+pub mod sweep;
 pub mod validate;
 
 use crate::batch::{self as vb, Batch};
@@ -218,6 +222,9 @@ pub trait Progress: Sync {
     /// One line for a person (e.g. `reading logs`, `report: …`); a quiet
     /// display (`--json`) drops it.
     fn say(&self, _line: &str) {}
+    /// A failure that does not stop the job (a log that could not be
+    /// fitted), said where it happens; every display shows it.
+    fn error(&self, _line: &str) {}
 }
 
 /// No progress display.
