@@ -18,6 +18,12 @@
 //! compares in parallel. A log that fails keeps its error in the
 //! [`PipelineReport`] and the rest completes; results do not depend on the
 //! thread count.
+//!
+//! Every command's work is a typed job here, run by one door that reports
+//! through [`Progress`] and writes through the write transaction
+//! ([`crate::io::txn`]): [`job::run_job`] (a plan, with its report),
+//! [`validate::run_validate`], [`batch::run_batch`], [`sweep::run_sweep`],
+//! [`merge::run_merge`] and [`fit::run_fit`], each with its JSON object.
 
 pub mod batch;
 pub mod checks;
