@@ -209,15 +209,6 @@ pub(crate) mod ext {
     pub const FIGURE: &[&str] = &["svg", "png"];
 }
 
-/// Writes a JSON result to `path` (pretty, atomically: `--out`).
-pub(crate) fn write_json(path: &std::path::Path, value: &serde_json::Value) -> crate::Result<()> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| crate::Error::Input {
-        path: path.to_path_buf(),
-        msg: e.to_string(),
-    })?;
-    crate::io::write_atomic(path, text.as_bytes())
-}
-
 /// Prints one JSON object on stdout (non-finite numbers become `null`).
 /// A closed stdout (e.g. `| head`) is not an error of the job; any other
 /// write error (a full disk) is, and fails the command before its outputs

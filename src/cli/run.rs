@@ -1,13 +1,14 @@
 //! `stickslip run PLAN.toml`: the whole pipeline on an experiment plan
 //! (ingest → fit → validate → batch) with one HTML report; the plan format
-//! and the work are [`crate::pipeline`]'s. This module parses, shows
-//! progress and prints. A log that fails gives its `error:` line and the
-//! rest completes (exit 1 at the end).
+//! and the work are [`crate::pipeline`]'s ([`crate::pipeline::job`]). This
+//! module parses, checks the paths, shows progress and prints. A log that
+//! fails gives its `error:` line and the rest completes (exit 1 at the
+//! end).
 
+use crate::pipeline::job::{run_job, RunJob};
 use crate::pipeline::{self, Plan, Progress};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde_json::json;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -40,15 +41,27 @@ pub struct RunArgs {
     pub json: bool,
 }
 
-/// The pipeline's progress on an indicatif bar.
-struct Bar(ProgressBar);
+/// The pipeline's progress on an indicatif bar; its lines on stderr
+/// (without `--json`).
+struct Bar {
+    bar: ProgressBar,
+    json: bool,
+}
 
 impl Progress for Bar {
     fn stage(&self, what: &str) {
-        self.0.set_message(what.to_string());
+        self.bar.set_message(what.to_string());
     }
     fn advance(&self, n: u64) {
-        self.0.inc(n);
+        self.bar.inc(n);
+    }
+    fn done(&self) {
+        self.bar.finish_and_clear();
+    }
+    fn say(&self, line: &str) {
+        if !self.json {
+            eprintln!("{line}");
+        }
     }
 }
 
@@ -76,54 +89,39 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
     } else {
         ProgressBar::hidden()
     };
-    let opts = pipeline::Options {
-        samples: args.samples,
-        band_coverage_se: args.band_coverage_se,
-        allow_mixed_rigs: args.allow_mixed_rigs,
-        figures: args.report.is_some(),
-        ..pipeline::Options::default()
+    let job = RunJob {
+        options: pipeline::Options {
+            samples: args.samples,
+            band_coverage_se: args.band_coverage_se,
+            allow_mixed_rigs: args.allow_mixed_rigs,
+            figures: args.report.is_some(),
+            ..pipeline::Options::default()
+        },
+        plan,
+        plan_path: args.plan,
+        report: args.report,
+        out: args.out,
+        command: std::env::args().collect::<Vec<_>>().join(" "),
     };
-    let result = pipeline::run(&plan, &opts, &Bar(bar.clone()));
-    bar.finish_and_clear();
-    let report = result?;
-    for e in &report.errors {
+    let done = run_job(
+        &job,
+        &Bar {
+            bar,
+            json: args.json,
+        },
+    )?;
+    for e in &done.report.errors {
         eprintln!("error: {e}");
     }
-    let mut out = report.to_json(&plan, &args.plan);
-    let mut stages = report.seconds.clone();
-    if !report.errors.is_empty() {
-        out["stage_seconds"] = crate::io::json::to_value(&stages);
-        // A failed command writes no file: print what there is, then fail.
-        out["seconds"] = json!(t0.elapsed().as_secs_f64());
-        if args.json {
-            super::print_json(&out)?;
-        }
-        return Err(crate::Error::Failed {
-            what: format!(
-                "{} step(s) of the plan failed (listed above)",
-                report.errors.len()
-            ),
-        });
-    }
-    if let Some(dir) = &args.report {
-        let command = std::env::args().collect::<Vec<_>>().join(" ");
-        let clock = Instant::now();
-        let index = report.write_report(&plan, &args.plan, dir, &command)?;
-        stages.report = clock.elapsed().as_secs_f64();
-        out["report"] = json!(index.display().to_string());
-        if !args.json {
-            eprintln!("report: {}", index.display());
-        }
-    }
-    out["stage_seconds"] = crate::io::json::to_value(&stages);
-    out["seconds"] = json!(t0.elapsed().as_secs_f64());
-    if let Some(path) = &args.out {
-        super::write_json(path, &out)?;
-    }
     if args.json {
-        super::print_json(&out)?;
-    } else {
-        let t = &stages;
+        super::print_json(&crate::io::json::to_value(&done.json))?;
+    }
+    if let Some(e) = done.failure {
+        // A failed command writes no file: what there is was printed.
+        return Err(e);
+    }
+    if !args.json {
+        let t = &done.json.stage_seconds;
         eprintln!(
             "done in {:.1} s (ingest {:.1} s, fit {:.1} s, then {:.1} s side by side: validate {:.1} s and batch {:.1} s; report {:.1} s)",
             t0.elapsed().as_secs_f64(),

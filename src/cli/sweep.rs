@@ -1,12 +1,11 @@
 //! `stickslip sweep`: frequency-response curves and families (paper
 //! Figs. 3–5), in parallel, with tables, figures and sharding for large
-//! studies.
+//! studies. The work is [`crate::pipeline::sweep`]'s job; this module
+//! parses the curves, checks the paths, shows progress and prints.
 
 use super::args::ShapeArgs;
 use crate::io::Output;
-use crate::report::frc_json::{self, SweepJson};
-use crate::report::plot;
-use crate::report::table::{self, FrcRow};
+use crate::pipeline::sweep::{parse_shard, refuse_replacing_other, run_sweep, SweepJob};
 use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
 use crate::sim::SimError;
 use clap::{Args, ValueEnum};
@@ -96,41 +95,6 @@ fn bad(msg: String) -> crate::Error {
     SimError::Unsupported(msg).into()
 }
 
-/// Refuses to replace an existing `--out` file that is not a sweep table
-/// (a rig log, say) unless `force`, as `synth` refuses to replace a log.
-pub(crate) fn refuse_replacing_other(out: &std::path::Path, force: bool) -> crate::Result<()> {
-    let exists = std::fs::metadata(out).is_ok_and(|m| m.is_file());
-    if exists && !force && !table::is_sweep_table(out) {
-        return Err(crate::Error::Input {
-            path: out.to_path_buf(),
-            msg: "exists and is not a sweep table (a rig log?): --out does not replace it without --force".into(),
-        });
-    }
-    Ok(())
-}
-
-/// Parses `K/N` (1 ≤ K ≤ N).
-pub fn parse_shard(s: &str) -> crate::Result<Shard> {
-    let parts: Vec<&str> = s.split('/').collect();
-    let nums: Option<(usize, usize)> = match parts.as_slice() {
-        [a, b] => a.trim().parse().ok().zip(b.trim().parse().ok()),
-        _ => None,
-    };
-    match nums {
-        Some((_, n)) if n as u64 > crate::io::budget::MAX_FAMILY_POINTS => Err(bad(format!(
-            "--shard {s}: {n} shards is more than there can be steady states in a family ({}); give N at most the number of work units",
-            crate::io::budget::MAX_FAMILY_POINTS
-        ))),
-        Some((k, n)) if n >= 1 && (1..=n).contains(&k) => Ok(Shard {
-            index: k - 1,
-            count: n,
-        }),
-        _ => Err(bad(format!(
-            "--shard must be K/N with 1 <= K <= N, got `{s}`"
-        ))),
-    }
-}
-
 fn parse_list(s: &str) -> crate::Result<Vec<f64>> {
     s.split(',')
         .map(|t| {
@@ -186,6 +150,22 @@ fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> 
     Ok(specs)
 }
 
+/// The family's progress on an indicatif bar.
+struct Bar(Option<indicatif::ProgressBar>);
+
+impl crate::pipeline::Progress for Bar {
+    fn advance(&self, n: u64) {
+        if let Some(b) = &self.0 {
+            b.inc(n);
+        }
+    }
+    fn done(&self) {
+        if let Some(b) = &self.0 {
+            b.finish_and_clear();
+        }
+    }
+}
+
 /// Runs `sweep`.
 pub fn run(args: SweepArgs) -> crate::Result<()> {
     let rhos = parse_list(&args.rho_s)?;
@@ -211,120 +191,47 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
         Some(s) => parse_shard(s)?,
         None => Shard::ALL,
     };
-    let specs = curve_specs(&args, &rhos)?;
-    crate::io::budget::check_family(specs.len() as u64, args.points as u64, shard.count as u64)
-        .map_err(|e| bad(e.to_string()))?;
-    let etas = sweep::eta_grid(args.eta_min, args.eta_max, args.points);
-    let cfg = SteadyConfig {
-        max_periods: args.max_periods,
-        early_stop: !args.no_early_stop,
-        ..SteadyConfig::default()
+    let job = SweepJob {
+        specs: curve_specs(&args, &rhos)?,
+        etas: sweep::eta_grid(args.eta_min, args.eta_max, args.points),
+        config: SteadyConfig {
+            max_periods: args.max_periods,
+            early_stop: !args.no_early_stop,
+            ..SteadyConfig::default()
+        },
+        shard,
+        shard_label: args.shard.clone(),
+        out: args.out.clone(),
+        force: args.force,
+        plot: args.plot.clone(),
+        title: args.title.clone(),
     };
-    let total: u64 = specs.len() as u64 * etas.len() as u64 / shard.count as u64;
-    let bar = if !args.json && std::io::stderr().is_terminal() {
-        let b = indicatif::ProgressBar::new(total.max(1));
+    let bar = (!args.json && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(job.steady_states().max(1));
         if let Ok(style) = indicatif::ProgressStyle::with_template(
             "{bar:40} {pos}/{len} steady states, {elapsed} elapsed, eta {eta}",
         ) {
             b.set_style(style);
         }
-        Some(b)
-    } else {
-        None
-    };
-    let start = std::time::Instant::now();
-    let rows = sweep::family(&specs, &etas, &cfg, shard, &|n| {
-        if let Some(b) = &bar {
-            b.inc(n);
-        }
-    })?;
-    if let Some(b) = &bar {
-        b.finish_and_clear();
-    }
-    let seconds = start.elapsed().as_secs_f64();
-    let table: Vec<FrcRow> = rows
-        .iter()
-        .map(|r| {
-            let s = &specs[r.curve];
-            let law = &s.model.law;
-            let v = &r.value;
-            FrcRow {
-                curve: r.curve as u32,
-                point: r.point as u32,
-                m: s.model.absorber.m,
-                k: s.model.absorber.k,
-                damping: s.model.absorber.damping,
-                rho_s: law.rho_s(),
-                rho_d: law.rho_d(),
-                slope: law.slope(),
-                v_s: law.v_s(),
-                stop_below: s.model.stop_below,
-                rho_s_minus: law.minus().map(|l| l.rho_s),
-                rho_d_minus: law.minus().map(|l| l.rho_d),
-                contact_stiffness: s.model.contact_stiffness,
-                direction: s.direction.as_str().to_string(),
-                eta: v.eta,
-                amplitude1: v.amplitude1,
-                amplitude2: v.amplitude2,
-                steady: v.steady,
-                period_multiple: v.period_multiple,
-                stick_fraction: v.stick_fraction,
-                interrupted: v.interrupted,
-                method: v.method.to_string(),
-                periods: v.periods,
-                coexisting: false,
-                range: v.range,
-            }
-        })
-        .collect();
-    let mut table = table;
-    table::mark_coexisting(&mut table);
-    if let Some(p) = &args.out {
-        let meta = table::TableMeta {
-            shard: shard.index + 1,
-            shards: shard.count,
-            curves: specs.len(),
-            points: etas.len(),
-        };
-        table::write_frc(&table, &meta, p)?;
-    }
-    if let Some(p) = &args.plot {
-        let title = args.title.clone().unwrap_or_else(|| default_title(&specs));
-        plot::frc(&frc_json::figure(&table, title), p)?;
-    }
+        b
+    });
+    let done = run_sweep(&job, &Bar(bar))?;
     if args.json {
-        super::print_json(&crate::io::json::to_value(SweepJson::of(
-            &table,
-            seconds,
-            args.shard.clone(),
-        )))?;
+        super::print_json(&crate::io::json::to_value(&done.json))?;
     } else {
+        let table = &done.table;
         let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
         let interrupted = table.iter().filter(|r| r.interrupted).count();
         let coexisting = table.iter().filter(|r| r.coexisting).count();
         eprintln!(
             "{} curves, {} steady states in {:.2} s ({} not settled, {} interrupted, {} where the branches settle to different stable states)",
-            specs.len(),
+            job.specs.len(),
             table.len(),
-            seconds,
+            done.seconds,
             not_steady,
             interrupted,
             coexisting
         );
     }
     Ok(())
-}
-
-fn default_title(specs: &[CurveSpec]) -> String {
-    match specs.first() {
-        Some(s) => {
-            let l = &s.model.law;
-            let mut t = format!("Frequency response, {} friction", l.name());
-            if l.slope() != 0.0 {
-                t += &format!(", D* = {}", l.slope());
-            }
-            t
-        }
-        None => "Frequency response".into(),
-    }
 }

@@ -1,6 +1,7 @@
 //! JSON number helpers shared by every output: a non-finite float is
 //! written as `null` (JSON has no NaN or infinity), an interval as a
-//! two-element list.
+//! two-element list; a result is written pretty and atomically
+//! ([`write_pretty`]).
 
 use serde_json::{json, Value};
 
@@ -51,4 +52,14 @@ impl serde::Serialize for Interval {
 /// abort the command.
 pub fn to_value<T: serde::Serialize>(out: T) -> Value {
     serde_json::to_value(out).unwrap_or_else(|e| json!({ "error": e.to_string() }))
+}
+
+/// Writes a JSON result to `path` (pretty, atomically, through the write
+/// transaction: `--out`).
+pub fn write_pretty(path: &std::path::Path, value: &Value) -> crate::Result<()> {
+    let text = serde_json::to_string_pretty(value).map_err(|e| crate::Error::Input {
+        path: path.to_path_buf(),
+        msg: e.to_string(),
+    })?;
+    super::write_atomic(path, text.as_bytes())
 }

@@ -18,15 +18,27 @@
 //! compares in parallel. A log that fails keeps its error in the
 //! [`PipelineReport`] and the rest completes; results do not depend on the
 //! thread count.
+//!
+//! Every command's work is a typed job here, run by one door that reports
+//! through [`Progress`] and writes through the write transaction
+//! ([`crate::io::txn`]): [`job::run_job`] (a plan, with its report),
+//! [`validate::run_validate`], [`batch::run_batch`], [`sweep::run_sweep`],
+//! [`merge::run_merge`] and [`fit::run_fit`], each with its JSON object.
 
+pub mod batch;
 pub mod checks;
+pub mod fit;
+pub mod job;
+pub mod merge;
+pub mod sweep;
+pub mod validate;
 
 use crate::batch::{self as vb, Batch};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, RigMeta, Run};
 use crate::report::characteristic_plot::CharacteristicPoints;
 use crate::report::{batch_plot, batch_view, html, sections, views};
-use crate::validate::{self, ValidateOptions, Validation};
+use crate::validate::{self as vd, ValidateOptions, Validation};
 use rayon::prelude::*;
 use serde::Deserialize;
 use serde_json::{json, Value};
@@ -198,12 +210,27 @@ impl Default for Options {
     }
 }
 
-/// Where [`run`] reports its progress (e.g. a progress bar).
+/// Where a job ([`run`], [`validate::run_validate`], [`batch::run_batch`],
+/// …) reports its progress (e.g. a progress bar) and the lines it has for
+/// a person.
 pub trait Progress: Sync {
     /// A new stage starts.
     fn stage(&self, _what: &str) {}
     /// `n` units of work (see [`Plan::steps`]) are done.
     fn advance(&self, _n: u64) {}
+    /// `n` more units of work are planned from here on (a job that learns
+    /// its work as it goes: the batch's worst-case grid once its logs are
+    /// fitted).
+    fn more(&self, _n: u64) {}
+    /// The work a display counts is done: it may go (the job's last lines
+    /// follow).
+    fn done(&self) {}
+    /// One line for a person (e.g. `reading logs`, `report: …`); a quiet
+    /// display (`--json`) drops it.
+    fn say(&self, _line: &str) {}
+    /// A failure that does not stop the job (a log that could not be
+    /// fitted), said where it happens; every display shows it.
+    fn error(&self, _line: &str) {}
 }
 
 /// No progress display.
@@ -532,7 +559,7 @@ fn validate_pair(
             &reread
         }
     };
-    validate::validate_fit(f, &pair.characteristic, &cr.rig, sweep, vopts)
+    vd::validate_fit(f, &pair.characteristic, &cr.rig, sweep, vopts)
 }
 
 /// The batch of the plan: its logs that were read and fitted, each test
