@@ -377,6 +377,24 @@ pub struct Intervals {
 /// A 95 % interval `[low, high]`.
 pub type Interval = (f64, f64);
 
+impl Intervals {
+    /// The friction levels' intervals (Rs, Rd, ρs, ρd) cut at zero: a
+    /// level is never negative, and an interval widened for an inadequate
+    /// law (or a never-sticking log's bounds) once reached below zero
+    /// (Rs in (−0.87, 0.99) N on a clipped rig-B log). The slope keeps its
+    /// sign.
+    pub fn levels_nonnegative(self) -> Self {
+        let cut = |iv: Option<Interval>| iv.map(|(lo, hi)| (lo.max(0.0), hi.max(0.0)));
+        Intervals {
+            rs_n: cut(self.rs_n),
+            rd_n: cut(self.rd_n),
+            rho_s: cut(self.rho_s),
+            rho_d: cut(self.rho_d),
+            ..self
+        }
+    }
+}
+
 /// The fitted law of one log with its 95 % intervals, in SI and
 /// dimensionless (ρ = R/(A·K2) with the measured A, D* = a/√(K2·M2)).
 ///
@@ -1336,10 +1354,15 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                     equation_error: ef.law.kind,
                 });
             }
+            let used = used.levels_nonnegative();
             o.intervals = used;
             (Estimate::OutputError, o.law, used)
         }
-        None => (Estimate::EquationError, ef.law, equation_error),
+        None => (
+            Estimate::EquationError,
+            ef.law,
+            equation_error.levels_nonnegative(),
+        ),
     };
     if estimate == Estimate::EquationError
         && ef.never_sticks
@@ -1431,6 +1454,26 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
 mod tests {
     use super::*;
     use crate::ingest::{IngestOptions, Quantity};
+
+    /// Levels' intervals are cut at zero; the slope's keeps its sign.
+    #[test]
+    fn levels_are_never_negative() {
+        let iv = Intervals {
+            rs_n: Some((-0.87, 0.99)),
+            rd_n: Some((-0.2, -0.1)),
+            slope_n_s_per_m: Some((-3.0, -1.0)),
+            rho_s: Some((-0.4, 0.5)),
+            rho_d: Some((0.1, 0.2)),
+            dstar: Some((-0.5, 0.1)),
+        }
+        .levels_nonnegative();
+        assert_eq!(iv.rs_n, Some((0.0, 0.99)));
+        assert_eq!(iv.rd_n, Some((0.0, 0.0)));
+        assert_eq!(iv.slope_n_s_per_m, Some((-3.0, -1.0)));
+        assert_eq!(iv.rho_s, Some((0.0, 0.5)));
+        assert_eq!(iv.rho_d, Some((0.1, 0.2)));
+        assert_eq!(iv.dstar, Some((-0.5, 0.1)));
+    }
 
     /// The calibration re-fit of one family gives what the full fit with
     /// that law forced reports, bit for bit: every family on a log that
