@@ -1044,6 +1044,73 @@ fn refine(
     (output_error, no_stick)
 }
 
+/// Identifiability of the threshold: a family the data hardly tell from
+/// the chosen one (ΔBIC below 10) that puts Rs outside its interval widens
+/// the interval to hold it (the union), with a warning; so does a Stribeck
+/// drop the log does not resolve (the lowest Rs its profile in v_s
+/// admits). Returns the intervals and, where Rs's was widened, the chosen
+/// law's own (Rs, ρs) intervals.
+fn threshold_identifiability(
+    o: &output_error::OutputErrorFit,
+    used: Intervals,
+    no_stick: bool,
+    warnings: &mut Vec<Warning>,
+) -> (Intervals, Option<(Interval, Option<Interval>)>) {
+    let mut widened = None;
+    let mut used = used;
+    if let (false, Some(iv)) = (no_stick, used.rs_n) {
+        let (mut lo, mut hi) = iv;
+        for f in o
+            .families
+            .iter()
+            .filter(|f| f.law.kind != o.chosen.law.kind)
+        {
+            let d = f.bic - o.chosen.bic;
+            let rs = f.law.rs_n;
+            if d < THRESHOLD_EVIDENCE_BIC && rs.is_finite() && !(lo..=hi).contains(&rs) {
+                warnings.push(Warning::ThresholdNotIdentified {
+                    other: f.law.kind,
+                    delta_bic: d,
+                    other_rs_n: rs,
+                    interval_n: iv,
+                });
+                lo = lo.min(rs);
+                hi = hi.max(rs);
+            }
+        }
+        // A Stribeck drop the log does not resolve: the lowest Rs
+        // the profile in v_s admits, with its interval.
+        if let Some(dp) = o.drop_profile {
+            if let (Some(rs), Some((a, _)), Some(vs), Some(vmax), Some(d)) = (
+                dp.rs_n,
+                dp.rs_interval_n,
+                dp.vs_m_per_s,
+                dp.vs_admitted_m_per_s,
+                dp.delta_bic,
+            ) {
+                if rs < iv.0 {
+                    let low = a.min(rs).min(lo);
+                    warnings.push(Warning::DropNotResolved {
+                        vs_m_per_s: vs,
+                        vs_admitted_m_per_s: vmax,
+                        delta_bic: d,
+                        other_rs_n: rs,
+                        interval_n: iv,
+                        low_n: low,
+                    });
+                    lo = low;
+                }
+            }
+        }
+        if (lo, hi) != iv && iv.0 > 0.0 && iv.1 > 0.0 {
+            widened = Some((iv, used.rho_s));
+            used.rs_n = Some((lo, hi));
+            used.rho_s = used.rho_s.map(|(l, h)| (l * lo / iv.0, h * hi / iv.1));
+        }
+    }
+    (used, widened)
+}
+
 /// The normal force (the channel's median, else the rig's constant) and
 /// the drive's η, with the warnings on a force that is negative or zero
 /// and on a drive whose amplitude or frequency disagrees with the metadata.
@@ -1292,61 +1359,8 @@ pub fn fit_log(run: &Run, opts: &IdentifyOptions) -> Result<LogFit> {
                 rho_d: iv.rho_d,
                 dstar: iv.dstar,
             };
-            // Identifiability of the threshold: a family the data hardly
-            // tell from the chosen one (ΔBIC below 10) that puts Rs
-            // outside its interval widens the interval to hold it (the
-            // union), with a warning.
-            let mut used = used;
-            if let (false, Some(iv)) = (no_stick, used.rs_n) {
-                let (mut lo, mut hi) = iv;
-                for f in o
-                    .families
-                    .iter()
-                    .filter(|f| f.law.kind != o.chosen.law.kind)
-                {
-                    let d = f.bic - o.chosen.bic;
-                    let rs = f.law.rs_n;
-                    if d < THRESHOLD_EVIDENCE_BIC && rs.is_finite() && !(lo..=hi).contains(&rs) {
-                        warnings.push(Warning::ThresholdNotIdentified {
-                            other: f.law.kind,
-                            delta_bic: d,
-                            other_rs_n: rs,
-                            interval_n: iv,
-                        });
-                        lo = lo.min(rs);
-                        hi = hi.max(rs);
-                    }
-                }
-                // A Stribeck drop the log does not resolve: the lowest Rs
-                // the profile in v_s admits, with its interval.
-                if let Some(dp) = o.drop_profile {
-                    if let (Some(rs), Some((a, _)), Some(vs), Some(vmax), Some(d)) = (
-                        dp.rs_n,
-                        dp.rs_interval_n,
-                        dp.vs_m_per_s,
-                        dp.vs_admitted_m_per_s,
-                        dp.delta_bic,
-                    ) {
-                        if rs < iv.0 {
-                            let low = a.min(rs).min(lo);
-                            warnings.push(Warning::DropNotResolved {
-                                vs_m_per_s: vs,
-                                vs_admitted_m_per_s: vmax,
-                                delta_bic: d,
-                                other_rs_n: rs,
-                                interval_n: iv,
-                                low_n: low,
-                            });
-                            lo = low;
-                        }
-                    }
-                }
-                if (lo, hi) != iv && iv.0 > 0.0 && iv.1 > 0.0 {
-                    law_threshold_interval = Some((iv, used.rho_s));
-                    used.rs_n = Some((lo, hi));
-                    used.rho_s = used.rho_s.map(|(l, h)| (l * lo / iv.0, h * hi / iv.1));
-                }
-            }
+            let (used, widened) = threshold_identifiability(o, used, no_stick, &mut warnings);
+            law_threshold_interval = widened;
             pad_warnings(o, k2, &mut warnings);
             if o.law.kind != ef.law.kind {
                 warnings.push(Warning::LawChanged {
