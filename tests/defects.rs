@@ -409,16 +409,40 @@ fn stroke_dependent_friction_is_flagged() {
     }
 }
 
-/// A hardening coupling spring is flagged on both rigs. Measured (session
-/// 16, adequacy limit 1.4): rig A flagged in 17 of 20 seeds (seed 1: x1
-/// 1.28, x2 1.48 times the noise), rig B in none: a Stribeck law with
-/// fitted position lags (about 0.2 and 0.85 ms) explains the positions to
-/// the noise (x1 0.97, x2 1.02) with Rs 8–9 % low; the ingest also reads a
-/// spurious x0 delay of 1.5 ms through M1's equation of motion. Only the
-/// accelerometer's residuals (reported, not counted) show it. Issue 30
-/// stays open for it.
+/// CI: a hardening coupling spring on rig A (5.3 % stiffer at its largest
+/// stretch) is flagged by the spring screen (M1's friction-free equation):
+/// `nonlinear_spring`, with an interval that holds the truth. Measured
+/// (session 26): 20 of 20 seeds, +5.5 … +5.8 % ± 0.9 %.
 #[test]
-#[ignore = "open (issue 30): a 5 % hardening spring on rig B is read as an adequate Stribeck law with fitted lags; see the doc comment"]
+fn hardening_spring_is_flagged_by_the_spring_screen() {
+    let dir = tempfile::tempdir().unwrap();
+    let case = cases()[0];
+    let mut cfg = config(&case, 1);
+    hardening(&mut cfg);
+    let (f, truth) = fit(&cfg, dir.path());
+    let want = truth["defects"]["hardening_stiffness_increase_at_max_stretch"]
+        .as_f64()
+        .expect("truth");
+    let s = f.spring_screen.expect("screened");
+    assert!(s.flagged, "{s:?}");
+    assert!(!f.adequate());
+    assert!(f.warnings.iter().any(|w| w.code() == "nonlinear_spring"));
+    assert!(
+        s.interval.0 <= want && want <= s.interval.1,
+        "{s:?} vs {want}"
+    );
+}
+
+/// A hardening coupling spring is flagged on both rigs. Rig A: see the
+/// test above. Rig B (12/2.5 kg, 4.4 % stiffer at the largest stretch): a
+/// Stribeck law with fitted position lags explains the positions to the
+/// noise (x1 0.97, x2 1.02) with Rs 8–9 % low, and the spring screen reads
+/// +0.4 … +7.7 % ± 2.2 % (z 0.2–3.6, flagged in 0 of 20 seeds): x1's noise
+/// (3 µm) through M1·ẍ1, with x2's lag against x1 free, leaves the screen
+/// short of z 4 (docs/measurements.md, session 26). Issue 30 stays open
+/// for it.
+#[test]
+#[ignore = "open (issue 30): a 4.4 % hardening spring on rig B is read as an adequate Stribeck law; the spring screen's z stays below 4; see the doc comment"]
 fn hardening_spring_is_flagged() {
     let dir = tempfile::tempdir().unwrap();
     for case in cases() {
