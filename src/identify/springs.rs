@@ -34,7 +34,7 @@
 
 use crate::ingest::{Resampled, RigMeta};
 use crate::stats::quantile;
-use crate::stats::regress::{deriv, gauss_smooth, ols};
+use crate::stats::regress::{deriv, gauss_smooth, ols, Scales};
 
 /// |z| from which a stiffness change counts (p ≈ 6e-5 under a linear
 /// spring).
@@ -44,9 +44,6 @@ pub const SPRING_Z: f64 = 4.0;
 /// counts: a real spring is never exactly linear, and a smaller change
 /// moves the fitted levels by less than their calibration budget.
 pub const MIN_STIFFNESS_CHANGE: f64 = 0.03;
-
-/// Filter width in drive periods (the delay estimator's).
-const SMOOTH_SIGMA_PERIODS: f64 = 1.0 / 40.0;
 
 /// The coupling spring's linearity by M1's equation.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -74,13 +71,8 @@ impl SpringScreen {
         if n < 1000 {
             return None;
         }
-        let dt = 1.0 / r.rate_hz;
-        let period = rig
-            .drive_frequency_hz
-            .filter(|f| f.is_finite() && *f > 0.0)
-            .map_or(0.5, |f| 1.0 / f);
-        let sigma = (SMOOTH_SIGMA_PERIODS * period / dt).max(1.5);
-        let block = ((0.5 * period / dt).round() as usize).max(20);
+        // The delay estimator's filter and clusters.
+        let Scales { dt, sigma, block } = Scales::of(r.rate_hz, rig.drive_frequency_hz);
         let (m1, k1, k2, d) = (rig.m1_kg, rig.k1_n_per_m, rig.k2_n_per_m, rig.d_n_s_per_m);
         let x0 = gauss_smooth(&r.x0, sigma);
         let x1 = gauss_smooth(&r.x1, sigma);

@@ -46,17 +46,10 @@
 #![allow(clippy::needless_range_loop)]
 
 use super::{Quantity, Resampled, RigMeta};
-use crate::stats::regress::{deriv, gauss_smooth, ols, ratio, Ols};
+use crate::stats::regress::{deriv, gauss_smooth, ols, ratio, Ols, Scales};
 use crate::stats::{mad_sigma, quantile};
 use crate::warning::Warning;
 
-/// Width of the Gaussian low-pass applied to every signal before the
-/// regressions (its σ, in drive periods; zero phase, so it moves no channel
-/// in time). 1/40 of a period keeps the harmonics up to about the 6th (the
-/// stick-slip content that separates x2's shift from its gain) and damps
-/// the noise of ẍ1 (∝ σ^−2.5): on synthetic logs of two rigs the shift's
-/// error fell from 0.13 ms RMS at σ = 3 ms to 0.05 ms at 12 ms.
-const SMOOTH_SIGMA_PERIODS: f64 = 1.0 / 40.0;
 /// A channel moves when its filtered range exceeds this many noise σ.
 const MOVES_FACTOR: f64 = 20.0;
 /// Shifts below this fraction of the grid's sample interval are not
@@ -367,13 +360,7 @@ pub(crate) struct Estimate {
 /// consistency with x2) on the common grid `r` of a log with rig `rig`.
 pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
     let n = r.len();
-    let dt = 1.0 / r.rate_hz;
-    let period = rig
-        .drive_frequency_hz
-        .filter(|f| f.is_finite() && *f > 0.0)
-        .map_or(0.5, |f| 1.0 / f);
-    let sigma = (SMOOTH_SIGMA_PERIODS * period / dt).max(1.5);
-    let block = ((0.5 * period / dt).round() as usize).max(20);
+    let Scales { dt, sigma, block } = Scales::of(r.rate_hz, rig.drive_frequency_hz);
     let tm = r.t.get(n / 2).copied().unwrap_or(0.0);
     let pre = Prepared {
         dt,
