@@ -23,7 +23,8 @@
 //! through [`Progress`] and writes through the write transaction
 //! ([`crate::io::txn`]): [`job::run_job`] (a plan, with its report),
 //! [`validate::run_validate`], [`batch::run_batch`], [`sweep::run_sweep`],
-//! [`merge::run_merge`] and [`fit::run_fit`], each with its JSON object.
+//! [`merge::run_merge`], [`fit::run_fit`] and [`synth::run_synth`], each
+//! with its JSON object.
 
 pub mod batch;
 pub mod checks;
@@ -31,6 +32,7 @@ pub mod fit;
 pub mod job;
 pub mod merge;
 pub mod sweep;
+pub mod synth;
 pub mod validate;
 
 use crate::batch::{self as vb, Batch};
