@@ -23,14 +23,17 @@
 //! through [`Progress`] and writes through the write transaction
 //! ([`crate::io::txn`]): [`job::run_job`] (a plan, with its report),
 //! [`validate::run_validate`], [`batch::run_batch`], [`sweep::run_sweep`],
-//! [`merge::run_merge`], [`fit::run_fit`] and [`synth::run_synth`], each
-//! with its JSON object.
+//! [`merge::run_merge`], [`fit::run_fit`], [`synth::run_synth`],
+//! [`simulate::run_simulate`] and [`characteristic::run_characteristic`],
+//! each with its JSON object.
 
 pub mod batch;
+pub mod characteristic;
 pub mod checks;
 pub mod fit;
 pub mod job;
 pub mod merge;
+pub mod simulate;
 pub mod sweep;
 pub mod synth;
 pub mod validate;
