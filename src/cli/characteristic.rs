@@ -4,7 +4,7 @@
 //! the paths and prints.
 
 use crate::io::Output;
-use crate::pipeline::characteristic::{run_characteristic, CharacteristicJob};
+use crate::pipeline::characteristic::{CharacteristicJob, CharacteristicOutcome};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -25,8 +25,8 @@ pub struct CharacteristicArgs {
     pub json: bool,
 }
 
-/// Runs `characteristic`.
-pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
+/// The `characteristic` request: the paths checked.
+pub fn request(args: CharacteristicArgs) -> crate::Result<super::Request> {
     let mut outputs = Vec::new();
     if let Some(p) = &args.out {
         outputs.push(Output::file("--out", p, super::ext::CSV));
@@ -40,18 +40,21 @@ pub fn run(args: CharacteristicArgs) -> crate::Result<()> {
         out: args.out,
         plot: args.plot,
     };
-    let done = run_characteristic(&job, &())?;
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Characteristic(job),
+        args.json,
+    ))
+}
+
+/// Prints the log's summary.
+pub fn print(done: &CharacteristicOutcome, view: &super::View) -> crate::Result<()> {
     let j = &done.json;
-    if args.json {
+    if view.json {
         return super::print_json(&crate::io::json::to_value(j));
     }
     eprintln!(
         "{}: {} samples, {} sticks, {} reversals, acceleration from {}",
-        job.log.display(),
-        j.samples,
-        j.sticks,
-        j.reversals,
-        j.acceleration_source
+        j.log, j.samples, j.sticks, j.reversals, j.acceleration_source
     );
     Ok(())
 }

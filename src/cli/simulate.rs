@@ -2,10 +2,10 @@
 //! paper's RK4 for cross-checks), optional event and trajectory files
 //! streamed to disk in constant memory and written atomically. The work
 //! is [`crate::pipeline::simulate`]'s job; this module parses, builds the
-//! model and prints.
+//! model into the job and prints its outcome.
 
 use super::ModelArgs;
-use crate::pipeline::simulate::{self as job, run_simulate, SimulateJob, MAX_PERIODS};
+use crate::pipeline::simulate::{self as job, SimulateJob, SimulateOutcome, MAX_PERIODS};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
@@ -98,11 +98,18 @@ impl SimulateArgs {
     }
 }
 
-/// Runs `simulate`.
-pub fn run(args: SimulateArgs) -> crate::Result<()> {
+/// The `simulate` request: the model checked.
+pub fn request(args: SimulateArgs) -> crate::Result<super::Request> {
     let json = args.json;
-    let done = run_simulate(&args.job()?, &())?;
-    if json {
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Simulate(args.job()?),
+        json,
+    ))
+}
+
+/// Prints the run's summary.
+pub fn print(done: &SimulateOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
         return super::print_json(&crate::io::json::to_value(&done.json));
     }
     let s = &done.json.summary;

@@ -4,7 +4,7 @@
 //! it is the clap option list).
 
 use crate::model::LawKind;
-use crate::pipeline::synth::{run_synth, SynthJob, SynthTest};
+use crate::pipeline::synth::{SynthJob, SynthOutcome, SynthTest};
 use crate::synth::LogFormat;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -295,22 +295,28 @@ impl SynthArgs {
     }
 }
 
-/// Runs `synth`.
-pub fn run(args: SynthArgs) -> crate::Result<()> {
+/// The `synth` request.
+pub fn request(args: SynthArgs) -> crate::Result<super::Request> {
     let json = args.json;
-    let done = run_synth(&args.job(), &())?;
-    if json {
-        super::print_json(&crate::io::json::to_value(&done.json))?;
-    } else {
-        eprintln!(
-            "wrote {} ({}, {} test, {} s, {} bytes); truth in {}",
-            done.written.log.display(),
-            done.config.format.as_str(),
-            done.json.test.as_str().unwrap_or("?"),
-            done.config.test.duration_s(),
-            done.written.bytes,
-            done.written.truth.display()
-        );
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Synth(Box::new(args.job())),
+        json,
+    ))
+}
+
+/// Prints what was written.
+pub fn print(done: &SynthOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&crate::io::json::to_value(&done.json));
     }
+    eprintln!(
+        "wrote {} ({}, {} test, {} s, {} bytes); truth in {}",
+        done.written.log.display(),
+        done.config.format.as_str(),
+        done.json.test.as_str().unwrap_or("?"),
+        done.config.test.duration_s(),
+        done.written.bytes,
+        done.written.truth.display()
+    );
     Ok(())
 }

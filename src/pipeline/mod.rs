@@ -24,19 +24,26 @@
 //! ([`crate::io::txn`]): [`job::run_job`] (a plan, with its report),
 //! [`validate::run_validate`], [`batch::run_batch`], [`sweep::run_sweep`],
 //! [`merge::run_merge`], [`fit::run_fit`], [`synth::run_synth`],
-//! [`simulate::run_simulate`] and [`characteristic::run_characteristic`],
-//! each with its JSON object.
+//! [`simulate::run_simulate`], [`characteristic::run_characteristic`],
+//! [`read::run_ingest`] and [`bench::run_bench`], each with its JSON
+//! object. [`Job`] names any of them and [`execute`] is the one dispatch
+//! the command line calls.
 
 pub mod batch;
+pub mod bench;
 pub mod characteristic;
 pub mod checks;
+pub mod dispatch;
 pub mod fit;
 pub mod job;
 pub mod merge;
+pub mod read;
 pub mod simulate;
 pub mod sweep;
 pub mod synth;
 pub mod validate;
+
+pub use dispatch::{execute, Job, Outcome};
 
 use crate::batch::{self as vb, Batch};
 use crate::identify::{self, IdentifyOptions, LogFit};
