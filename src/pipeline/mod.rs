@@ -639,40 +639,16 @@ fn batch_of(
     records: &BTreeMap<PathBuf, crate::Result<LogRecord>>,
     fits: &BTreeMap<PathBuf, crate::Result<LogFit>>,
 ) -> crate::Result<Batch> {
-    let both: Vec<(PathBuf, &LogFit, &RigMeta)> = plan
+    // The logs read and fitted, each with its rig record.
+    let (mut good, mut rigs): (Vec<_>, Vec<_>) = plan
         .batch
         .iter()
         .filter_map(|p| match (&fits[p], &records[p]) {
-            (Ok(f), Ok(r)) => Some((p.clone(), f, &r.rig)),
+            (Ok(f), Ok(r)) => Some(((p.clone(), f.clone()), (p.clone(), r.rig.clone()))),
             _ => None,
         })
-        .collect();
-    let (keep, dup_warnings) = checks::find_duplicates(
-        &both
-            .iter()
-            .map(|(p, f, rig)| checks::TestId {
-                path: p,
-                rig,
-                normal_force_n: f.normal_force_n,
-                drive_amplitude_m: f.drive.amplitude_m,
-                drive_frequency_hz: f.drive.frequency_hz,
-            })
-            .collect::<Vec<_>>(),
-    );
-    let kept: Vec<&(PathBuf, &LogFit, &RigMeta)> = both
-        .iter()
-        .zip(&keep)
-        .filter(|(_, k)| **k)
-        .map(|(x, _)| x)
-        .collect();
-    let good: Vec<(PathBuf, LogFit)> = kept
-        .iter()
-        .map(|(p, f, _)| (p.clone(), (*f).clone()))
-        .collect();
-    let mut rigs: Vec<(PathBuf, RigMeta)> = kept
-        .iter()
-        .map(|(p, _, r)| (p.clone(), (*r).clone()))
-        .collect();
+        .unzip();
+    let (_, dup_warnings) = checks::drop_duplicates(&mut good, &mut rigs);
     if rigs.is_empty() {
         rigs = plan
             .batch
