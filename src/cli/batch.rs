@@ -14,13 +14,12 @@
 
 use crate::batch::{self as vb, BatchOptions};
 use crate::identify::{self, IdentifyOptions};
-use crate::pipeline::batch::{run_batch, BatchJob};
+use crate::pipeline::batch::{BatchJob, BatchOutcome};
 use crate::report::batch_view;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Arguments of `stickslip batch`.
 #[derive(Debug, Args)]
@@ -175,16 +174,14 @@ impl crate::pipeline::Progress for Bar {
     }
 }
 
-/// Runs `batch`. A log that cannot be fitted, or a batch that fails,
-/// makes it fail without writing a file (the JSON still goes to stdout
-/// with `--json`).
-pub fn run(args: BatchArgs) -> crate::Result<()> {
+/// The `batch` request: the paths checked.
+pub fn request(args: BatchArgs) -> crate::Result<super::Request> {
     let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(
         args.logs.iter().chain(&args.fits).map(PathBuf::as_path),
         &outputs,
     )?;
-    let t0 = Instant::now();
+    let view = super::View::new(args.json);
     let json = args.json;
     let bar = if !json && std::io::stderr().is_terminal() {
         let b = ProgressBar::new(0);
@@ -196,13 +193,18 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
     } else {
         ProgressBar::hidden()
     };
-    let progress = Bar {
-        bar: bar.clone(),
-        json,
-    };
-    let done = run_batch(&job(args), &progress);
-    bar.finish_and_clear();
-    let done = done?;
+    Ok(super::Request {
+        job: crate::pipeline::Job::Batch(Box::new(job(args))),
+        progress: Box::new(Bar { bar, json }),
+        view,
+    })
+}
+
+/// Prints the errors, then the JSON object or the summary. A log that
+/// could not be fitted, or a batch that failed, makes the command fail
+/// without writing a file (the JSON still goes to stdout with `--json`).
+pub fn print(done: BatchOutcome, view: &super::View) -> crate::Result<()> {
+    let json = view.json;
     for e in &done.errors {
         eprintln!("error: {e}");
     }
@@ -222,7 +224,7 @@ pub fn run(args: BatchArgs) -> crate::Result<()> {
         for w in &b.warnings {
             eprintln!("warning: {w}");
         }
-        eprintln!("done in {:.1} s", t0.elapsed().as_secs_f64());
+        eprintln!("done in {:.1} s", view.started.elapsed().as_secs_f64());
     }
     Ok(())
 }

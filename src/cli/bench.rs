@@ -1,9 +1,10 @@
 //! `stickslip bench`: the work-precision benchmark (see
 //! [`crate::sim::workprec`]); the full run also writes `reports/bench.svg`.
+//! The work is [`crate::pipeline::bench`]'s job; this module parses and
+//! prints.
 
-use crate::sim::workprec;
+use crate::pipeline::bench::{BenchJob, BenchOutcome};
 use clap::Args;
-use serde_json::json;
 use std::path::PathBuf;
 
 /// Arguments of `stickslip bench`.
@@ -21,49 +22,33 @@ pub struct BenchArgs {
     pub json: bool,
 }
 
-/// Runs `bench`.
-pub fn run(args: BenchArgs) -> crate::Result<()> {
-    let plot = (!args.quick).then(|| {
-        args.plot
-            .clone()
-            .unwrap_or_else(|| PathBuf::from("reports/bench.svg"))
-    });
-    if let Some(p) = &plot {
-        // The default's directory is made for it (then nothing is there to
-        // check); a given path's must exist. Either way an existing target
-        // is checked like every output (no FIFO, device or directory).
-        let made_later = args.plot.is_none() && p.parent().is_some_and(|d| !d.exists());
-        if !made_later {
-            super::check_paths([], &[crate::io::Output::file("--plot", p, super::ext::SVG)])?;
-        }
+/// The `bench` request.
+pub fn request(args: BenchArgs) -> crate::Result<super::Request> {
+    let job = BenchJob {
+        quick: args.quick,
+        plot: args.plot,
+    };
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Bench(job),
+        args.json,
+    ))
+}
+
+/// Prints the study's table.
+pub fn print(done: &BenchOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&crate::io::json::to_value(&done.json));
     }
-    let rows = workprec::study(args.quick);
-    if let Some(plot) = &plot {
-        if let Some(dir) = plot.parent() {
-            if !dir.as_os_str().is_empty() && !dir.exists() {
-                crate::io::txn::create_dir(dir)?;
-            }
-        }
-        crate::report::plot::work_precision(&rows, plot)?;
-    }
-    if args.json {
-        let r: Vec<serde_json::Value> = rows
-            .iter()
-            .map(|r| json!({"method": r.method, "setting": r.setting, "seconds": r.seconds, "error": r.error}))
-            .collect();
-        super::print_json(&json!({ "rows": r }))?;
-    } else {
+    eprintln!(
+        "{:<12} {:<28} {:>10} {:>12}",
+        "method", "setting", "seconds", "error"
+    );
+    for r in &done.rows {
+        let e = r.error.map_or("-".to_string(), |e| format!("{e:.2e}"));
         eprintln!(
-            "{:<12} {:<28} {:>10} {:>12}",
-            "method", "setting", "seconds", "error"
+            "{:<12} {:<28} {:>10.4} {:>12}",
+            r.method, r.setting, r.seconds, e
         );
-        for r in &rows {
-            let e = r.error.map_or("-".to_string(), |e| format!("{e:.2e}"));
-            eprintln!(
-                "{:<12} {:<28} {:>10.4} {:>12}",
-                r.method, r.setting, r.seconds, e
-            );
-        }
     }
     Ok(())
 }

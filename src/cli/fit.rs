@@ -7,7 +7,7 @@
 use crate::identify::{self, IdentifyOptions};
 use crate::io::Output;
 use crate::model::LawKind;
-use crate::pipeline::fit::{parse_fit_shard, run_fit, FitJob};
+use crate::pipeline::fit::{parse_fit_shard, FitJob, FitOutcome};
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
@@ -79,8 +79,8 @@ impl crate::pipeline::Progress for Lines {
     }
 }
 
-/// Runs `fit`; `Ok(false)` when some log failed (its error line is printed).
-pub fn run(args: FitArgs) -> crate::Result<bool> {
+/// The `fit` request: the paths and the shard checked.
+pub fn request(args: FitArgs) -> crate::Result<super::Request> {
     // A missing or unreadable log is a per-log `error` entry (the
     // contract); a FIFO or device would hang the read, so it is refused
     // up front.
@@ -111,8 +111,17 @@ pub fn run(args: FitArgs) -> crate::Result<bool> {
         },
         out: args.out,
     };
-    let done = run_fit(&job, &Lines(args.json))?;
-    if args.json {
+    Ok(super::Request {
+        job: crate::pipeline::Job::Fit(job),
+        progress: Box::new(Lines(args.json)),
+        view: super::View::new(args.json),
+    })
+}
+
+/// Prints the JSON object and the line naming the logs that failed;
+/// `Ok(false)` when some log failed (its error line is printed).
+pub fn print(done: &FitOutcome, view: &super::View) -> crate::Result<bool> {
+    if view.json {
         super::print_json(&crate::io::json::to_value(&done.json))?;
     }
     // The last line names every log that failed (the contract's one

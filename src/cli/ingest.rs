@@ -1,8 +1,9 @@
 //! `stickslip ingest`: read one rig log, report it, optionally write the
-//! canonical run as Parquet.
+//! canonical run as Parquet. The work is [`crate::pipeline::read`]'s job;
+//! this module parses, checks the paths and prints.
 
-use crate::ingest::{self, IngestOptions};
 use crate::io::Output;
+use crate::pipeline::read::{IngestJob, IngestOutcome};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -24,8 +25,8 @@ pub struct IngestArgs {
     pub json: bool,
 }
 
-/// Runs `ingest`.
-pub fn run(args: IngestArgs) -> crate::Result<()> {
+/// The `ingest` request: the paths checked.
+pub fn request(args: IngestArgs) -> crate::Result<super::Request> {
     let outputs: Vec<Output> = args
         .out
         .iter()
@@ -35,51 +36,56 @@ pub fn run(args: IngestArgs) -> crate::Result<()> {
         [args.log.as_path()].into_iter().chain(args.map.as_deref()),
         &outputs,
     )?;
-    let opts = IngestOptions {
-        map: args.map.clone(),
-        ..IngestOptions::default()
+    let job = IngestJob {
+        log: args.log,
+        map: args.map,
+        out: args.out,
     };
-    let run = ingest::read(&args.log, &opts)?;
-    if let Some(out) = &args.out {
-        crate::io::write_parquet(&run, out)?;
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Ingest(job),
+        args.json,
+    ))
+}
+
+/// Prints the run's summary, channels and warnings.
+pub fn print(done: &IngestOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&done.json);
     }
-    if args.json {
-        super::print_json(&run.to_json(args.out.as_deref()))?;
-    } else {
+    let run = &done.run;
+    eprintln!(
+        "{}: {} test ({}), {} rows at {} Hz = {:.3} s, {} channels{}, {} gaps, {} setpoints",
+        run.source.display(),
+        run.rig.test.as_str(),
+        run.format.as_str(),
+        run.samples(),
+        run.resampled.rate_hz,
+        run.duration_s(),
+        run.channels.len(),
+        if run.has_acceleration {
+            ""
+        } else {
+            " (no accelerometer)"
+        },
+        run.gaps.len(),
+        run.setpoints.len(),
+    );
+    for c in &run.channels {
         eprintln!(
-            "{}: {} test ({}), {} rows at {} Hz = {:.3} s, {} channels{}, {} gaps, {} setpoints",
-            run.source.display(),
-            run.rig.test.as_str(),
-            run.format.as_str(),
-            run.samples(),
-            run.resampled.rate_hz,
-            run.duration_s(),
-            run.channels.len(),
-            if run.has_acceleration {
-                ""
-            } else {
-                " (no accelerometer)"
-            },
-            run.gaps.len(),
-            run.setpoints.len(),
+            "  {:<13} {:>8} samples at {:>7} Hz [{}] from {}, {} dropouts",
+            c.name(),
+            c.t.len(),
+            c.rate_hz,
+            c.unit(),
+            c.source,
+            c.dropouts
         );
-        for c in &run.channels {
-            eprintln!(
-                "  {:<13} {:>8} samples at {:>7} Hz [{}] from {}, {} dropouts",
-                c.name(),
-                c.t.len(),
-                c.rate_hz,
-                c.unit(),
-                c.source,
-                c.dropouts
-            );
-        }
-        for w in &run.warnings {
-            eprintln!("warning: {w}");
-        }
-        if let Some(out) = &args.out {
-            eprintln!("wrote {}", out.display());
-        }
+    }
+    for w in &run.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(out) = &done.out {
+        eprintln!("wrote {}", out.display());
     }
     Ok(())
 }

@@ -32,8 +32,8 @@ pub struct MergeArgs {
     pub json: bool,
 }
 
-/// Runs `merge`.
-pub fn run(args: MergeArgs) -> crate::Result<()> {
+/// The `merge` request: the parts' kind found, the paths checked.
+pub fn request(args: MergeArgs) -> crate::Result<super::Request> {
     let kind = merge::part_kind(&args.parts, &args.out)?;
     let mut outputs = Vec::new();
     match kind {
@@ -58,9 +58,16 @@ pub fn run(args: MergeArgs) -> crate::Result<()> {
         plot: args.plot,
         force: args.force,
     };
-    let done = merge::run_merge(&job)?;
-    if args.json {
-        return super::print_json(&match &done {
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Merge(job),
+        args.json,
+    ))
+}
+
+/// Prints what was merged.
+pub fn print(done: &MergeOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&match done {
             MergeOutcome::Table(t) => crate::io::json::to_value(t),
             MergeOutcome::Fits(f) => crate::io::json::to_value(f),
         });

@@ -1,7 +1,10 @@
 //! The command-line interface (`docs/interface.md`): clap parsing, one
-//! module per subcommand. Each subcommand turns its arguments into a validated
-//! plan, calls the library and prints; nothing here computes physics.
+//! module per subcommand. Each subcommand turns its arguments into a
+//! checked [`crate::pipeline::Job`] (its `request`) and prints the job's
+//! outcome (its `print`); [`main`] runs every job through the one door,
+//! [`crate::pipeline::execute`]. Nothing here computes physics.
 
+use crate::pipeline;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -81,29 +84,19 @@ pub fn main() -> ExitCode {
     // or nothing (see `crate::io::txn`).
     crate::io::txn::begin();
     let mut code = ExitCode::SUCCESS;
-    let result = match cli.command {
-        Command::Simulate(a) => simulate::run(a),
-        Command::Ingest(a) => ingest::run(a),
-        Command::Sweep(a) => sweep::run(a),
-        Command::Merge(a) => merge::run(a),
-        Command::Bench(a) => bench::run(a),
-        Command::Characteristic(a) => characteristic::run(a),
-        Command::Fit(a) => match fit::run(a) {
-            Ok(true) => Ok(()),
-            Ok(false) => {
-                // The others' fits are written; the exit status is 1.
-                code = ExitCode::from(1);
-                Ok(())
-            }
-            Err(e) => Err(e),
-        },
-        Command::Synth(a) => synth::run(*a),
-        Command::Validate(a) => validate::run(a),
-        Command::Batch(a) => batch::run(a),
-        Command::Run(a) => run::run(a),
-    };
+    let result = request(cli.command).and_then(|req| {
+        let outcome = pipeline::execute(&req.job, req.progress.as_ref());
+        req.progress.done();
+        print(outcome?, &req.view)
+    });
     let result = match result {
-        Ok(()) => crate::io::txn::commit(),
+        Ok(complete) => {
+            if !complete {
+                // `fit`: the others' fits are written; the exit status is 1.
+                code = ExitCode::from(1);
+            }
+            crate::io::txn::commit()
+        }
         Err(e) => {
             crate::io::txn::abort();
             Err(e)
@@ -128,6 +121,97 @@ pub fn main() -> ExitCode {
             ExitCode::from(1)
         }
     }
+}
+
+/// A subcommand's request to the pipeline: the job its arguments
+/// describe (checked), the display of the job's progress and lines, and
+/// what its printing needs.
+pub(crate) struct Request {
+    /// The job.
+    pub job: pipeline::Job,
+    /// Where the job reports.
+    pub progress: Box<dyn pipeline::Progress>,
+    /// How the outcome is printed.
+    pub view: View,
+}
+
+impl Request {
+    /// A request whose job says nothing while it runs.
+    fn quiet(job: pipeline::Job, json: bool) -> Self {
+        Request {
+            job,
+            progress: Box::new(()),
+            view: View::new(json),
+        }
+    }
+}
+
+/// What every subcommand's printing needs.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct View {
+    /// One JSON object on stdout (`--json`) rather than lines on stderr.
+    pub json: bool,
+    /// When the command started its work (its `done in` line).
+    pub started: std::time::Instant,
+}
+
+impl View {
+    /// From now.
+    pub fn new(json: bool) -> Self {
+        View {
+            json,
+            started: std::time::Instant::now(),
+        }
+    }
+}
+
+/// Lines for a person on stderr, unless `--json`.
+pub(crate) struct Say(pub bool);
+
+impl pipeline::Progress for Say {
+    fn say(&self, line: &str) {
+        if !self.0 {
+            eprintln!("{line}");
+        }
+    }
+}
+
+/// The subcommand's arguments as a checked request (the one dispatch of
+/// parsed arguments to their module).
+fn request(command: Command) -> crate::Result<Request> {
+    match command {
+        Command::Simulate(a) => simulate::request(a),
+        Command::Ingest(a) => ingest::request(a),
+        Command::Sweep(a) => sweep::request(a),
+        Command::Merge(a) => merge::request(a),
+        Command::Bench(a) => bench::request(a),
+        Command::Characteristic(a) => characteristic::request(a),
+        Command::Fit(a) => fit::request(a),
+        Command::Synth(a) => synth::request(*a),
+        Command::Validate(a) => validate::request(a),
+        Command::Batch(a) => batch::request(a),
+        Command::Run(a) => run::request(a),
+    }
+}
+
+/// Prints the outcome of a job, by its module; `Ok(false)`: the command
+/// fails (exit 1) although its outputs are written (`fit`).
+fn print(outcome: pipeline::Outcome, view: &View) -> crate::Result<bool> {
+    use pipeline::Outcome as O;
+    match outcome {
+        O::Simulate(o) => simulate::print(&o, view),
+        O::Ingest(o) => ingest::print(&o, view),
+        O::Sweep(o) => sweep::print(&o, view),
+        O::Merge(o) => merge::print(&o, view),
+        O::Bench(o) => bench::print(&o, view),
+        O::Characteristic(o) => characteristic::print(&o, view),
+        O::Fit(o) => return fit::print(&o, view),
+        O::Synth(o) => synth::print(&o, view),
+        O::Validate(o) => validate::print(&o, view),
+        O::Batch(o) => batch::print(*o, view),
+        O::Run(o) => run::print(*o, view),
+    }
+    .map(|()| true)
 }
 
 /// The longest `error:` line printed (bytes): a message that echoes a

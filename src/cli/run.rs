@@ -5,13 +5,12 @@
 //! fails gives its `error:` line and the rest completes (exit 1 at the
 //! end).
 
-use crate::pipeline::job::{run_job, RunJob};
+use crate::pipeline::job::{RunJob, RunOutcome};
 use crate::pipeline::{self, Plan, Progress};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Arguments of `stickslip run`.
 #[derive(Debug, Args)]
@@ -65,10 +64,9 @@ impl Progress for Bar {
     }
 }
 
-/// Runs the plan. A step that fails (a log that cannot be fitted, a
-/// validation) makes the command fail without writing a file.
-pub fn run(args: RunArgs) -> crate::Result<()> {
-    let t0 = Instant::now();
+/// The `run` request: the plan read, the paths checked.
+pub fn request(args: RunArgs) -> crate::Result<super::Request> {
+    let view = super::View::new(args.json);
     let plan = Plan::read(&args.plan)?;
     let logs = plan.logs();
     let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
@@ -103,28 +101,35 @@ pub fn run(args: RunArgs) -> crate::Result<()> {
         out: args.out,
         command: std::env::args().collect::<Vec<_>>().join(" "),
     };
-    let done = run_job(
-        &job,
-        &Bar {
+    Ok(super::Request {
+        job: pipeline::Job::Run(Box::new(job)),
+        progress: Box::new(Bar {
             bar,
             json: args.json,
-        },
-    )?;
+        }),
+        view,
+    })
+}
+
+/// Prints the errors, the JSON object and the timings. A step that
+/// failed (a log that cannot be fitted, a validation) makes the command
+/// fail without writing a file.
+pub fn print(done: RunOutcome, view: &super::View) -> crate::Result<()> {
     for e in &done.report.errors {
         eprintln!("error: {e}");
     }
-    if args.json {
+    if view.json {
         super::print_json(&crate::io::json::to_value(&done.json))?;
     }
     if let Some(e) = done.failure {
         // A failed command writes no file: what there is was printed.
         return Err(e);
     }
-    if !args.json {
+    if !view.json {
         let t = &done.json.stage_seconds;
         eprintln!(
             "done in {:.1} s (ingest {:.1} s, fit {:.1} s, then {:.1} s side by side: validate {:.1} s and batch {:.1} s; report {:.1} s)",
-            t0.elapsed().as_secs_f64(),
+            view.started.elapsed().as_secs_f64(),
             t.ingest,
             t.fit,
             t.side_by_side,

@@ -1,15 +1,12 @@
 //! `stickslip simulate`: one forcing frequency with the exact engine (or the
 //! paper's RK4 for cross-checks), optional event and trajectory files
-//! streamed to disk in constant memory and written atomically.
+//! streamed to disk in constant memory and written atomically. The work
+//! is [`crate::pipeline::simulate`]'s job; this module parses, builds the
+//! model into the job and prints its outcome.
 
 use super::ModelArgs;
-use crate::io::AtomicFile;
-use crate::io::Output;
-use crate::model::Model;
-use crate::sim::rk4::Rk4;
-use crate::sim::{self, Event, Flow, Mode, Observer, PeriodGrid, PeriodStats, Sim, SimOptions};
+use crate::pipeline::simulate::{self as job, SimulateJob, SimulateOutcome, MAX_PERIODS};
 use clap::{Args, ValueEnum};
-use std::io::Write;
 use std::path::PathBuf;
 
 /// Integration method.
@@ -72,322 +69,64 @@ pub struct SimulateArgs {
     pub json: bool,
 }
 
-/// Streams events and samples into CSV files.
-struct Files {
-    events: Option<AtomicFile>,
-    traj: Option<(AtomicFile, PeriodGrid)>,
-    err: Option<crate::Error>,
-    /// The slider behind a contact spring, followed through the events
-    /// (None: a rigid stick, no `zeta_s` column).
-    slider: Option<Slider>,
-}
-
-/// The friction slider of a pad with a contact spring, followed through
-/// the events: where it sticks, or the direction it slides in (its
-/// position from the model's rules, [`Model::slider_at_rest`] and
-/// [`Model::slider_sliding`]).
-struct Slider {
-    model: Model,
-    /// `Some(ζs)` while it sticks; `None` while it slides.
-    stuck_at: Option<f64>,
-    /// Direction of the last slide.
-    dir: f64,
-}
-
-impl Slider {
-    /// Follows an event.
-    fn event(&mut self, ev: &Event) {
-        match ev.kind.as_str() {
-            "slip+" | "reverse+" => (self.stuck_at, self.dir) = (None, 1.0),
-            "slip-" | "reverse-" => (self.stuck_at, self.dir) = (None, -1.0),
-            "stick" => self.stuck_at = self.model.slider_at_rest(self.dir, ev.x[2]),
-            _ => {}
-        }
-    }
-
-    /// ζs at state x: where it sticks, or where it slides with M2.
-    fn position(&self, x: &[f64; 4]) -> f64 {
-        self.stuck_at
-            .or_else(|| self.model.slider_sliding(self.dir, x))
-            .unwrap_or(f64::NAN)
-    }
-}
-
-impl Files {
-    fn write(&mut self, which: bool, line: std::fmt::Arguments<'_>) {
-        if self.err.is_some() {
-            return;
-        }
-        let f = if which {
-            self.events.as_mut()
-        } else {
-            self.traj.as_mut().map(|t| &mut t.0)
-        };
-        if let Some(f) = f {
-            if let Err(e) = f.writer().write_fmt(line) {
-                self.err = Some(f.io_err(e));
-            }
+impl From<Method> for job::Method {
+    fn from(m: Method) -> Self {
+        match m {
+            Method::Exact => job::Method::Exact,
+            Method::Rk4 => job::Method::Rk4,
+            Method::Dopri => job::Method::Dopri,
         }
     }
 }
 
-impl Observer for Files {
-    fn event(&mut self, ev: &Event) {
-        let x = ev.x;
-        let zs = self.slider.as_mut().map(|s| {
-            s.event(ev);
-            format!(",{}", s.position(&x))
-        });
-        self.write(
-            true,
-            format_args!(
-                "{},{},{},{},{},{}{}\n",
-                ev.tau,
-                ev.kind.as_str(),
-                x[0],
-                x[1],
-                x[2],
-                x[3],
-                zs.unwrap_or_default()
-            ),
-        );
-    }
-    fn next_sample(&mut self) -> Option<f64> {
-        self.traj.as_mut().map(|t| t.1.advance())
-    }
-    fn sample(&mut self, tau: f64, x: &[f64; 4], _dx: &[f64; 4]) {
-        let zs = self.slider.as_ref().map(|s| format!(",{}", s.position(x)));
-        self.write(
-            false,
-            format_args!(
-                "{},{},{},{},{}{}\n",
-                tau,
-                x[0],
-                x[1],
-                x[2],
-                x[3],
-                zs.unwrap_or_default()
-            ),
-        );
-    }
-    fn period(&mut self, _n: u64, _x: &[f64; 4], _m: Mode, _s: &PeriodStats) -> Flow {
-        if self.err.is_some() {
-            Flow::Stop
-        } else {
-            Flow::Continue
-        }
+impl SimulateArgs {
+    /// The job these options describe (the model checked).
+    pub fn job(self) -> crate::Result<SimulateJob> {
+        Ok(SimulateJob {
+            model: self.model.model()?,
+            eta: self.eta,
+            periods: self.periods,
+            max_periods: self.max_periods,
+            events: self.events,
+            trajectory: self.trajectory,
+            samples_per_period: self.samples_per_period,
+            max_output_mb: self.max_output_mb,
+            method: self.method.into(),
+            step: self.step,
+            tol: self.tol,
+        })
     }
 }
 
-/// Most forcing periods of one `simulate --periods` run.
-const MAX_PERIODS: u64 = 100_000_000;
-/// Most RK4 steps of one run (about a minute of work).
-const MAX_RK4_STEPS: f64 = 2e9;
-
-/// Refuses runs whose output files or RK4 work would exceed the limits,
-/// with the numbers and the flag to change.
-fn check_budget(args: &SimulateArgs) -> crate::Result<()> {
-    let too_big = |flag: &str, what: String| -> crate::Error {
-        crate::sim::SimError::Unsupported(format!("{flag}: {what}")).into()
-    };
-    let periods = args.periods.unwrap_or(args.max_periods) as f64;
-    // CSV rows: about 5 numbers of 20 characters.
-    const ROW_BYTES: f64 = 110.0;
-    let limit = args.max_output_mb as f64 * 1e6;
-    if args.trajectory.is_some() {
-        let bytes = periods * f64::from(args.samples_per_period) * ROW_BYTES;
-        if bytes > limit {
-            return Err(too_big(
-                "--trajectory",
-                format!(
-                    "{periods:.3e} periods x {} samples would write about {:.1} GB, over the {} MB limit: lower --periods or --samples-per-period, or raise --max-output-mb",
-                    args.samples_per_period,
-                    bytes / 1e9,
-                    args.max_output_mb
-                ),
-            ));
-        }
-    }
-    if args.events.is_some() {
-        // Up to four switching events per period in stick-slip.
-        let bytes = periods * 4.0 * ROW_BYTES;
-        if bytes > limit {
-            return Err(too_big(
-                "--events",
-                format!(
-                    "{periods:.3e} periods (up to 4 events each) could write about {:.1} GB, over the {} MB limit: lower --periods (or --max-periods), or raise --max-output-mb",
-                    bytes / 1e9,
-                    args.max_output_mb
-                ),
-            ));
-        }
-    }
-    if args.method == Method::Rk4 && args.step.is_finite() && args.step > 0.0 {
-        let steps = periods * 2.0 * std::f64::consts::PI / args.eta / args.step;
-        if steps > MAX_RK4_STEPS {
-            return Err(too_big(
-                "--step",
-                format!(
-                    "{steps:.3e} RK4 steps ({periods:.3e} periods at H = {}); the limit is {MAX_RK4_STEPS:.0e}: raise --step or lower --periods",
-                    args.step
-                ),
-            ));
-        }
-    }
-    Ok(())
+/// The `simulate` request: the model checked.
+pub fn request(args: SimulateArgs) -> crate::Result<super::Request> {
+    let json = args.json;
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Simulate(args.job()?),
+        json,
+    ))
 }
 
-/// Checks the outputs and the budget, then opens the event and trajectory
-/// files (atomic: nothing appears unless the run completes).
-fn open_files(args: &SimulateArgs, model: &Model) -> crate::Result<Files> {
-    let mut outputs = Vec::new();
-    if let Some(p) = &args.events {
-        outputs.push(Output::file("--events", p, super::ext::CSV));
+/// Prints the run's summary.
+pub fn print(done: &SimulateOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&crate::io::json::to_value(&done.json));
     }
-    if let Some(p) = &args.trajectory {
-        outputs.push(Output::file("--trajectory", p, super::ext::CSV));
-    }
-    super::check_paths([], &outputs)?;
-    check_budget(args)?;
-    let mut files = Files {
-        events: None,
-        traj: None,
-        err: None,
-        slider: model.contact_stiffness.map(|_| Slider {
-            model: *model,
-            // From rest: ζs = 0, P = 0, the slider stuck.
-            stuck_at: Some(0.0),
-            dir: 1.0,
-        }),
-    };
-    let zs = if files.slider.is_some() {
-        ",zeta_s"
-    } else {
-        ""
-    };
-    if let Some(p) = &args.events {
-        let mut f = AtomicFile::create(p)?;
-        writeln!(f.writer(), "tau,kind,zeta1,dzeta1,zeta2,dzeta2{zs}").map_err(|e| f.io_err(e))?;
-        files.events = Some(f);
-    }
-    if let Some(p) = &args.trajectory {
-        let mut f = AtomicFile::create(p)?;
-        writeln!(f.writer(), "tau,zeta1,dzeta1,zeta2,dzeta2{zs}").map_err(|e| f.io_err(e))?;
-        let grid = PeriodGrid {
-            t: 2.0 * std::f64::consts::PI / args.eta,
-            per_period: args.samples_per_period,
-            j: 0,
-        };
-        files.traj = Some((f, grid));
-    }
-    Ok(files)
-}
-
-/// Runs `simulate`.
-pub fn run(args: SimulateArgs) -> crate::Result<()> {
-    let model = args.model.model()?;
-    crate::model::validate_eta(args.eta)?;
-    let mut files = open_files(&args, &model)?;
-    let opts = SimOptions {
-        periods: args.periods,
-        max_periods: args.max_periods,
-        // Files want the integrated trajectory, not a closed-form answer.
-        shortcuts: args.events.is_none() && args.trajectory.is_none(),
-        ..SimOptions::default()
-    };
-    let method = match args.method {
-        Method::Exact if model.law.affine().is_none() => Method::Dopri,
-        m => m,
-    };
-    let period = 2.0 * std::f64::consts::PI / args.eta;
-    let summary = match method {
-        Method::Dopri => {
-            let drive = crate::model::Drive::Harmonic {
-                eta: args.eta,
-                phase: 0.0,
-                amplitude: 1.0,
-            };
-            let opts_n = crate::sim::numeric::NumericOptions {
-                rtol: args.tol,
-                atol: args.tol * 1e-2,
-            };
-            let ns = crate::sim::numeric::NumericSim::new(&model, drive, opts_n)?;
-            sim::steady::simulate_with(
-                &opts,
-                args.eta,
-                |init, n, obs| ns.run(init, n as f64 * period, obs),
-                period,
-                &mut files,
-            )
-        }
-        Method::Exact => {
-            let sim = Sim::new(&model, args.eta)?;
-            sim::simulate(&sim, &opts, &mut files)
-        }
-        Method::Rk4 => {
-            let rk = Rk4::new(&model, args.eta, args.step)?;
-            sim::steady::simulate_with(
-                &opts,
-                args.eta,
-                |init, n, obs| rk.run(init, n, obs),
-                2.0 * std::f64::consts::PI / args.eta,
-                &mut files,
-            )
-        }
-    };
-    if let Some(e) = files.err.take() {
-        return Err(e);
-    }
-    if let Some(f) = files.events.take() {
-        f.commit()?;
-    }
-    if let Some((f, _)) = files.traj.take() {
-        f.commit()?;
-    }
-    let s = &summary;
-    if args.json {
-        /// The `simulate --json` object: the run's summary, how it was
-        /// integrated and which law.
-        #[derive(serde::Serialize)]
-        struct SimulateOut<'a> {
-            #[serde(flatten)]
-            summary: &'a sim::steady::Summary,
-            method: &'static str,
-            law: &'static str,
-            /// ζs at the end, with a contact spring.
-            #[serde(skip_serializing_if = "Option::is_none")]
-            slider_position: Option<f64>,
-            /// κ, with a contact spring.
-            #[serde(skip_serializing_if = "Option::is_none")]
-            contact_stiffness: Option<f64>,
-        }
-        super::print_json(&crate::io::json::to_value(SimulateOut {
-            summary: s,
-            method: match method {
-                Method::Exact => "exact",
-                Method::Rk4 => "rk4",
-                Method::Dopri => "dopri",
-            },
-            law: model.law.name(),
-            slider_position: files.slider.as_ref().map(|sl| sl.position(&s.final_state)),
-            contact_stiffness: model.contact_stiffness,
-        }))?;
-    } else {
-        let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6}"));
-        eprintln!(
-            "eta {:.4}  {}  A1/A {}  A2/A {}  stick {:.3}  events {}  periods {}  status {}{}",
-            s.eta,
-            model.law,
-            f(s.amplitude1),
-            f(s.amplitude2),
-            s.stick_fraction,
-            s.events,
-            s.periods,
-            s.status,
-            s.reason
-                .as_ref()
-                .map_or(String::new(), |r| format!(" ({r})")),
-        );
-    }
+    let s = &done.json.summary;
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.6}"));
+    eprintln!(
+        "eta {:.4}  {}  A1/A {}  A2/A {}  stick {:.3}  events {}  periods {}  status {}{}",
+        s.eta,
+        done.model.law,
+        f(s.amplitude1),
+        f(s.amplitude2),
+        s.stick_fraction,
+        s.events,
+        s.periods,
+        s.status,
+        s.reason
+            .as_ref()
+            .map_or(String::new(), |r| format!(" ({r})")),
+    );
     Ok(())
 }

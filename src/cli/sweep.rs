@@ -5,7 +5,7 @@
 
 use super::args::ShapeArgs;
 use crate::io::Output;
-use crate::pipeline::sweep::{parse_shard, refuse_replacing_other, run_sweep, SweepJob};
+use crate::pipeline::sweep::{parse_shard, refuse_replacing_other, SweepJob, SweepOutcome};
 use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
 use crate::sim::SimError;
 use clap::{Args, ValueEnum};
@@ -166,8 +166,8 @@ impl crate::pipeline::Progress for Bar {
     }
 }
 
-/// Runs `sweep`.
-pub fn run(args: SweepArgs) -> crate::Result<()> {
+/// The `sweep` request: the lists, range and paths checked.
+pub(crate) fn request(args: SweepArgs) -> crate::Result<super::Request> {
     let rhos = parse_list(&args.rho_s)?;
     if !(args.eta_min.is_finite()
         && args.eta_min > 0.0
@@ -215,23 +215,30 @@ pub fn run(args: SweepArgs) -> crate::Result<()> {
         }
         b
     });
-    let done = run_sweep(&job, &Bar(bar))?;
-    if args.json {
-        super::print_json(&crate::io::json::to_value(&done.json))?;
-    } else {
-        let table = &done.table;
-        let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
-        let interrupted = table.iter().filter(|r| r.interrupted).count();
-        let coexisting = table.iter().filter(|r| r.coexisting).count();
-        eprintln!(
-            "{} curves, {} steady states in {:.2} s ({} not settled, {} interrupted, {} where the branches settle to different stable states)",
-            job.specs.len(),
-            table.len(),
-            done.seconds,
-            not_steady,
-            interrupted,
-            coexisting
-        );
+    Ok(super::Request {
+        job: crate::pipeline::Job::Sweep(job),
+        progress: Box::new(Bar(bar)),
+        view: super::View::new(args.json),
+    })
+}
+
+/// Prints the JSON object or the family's summary.
+pub(crate) fn print(done: &SweepOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&crate::io::json::to_value(&done.json));
     }
+    let table = &done.table;
+    let not_steady = table.iter().filter(|r| !r.steady && !r.interrupted).count();
+    let interrupted = table.iter().filter(|r| r.interrupted).count();
+    let coexisting = table.iter().filter(|r| r.coexisting).count();
+    eprintln!(
+        "{} curves, {} steady states in {:.2} s ({} not settled, {} interrupted, {} where the branches settle to different stable states)",
+        done.curves,
+        table.len(),
+        done.seconds,
+        not_steady,
+        interrupted,
+        coexisting
+    );
     Ok(())
 }

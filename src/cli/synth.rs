@@ -1,15 +1,13 @@
-//! `stickslip synth`: the virtual rig. Turns SI options into a
-//! [`SynthConfig`], runs [`synth::generate`] and writes the log (and
-//! `truth.json` beside it) atomically.
+//! `stickslip synth`: the virtual rig. The SI options become a
+//! [`SynthJob`]; the configuration, its checks and the writing are
+//! [`crate::pipeline::synth`]'s. This module parses and prints (most of
+//! it is the clap option list).
 
-use crate::io::Output;
 use crate::model::LawKind;
-use crate::synth::{
-    self, FrictionSpec, LogFormat, PhysicsDefects, RigSpec, Sensors, SynthConfig, TestSpec,
-};
+use crate::pipeline::synth::{SynthJob, SynthOutcome, SynthTest};
+use crate::synth::LogFormat;
 use clap::{Args, ValueEnum};
-use serde_json::json;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Output format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -231,299 +229,94 @@ pub struct SynthArgs {
     pub json: bool,
 }
 
-fn input_err(path: &Path, msg: impl Into<String>) -> crate::Error {
-    crate::Error::Input {
-        path: path.to_path_buf(),
-        msg: msg.into(),
+impl From<FormatArg> for LogFormat {
+    fn from(f: FormatArg) -> Self {
+        match f {
+            FormatArg::Mcap => LogFormat::Mcap,
+            FormatArg::McapLz4 => LogFormat::McapLz4,
+            FormatArg::McapPlain => LogFormat::McapPlain,
+            FormatArg::Csv => LogFormat::Csv,
+            FormatArg::Parquet => LogFormat::Parquet,
+        }
     }
 }
 
 impl SynthArgs {
-    /// The log format: from --format, which must agree with the
-    /// extension of --out, or from the extension.
-    fn format(&self, out: &Path) -> crate::Result<LogFormat> {
-        let ext = out
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase())
-            .unwrap_or_default();
-        let format = match (self.format, ext.as_str()) {
-            (Some(FormatArg::Mcap), "mcap") | (None, "mcap") => LogFormat::Mcap,
-            (Some(FormatArg::McapLz4), "mcap") => LogFormat::McapLz4,
-            (Some(FormatArg::McapPlain), "mcap") => LogFormat::McapPlain,
-            (Some(FormatArg::Csv), "csv") | (None, "csv") => LogFormat::Csv,
-            (Some(FormatArg::Parquet), "parquet") | (None, "parquet") => LogFormat::Parquet,
-            (None, _) => {
-                return Err(input_err(
-                    out,
-                    "unknown output type: give a .mcap, .csv or .parquet file (or --format)",
-                ))
-            }
-            (Some(f), _) => {
-                return Err(input_err(
-                    out,
-                    format!(
-                        "--format {} needs a .{} file",
-                        f.to_possible_value()
-                            .map_or("?".into(), |v| v.get_name().to_string()),
-                        match f {
-                            FormatArg::Csv => "csv",
-                            FormatArg::Parquet => "parquet",
-                            _ => "mcap",
-                        }
-                    ),
-                ))
-            }
-        };
-        Ok(format)
-    }
-
-    /// The friction law in SI (Rs = μs·N unless given, Rd likewise).
-    fn friction(&self) -> FrictionSpec {
-        let n = self.normal_force;
-        let rs = self.rs_n.unwrap_or(self.mu_s * n);
-        let rd_given = self.rd_n.unwrap_or(self.mu_d * n);
-        FrictionSpec::from_si(
-            &self
-                .law
-                .family()
-                .synth_law(rs, rd_given, self.slope, self.v_s),
-        )
-    }
-
-    /// The test the rig runs.
-    fn test_spec(&self) -> TestSpec {
-        match self.test {
-            TestArg::Characteristic => TestSpec::Characteristic {
-                frequency_hz: self.frequency,
-                warmup_s: self.warmup,
-                duration_s: self.duration,
+    /// The job these options describe.
+    pub fn job(self) -> SynthJob {
+        SynthJob {
+            out: self.out,
+            format: self.format.map(LogFormat::from),
+            test: match self.test {
+                TestArg::Characteristic => SynthTest::Characteristic,
+                TestArg::Stepped => SynthTest::Stepped,
+                TestArg::Continuous => SynthTest::Continuous,
             },
-            TestArg::Stepped => {
-                let mut t = TestSpec::stepped(0.9, 3.4, 11, 15.0);
-                if let TestSpec::Stepped {
-                    setpoints_hz,
-                    dwell_s,
-                    ..
-                } = &mut t
-                {
-                    if !self.setpoints.is_empty() {
-                        *setpoints_hz = self.setpoints.clone();
-                    }
-                    *dwell_s = self.dwell.clone();
-                }
-                t
-            }
-            TestArg::Continuous => TestSpec::Continuous {
-                from_hz: self.from_hz,
-                to_hz: self.to_hz,
-                sweep_s: self.sweep_s,
-                hold_before_s: 10.0,
-                hold_after_s: 5.0,
-            },
-        }
-    }
-
-    /// The sensor models: from --sensors, ideal, or typical (slower
-    /// channels for the long sweeps); no accelerometer with
-    /// --no-accelerometer.
-    fn sensors(&self) -> crate::Result<Sensors> {
-        let mut sensors = match &self.sensors {
-            Some(p) => {
-                let text = crate::io::paths::read_small_text(p, "sensor set", 4_000_000)?;
-                serde_json::from_str::<Sensors>(&text)
-                    .map_err(|e| input_err(p, format!("not a sensor set: {e}")))?
-            }
-            None if self.ideal_sensors => Sensors::ideal(),
-            None => {
-                let mut s = Sensors::typical(self.seed);
-                if !matches!(self.test, TestArg::Characteristic) {
-                    // Sweeps are long: slower position and velocity channels.
-                    s.x0.rate_hz = 250.0;
-                    for m in [&mut s.x1, &mut s.x2, &mut s.v2] {
-                        m.rate_hz = 500.0;
-                    }
-                }
-                s
-            }
-        };
-        if self.no_accelerometer {
-            sensors.a2 = None;
-        }
-        for (specs, high) in [(&self.clip, true), (&self.clip_low, false)] {
-            for spec in specs {
-                let flag = if high { "--clip" } else { "--clip-low" };
-                let bad = |why: &str| {
-                    input_err(
-                        &self.out,
-                        format!("{flag} {spec:?}: {why} (expected CHANNEL=FRACTION, e.g. x1=0.85)"),
-                    )
-                };
-                let (name, frac) = spec.split_once('=').ok_or_else(|| bad("no '='"))?;
-                let f: f64 = frac
-                    .trim()
-                    .parse()
-                    .map_err(|_| bad("the fraction is not a number"))?;
-                let model = sensors
-                    .channel_mut(name.trim())
-                    .ok_or_else(|| bad("unknown channel"))?
-                    .ok_or_else(|| bad("that channel is not written"))?;
-                if high {
-                    model.clip_high_fraction = Some(f);
-                } else {
-                    model.clip_low_fraction = Some(f);
-                }
-            }
-        }
-        for (list, flag, delay) in [
-            (&self.channel_delay, "--channel-delay-s", true),
-            (&self.offset_drift, "--offset-drift-per-s", false),
-        ] {
-            for item in list {
-                let (name, value) = parse_channel_value(item).ok_or_else(|| {
-                    input_err(
-                        &self.out,
-                        format!("{flag}: expected CHANNEL=NUMBER, got `{item}`"),
-                    )
-                })?;
-                let model = sensors
-                    .channel_mut(name)
-                    .ok_or_else(|| {
-                        input_err(
-                            &self.out,
-                            format!(
-                                "{flag}: unknown channel `{name}` (x0, x1, x2, v2, a2, normal_force)"
-                            ),
-                        )
-                    })?
-                    .ok_or_else(|| {
-                        input_err(&self.out, format!("{flag}: the log has no channel {name}"))
-                    })?;
-                if delay {
-                    model.delay_s = value;
-                } else {
-                    model.offset_drift_per_s = value;
-                }
-            }
-        }
-        Ok(sensors)
-    }
-
-    /// The configuration these options describe.
-    pub fn config(&self) -> crate::Result<SynthConfig> {
-        let out = &self.out;
-        let format = self.format(out)?;
-        let n = self.normal_force;
-        let friction = self.friction();
-        let d = self.d.unwrap_or(0.003 * (self.k2 * self.m2).abs().sqrt());
-        let rig = RigSpec {
+            normal_force_n: self.normal_force,
+            law: self.law,
+            mu_s: self.mu_s,
+            mu_d: self.mu_d,
+            rs_n: self.rs_n,
+            rd_n: self.rd_n,
+            slope_n_s_per_m: self.slope,
+            v_s_m_per_s: self.v_s,
             m1_kg: self.m1,
             m2_kg: self.m2,
             k1_n_per_m: self.k1,
             k2_n_per_m: self.k2,
-            d_n_s_per_m: d,
-            drive_amplitude_nominal_m: self.amplitude,
-            drive_amplitude_true_m: self.true_amplitude.unwrap_or(self.amplitude),
-        };
-        let test = self.test_spec();
-        let sensors = self.sensors()?;
-        let mut csv_shift_s = std::collections::BTreeMap::new();
-        if let Some(s) = self.csv_drive_shift {
-            if format != LogFormat::Csv {
-                return Err(input_err(
-                    out,
-                    "--csv-drive-shift-s applies to CSV output only",
-                ));
-            }
-            csv_shift_s.insert("x0".to_string(), s);
-        }
-        let cfg = SynthConfig {
-            rig,
-            friction,
-            normal_force_n: n,
-            test,
-            sensors,
+            d_n_s_per_m: self.d,
+            amplitude_m: self.amplitude,
+            true_amplitude_m: self.true_amplitude,
+            frequency_hz: self.frequency,
+            warmup_s: self.warmup,
+            duration_s: self.duration,
+            setpoints_hz: self.setpoints,
+            dwell_s: self.dwell,
+            from_hz: self.from_hz,
+            to_hz: self.to_hz,
+            sweep_s: self.sweep_s,
             seed: self.seed,
-            format,
+            no_accelerometer: self.no_accelerometer,
+            ideal_sensors: self.ideal_sensors,
+            sensors: self.sensors,
+            channel_delay: self.channel_delay,
+            offset_drift: self.offset_drift,
             table_rate_hz: self.table_rate,
-            csv_shift_s,
-            rtol: 1e-10,
-            defects: PhysicsDefects {
-                stroke_friction_gradient_per_m: self.stroke_gradient,
-                hardening_per_m2: self.hardening,
-                rs_minus_n: self.rs_minus_n,
-                rd_minus_n: self.rd_minus_n,
-            },
+            csv_drive_shift_s: self.csv_drive_shift,
+            clip: self.clip,
+            clip_low: self.clip_low,
+            stroke_gradient_per_m: self.stroke_gradient,
+            hardening_per_m2: self.hardening,
+            rs_minus_n: self.rs_minus_n,
+            rd_minus_n: self.rd_minus_n,
             contact_stiffness_n_per_m: self.contact_stiffness,
-        };
-        cfg.validate().map_err(|e| input_err(out, e.to_string()))?;
-        Ok(cfg)
-    }
-}
-
-/// `NAME=NUMBER` (a finite number) as its two parts.
-fn parse_channel_value(item: &str) -> Option<(&str, f64)> {
-    let (name, value) = item.split_once('=')?;
-    let v: f64 = value.trim().parse().ok()?;
-    v.is_finite().then_some((name.trim(), v))
-}
-
-/// Runs `synth`.
-pub fn run(args: SynthArgs) -> crate::Result<()> {
-    crate::io::check_inputs(args.sensors.as_deref())?;
-    let cfg = args.config()?;
-    let map = (cfg.format == LogFormat::Csv).then(|| {
-        let stem = args.out.file_stem().unwrap_or_default().to_string_lossy();
-        args.out.with_file_name(format!("{stem}.map.toml"))
-    });
-    let exts: &'static [&'static str] = match cfg.format {
-        LogFormat::Csv => super::ext::CSV,
-        LogFormat::Parquet => super::ext::PARQUET,
-        _ => &["mcap"],
-    };
-    let mut outputs = vec![Output::file("--out", &args.out, exts)];
-    if let Some(m) = &map {
-        outputs.push(Output::file("--out (its channel map)", m, &["toml"]));
-    }
-    super::check_paths(args.sensors.as_deref(), &outputs)?;
-    if !args.force {
-        for o in &outputs {
-            if std::fs::symlink_metadata(o.path).is_ok() {
-                return Err(input_err(
-                    o.path,
-                    "exists: synth does not replace a log without --force",
-                ));
-            }
+            force: self.force,
         }
     }
-    let log = synth::generate(&cfg).map_err(|e| input_err(&args.out, e.to_string()))?;
-    let written = synth::write(&log, &args.out)?;
-    let t = &log.truth;
-    if args.json {
-        super::print_json(&json!({
-            "out": written.log.display().to_string(),
-            "map": written.map.as_ref().map(|p| p.display().to_string()),
-            "truth": written.truth.display().to_string(),
-            "format": cfg.format.as_str(),
-            "test": t["test"],
-            "bytes": written.bytes,
-            "duration_s": t["duration_s"],
-            "seed": cfg.seed,
-            "channels": t["channels"],
-            "stick_fraction": t["stick_fraction"],
-            "n_stick_slip_events": t["n_stick_slip_events"],
-            "lost_buffers": log.channels.iter().map(|c| c.lost_buffers).sum::<usize>(),
-            "null_samples": log.channels.iter().map(|c| c.null_samples).sum::<usize>(),
-        }))?;
-    } else {
-        eprintln!(
-            "wrote {} ({}, {} test, {} s, {} bytes); truth in {}",
-            written.log.display(),
-            cfg.format.as_str(),
-            t["test"].as_str().unwrap_or("?"),
-            cfg.test.duration_s(),
-            written.bytes,
-            written.truth.display()
-        );
+}
+
+/// The `synth` request.
+pub fn request(args: SynthArgs) -> crate::Result<super::Request> {
+    let json = args.json;
+    Ok(super::Request::quiet(
+        crate::pipeline::Job::Synth(Box::new(args.job())),
+        json,
+    ))
+}
+
+/// Prints what was written.
+pub fn print(done: &SynthOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
+        return super::print_json(&crate::io::json::to_value(&done.json));
     }
+    eprintln!(
+        "wrote {} ({}, {} test, {} s, {} bytes); truth in {}",
+        done.written.log.display(),
+        done.config.format.as_str(),
+        done.json.test.as_str().unwrap_or("?"),
+        done.config.test.duration_s(),
+        done.written.bytes,
+        done.written.truth.display()
+    );
     Ok(())
 }

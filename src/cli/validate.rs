@@ -4,11 +4,10 @@
 //! [`crate::pipeline::validate`]'s job; this module parses, checks the
 //! paths and prints.
 
-use crate::pipeline::validate::{run_validate, ValidateJob};
+use crate::pipeline::validate::{ValidateJob, ValidateOutcome};
 use crate::validate::{self, ValidateOptions};
 use clap::Args;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Arguments of `stickslip validate`.
 #[derive(Debug, Args)]
@@ -55,17 +54,6 @@ pub struct ValidateArgs {
     pub json: bool,
 }
 
-/// Lines for a person on stderr, unless `--json`.
-struct Say(bool);
-
-impl crate::pipeline::Progress for Say {
-    fn say(&self, line: &str) {
-        if !self.0 {
-            eprintln!("{line}");
-        }
-    }
-}
-
 /// The job of the arguments.
 fn job(args: ValidateArgs) -> ValidateJob {
     let mut options = ValidateOptions::default();
@@ -85,8 +73,8 @@ fn job(args: ValidateArgs) -> ValidateJob {
     }
 }
 
-/// Runs `validate`.
-pub fn run(args: ValidateArgs) -> crate::Result<()> {
+/// The `validate` request: the paths checked.
+pub fn request(args: ValidateArgs) -> crate::Result<super::Request> {
     let outputs = super::json_and_report(args.out.as_deref(), args.report.as_deref());
     super::check_paths(
         args.characteristic
@@ -96,10 +84,17 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
             .chain([args.sweep.as_path()]),
         &outputs,
     )?;
-    let t0 = Instant::now();
     let json = args.json;
-    let done = run_validate(&job(args), &Say(json))?;
-    if json {
+    Ok(super::Request {
+        view: super::View::new(json),
+        job: crate::pipeline::Job::Validate(Box::new(job(args))),
+        progress: Box::new(super::Say(json)),
+    })
+}
+
+/// Prints the scores and the warnings.
+pub fn print(done: &ValidateOutcome, view: &super::View) -> crate::Result<()> {
+    if view.json {
         return super::print_json(&crate::io::json::to_value(&done.json));
     }
     let v = &done.validation;
@@ -115,7 +110,7 @@ pub fn run(args: ValidateArgs) -> crate::Result<()> {
         pc(s.replay_nrms_amplitude2),
         pc(s.replay_coverage_amplitude1),
         pc(s.replay_coverage_amplitude2),
-        t0.elapsed().as_secs_f64()
+        view.started.elapsed().as_secs_f64()
     );
     for w in &v.warnings {
         eprintln!("warning: {w}");

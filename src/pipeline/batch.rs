@@ -114,39 +114,6 @@ type Fitted = (PathBuf, crate::Result<(RigMeta, LogFit)>);
 /// The fits of a batch, per log.
 type Fits = [Fitted];
 
-/// Keeps one of each test given twice (same rig, normal force and drive):
-/// the names set aside and the warnings saying so.
-fn drop_duplicates(
-    good: &mut Vec<(PathBuf, LogFit)>,
-    rigs: &mut Vec<(PathBuf, RigMeta)>,
-) -> (Vec<String>, Vec<crate::warning::Warning>) {
-    let (keep, dup_warnings) = {
-        let ids: Vec<checks::TestId<'_>> = good
-            .iter()
-            .zip(rigs.iter())
-            .map(|((p, f), (_, rig))| checks::TestId {
-                path: p,
-                rig,
-                normal_force_n: f.normal_force_n,
-                drive_amplitude_m: f.drive.amplitude_m,
-                drive_frequency_hz: f.drive.frequency_hz,
-            })
-            .collect();
-        checks::find_duplicates(&ids)
-    };
-    let duplicates: Vec<String> = good
-        .iter()
-        .zip(&keep)
-        .filter(|(_, k)| !**k)
-        .map(|((p, _), _)| p.display().to_string())
-        .collect();
-    let mut k = keep.iter();
-    good.retain(|_| *k.next().unwrap_or(&true));
-    let mut k = keep.iter();
-    rigs.retain(|_| *k.next().unwrap_or(&true));
-    (duplicates, dup_warnings)
-}
-
 /// The batch keys of the JSON object (`null` with an `error` where the
 /// batch failed).
 fn batch_keys(result: &crate::Result<Batch>) -> BatchKeys {
@@ -268,7 +235,7 @@ pub fn run_batch(job: &BatchJob, progress: &dyn Progress) -> crate::Result<Batch
     }
     checks::refuse_mixed_rigs(&rigs, job.allow_mixed_rigs).inspect_err(|_| progress.done())?;
     // The same test given twice counts once.
-    let (duplicates, dup_warnings) = drop_duplicates(&mut good, &mut rigs);
+    let (duplicates, dup_warnings) = checks::drop_duplicates(&mut good, &mut rigs);
     let result: crate::Result<Batch> = if good.is_empty() {
         Err(vb::BatchError::NothingFitted.into())
     } else {

@@ -1,6 +1,7 @@
 //! Checks on a set of logs used together: one rig (constants within 1 %),
 //! and no test counted twice.
 
+use crate::identify::LogFit;
 use crate::ingest::RigMeta;
 use std::path::{Path, PathBuf};
 
@@ -114,6 +115,41 @@ pub fn find_duplicates(ids: &[TestId<'_>]) -> (Vec<bool>, Vec<crate::warning::Wa
         }
     }
     (keep, warnings)
+}
+
+/// Keeps one of each test given twice (same rig, normal force and drive;
+/// see [`find_duplicates`]) among fitted logs (`good`) and their rig
+/// records (`rigs`, in the same order): the names set aside and the
+/// warnings saying so. Shared by the `batch` job and a plan's batch.
+pub fn drop_duplicates(
+    good: &mut Vec<(PathBuf, LogFit)>,
+    rigs: &mut Vec<(PathBuf, RigMeta)>,
+) -> (Vec<String>, Vec<crate::warning::Warning>) {
+    let (keep, dup_warnings) = {
+        let ids: Vec<TestId<'_>> = good
+            .iter()
+            .zip(rigs.iter())
+            .map(|((p, f), (_, rig))| TestId {
+                path: p,
+                rig,
+                normal_force_n: f.normal_force_n,
+                drive_amplitude_m: f.drive.amplitude_m,
+                drive_frequency_hz: f.drive.frequency_hz,
+            })
+            .collect();
+        find_duplicates(&ids)
+    };
+    let duplicates: Vec<String> = good
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| !**k)
+        .map(|((p, _), _)| p.display().to_string())
+        .collect();
+    let mut k = keep.iter();
+    good.retain(|_| *k.next().unwrap_or(&true));
+    let mut k = keep.iter();
+    rigs.retain(|_| *k.next().unwrap_or(&true));
+    (duplicates, dup_warnings)
 }
 
 /// Reads logs in parallel (results in the order given) and checks that

@@ -2,9 +2,8 @@
 //! its JSON result ([`RunJson`]), written through the write transaction
 //! ([`crate::io::txn`]) — nothing where a step of the plan failed.
 
-use super::{Options, PipelineReport, Plan, Progress, StageSeconds};
+use super::{Options, PipelineReport, Plan, PlanJson, Progress, StageSeconds};
 use serde::Serialize;
-use serde_json::Value;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -26,13 +25,13 @@ pub struct RunJob {
 }
 
 /// The `run --json` object: the plan's result
-/// ([`PipelineReport::to_json`]) with the report's path and the wall
+/// ([`PipelineReport::plan_json`]) with the report's path and the wall
 /// seconds.
 #[derive(Debug, Clone, Serialize)]
 pub struct RunJson {
-    /// The plan's result (its JSON object's keys, flattened).
+    /// The plan's result (its keys, flattened).
     #[serde(flatten)]
-    pub result: Value,
+    pub result: PlanJson,
     /// The report's index page, where one was written.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub report: Option<String>,
@@ -62,7 +61,7 @@ pub fn run_job(job: &RunJob, progress: &dyn Progress) -> crate::Result<RunOutcom
     progress.done();
     let report = report?;
     let mut json = RunJson {
-        result: report.to_json(&job.plan, &job.plan_path),
+        result: report.plan_json(&job.plan, &job.plan_path),
         report: None,
         stage_seconds: report.seconds.clone(),
         seconds: 0.0,

@@ -23,15 +23,27 @@
 //! through [`Progress`] and writes through the write transaction
 //! ([`crate::io::txn`]): [`job::run_job`] (a plan, with its report),
 //! [`validate::run_validate`], [`batch::run_batch`], [`sweep::run_sweep`],
-//! [`merge::run_merge`] and [`fit::run_fit`], each with its JSON object.
+//! [`merge::run_merge`], [`fit::run_fit`], [`synth::run_synth`],
+//! [`simulate::run_simulate`], [`characteristic::run_characteristic`],
+//! [`read::run_ingest`] and [`bench::run_bench`], each with its JSON
+//! object. [`Job`] names any of them and [`execute`] is the one dispatch
+//! the command line calls.
 
 pub mod batch;
+pub mod bench;
+pub mod characteristic;
 pub mod checks;
+pub mod dispatch;
 pub mod fit;
 pub mod job;
 pub mod merge;
+pub mod read;
+pub mod simulate;
 pub mod sweep;
+pub mod synth;
 pub mod validate;
+
+pub use dispatch::{execute, Job, Outcome};
 
 use crate::batch::{self as vb, Batch};
 use crate::identify::{self, IdentifyOptions, LogFit};
@@ -40,8 +52,8 @@ use crate::report::characteristic_plot::CharacteristicPoints;
 use crate::report::{batch_plot, batch_view, html, sections, views};
 use crate::validate::{self as vd, ValidateOptions, Validation};
 use rayon::prelude::*;
-use serde::Deserialize;
-use serde_json::{json, Value};
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -290,6 +302,64 @@ pub struct PipelineReport {
     pub errors: Vec<String>,
     /// The sha256 of every characteristic log (None: it could not be read).
     pub log_sha256: BTreeMap<PathBuf, Option<String>>,
+}
+
+/// The JSON result of a plan ([`PipelineReport::plan_json`]; the keys
+/// of `run --json` besides the report and the seconds).
+#[derive(Debug, Clone, Serialize)]
+pub struct PlanJson {
+    /// The plan file.
+    pub plan: String,
+    /// One record per characteristic log, in plan order (a fit's record,
+    /// or its `error`).
+    pub fits: Vec<Value>,
+    /// One entry per validation, in plan order.
+    pub validations: Vec<ValidationEntryJson>,
+    /// The batch comparison (absent: the plan has no batch).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub batch: Option<PlanBatchJson>,
+}
+
+/// One validation of a plan in its JSON result.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum ValidationEntryJson {
+    /// The validation's object ([`Validation::to_json`]).
+    Done(Value),
+    /// A validation that failed (or whose characteristic log failed).
+    Failed(FailedPairJson),
+}
+
+/// A validation that failed, in a plan's JSON result.
+#[derive(Debug, Clone, Serialize)]
+pub struct FailedPairJson {
+    /// The characteristic log.
+    pub characteristic: String,
+    /// The sweep.
+    pub sweep: String,
+    /// Why it failed.
+    pub error: String,
+}
+
+/// A plan's batch comparison in its JSON result.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum PlanBatchJson {
+    /// The comparison's keys ([`Batch::to_json_map`]) with the plan's
+    /// batch logs.
+    Done {
+        /// The comparison's keys (flattened).
+        #[serde(flatten)]
+        batch: serde_json::Map<String, Value>,
+        /// The plan's batch logs, in plan order (this key replaces one of
+        /// the comparison's of the same name).
+        logs: Vec<String>,
+    },
+    /// The comparison failed.
+    Failed {
+        /// Why.
+        error: String,
+    },
 }
 
 /// Runs the plan: reads every log once, in rounds whose planned memory
@@ -569,40 +639,16 @@ fn batch_of(
     records: &BTreeMap<PathBuf, crate::Result<LogRecord>>,
     fits: &BTreeMap<PathBuf, crate::Result<LogFit>>,
 ) -> crate::Result<Batch> {
-    let both: Vec<(PathBuf, &LogFit, &RigMeta)> = plan
+    // The logs read and fitted, each with its rig record.
+    let (mut good, mut rigs): (Vec<_>, Vec<_>) = plan
         .batch
         .iter()
         .filter_map(|p| match (&fits[p], &records[p]) {
-            (Ok(f), Ok(r)) => Some((p.clone(), f, &r.rig)),
+            (Ok(f), Ok(r)) => Some(((p.clone(), f.clone()), (p.clone(), r.rig.clone()))),
             _ => None,
         })
-        .collect();
-    let (keep, dup_warnings) = checks::find_duplicates(
-        &both
-            .iter()
-            .map(|(p, f, rig)| checks::TestId {
-                path: p,
-                rig,
-                normal_force_n: f.normal_force_n,
-                drive_amplitude_m: f.drive.amplitude_m,
-                drive_frequency_hz: f.drive.frequency_hz,
-            })
-            .collect::<Vec<_>>(),
-    );
-    let kept: Vec<&(PathBuf, &LogFit, &RigMeta)> = both
-        .iter()
-        .zip(&keep)
-        .filter(|(_, k)| **k)
-        .map(|(x, _)| x)
-        .collect();
-    let good: Vec<(PathBuf, LogFit)> = kept
-        .iter()
-        .map(|(p, f, _)| (p.clone(), (*f).clone()))
-        .collect();
-    let mut rigs: Vec<(PathBuf, RigMeta)> = kept
-        .iter()
-        .map(|(p, _, r)| (p.clone(), (*r).clone()))
-        .collect();
+        .unzip();
+    let (_, dup_warnings) = checks::drop_duplicates(&mut good, &mut rigs);
     if rigs.is_empty() {
         rigs = plan
             .batch
@@ -625,9 +671,15 @@ fn batch_of(
 }
 
 impl PipelineReport {
-    /// The JSON result of the plan at `plan_path` (`run`'s contract keys).
+    /// The JSON result of the plan at `plan_path` (`run`'s contract keys):
+    /// [`PipelineReport::plan_json`] as a value.
     pub fn to_json(&self, plan: &Plan, plan_path: &Path) -> Value {
-        let fit_entries: Vec<Value> = plan
+        crate::io::json::to_value(self.plan_json(plan, plan_path))
+    }
+
+    /// The typed JSON result of the plan at `plan_path`.
+    pub fn plan_json(&self, plan: &Plan, plan_path: &Path) -> PlanJson {
+        let fits: Vec<Value> = plan
             .characteristic_logs()
             .iter()
             .map(|p| {
@@ -641,40 +693,35 @@ impl PipelineReport {
                 }
             })
             .collect();
-        let val_entries: Vec<Value> = self
+        let validations: Vec<ValidationEntryJson> = self
             .validations
             .iter()
             .map(|(pair, r)| match (r, &self.fits[&pair.characteristic]) {
-                (Ok(v), Ok(f)) => v.to_json(&pair.characteristic, &pair.sweep, f),
-                (Err(e), _) | (_, Err(e)) => json!({
-                    "characteristic": pair.characteristic.display().to_string(),
-                    "sweep": pair.sweep.display().to_string(),
-                    "error": e.to_string(),
+                (Ok(v), Ok(f)) => {
+                    ValidationEntryJson::Done(v.to_json(&pair.characteristic, &pair.sweep, f))
+                }
+                (Err(e), _) | (_, Err(e)) => ValidationEntryJson::Failed(FailedPairJson {
+                    characteristic: pair.characteristic.display().to_string(),
+                    sweep: pair.sweep.display().to_string(),
+                    error: e.to_string(),
                 }),
             })
             .collect();
-        let mut out = json!({
-            "plan": plan_path.display().to_string(),
-            "fits": fit_entries,
-            "validations": val_entries,
+        let batch = self.batch.as_ref().map(|r| match r {
+            Ok(b) => PlanBatchJson::Done {
+                batch: b.to_json_map(),
+                logs: plan.batch.iter().map(|p| p.display().to_string()).collect(),
+            },
+            Err(e) => PlanBatchJson::Failed {
+                error: e.to_string(),
+            },
         });
-        match &self.batch {
-            Some(Ok(b)) => {
-                let mut m = b.to_json_map();
-                m.insert(
-                    "logs".into(),
-                    json!(plan
-                        .batch
-                        .iter()
-                        .map(|p| p.display().to_string())
-                        .collect::<Vec<_>>()),
-                );
-                out["batch"] = Value::Object(m);
-            }
-            Some(Err(e)) => out["batch"] = json!({"error": e.to_string()}),
-            None => {}
+        PlanJson {
+            plan: plan_path.display().to_string(),
+            fits,
+            validations,
+            batch,
         }
-        out
     }
 
     /// Writes the HTML report of the plan into `dir` (index.html and the

@@ -51,6 +51,8 @@ pub struct SweepOutcome {
     pub seconds: f64,
     /// The JSON object of the table.
     pub json: SweepJson,
+    /// Curves of the family (the job's specs).
+    pub curves: usize,
 }
 
 fn bad(msg: String) -> crate::Error {
@@ -175,6 +177,7 @@ pub fn run_sweep(job: &SweepJob, progress: &dyn Progress) -> crate::Result<Sweep
         table,
         seconds,
         json,
+        curves: job.specs.len(),
     })
 }
 
