@@ -602,6 +602,17 @@ fn cases() -> Vec<Case> {
             says: "steady states",
         },
         Case {
+            name: "run with a plan whose sweep is also a batch log (was a panic)",
+            inputs: &[CHAR],
+            setup: &[(
+                "file:batch = [\"char_N4.mcap\"]\n[[validate]]\ncharacteristic = \"char_N4.mcap\"\nsweep = \"char_N4.mcap\"\n",
+                "plan.toml",
+            )],
+            args: &["run", "plan.toml"],
+            code: 1,
+            says: "fitted or predicted, not both",
+        },
+        Case {
             name: "a plan of 10000 entries",
             inputs: &[],
             setup: &[("plan10000", "plan.toml")],

@@ -144,6 +144,27 @@ impl Plan {
                 ),
             ));
         }
+        // A sweep is predicted, not fitted: a log named as both would have
+        // no fit where the plan asks for one.
+        let characteristic: Vec<&PathBuf> = plan
+            .fit
+            .iter()
+            .chain(&plan.batch)
+            .chain(plan.validate.iter().map(|v| &v.characteristic))
+            .collect();
+        if let Some(v) = plan
+            .validate
+            .iter()
+            .find(|v| characteristic.contains(&&v.sweep))
+        {
+            return Err(plan_err(
+                path,
+                format!(
+                    "{} is a [[validate]] sweep and also a characteristic log (fit, batch or a characteristic): a log is fitted or predicted, not both",
+                    v.sweep.display()
+                ),
+            ));
+        }
         if plan.fit.is_empty() && plan.batch.is_empty() && plan.validate.is_empty() {
             return Err(plan_err(
                 path,
