@@ -132,6 +132,26 @@ fn solve_spd(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
     Some(x)
 }
 
+/// The sandwich `H⁻¹ M H⁻¹ · corr` of a cluster-robust covariance (`hinv`:
+/// the inverse Hessian, `meat`: the sum of the clusters' score products,
+/// `corr`: the small-sample factor K/(K − p)).
+pub fn sandwich(hinv: &[Vec<f64>], meat: &[Vec<f64>], corr: f64) -> Vec<Vec<f64>> {
+    let p = hinv.len();
+    let mut cov = vec![vec![0.0; p]; p];
+    for a in 0..p {
+        for b in 0..p {
+            let mut s = 0.0;
+            for j in 0..p {
+                for k in 0..p {
+                    s += hinv[a][j] * meat[j][k] * hinv[k][b];
+                }
+            }
+            cov[a][b] = s * corr;
+        }
+    }
+    cov
+}
+
 /// `y ≈ Σ β_j x_j` over the rows where everything is finite; clusters of
 /// `block` consecutive rows. Columns are scaled internally.
 pub fn ols(cols: &[&[f64]], y: &[f64], block: usize) -> Option<Ols> {
@@ -223,16 +243,10 @@ pub fn ols(cols: &[&[f64]], y: &[f64], block: usize) -> Option<Ols> {
         }
     }
     let corr = clusters as f64 / (clusters - p) as f64;
-    let mut cov = vec![vec![0.0; p]; p];
+    let mut cov = sandwich(&hinv, &meat, corr);
     for a in 0..p {
         for bb in 0..p {
-            let mut s = 0.0;
-            for j in 0..p {
-                for k in 0..p {
-                    s += hinv[a][j] * meat[j][k] * hinv[k][bb];
-                }
-            }
-            cov[a][bb] = s * corr / (scale[a] * scale[bb]);
+            cov[a][bb] /= scale[a] * scale[bb];
         }
     }
     let beta = b.iter().zip(&scale).map(|(b, s)| b / s).collect();

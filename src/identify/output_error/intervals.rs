@@ -344,18 +344,7 @@ impl Refinement {
         }
         let corr = used as f64 / (used - p) as f64;
         let t975 = student_t975((used - p) as f64);
-        let mut cov = vec![vec![0.0; p]; p];
-        for a in 0..p {
-            for b in 0..p {
-                let mut s = 0.0;
-                for c in 0..p {
-                    for d in 0..p {
-                        s += hinv[a][c] * meat[c][d] * hinv[d][b];
-                    }
-                }
-                cov[a][b] = s * corr;
-            }
-        }
+        let cov = crate::stats::regress::sandwich(&hinv, &meat, corr);
         Some((hinv, cov, t975))
     }
 
