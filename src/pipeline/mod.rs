@@ -38,6 +38,7 @@ pub mod fit;
 pub mod job;
 pub mod merge;
 pub mod read;
+pub mod shape;
 pub mod simulate;
 pub mod sweep;
 pub mod synth;
