@@ -69,16 +69,16 @@ pub fn periods() -> clap::builder::RangedU64ValueParser<u64> {
 #[derive(Debug, Clone, Args)]
 pub struct ShapeArgs {
     /// Mass ratio m = M1/M2.
-    #[arg(long, default_value_t = 4.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().m, allow_hyphen_values = true)]
     pub m: f64,
     /// Stiffness ratio k = K1/K2.
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().k, allow_hyphen_values = true)]
     pub k: f64,
     /// Viscous damping D = d/sqrt(K2 M2).
-    #[arg(long, default_value_t = 0.005, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().damping, allow_hyphen_values = true)]
     pub damping: f64,
     /// Slope D* of the characteristic (ignored where rho_s = 0: no friction).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().slope, allow_hyphen_values = true)]
     pub slope: f64,
     /// Velocity scale v_s of a law that has one: with the default
     /// `--law stribeck`, ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
