@@ -1,6 +1,7 @@
 //! Option groups shared by several subcommands.
 
-use crate::model::{Absorber, Law, LawKind, Levels, Model};
+use crate::model::{LawKind, Model};
+use crate::pipeline::shape::ShapeSpec;
 use clap::Args;
 
 /// The parser of a family name among `kinds` (the help and the error list
@@ -68,16 +69,16 @@ pub fn periods() -> clap::builder::RangedU64ValueParser<u64> {
 #[derive(Debug, Clone, Args)]
 pub struct ShapeArgs {
     /// Mass ratio m = M1/M2.
-    #[arg(long, default_value_t = 4.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().m, allow_hyphen_values = true)]
     pub m: f64,
     /// Stiffness ratio k = K1/K2.
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().k, allow_hyphen_values = true)]
     pub k: f64,
     /// Viscous damping D = d/sqrt(K2 M2).
-    #[arg(long, default_value_t = 0.005, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().damping, allow_hyphen_values = true)]
     pub damping: f64,
     /// Slope D* of the characteristic (ignored where rho_s = 0: no friction).
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = ShapeSpec::default().slope, allow_hyphen_values = true)]
     pub slope: f64,
     /// Velocity scale v_s of a law that has one: with the default
     /// `--law stribeck`, ρd + (ρs − ρd)·exp(−(v/v_s)²) + D*·v.
@@ -112,74 +113,21 @@ pub struct ShapeArgs {
 }
 
 impl ShapeArgs {
-    /// The validated model with static threshold `rho_s` and dynamic level
-    /// `rho_d` (default: ρs, or 0 when ρs = ∞).
-    pub fn model(&self, rho_s: f64, rho_d: Option<f64>) -> crate::Result<Model> {
-        let kappa = match self.contact_stiffness[..] {
-            [] => None,
-            [k] => Some(k),
-            _ => {
-                return Err(crate::sim::SimError::Unsupported(
-                    "--contact-stiffness: give one value here (a list is for sweep)".into(),
-                )
-                .into())
-            }
-        };
-        self.model_with(rho_s, rho_d, kappa)
-    }
-
-    /// [`ShapeArgs::model`] with the contact stiffness `kappa` (None or
-    /// inf: the rigid stick).
-    pub fn model_with(
-        &self,
-        rho_s: f64,
-        rho_d: Option<f64>,
-        kappa: Option<f64>,
-    ) -> crate::Result<Model> {
-        // ρs = 0 means no friction device: no slope, no dynamic level.
-        let slope = if rho_s == 0.0 { 0.0 } else { self.slope };
-        let rho_d = match rho_d {
-            _ if rho_s == 0.0 => 0.0,
-            Some(v) => v,
-            None if rho_s.is_finite() => rho_s,
-            None => 0.0,
-        };
-        let linear = Law::Linear {
-            rho_s,
-            rho_d,
-            slope,
-            minus: None,
-        };
-        // The parser admits only families with a velocity scale, and
-        // --law only with --v-s.
-        let shaped = self.law.unwrap_or(LawKind::Stribeck);
-        let law = match self.v_s {
-            Some(v_s) if rho_s > 0.0 => Law::of(shaped, rho_s, rho_d, slope, Some(v_s)),
-            _ => None,
-        }
-        .unwrap_or(linear);
-        let minus = match (self.rho_s_minus, self.rho_d_minus) {
-            (None, None) => None,
-            (Some(rs), rd) => Some(Levels {
-                rho_s: rs,
-                rho_d: rd.unwrap_or(if rs.is_finite() { rs } else { 0.0 }),
-            }),
-            (None, Some(rd)) => Some(Levels { rho_s, rho_d: rd }),
-        };
-        let law = law.with_minus(minus);
-        let model = Model {
-            absorber: Absorber {
-                m: self.m,
-                k: self.k,
-                damping: self.damping,
-            },
-            law,
+    /// The options as the library's plain model shape (the model is built
+    /// and checked there: [`ShapeSpec::model_with`]).
+    pub fn spec(&self) -> ShapeSpec {
+        ShapeSpec {
+            m: self.m,
+            k: self.k,
+            damping: self.damping,
+            slope: self.slope,
+            v_s: self.v_s,
+            law: self.law,
             stop_below: self.stop_below,
-            // inf is the paper's rigid stick.
-            contact_stiffness: kappa.filter(|k| *k != f64::INFINITY),
-        };
-        model.validate()?;
-        Ok(model)
+            rho_s_minus: self.rho_s_minus,
+            rho_d_minus: self.rho_d_minus,
+            contact_stiffness: self.contact_stiffness.clone(),
+        }
     }
 }
 
@@ -200,7 +148,7 @@ pub struct ModelArgs {
 impl ModelArgs {
     /// The validated model.
     pub fn model(&self) -> crate::Result<Model> {
-        self.shape.model(self.rho_s, self.rho_d)
+        self.shape.spec().model(self.rho_s, self.rho_d)
     }
 }
 

@@ -1,13 +1,14 @@
 //! `stickslip sweep`: frequency-response curves and families (paper
 //! Figs. 3–5), in parallel, with tables, figures and sharding for large
-//! studies. The work is [`crate::pipeline::sweep`]'s job; this module
-//! parses the curves, checks the paths, shows progress and prints.
+//! studies. The family, its checks and the work are
+//! [`crate::pipeline::sweep`]'s ([`SweepRequest`]); this module parses,
+//! checks the paths, shows progress and prints.
 
 use super::args::ShapeArgs;
 use crate::io::Output;
-use crate::pipeline::sweep::{parse_shard, refuse_replacing_other, SweepJob, SweepOutcome};
-use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
-use crate::sim::SimError;
+use crate::pipeline::sweep::{
+    parse_rho_list, Continuation, DynamicLevel, EtaRange, FamilySpec, SweepOutcome, SweepRequest,
+};
 use clap::{Args, ValueEnum};
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -91,63 +92,14 @@ pub struct SweepArgs {
     pub json: bool,
 }
 
-fn bad(msg: String) -> crate::Error {
-    SimError::Unsupported(msg).into()
-}
-
-fn parse_list(s: &str) -> crate::Result<Vec<f64>> {
-    s.split(',')
-        .map(|t| {
-            let t = t.trim();
-            match t {
-                "inf" | "infinity" | "Inf" => Ok(f64::INFINITY),
-                _ => t
-                    .parse::<f64>()
-                    .map_err(|_| bad(format!("--rho-s: `{t}` is not a number"))),
-            }
-        })
-        .collect()
-}
-
-/// The family's curves: one per ρs and direction (up, down, both, or from
-/// rest); a law with a velocity scale is marched by the numerical engine.
-fn curve_specs(args: &SweepArgs, rhos: &[f64]) -> crate::Result<Vec<CurveSpec>> {
-    let directions: Vec<Direction> = if args.from_rest {
-        vec![Direction::Rest]
-    } else {
-        match args.direction {
-            DirectionArg::Up => vec![Direction::Up],
-            DirectionArg::Down => vec![Direction::Down],
-            DirectionArg::Both => vec![Direction::Up, Direction::Down],
-        }
-    };
-    let mut specs = Vec::new();
-    for &rs in rhos {
-        let rd = match (args.rho_d, args.rho_d_ratio) {
-            (Some(v), _) => Some(v),
-            (None, Some(r)) if rs.is_finite() => Some(r * rs),
-            _ => None,
-        };
-        let kappas: Vec<Option<f64>> = if args.shape.contact_stiffness.is_empty() {
-            vec![None]
-        } else {
-            args.shape
-                .contact_stiffness
-                .iter()
-                .map(|&k| Some(k))
-                .collect()
-        };
-        for kappa in kappas {
-            let model = args.shape.model_with(rs, rd, kappa)?;
-            for &d in &directions {
-                specs.push(CurveSpec {
-                    model,
-                    direction: d,
-                });
-            }
+impl From<DirectionArg> for Continuation {
+    fn from(d: DirectionArg) -> Self {
+        match d {
+            DirectionArg::Up => Continuation::Up,
+            DirectionArg::Down => Continuation::Down,
+            DirectionArg::Both => Continuation::Both,
         }
     }
-    Ok(specs)
 }
 
 /// The family's progress on an indicatif bar.
@@ -166,16 +118,11 @@ impl crate::pipeline::Progress for Bar {
     }
 }
 
-/// The `sweep` request: the lists, range and paths checked.
+/// The `sweep` request: the list and range parsed, the paths checked,
+/// the job built ([`SweepRequest::job`]).
 pub(crate) fn request(args: SweepArgs) -> crate::Result<super::Request> {
-    let rhos = parse_list(&args.rho_s)?;
-    if !(args.eta_min.is_finite()
-        && args.eta_min > 0.0
-        && args.eta_max.is_finite()
-        && args.eta_max >= args.eta_min)
-    {
-        return Err(bad("need 0 < --eta-min <= --eta-max".into()));
-    }
+    let rho_s = parse_rho_list(&args.rho_s)?;
+    let etas = EtaRange::new(args.eta_min, args.eta_max, args.points)?;
     let mut outputs = Vec::new();
     if let Some(p) = &args.out {
         outputs.push(Output::file("--out", p, super::ext::TABLE));
@@ -184,28 +131,24 @@ pub(crate) fn request(args: SweepArgs) -> crate::Result<super::Request> {
         outputs.push(Output::file("--plot", p, super::ext::FIGURE));
     }
     super::check_paths([], &outputs)?;
-    if let Some(p) = &args.out {
-        refuse_replacing_other(p, args.force)?;
-    }
-    let shard = match &args.shard {
-        Some(s) => parse_shard(s)?,
-        None => Shard::ALL,
-    };
-    let job = SweepJob {
-        specs: curve_specs(&args, &rhos)?,
-        etas: sweep::eta_grid(args.eta_min, args.eta_max, args.points),
-        config: SteadyConfig {
-            max_periods: args.max_periods,
-            early_stop: !args.no_early_stop,
-            ..SteadyConfig::default()
+    let job = SweepRequest {
+        family: FamilySpec {
+            shape: args.shape.spec(),
+            rho_s,
+            rho_d: DynamicLevel::of(args.rho_d, args.rho_d_ratio),
+            continuation: args.direction.into(),
+            from_rest: args.from_rest,
         },
-        shard,
-        shard_label: args.shard.clone(),
-        out: args.out.clone(),
+        etas,
+        max_periods: args.max_periods,
+        early_stop: !args.no_early_stop,
+        shard: args.shard,
+        out: args.out,
         force: args.force,
-        plot: args.plot.clone(),
-        title: args.title.clone(),
-    };
+        plot: args.plot,
+        title: args.title,
+    }
+    .job()?;
     let bar = (!args.json && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new(job.steady_states().max(1));
         if let Ok(style) = indicatif::ProgressStyle::with_template(

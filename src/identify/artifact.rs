@@ -3,8 +3,8 @@
 //! `batch --fits`, `validate --fit` and a plan's `fits =`, with results
 //! identical to fitting the same logs in the same run.
 //!
-//! A fit record (one `fits` entry) carries the interface keys of
-//! [`LogFit::to_json`], the `log_sha256` of the file it was fitted on, the
+//! A fit record (one `fits` entry, [`FitRecord`]) carries the interface
+//! keys of [`LogFit::json`], the `log_sha256` of the file it was fitted on, the
 //! log's `rig` record and `recorded_at`, and — in the records `fit` writes —
 //! `artifact`: `{"format": 1, "rig": …, "fit": …}`, the whole [`RigMeta`]
 //! and [`LogFit`] as typed serde values. Its floats are written so that they
@@ -18,6 +18,7 @@
 //! logs also given: by `log_sha256`, refusing a record whose log is given
 //! (the same file path) but whose `log_sha256` differs from that file.
 
+use super::json::LogFitJson;
 use super::LogFit;
 use crate::error::{Error, Result};
 use crate::ingest::RigMeta;
@@ -126,9 +127,10 @@ pub struct FitArtifact {
 
 /// A record of a log that could not be fitted (kept through shards and
 /// merges; `batch --fits` reports it as a failed log).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize)]
 pub struct FailedFit {
     /// The log as named.
+    #[serde(serialize_with = "path_display")]
     pub log: PathBuf,
     /// Its SHA-256 where the file could be read.
     pub log_sha256: Option<String>,
@@ -162,27 +164,73 @@ impl FitEntry {
     }
 }
 
-/// The interface keys of a fit record: [`LogFit::to_json`] plus
-/// `log_sha256`, `rig` and `recorded_at` (`null` where unknown).
-pub fn record(fit: &LogFit, log: &Path, log_sha256: Option<&str>, rig: &RigMeta) -> Value {
-    let mut v = fit.to_json(log);
-    if let Value::Object(m) = &mut v {
-        m.insert("log_sha256".into(), json!(log_sha256));
-        m.insert("rig".into(), rig.to_json());
-        m.insert("recorded_at".into(), json!(rig.recorded_at));
-    }
-    v
+/// One `fits` entry as written (`fit`, `batch`, `run`): a fitted log's
+/// record, a failed log's, or a saved fit's keys alone. Untagged: each
+/// variant serialises as its own keys.
+#[derive(Debug, Clone, Serialize)]
+#[serde(untagged)]
+pub enum FitRecord {
+    /// A fitted log ([`record`], [`FitArtifact::fit_record`]).
+    Fitted(Box<FittedRecord>),
+    /// A log that failed ([`failed_record`]).
+    Failed(FailedFit),
+    /// A fit without its log's record: a plan's saved fit whose log could
+    /// not be read again ([`LogFit::json`]'s keys only).
+    FitOnly(Box<LogFitJson>),
+}
+
+/// The record of a fitted log: the interface keys of [`LogFit::json`]
+/// plus `log_sha256`, `rig` and `recorded_at` (`null` where unknown), and
+/// in the records `fit` writes, `artifact`.
+#[derive(Debug, Clone, Serialize)]
+pub struct FittedRecord {
+    /// The fit's keys (flattened).
+    #[serde(flatten)]
+    pub fit: LogFitJson,
+    /// SHA-256 (hex) of the log file it was fitted on (`null`: unknown).
+    pub log_sha256: Option<String>,
+    /// The log's rig record (as [`RigMeta::to_json`] writes it).
+    #[serde(serialize_with = "rig_json")]
+    pub rig: RigMeta,
+    /// When the log was recorded (the rig record's).
+    pub recorded_at: Option<String>,
+    /// The saved fit in exact JSON (`{"format": 1, "rig": …, "fit": …}`,
+    /// see the module doc); absent from `batch` and `run` records.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub artifact: Option<Value>,
+}
+
+fn rig_json<S: serde::Serializer>(rig: &RigMeta, s: S) -> std::result::Result<S::Ok, S::Error> {
+    rig.to_json().serialize(s)
+}
+
+fn path_display<S: serde::Serializer>(p: &Path, s: S) -> std::result::Result<S::Ok, S::Error> {
+    s.collect_str(&p.display())
+}
+
+/// The record of a fitted log `log` (without `artifact`).
+pub fn record(fit: &LogFit, log: &Path, log_sha256: Option<&str>, rig: &RigMeta) -> FitRecord {
+    FitRecord::Fitted(Box::new(FittedRecord {
+        fit: fit.json(log),
+        log_sha256: log_sha256.map(str::to_string),
+        rig: rig.clone(),
+        recorded_at: rig.recorded_at.clone(),
+        artifact: None,
+    }))
 }
 
 /// The record of a log that failed: `log`, `log_sha256` and `error`.
-pub fn failed_record(log: &Path, log_sha256: Option<&str>, error: &str) -> Value {
-    json!({"log": log.display().to_string(), "log_sha256": log_sha256, "error": error})
+pub fn failed_record(log: &Path, log_sha256: Option<&str>, error: &str) -> FitRecord {
+    FitRecord::Failed(FailedFit {
+        log: log.to_path_buf(),
+        log_sha256: log_sha256.map(str::to_string),
+        error: error.to_string(),
+    })
 }
 
 impl FitArtifact {
     /// The full record: [`record`]'s keys and `artifact`.
-    pub fn to_record(&self) -> Result<Value> {
-        let mut v = record(&self.fit, &self.log, Some(&self.log_sha256), &self.rig);
+    pub fn fit_record(&self) -> Result<FitRecord> {
         let saved = Saved {
             format: FORMAT,
             rig: self.rig.clone(),
@@ -192,10 +240,16 @@ impl FitArtifact {
             path: self.log.clone(),
             msg: format!("its fit cannot be saved: {msg}"),
         })?;
-        if let Value::Object(m) = &mut v {
-            m.insert("artifact".into(), exact);
+        let mut r = record(&self.fit, &self.log, Some(&self.log_sha256), &self.rig);
+        if let FitRecord::Fitted(f) = &mut r {
+            f.artifact = Some(exact);
         }
-        Ok(v)
+        Ok(r)
+    }
+
+    /// [`FitArtifact::fit_record`] as a JSON value.
+    pub fn to_record(&self) -> Result<Value> {
+        Ok(crate::io::json::to_value(self.fit_record()?))
     }
 
     /// Reads one record back (`Err`: what is wrong with it).

@@ -25,127 +25,192 @@ use serde_json::Value;
 use std::path::Path;
 
 /// A law in SI and dimensionless with the log's scales (non-finite: null).
-#[derive(Serialize)]
-struct LawOut {
-    law: &'static str,
-    rho_s: f64,
-    rho_d: f64,
-    slope: f64,
-    v_s: Option<f64>,
-    r_s_n: f64,
-    r_d_n: f64,
-    slope_n_s_per_m: f64,
-    v_s_m_per_s: Option<f64>,
+#[derive(Debug, Clone, Serialize)]
+pub struct LawJson {
+    /// The family ([`crate::model::LawKind::as_str`]).
+    pub law: &'static str,
+    /// Static threshold ρs.
+    pub rho_s: f64,
+    /// Dynamic level ρd.
+    pub rho_d: f64,
+    /// Slope D* of the characteristic.
+    pub slope: f64,
+    /// Velocity scale v_s (dimensionless) of a family that has one.
+    pub v_s: Option<f64>,
+    /// Static friction force Rs (N).
+    pub r_s_n: f64,
+    /// Dynamic friction force Rd (N).
+    pub r_d_n: f64,
+    /// Slope a of the characteristic (N s/m).
+    pub slope_n_s_per_m: f64,
+    /// Velocity scale v_s (m/s) of a family that has one.
+    pub v_s_m_per_s: Option<f64>,
 }
 
-/// A law with its intervals.
-#[derive(Serialize)]
-struct EstimateOut {
+/// A law with its 95 % intervals.
+#[derive(Debug, Clone, Serialize)]
+pub struct EstimateJson {
+    /// The law (its keys, flattened).
     #[serde(flatten)]
-    law: LawOut,
-    rho_s_interval: Iv,
-    rho_d_interval: Iv,
-    slope_interval: Iv,
-    r_s_interval_n: Iv,
-    r_d_interval_n: Iv,
-    slope_interval_n_s_per_m: Iv,
+    pub law: LawJson,
+    /// Interval of ρs.
+    pub rho_s_interval: Iv,
+    /// Interval of ρd.
+    pub rho_d_interval: Iv,
+    /// Interval of D*.
+    pub slope_interval: Iv,
+    /// Interval of Rs (N).
+    pub r_s_interval_n: Iv,
+    /// Interval of Rd (N).
+    pub r_d_interval_n: Iv,
+    /// Interval of the slope (N s/m).
+    pub slope_interval_n_s_per_m: Iv,
 }
 
 /// One family's information criterion.
-#[derive(Serialize)]
-struct Criterion {
-    law: &'static str,
-    bic: f64,
+#[derive(Debug, Clone, Serialize)]
+pub struct CriterionJson {
+    /// The family.
+    pub law: &'static str,
+    /// Its BIC.
+    pub bic: f64,
 }
 
 /// The equation-error estimate.
-#[derive(Serialize)]
-struct EquationErrorOut {
+#[derive(Debug, Clone, Serialize)]
+pub struct EquationErrorJson {
+    /// The law with its intervals (flattened).
     #[serde(flatten)]
-    estimate: EstimateOut,
-    residual_rms_n: f64,
-    bias_n: f64,
-    criteria: Vec<Criterion>,
+    pub estimate: EstimateJson,
+    /// RMS of the characteristic R(ẋ2) about the law (N).
+    pub residual_rms_n: f64,
+    /// Force bias (N).
+    pub bias_n: f64,
+    /// Every family's criterion.
+    pub criteria: Vec<CriterionJson>,
 }
 
 /// One family of the output-error refinement.
-#[derive(Serialize)]
-struct FamilyOut {
-    law: &'static str,
-    bic: f64,
-    stick_fraction: f64,
-    stick_phases: usize,
-    rms_x1_m: f64,
-    rms_x2_m: f64,
-    direction_dependent: bool,
-    contact_stiffness: Option<f64>,
-    r_s_n: f64,
-    r_d_n: f64,
-    r_s_minus_n: Option<f64>,
-    slope_n_s_per_m: f64,
+#[derive(Debug, Clone, Serialize)]
+pub struct FamilyJson {
+    /// The family.
+    pub law: &'static str,
+    /// Its BIC.
+    pub bic: f64,
+    /// Fraction of the time M2 sticks in the simulation.
+    pub stick_fraction: f64,
+    /// Stick phases in the simulation.
+    pub stick_phases: usize,
+    /// RMS residual of x1 (m).
+    pub rms_x1_m: f64,
+    /// RMS residual of x2 (m).
+    pub rms_x2_m: f64,
+    /// Whether the levels split by sliding direction.
+    pub direction_dependent: bool,
+    /// Contact stiffness κ, where fitted.
+    pub contact_stiffness: Option<f64>,
+    /// Static friction force Rs (N).
+    pub r_s_n: f64,
+    /// Dynamic friction force Rd (N).
+    pub r_d_n: f64,
+    /// Static threshold towards − (N), where split.
+    pub r_s_minus_n: Option<f64>,
+    /// Slope a of the characteristic (N s/m).
+    pub slope_n_s_per_m: f64,
     /// Simulated breakaways towards + and towards −.
-    breakaways: (usize, usize),
+    pub breakaways: (usize, usize),
     /// Upper bounds (N) on the thresholds towards + and − from simulated
     /// reversals without stick.
-    reversal_bound_n: (Option<f64>, Option<f64>),
+    pub reversal_bound_n: (Option<f64>, Option<f64>),
 }
 
 /// The output-error estimate.
-#[derive(Serialize)]
-struct OutputErrorOut {
+#[derive(Debug, Clone, Serialize)]
+pub struct OutputErrorJson {
+    /// The law with its intervals (flattened).
     #[serde(flatten)]
-    estimate: EstimateOut,
-    rms_x1_m: f64,
-    rms_x2_m: f64,
-    start_rms_x1_m: f64,
-    start_rms_x2_m: f64,
-    bias_n: f64,
-    gains: (f64, f64),
+    pub estimate: EstimateJson,
+    /// RMS residual of x1 (m).
+    pub rms_x1_m: f64,
+    /// RMS residual of x2 (m).
+    pub rms_x2_m: f64,
+    /// RMS residual of x1 at the start (m).
+    pub start_rms_x1_m: f64,
+    /// RMS residual of x2 at the start (m).
+    pub start_rms_x2_m: f64,
+    /// Force bias (N).
+    pub bias_n: f64,
+    /// Gains of x1 and x2 relative to the drive channel.
+    pub gains: (f64, f64),
     /// Lags (s) of x1 and x2 behind the drive, fitted with the law
     /// (`null` where they were not fitted).
-    position_delays_s: Option<(f64, f64)>,
+    pub position_delays_s: Option<(f64, f64)>,
     /// Their 95 % intervals (s).
-    position_delays_interval_s: Option<((f64, f64), (f64, f64))>,
-    iterations: u64,
-    evaluations: usize,
-    segments: usize,
-    samples: usize,
-    effective_samples: f64,
-    drive: &'static str,
-    seconds: f64,
-    criteria: Vec<FamilyOut>,
+    pub position_delays_interval_s: Option<((f64, f64), (f64, f64))>,
+    /// Minimiser iterations of the chosen family.
+    pub iterations: u64,
+    /// Cost evaluations over all families (simulations of the log).
+    pub evaluations: usize,
+    /// Shooting segments.
+    pub segments: usize,
+    /// Residual samples compared (per channel).
+    pub samples: usize,
+    /// Effective number of independent samples in the criterion.
+    pub effective_samples: f64,
+    /// How the drive was simulated (`harmonic` or `sampled`).
+    pub drive: &'static str,
+    /// Wall seconds of the refinement.
+    pub seconds: f64,
+    /// Every family's fit.
+    pub criteria: Vec<FamilyJson>,
     /// The chosen static/dynamic law's profile against an unresolved
     /// Stribeck drop (`null` for other laws).
-    drop_profile: Option<super::output_error::DropProfile>,
+    pub drop_profile: Option<super::output_error::DropProfile>,
 }
 
 /// One structure test of the residuals.
-#[derive(Serialize)]
-struct StructureOut {
-    channel: &'static str,
-    against: &'static str,
-    chi2_per_dof: f64,
-    z: f64,
-    effect: f64,
+#[derive(Debug, Clone, Serialize)]
+pub struct StructureJson {
+    /// The channel tested.
+    pub channel: &'static str,
+    /// What its residuals are tested against.
+    pub against: &'static str,
+    /// χ² per degree of freedom.
+    pub chi2_per_dof: f64,
+    /// Its z score.
+    pub z: f64,
+    /// The effect's size.
+    pub effect: f64,
 }
 
 /// The adequacy verdict's numbers.
-#[derive(Serialize)]
-struct AdequacyOut {
-    noise_ratio_x1: f64,
-    noise_ratio_x2: f64,
-    robust_ratio_x1: f64,
-    robust_ratio_x2: f64,
-    noise_ratio_force: Option<f64>,
-    robust_ratio_force: Option<f64>,
-    max_noise_ratio: f64,
-    max_structure_z: f64,
-    max_structure_effect: f64,
-    interval_inflation: f64,
-    structure: Vec<StructureOut>,
+#[derive(Debug, Clone, Serialize)]
+pub struct AdequacyJson {
+    /// Residual/noise ratio of x1.
+    pub noise_ratio_x1: f64,
+    /// Residual/noise ratio of x2.
+    pub noise_ratio_x2: f64,
+    /// Robust residual/noise ratio of x1.
+    pub robust_ratio_x1: f64,
+    /// Robust residual/noise ratio of x2.
+    pub robust_ratio_x2: f64,
+    /// Residual/noise ratio of the force, where measured.
+    pub noise_ratio_force: Option<f64>,
+    /// Robust residual/noise ratio of the force, where measured.
+    pub robust_ratio_force: Option<f64>,
+    /// The largest ratio still adequate.
+    pub max_noise_ratio: f64,
+    /// The largest structure z still adequate.
+    pub max_structure_z: f64,
+    /// The largest structure effect still adequate.
+    pub max_structure_effect: f64,
+    /// Factor applied to the statistical half-widths.
+    pub interval_inflation: f64,
+    /// The structure tests.
+    pub structure: Vec<StructureJson>,
 }
 
-impl AdequacyOut {
+impl AdequacyJson {
     fn of(a: &Adequacy) -> Self {
         Self {
             noise_ratio_x1: a.noise_ratio.0,
@@ -161,7 +226,7 @@ impl AdequacyOut {
             structure: a
                 .structure
                 .iter()
-                .map(|s| StructureOut {
+                .map(|s| StructureJson {
                     channel: s.channel,
                     against: s.against,
                     chi2_per_dof: s.chi2_per_dof,
@@ -174,92 +239,160 @@ impl AdequacyOut {
 }
 
 /// The evidence for the family chosen.
-#[derive(Serialize)]
-struct EvidenceOut {
-    against: &'static str,
-    delta_bic: f64,
-    strength: &'static str,
+#[derive(Debug, Clone, Serialize)]
+pub struct EvidenceJson {
+    /// The best other family.
+    pub against: &'static str,
+    /// Its BIC difference to the chosen one.
+    pub delta_bic: f64,
+    /// The Kass–Raftery grade of the difference.
+    pub strength: &'static str,
 }
 
-/// One fitted log (the `fits` entries' keys).
-#[derive(Serialize)]
-struct FitOut<'a> {
-    log: String,
-    law: &'static str,
-    rho_s: Option<f64>,
-    rho_d: Option<f64>,
-    slope: Option<f64>,
-    rho_s_interval: Iv,
-    rho_d_interval: Iv,
-    slope_interval: Iv,
-    r_s_n: Option<f64>,
-    r_d_n: Option<f64>,
-    slope_n_s_per_m: Option<f64>,
-    r_s_interval_n: Iv,
-    r_d_interval_n: Iv,
-    slope_interval_n_s_per_m: Iv,
-    normal_force_n: f64,
-    eta: f64,
-    drive_frequency_hz: f64,
-    stuck: bool,
-    rho_s_lower_bound: Option<f64>,
-    r_s_lower_bound_n: Option<f64>,
-    never_sticks: bool,
-    adequate: bool,
-    adequacy: Option<AdequacyOut>,
-    contradictions: &'a [crate::warning::Warning],
-    law_evidence: Option<EvidenceOut>,
-    drive_amplitude_m: f64,
-    residual_rms: f64,
-    residual_rms_n: f64,
+/// One fitted log: the keys of a `fits` entry ([`LogFit::json`]; the
+/// module doc says which estimate the interface keys are).
+#[derive(Debug, Clone, Serialize)]
+pub struct LogFitJson {
+    /// The log as named.
+    pub log: String,
+    /// The family of the law used.
+    pub law: &'static str,
+    /// Static threshold ρs (null: only bounded).
+    pub rho_s: Option<f64>,
+    /// Dynamic level ρd.
+    pub rho_d: Option<f64>,
+    /// Slope D*.
+    pub slope: Option<f64>,
+    /// Interval of ρs.
+    pub rho_s_interval: Iv,
+    /// Interval of ρd.
+    pub rho_d_interval: Iv,
+    /// Interval of D*.
+    pub slope_interval: Iv,
+    /// Static friction force Rs (N).
+    pub r_s_n: Option<f64>,
+    /// Dynamic friction force Rd (N).
+    pub r_d_n: Option<f64>,
+    /// Slope a (N s/m).
+    pub slope_n_s_per_m: Option<f64>,
+    /// Interval of Rs (N).
+    pub r_s_interval_n: Iv,
+    /// Interval of Rd (N).
+    pub r_d_interval_n: Iv,
+    /// Interval of the slope (N s/m).
+    pub slope_interval_n_s_per_m: Iv,
+    /// Measured normal force (N).
+    pub normal_force_n: f64,
+    /// Drive frequency ratio η.
+    pub eta: f64,
+    /// Drive frequency (Hz).
+    pub drive_frequency_hz: f64,
+    /// M2 never slid.
+    pub stuck: bool,
+    /// Lower bound on ρs of a stuck log.
+    pub rho_s_lower_bound: Option<f64>,
+    /// Lower bound on Rs (N) of a stuck log.
+    pub r_s_lower_bound_n: Option<f64>,
+    /// M2 never stuck (Rs only bounded).
+    pub never_sticks: bool,
+    /// The adequacy verdict ([`LogFit::adequate`]).
+    pub adequate: bool,
+    /// Its numbers (null: only the equation-error estimate).
+    pub adequacy: Option<AdequacyJson>,
+    /// Bounds that contradict each other.
+    pub contradictions: Vec<crate::warning::Warning>,
+    /// The evidence for the family chosen.
+    pub law_evidence: Option<EvidenceJson>,
+    /// Measured drive amplitude (m).
+    pub drive_amplitude_m: f64,
+    /// RMS of the characteristic about the equation-error law (ρ units).
+    pub residual_rms: f64,
+    /// The same in N.
+    pub residual_rms_n: f64,
+    /// The warnings, as messages.
     #[serde(serialize_with = "crate::warning::as_messages")]
-    warnings: &'a [crate::warning::Warning],
+    pub warnings: Vec<crate::warning::Warning>,
     /// One stable code per warning (`crate::warning::Warning::code`).
-    warning_codes: Vec<&'static str>,
-    stribeck: Option<LawOut>,
-    simple_law: Option<LawOut>,
-    criteria: Vec<Criterion>,
-    estimate: &'static str,
-    equation_error: Option<EquationErrorOut>,
-    output_error: Option<OutputErrorOut>,
-    gain_uncertainty: f64,
-    bias_n: f64,
-    slip_samples: usize,
-    effective_samples: f64,
-    breakaways: usize,
-    notes: &'a [String],
-    channel_delays_s: Value,
-    channel_delays_interval_s: Value,
-    velocity_consistency: Value,
-    acceleration_consistency: Value,
-    direction_dependent: bool,
-    rho_s_minus: Option<f64>,
-    rho_d_minus: Option<f64>,
-    r_s_minus_n: Option<f64>,
-    r_d_minus_n: Option<f64>,
-    rho_s_minus_interval: Iv,
-    rho_d_minus_interval: Iv,
-    r_s_minus_interval_n: Iv,
-    r_d_minus_interval_n: Iv,
+    pub warning_codes: Vec<&'static str>,
+    /// The Stribeck law where it is the estimate, else the equation-error
+    /// Stribeck fit where one was made.
+    pub stribeck: Option<LawJson>,
+    /// The best simple-family law where the Stribeck type was chosen.
+    pub simple_law: Option<LawJson>,
+    /// The equation-error criteria.
+    pub criteria: Vec<CriterionJson>,
+    /// The estimate used (`output-error` or `equation-error`).
+    pub estimate: &'static str,
+    /// The equation-error estimate (null for a stuck log).
+    pub equation_error: Option<EquationErrorJson>,
+    /// The output-error estimate (null where not computed).
+    pub output_error: Option<OutputErrorJson>,
+    /// Relative gain uncertainty of each sensor.
+    pub gain_uncertainty: f64,
+    /// Force bias of the estimate used (N).
+    pub bias_n: f64,
+    /// Slip samples used by the equation-error fit.
+    pub slip_samples: usize,
+    /// Their effective number.
+    pub effective_samples: f64,
+    /// Breakaways used by the equation-error fit.
+    pub breakaways: usize,
+    /// Characteristic details (noise, lags, offsets).
+    pub notes: Vec<String>,
+    /// Channel delays (s), by channel.
+    pub channel_delays_s: Value,
+    /// Their intervals (s), by channel.
+    pub channel_delays_interval_s: Value,
+    /// The velocity channel's consistency with the positions.
+    pub velocity_consistency: Value,
+    /// The acceleration channel's consistency with the positions.
+    pub acceleration_consistency: Value,
+    /// Whether the levels split by sliding direction.
+    pub direction_dependent: bool,
+    /// ρs towards −, where split.
+    pub rho_s_minus: Option<f64>,
+    /// ρd towards −, where split.
+    pub rho_d_minus: Option<f64>,
+    /// Rs towards − (N), where split.
+    pub r_s_minus_n: Option<f64>,
+    /// Rd towards − (N), where split.
+    pub r_d_minus_n: Option<f64>,
+    /// Interval of ρs towards −.
+    pub rho_s_minus_interval: Iv,
+    /// Interval of ρd towards −.
+    pub rho_d_minus_interval: Iv,
+    /// Interval of Rs towards − (N).
+    pub r_s_minus_interval_n: Iv,
+    /// Interval of Rd towards − (N).
+    pub r_d_minus_interval_n: Iv,
     /// Rs⁺ − Rs⁻ (N) with equal dynamic levels: what the log identifies of
     /// the direction dependence (see the warning `direction_dependent`).
-    direction_split_n: Option<f64>,
-    direction_split_interval_n: Iv,
-    contact_stiffness: Option<f64>,
-    contact_stiffness_interval: Iv,
-    kt_n_per_m: Option<f64>,
-    kt_interval_n_per_m: Iv,
-    contact_stiffness_lower_bound: Option<f64>,
-    pad_screen: &'a super::pads::PadScreen,
-    spring_screen: Option<&'a super::springs::SpringScreen>,
+    pub direction_split_n: Option<f64>,
+    /// Its interval (N).
+    pub direction_split_interval_n: Iv,
+    /// Contact stiffness κ = kt/K2, where fitted.
+    pub contact_stiffness: Option<f64>,
+    /// Its interval.
+    pub contact_stiffness_interval: Iv,
+    /// Tangential contact stiffness kt (N/m).
+    pub kt_n_per_m: Option<f64>,
+    /// Its interval (N/m).
+    pub kt_interval_n_per_m: Iv,
+    /// One-sided 95 % lower bound on κ where the contact was taken as
+    /// rigid.
+    pub contact_stiffness_lower_bound: Option<f64>,
+    /// The pad screen.
+    pub pad_screen: super::pads::PadScreen,
+    /// The coupling spring's screen.
+    pub spring_screen: Option<super::springs::SpringScreen>,
 }
 
 impl LogFit {
     /// A law in SI and dimensionless with this log's scales.
-    fn law_out(&self, l: &SiLaw) -> LawOut {
+    fn law_out(&self, l: &SiLaw) -> LawJson {
         let fs = self.force_scale_n;
         let vel = self.velocity_scale_m_per_s;
-        LawOut {
+        LawJson {
             law: l.kind.as_str(),
             rho_s: l.rs_n / fs,
             rho_d: l.rd_n / fs,
@@ -273,12 +406,12 @@ impl LogFit {
     }
 
     /// A law with its intervals (Rs null where only bounded).
-    fn estimate_out(&self, l: &SiLaw, iv: &Intervals) -> EstimateOut {
+    fn estimate_out(&self, l: &SiLaw, iv: &Intervals) -> EstimateJson {
         let mut l = *l;
         if self.never_sticks() {
             l.rs_n = f64::NAN;
         }
-        EstimateOut {
+        EstimateJson {
             law: self.law_out(&l),
             rho_s_interval: Iv(iv.rho_s),
             rho_d_interval: Iv(iv.rho_d),
@@ -289,13 +422,18 @@ impl LogFit {
         }
     }
 
-    /// The JSON entry of this fit for `log` (interface keys plus details).
+    /// The JSON entry of this fit for `log` ([`LogFit::json`]) as a value.
     pub fn to_json(&self, log: &Path) -> Value {
+        crate::io::json::to_value(self.json(log))
+    }
+
+    /// The JSON entry of this fit for `log` (interface keys plus details).
+    pub fn json(&self, log: &Path) -> LogFitJson {
         let e = &self.fit;
         let law = self.law();
-        let criteria = |c: &[(super::LawKind, f64)]| -> Vec<Criterion> {
+        let criteria = |c: &[(super::LawKind, f64)]| -> Vec<CriterionJson> {
             c.iter()
-                .map(|(k, b)| Criterion {
+                .map(|(k, b)| CriterionJson {
                     law: k.as_str(),
                     bic: *b,
                 })
@@ -307,7 +445,7 @@ impl LogFit {
             .filter(|_| self.estimate == Estimate::OutputError);
         let pads = self.pads();
         let split = pads.filter(|_| self.direction_dependent());
-        let out = FitOut {
+        LogFitJson {
             log: log.display().to_string(),
             law: self.kind().as_str(),
             rho_s: self.rho_s(),
@@ -330,9 +468,9 @@ impl LogFit {
             r_s_lower_bound_n: self.rs_lower_bound_n(),
             never_sticks: self.never_sticks(),
             adequate: self.adequate(),
-            adequacy: self.adequacy.as_ref().map(AdequacyOut::of),
-            contradictions: &self.contradictions,
-            law_evidence: used_oe.and_then(|o| o.evidence).map(|ev| EvidenceOut {
+            adequacy: self.adequacy.as_ref().map(AdequacyJson::of),
+            contradictions: self.contradictions.clone(),
+            law_evidence: used_oe.and_then(|o| o.evidence).map(|ev| EvidenceJson {
                 against: ev.against.as_str(),
                 delta_bic: ev.delta_bic,
                 strength: ev.strength(),
@@ -340,7 +478,7 @@ impl LogFit {
             drive_amplitude_m: self.drive.amplitude_m,
             residual_rms: e.residual_rms_n / self.force_scale_n,
             residual_rms_n: e.residual_rms_n,
-            warnings: &self.warnings,
+            warnings: self.warnings.clone(),
             warning_codes: crate::warning::codes(&self.warnings),
             // The Stribeck law used when it is the estimate (its v_s is
             // nowhere else at the top level), else the equation-error
@@ -353,7 +491,7 @@ impl LogFit {
             simple_law: e.simple.as_ref().map(|l| self.law_out(l)),
             criteria: criteria(&e.criteria),
             estimate: self.estimate.as_str(),
-            equation_error: (!e.stuck).then(|| EquationErrorOut {
+            equation_error: (!e.stuck).then(|| EquationErrorJson {
                 estimate: self.estimate_out(&e.law, &self.equation_error),
                 residual_rms_n: e.residual_rms_n,
                 bias_n: e.bias_n,
@@ -361,7 +499,7 @@ impl LogFit {
             }),
             output_error: self.output_error.as_ref().map(|o| {
                 let c = &o.chosen;
-                OutputErrorOut {
+                OutputErrorJson {
                     estimate: self.estimate_out(&o.law, &o.intervals),
                     rms_x1_m: c.rms_m.0,
                     rms_x2_m: c.rms_m.1,
@@ -381,7 +519,7 @@ impl LogFit {
                     criteria: o
                         .families
                         .iter()
-                        .map(|f| FamilyOut {
+                        .map(|f| FamilyJson {
                             law: f.law.kind.as_str(),
                             bic: f.bic,
                             stick_fraction: f.stick_fraction,
@@ -409,7 +547,7 @@ impl LogFit {
             slip_samples: e.n_slip,
             effective_samples: e.n_eff,
             breakaways: e.n_breakaways,
-            notes: &self.notes,
+            notes: self.notes.clone(),
             channel_delays_s: self.channel_delays.shifts_json(),
             channel_delays_interval_s: self.channel_delays.intervals_json(),
             velocity_consistency: self.channel_delays.velocity_json(),
@@ -432,9 +570,8 @@ impl LogFit {
                 .and_then(|p| p.contact_stiffness_interval)
                 .map(|(l, h)| (l * self.k2_n_per_m(), h * self.k2_n_per_m()))),
             contact_stiffness_lower_bound: self.contact_stiffness_lower_bound(),
-            pad_screen: &self.pad_screen,
-            spring_screen: self.spring_screen.as_ref(),
-        };
-        crate::io::json::to_value(out)
+            pad_screen: self.pad_screen,
+            spring_screen: self.spring_screen,
+        }
     }
 }

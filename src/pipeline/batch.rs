@@ -8,7 +8,7 @@
 use super::checks;
 use super::Progress;
 use crate::batch::{self as vb, Batch, BatchOptions};
-use crate::identify::artifact::{self, FitEntry, FitSet};
+use crate::identify::artifact::{self, FitEntry, FitRecord, FitSet};
 use crate::identify::{IdentifyOptions, LogFit};
 use crate::ingest::RigMeta;
 use crate::report::{batch_plot, batch_view, html, views};
@@ -79,7 +79,7 @@ pub enum BatchKeys {
 #[derive(Debug, Clone, Serialize)]
 pub struct BatchJson {
     /// One fit record per log (saved fits first), or its error.
-    pub fits: Vec<Value>,
+    pub fits: Vec<FitRecord>,
     /// The logs counted once already (the same test given twice).
     pub duplicates: Vec<String>,
     /// The comparison's keys (flattened).
@@ -251,7 +251,7 @@ pub fn run_batch(job: &BatchJob, progress: &dyn Progress) -> crate::Result<Batch
         })
     };
     progress.done();
-    let fit_entries: Vec<Value> = fits
+    let fit_entries: Vec<FitRecord> = fits
         .iter()
         .zip(&shas)
         .map(|((p, r), sha)| match r {

@@ -5,10 +5,9 @@
 //! failed (the others' fits are kept).
 
 use super::Progress;
-use crate::identify::artifact::{self, FitArtifact};
+use crate::identify::artifact::{self, FitArtifact, FitRecord};
 use crate::identify::{self, IdentifyOptions, LogFit};
 use serde::Serialize;
-use serde_json::Value;
 use std::path::{Path, PathBuf};
 
 /// Most shards of a fit (far more than logs one command is given).
@@ -74,8 +73,8 @@ pub struct FitJson {
     /// The shard computed, where one was (flattened).
     #[serde(flatten)]
     pub shard: Option<FitShardJson>,
-    /// One record per log ([`FitArtifact::to_record`]), or its error.
-    pub fits: Vec<Value>,
+    /// One record per log ([`FitArtifact::fit_record`]), or its error.
+    pub fits: Vec<FitRecord>,
 }
 
 /// What [`run_fit`] produced.
@@ -119,7 +118,7 @@ pub fn run_fit(job: &FitJob, progress: &dyn Progress) -> crate::Result<FitOutcom
                     rig,
                     fit: f,
                 };
-                fits.push(a.to_record()?);
+                fits.push(a.fit_record()?);
             }
             (r, _) => {
                 let e = match r {

@@ -38,6 +38,7 @@ pub mod fit;
 pub mod job;
 pub mod merge;
 pub mod read;
+pub mod shape;
 pub mod simulate;
 pub mod sweep;
 pub mod synth;
@@ -46,6 +47,7 @@ pub mod validate;
 pub use dispatch::{execute, Job, Outcome};
 
 use crate::batch::{self as vb, Batch};
+use crate::identify::artifact::FitRecord;
 use crate::identify::{self, IdentifyOptions, LogFit};
 use crate::ingest::{self, IngestOptions, RigMeta, Run};
 use crate::report::characteristic_plot::CharacteristicPoints;
@@ -333,7 +335,7 @@ pub struct PlanJson {
     pub plan: String,
     /// One record per characteristic log, in plan order (a fit's record,
     /// or its `error`).
-    pub fits: Vec<Value>,
+    pub fits: Vec<FitRecord>,
     /// One entry per validation, in plan order.
     pub validations: Vec<ValidationEntryJson>,
     /// The batch comparison (absent: the plan has no batch).
@@ -700,14 +702,14 @@ impl PipelineReport {
 
     /// The typed JSON result of the plan at `plan_path`.
     pub fn plan_json(&self, plan: &Plan, plan_path: &Path) -> PlanJson {
-        let fits: Vec<Value> = plan
+        let fits: Vec<FitRecord> = plan
             .characteristic_logs()
             .iter()
             .map(|p| {
                 let sha = self.log_sha256.get(p).cloned().flatten();
                 match (&self.fits[p], &self.logs[p]) {
                     (Ok(f), Ok(log)) => identify::artifact::record(f, p, sha.as_deref(), &log.rig),
-                    (Ok(f), Err(_)) => f.to_json(p),
+                    (Ok(f), Err(_)) => FitRecord::FitOnly(Box::new(f.json(p))),
                     (Err(e), _) => {
                         identify::artifact::failed_record(p, sha.as_deref(), &e.to_string())
                     }

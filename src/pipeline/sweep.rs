@@ -3,12 +3,20 @@
 //! its table ([`FrcRow`]s, coexisting branches marked), written as a table
 //! and a figure through the write transaction ([`crate::io::txn`]), and
 //! its JSON object ([`SweepJson`]).
+//!
+//! A family is asked for as the `sweep` command describes it
+//! ([`SweepRequest`]: a list of static thresholds, the dynamic level of
+//! each, the continuation, the contact stiffnesses and the model's shape
+//! ([`FamilySpec`]), an η range ([`EtaRange`]), a shard and the outputs);
+//! [`SweepRequest::job`] checks it and lays out the curves
+//! ([`FamilySpec::curves`]) as a [`SweepJob`].
 
+use super::shape::ShapeSpec;
 use super::Progress;
 use crate::report::frc_json::{self, SweepJson};
 use crate::report::plot;
 use crate::report::table::{self, FrcRow};
-use crate::sim::sweep::{self, CurveSpec, Shard, SteadyConfig};
+use crate::sim::sweep::{self, CurveSpec, Direction, Shard, SteadyConfig};
 use crate::sim::SimError;
 use std::path::{Path, PathBuf};
 
@@ -39,6 +47,197 @@ impl SweepJob {
     /// Steady states the job computes (its units of progress).
     pub fn steady_states(&self) -> u64 {
         self.specs.len() as u64 * self.etas.len() as u64 / self.shard.count as u64
+    }
+}
+
+/// Parses a comma-separated list of static thresholds ρs (blanks around
+/// each ignored; `inf`, `infinity` or `Inf`: always stuck).
+pub fn parse_rho_list(s: &str) -> crate::Result<Vec<f64>> {
+    s.split(',')
+        .map(|t| {
+            let t = t.trim();
+            match t {
+                "inf" | "infinity" | "Inf" => Ok(f64::INFINITY),
+                _ => t
+                    .parse::<f64>()
+                    .map_err(|_| bad(format!("--rho-s: `{t}` is not a number"))),
+            }
+        })
+        .collect()
+}
+
+/// The dynamic level ρd of each curve of a family.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum DynamicLevel {
+    /// The model's default: ρd = ρs (0 where ρs = ∞).
+    Default,
+    /// The same ρd for every curve.
+    Fixed(f64),
+    /// ρd = R·ρs (the default where ρs = ∞); the paper's Fig. 5 uses 0.5.
+    Ratio(f64),
+}
+
+impl DynamicLevel {
+    /// From `--rho-d` and `--rho-d-ratio` (the command line gives at most
+    /// one; a fixed level wins over a ratio).
+    pub fn of(rho_d: Option<f64>, ratio: Option<f64>) -> Self {
+        match (rho_d, ratio) {
+            (Some(v), _) => DynamicLevel::Fixed(v),
+            (None, Some(r)) => DynamicLevel::Ratio(r),
+            (None, None) => DynamicLevel::Default,
+        }
+    }
+
+    /// The dynamic level of the curve with static threshold `rho_s` (None:
+    /// the model's default, [`ShapeSpec::model_with`]).
+    pub fn at(self, rho_s: f64) -> Option<f64> {
+        match self {
+            DynamicLevel::Fixed(v) => Some(v),
+            DynamicLevel::Ratio(r) if rho_s.is_finite() => Some(r * rho_s),
+            _ => None,
+        }
+    }
+}
+
+/// How each curve's steady states follow one another along η.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Continuation {
+    /// Increasing η, each from the previous steady state.
+    Up,
+    /// Decreasing η.
+    Down,
+    /// One curve each way.
+    Both,
+}
+
+/// A family of curves: one per static threshold, contact stiffness and
+/// direction, in that order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FamilySpec {
+    /// The absorber and the law's shape (with the contact stiffnesses:
+    /// one set of curves per value).
+    pub shape: ShapeSpec,
+    /// The static thresholds ρs, one set of curves each (∞: stuck).
+    pub rho_s: Vec<f64>,
+    /// The dynamic level of each curve.
+    pub rho_d: DynamicLevel,
+    /// The continuation (ignored where `from_rest`).
+    pub continuation: Continuation,
+    /// Start every η from rest instead of continuing.
+    pub from_rest: bool,
+}
+
+impl FamilySpec {
+    /// The directions each model is swept in.
+    pub fn directions(&self) -> Vec<Direction> {
+        if self.from_rest {
+            return vec![Direction::Rest];
+        }
+        match self.continuation {
+            Continuation::Up => vec![Direction::Up],
+            Continuation::Down => vec![Direction::Down],
+            Continuation::Both => vec![Direction::Up, Direction::Down],
+        }
+    }
+
+    /// The family's curves, each model validated: one per ρs, contact
+    /// stiffness and direction; a law with a velocity scale is marched by
+    /// the numerical engine.
+    pub fn curves(&self) -> crate::Result<Vec<CurveSpec>> {
+        let directions = self.directions();
+        let mut specs = Vec::new();
+        for &rs in &self.rho_s {
+            let rd = self.rho_d.at(rs);
+            for kappa in self.shape.contact_stiffnesses() {
+                let model = self.shape.model_with(rs, rd, kappa)?;
+                for &d in &directions {
+                    specs.push(CurveSpec {
+                        model,
+                        direction: d,
+                    });
+                }
+            }
+        }
+        Ok(specs)
+    }
+}
+
+/// The η grid of a family: `points` values from `min` to `max`, checked
+/// (0 < min ≤ max, both finite).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EtaRange {
+    min: f64,
+    max: f64,
+    points: usize,
+}
+
+impl EtaRange {
+    /// The range, or the error naming `--eta-min` and `--eta-max`.
+    pub fn new(min: f64, max: f64, points: usize) -> crate::Result<Self> {
+        if !(min.is_finite() && min > 0.0 && max.is_finite() && max >= min) {
+            return Err(bad("need 0 < --eta-min <= --eta-max".into()));
+        }
+        Ok(EtaRange { min, max, points })
+    }
+
+    /// The grid ([`sweep::eta_grid`]).
+    pub fn grid(&self) -> Vec<f64> {
+        sweep::eta_grid(self.min, self.max, self.points)
+    }
+}
+
+/// A sweep as the `sweep` command asks for it; [`SweepRequest::job`]
+/// checks it and gives the job.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepRequest {
+    /// The curves.
+    pub family: FamilySpec,
+    /// The η grid.
+    pub etas: EtaRange,
+    /// Period budget of the time-marching fallback per point.
+    pub max_periods: u64,
+    /// Stop quasi-periodic points early as `not-settling` (see
+    /// [`SteadyConfig::early_stop`]).
+    pub early_stop: bool,
+    /// Compute slice K of N of the family (`K/N`, 1-based K).
+    pub shard: Option<String>,
+    /// Write the table here (.parquet or .csv).
+    pub out: Option<PathBuf>,
+    /// Replace an `out` file that is not a sweep table.
+    pub force: bool,
+    /// Draw the family here (.svg or .png).
+    pub plot: Option<PathBuf>,
+    /// Title of the figure (default: from the first curve's law).
+    pub title: Option<String>,
+}
+
+impl SweepRequest {
+    /// The job: `out` checked ([`refuse_replacing_other`]), the shard
+    /// parsed ([`parse_shard`]) and the curves laid out
+    /// ([`FamilySpec::curves`]), in that order.
+    pub fn job(self) -> crate::Result<SweepJob> {
+        if let Some(p) = &self.out {
+            refuse_replacing_other(p, self.force)?;
+        }
+        let shard = match &self.shard {
+            Some(s) => parse_shard(s)?,
+            None => Shard::ALL,
+        };
+        Ok(SweepJob {
+            specs: self.family.curves()?,
+            etas: self.etas.grid(),
+            config: SteadyConfig {
+                max_periods: self.max_periods,
+                early_stop: self.early_stop,
+                ..SteadyConfig::default()
+            },
+            shard,
+            shard_label: self.shard,
+            out: self.out,
+            force: self.force,
+            plot: self.plot,
+            title: self.title,
+        })
     }
 }
 
@@ -193,5 +392,49 @@ fn default_title(specs: &[CurveSpec]) -> String {
             t
         }
         None => "Frequency response".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_family_without_clap() {
+        let family = FamilySpec {
+            shape: ShapeSpec {
+                contact_stiffness: vec![2.0, f64::INFINITY],
+                ..ShapeSpec::default()
+            },
+            rho_s: parse_rho_list("0.4, inf").unwrap(),
+            rho_d: DynamicLevel::of(None, Some(0.5)),
+            continuation: Continuation::Both,
+            from_rest: false,
+        };
+        let job = SweepRequest {
+            family,
+            etas: EtaRange::new(0.5, 1.5, 3).unwrap(),
+            max_periods: 100,
+            early_stop: true,
+            shard: Some("1/2".into()),
+            out: None,
+            force: false,
+            plot: None,
+            title: None,
+        }
+        .job()
+        .unwrap();
+        // ρs × κ × direction, in that order.
+        assert_eq!(job.specs.len(), 8);
+        let first = &job.specs[0];
+        assert_eq!(first.model.law.rho_d(), 0.2);
+        assert_eq!(first.model.contact_stiffness, Some(2.0));
+        assert_eq!(job.specs[1].direction, Direction::Down);
+        assert_eq!(job.specs[2].model.contact_stiffness, None);
+        // ρs = ∞: the ratio does not apply, ρd is 0.
+        assert_eq!(job.specs[4].model.law.rho_d(), 0.0);
+        assert_eq!((job.etas.len(), job.shard.count), (3, 2));
+        assert!(parse_rho_list("0.1,x").is_err());
+        assert!(EtaRange::new(0.0, 1.0, 3).is_err());
     }
 }
