@@ -791,6 +791,42 @@ fn in_rounds<T: Send>(
     out
 }
 
+/// The standard uncertainty (s) of the drive's and of x2's alignment with
+/// x1 that ingest leaves (s = half-width/1.96 of the shift's interval): an
+/// applied shift is known to s; a precise one left unapplied (below
+/// `ingest`'s floor, the estimator's own bias) is a misalignment within
+/// ±shift, σ² = shift²/3 + s²; an imprecise one leaves its whole estimate,
+/// σ² = shift² + s²; a channel without an estimate (it does not move)
+/// none.
+fn alignment_sigma(delays: &crate::ingest::ChannelDelays) -> (f64, f64) {
+    let sigma = |q: crate::ingest::Quantity| -> f64 {
+        let Some(c) = delays.get(q) else {
+            return 0.0;
+        };
+        let (Some(e), Some([lo, hi])) = (c.estimated_s, c.interval_s) else {
+            return 0.0;
+        };
+        let half = 0.5 * (hi - lo);
+        let s = half / 1.96;
+        let v = if c.applied {
+            s * s
+        } else if e.abs() >= 2.0 * half {
+            e * e / 3.0 + s * s
+        } else {
+            e * e + s * s
+        };
+        if v.is_finite() {
+            v.sqrt()
+        } else {
+            0.0
+        }
+    };
+    (
+        sigma(crate::ingest::Quantity::X0),
+        sigma(crate::ingest::Quantity::X2),
+    )
+}
+
 /// The calibration budget's variances of the [`quantities`] of `ef`: the
 /// log re-fitted (same law, no bootstrap) with each sensor's gain at
 /// 1 + u, each shift taken as a rectangular ±u error (σ = |δ|/√3).
@@ -941,7 +977,12 @@ fn refine(
                 &run.rig,
                 oe,
             )
-            .and_then(|r| r.with_pad_hints(hints).run(starts, bias, forced, u))
+            .and_then(|r| {
+                let (s0, s2) = alignment_sigma(&run.delays);
+                r.with_pad_hints(hints)
+                    .with_alignment_uncertainty(s0, s2)
+                    .run(starts, bias, forced, u)
+            })
         };
         let mut first = refine_with(&opts.oe, &ef.candidates, ef.bias_n);
         // Position records that lag the drive (sensor filters, DAQ

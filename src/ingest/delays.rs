@@ -33,14 +33,21 @@
 //!   its noise) has no shift (`None`, `null` in JSON); a still x2 leaves its
 //!   terms out of M1's regression.
 //! * **Applied**: a shift whose 95 % interval excludes zero, that is at
-//!   least twice its 95 % half-width, and that is at least one sample of
-//!   the grid; the channel's samples
-//!   are re-stamped and the common grid rebuilt, with a warning that gives
-//!   the numbers. Shifts below one sample are typical of a sensor's own
-//!   low-pass filter: they are reported (`channel_delays_interval_s`) but
-//!   not applied, and the output-error fit takes up the lags of x1 and x2
-//!   where the law needs them. A velocity offset drift is removed where it is significant
-//!   and its size over the log exceeds half the velocity's noise.
+//!   least twice its 95 % half-width; the channel's samples are re-stamped
+//!   and the common grid rebuilt, with a warning that gives the numbers.
+//!   The positions x0 and x2 get such a shift from a tenth of a sample
+//!   (below that the estimator's own bias; the rest enters the fit's
+//!   intervals as the alignment's uncertainty): behind a
+//!   compliant contact the threshold shows only as a deflection of tens of
+//!   µm, and a sub-sample lag between x1 and x2 (a sensor's low-pass
+//!   filter) of 1 ms biased Rs by −7 % with an interval that missed, the
+//!   law adequate (docs/measurements.md, session 27). v2 and a2, which
+//!   only decide stick and slip, get their own shift (beyond x2's) only
+//!   from one sample of the grid: below that it is typical of the
+//!   transducer's filter, reported (`channel_delays_interval_s`) and left
+//!   to the identification's own alignment of v2 with d/dt x2. A velocity
+//!   offset drift is removed where it is significant and its size over the
+//!   log exceeds half the velocity's noise.
 
 // Index loops mirror the formulas (several arrays indexed together).
 #![allow(clippy::needless_range_loop)]
@@ -52,14 +59,25 @@ use crate::warning::Warning;
 
 /// A channel moves when its filtered range exceeds this many noise σ.
 const MOVES_FACTOR: f64 = 20.0;
-/// Shifts below this fraction of the grid's sample interval are not
-/// applied: sub-sample lags (a sensor filter's) are left to the fit, which
-/// fits the lags of x1 and x2 where they matter. (A correct sub-sample
-/// shift once made a synth log inadequate, 8× its noise: not the shift
-/// but the stick segmentation, which carried a stick across a lost buffer
-/// and anchored a shooting segment at rest where M2 slid; fixed in
-/// `identify::segment`, docs/measurements.md.)
+/// v2's and a2's own shifts (beyond x2's) below this many sample
+/// intervals of the grid are not applied: sub-sample lags of a transducer's
+/// filter are left to the identification's alignment of v2 with d/dt x2.
+/// The positions have a lower floor, [`MIN_POSITION_SHIFT_SAMPLES`]
+/// (until session 27 they had this one: the output-error fit was to take
+/// up their sub-sample lags, but it fits them only where the residuals
+/// show them, and behind a compliant contact a 1-ms lag biased Rs by −7 %
+/// with adequate residuals). (A correct
+/// sub-sample shift once made a synth log inadequate, 8× its noise: not
+/// the shift but the stick segmentation, which carried a stick across a
+/// lost buffer and anchored a shooting segment at rest where M2 slid;
+/// fixed in `identify::segment`, docs/measurements.md.)
 const MIN_SHIFT_SAMPLES: f64 = 1.0;
+/// x0's and x2's shifts below this many sample intervals are not applied:
+/// the estimator's own bias (x0 read 18.1 ± 0.02 µs on a 12-s ideal-sensor
+/// log at 1 kHz, where nothing lags: 0.02 samples; applied, it moved ρs by
+/// 4e-4). What is left enters the fit's intervals (the alignment budget,
+/// `identify::output_error::Refinement::with_alignment_uncertainty`).
+const MIN_POSITION_SHIFT_SAMPLES: f64 = 0.1;
 /// A shift is applied only when it is at least this many times its 95 %
 /// half-width.
 const PRECISION: f64 = 2.0;
@@ -384,8 +402,9 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
     // imprecise sub-millisecond estimate (a sensor filter's lag, ±0.9 ms
     // on some synth logs) applied as it stands misaligned the log further;
     // the fit's own lags of x1 and x2 take such lags up where they matter.
-    let applies =
-        |s: &Shift| s.significant() && s.s.abs() > min_shift && s.s.abs() >= PRECISION * s.half();
+    let precise = |s: &Shift| s.significant() && s.s.abs() >= PRECISION * s.half();
+    let applies = |s: &Shift| precise(s) && s.s.abs() > min_shift;
+    let applies_position = |s: &Shift| precise(s) && s.s.abs() > MIN_POSITION_SHIFT_SAMPLES * dt;
     let mut applied = Vec::new();
     let mut shifts = Vec::new();
     let mut record =
@@ -393,9 +412,10 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
             shifts.push((q, est));
             applied.push((q, applied_s));
         };
-    let a0 = sh0.filter(applies).map_or(0.0, |s| s.s);
+    // The positions: every precise shift from a tenth of a sample.
+    let a0 = sh0.filter(applies_position).map_or(0.0, |s| s.s);
     record(Quantity::X0, sh0, a0, &mut applied);
-    let a2x = sh2.filter(applies).map_or(0.0, |s| s.s);
+    let a2x = sh2.filter(applies_position).map_or(0.0, |s| s.s);
     record(Quantity::X2, sh2, a2x, &mut applied);
 
     // v2 against d/dt x2.

@@ -84,6 +84,39 @@ impl Data {
         self.x0[j] * self.gains.x0
     }
 
+    /// The same data with the drive record shifted by `s0` and x2's
+    /// records by `s2` (s; the value stamped t taken at t + s), to first
+    /// order: x(t + s) ≈ x(t) + s·ẋ(t) with central differences (0 where a
+    /// neighbour is missing). The harmonic drive shifts its phase. For the
+    /// calibration budget of the channel alignment.
+    pub(super) fn shifted(&self, s0: f64, s2: f64) -> Data {
+        let mut d = self.clone();
+        let dt = self.dt;
+        let shift = |x: &Column, of: &Column, s: f64| -> Column {
+            let n = x.len();
+            (0..n)
+                .map(|i| {
+                    let slope = if i > 0 && i + 1 < n {
+                        (of[i + 1] - of[i - 1]) / (2.0 * dt)
+                    } else {
+                        f64::NAN
+                    };
+                    x[i] + if slope.is_finite() { s * slope } else { 0.0 }
+                })
+                .collect()
+        };
+        if s0 != 0.0 {
+            d.phase = self.phase - 2.0 * std::f64::consts::PI * self.freq * s0;
+            d.x0 = shift(&self.x0, &self.x0, s0);
+        }
+        if s2 != 0.0 {
+            d.x2 = shift(&self.x2, &self.x2s, s2);
+            d.x2s = shift(&self.x2s, &self.x2s, s2);
+            d.v2s = shift(&self.v2s, &self.v2s, s2);
+        }
+        d
+    }
+
     /// The same data with the sensor gains multiplied by `g` (x0, x1, x2,
     /// v2): every column shared, the gains applied as they are read (the
     /// same products as scaled copies of the columns, bit for bit; a copy

@@ -50,8 +50,11 @@ pub(super) struct Variances {
     pub q0: [f64; NQ],
     /// Statistical (sandwich) variance of each.
     pub var_stat: [f64; NQ],
-    /// Calibration-budget variance of each.
+    /// Calibration-budget variance of each: the sensors' gains.
     pub var_cal: [f64; NQ],
+    /// The channels' alignment part of it (the drive's and x2's
+    /// records shifted by their alignment uncertainty).
+    pub var_align: [f64; NQ],
     /// Student t's 97.5 % point for the sandwich's degrees of freedom.
     pub t975: f64,
     /// (H⁻¹)ⱼⱼ of each parameter θⱼ (JᵀJ's inverse: the variance per unit
@@ -111,6 +114,7 @@ impl Refinement {
             q0,
             var_stat,
             var_cal,
+            var_align,
             t975,
             ..
         } = self.variances(fam, th, proj, u, fixed)?;
@@ -122,7 +126,7 @@ impl Refinement {
             // (few clusters); the calibration part is a bound (normal).
             // An inadequate law: the statistical part widened by the misfit.
             let ts = t975 * inflation;
-            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * var_cal[k]).sqrt();
+            let hw = (ts * ts * var_stat[k] + 1.96 * 1.96 * (var_cal[k] + var_align[k])).sqrt();
             Some((q0[k] - hw, q0[k] + hw))
         };
         let value = |k: usize| q0[k].is_finite().then_some(q0[k]);
@@ -233,12 +237,13 @@ impl Refinement {
             }
             *v = s.max(0.0);
         }
-        let var_cal =
+        let (var_cal, var_align) =
             self.calibration_variance(fam, th, proj, u, (&r0, &jac, &hinv), &quantities, &q0)?;
         Some(Variances {
             q0,
             var_stat,
             var_cal,
+            var_align,
             t975,
             naive_stat: (0..p).map(|j| hinv[j][j]).collect(),
             stat: (0..p).map(|j| cov[j][j]).collect(),
@@ -349,8 +354,13 @@ impl Refinement {
     }
 
     /// Calibration: linear response of the reported quantities to each
-    /// sensor's gain at 1 + u (Δθ = −H⁻¹ Jᵀ Δr from the residuals `r0`, the
-    /// Jacobian and H⁻¹ of `lin`), as variances of a rectangular ±u.
+    /// sensor's gain at 1 + u, as variances of a rectangular ±u, and to a
+    /// shift of the drive's and of x2's records by the standard
+    /// uncertainty of their alignment with x1
+    /// ([`Refinement::with_alignment_uncertainty`]), as variances of a
+    /// normal error (Δθ = −H⁻¹ Jᵀ Δr from the residuals `r0`, the
+    /// Jacobian and H⁻¹ of `lin`): the gains' variances and the
+    /// alignment's apart.
     #[allow(clippy::too_many_arguments)]
     fn calibration_variance(
         &self,
@@ -361,11 +371,16 @@ impl Refinement {
         lin: (&Res, &[f64], &[Vec<f64>]),
         quantities: &impl Fn(&[f64], f64) -> [f64; NQ],
         q0: &[f64; NQ],
-    ) -> Option<[f64; NQ]> {
+    ) -> Option<([f64; NQ], [f64; NQ])> {
         let (r0, jac, hinv) = lin;
         let p = th.len();
         let m = r0.len();
         let mut var_cal = [0.0f64; NQ];
+        let mut var_align = [0.0f64; NQ];
+        // The perturbed data, the divisor of each squared response
+        // (rectangular ±u: σ = |δ|/√3; a one-σ shift: 1) and whether it is
+        // an alignment.
+        let mut perturbed: Vec<(Data, f64, bool)> = Vec::new();
         if u > 0.0 {
             for gk in 0..4 {
                 let mut gains = Gains::default();
@@ -375,36 +390,45 @@ impl Refinement {
                     2 => gains.x2 = 1.0 + u,
                     _ => gains.v2 = 1.0 + u,
                 }
-                let dp = self.data.scaled(&gains);
-                let pp = self.problem(&dp, fam);
-                let mut rp = Res::new();
-                pp.eval(th, Some(proj), Some(&mut rp))?;
-                if rp.len() != m {
-                    return None;
-                }
-                // Δθ = −H⁻¹ Jᵀ Δr.
-                let mut jtr = vec![0.0; p];
-                for i in 0..m {
-                    let (d1, d2) = (rp[i].1 - r0[i].1, rp[i].2 - r0[i].2);
-                    for a in 0..p {
-                        jtr[a] += jac[2 * i * p + a] * d1 + jac[(2 * i + 1) * p + a] * d2;
-                    }
-                }
-                let mut t = th.to_vec();
+                perturbed.push((self.data.scaled(&gains), 3.0, false));
+            }
+        }
+        let (s0, s2) = self.alignment_sigma;
+        if s0 > 0.0 {
+            perturbed.push((self.data.shifted(s0, 0.0), 1.0, true));
+        }
+        if s2 > 0.0 {
+            perturbed.push((self.data.shifted(0.0, s2), 1.0, true));
+        }
+        for (dp, divisor, align) in &perturbed {
+            let pp = self.problem(dp, fam);
+            let mut rp = Res::new();
+            pp.eval(th, Some(proj), Some(&mut rp))?;
+            if rp.len() != m {
+                return None;
+            }
+            // Δθ = −H⁻¹ Jᵀ Δr.
+            let mut jtr = vec![0.0; p];
+            for i in 0..m {
+                let (d1, d2) = (rp[i].1 - r0[i].1, rp[i].2 - r0[i].2);
                 for a in 0..p {
-                    t[a] -= (0..p).map(|b| hinv[a][b] * jtr[b]).sum::<f64>();
+                    jtr[a] += jac[2 * i * p + a] * d1 + jac[(2 * i + 1) * p + a] * d2;
                 }
-                let q = quantities(&t, dp.a);
-                for k in 0..NQ {
-                    let dq = q[k] - q0[k];
-                    if dq.is_finite() {
-                        // Rectangular ±u: σ = |δ|/√3.
-                        var_cal[k] += dq * dq / 3.0;
-                    }
+            }
+            let mut t = th.to_vec();
+            for a in 0..p {
+                t[a] -= (0..p).map(|b| hinv[a][b] * jtr[b]).sum::<f64>();
+            }
+            let q = quantities(&t, dp.a);
+            let var = if *align { &mut var_align } else { &mut var_cal };
+            for k in 0..NQ {
+                let dq = q[k] - q0[k];
+                if dq.is_finite() {
+                    var[k] += dq * dq / divisor;
                 }
             }
         }
-        Some(var_cal)
+        Some((var_cal, var_align))
     }
 }
 
