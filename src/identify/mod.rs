@@ -138,6 +138,7 @@ pub mod artifact;
 pub mod contact;
 pub mod fit;
 pub mod json;
+mod many;
 pub mod noise;
 pub mod output_error;
 pub mod pads;
@@ -150,14 +151,14 @@ pub use crate::error::IdentifyError;
 use crate::model::{LawKind, SiLaw};
 pub use contact::{Contact, DriveFit, Gains};
 pub use fit::{EquationFit, FitOptions, StatIntervals};
+pub use many::{fit_logs, fit_runs, planned_fit_memory};
 pub use output_error::{OeOptions, OutputErrorFit};
 pub use segment::Segmentation;
 
 use crate::error::{Error, Result};
-use crate::ingest::{RigMeta, Run, TestKind};
+use crate::ingest::{Run, TestKind};
 use crate::warning::Warning;
 use rayon::prelude::*;
-use std::path::{Path, PathBuf};
 
 /// Half-width (samples) of the velocity smoothing used for segmentation.
 const SMOOTH_DEGREE: usize = 3;
@@ -668,165 +669,6 @@ fn quantities_of(f: &fit::Forced, a: f64, k2: f64, ss: f64) -> [f64; 8] {
     ]
 }
 
-/// Runs `f` for the log at `path`; a panic inside it becomes that log's
-/// error (naming it) instead of ending the program.
-fn guarded<T>(path: &Path, f: impl FnOnce() -> Result<T>) -> Result<T> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|_| {
-        Err(Error::Identify {
-            path: path.to_path_buf(),
-            source: IdentifyError::Internal,
-        })
-    })
-}
-
-/// Reads and fits several logs in parallel (rayon; results in the order
-/// of `paths`, the same whatever the thread count). A log that cannot be
-/// read or fitted, or whose fit panics, gives its own error; the others
-/// complete. `tick` is called once per log done (progress).
-///
-/// Memory: each log's samples are counted before any log is decoded
-/// ([`crate::ingest::planned_samples`], one log at a time), and the logs
-/// are fitted in consecutive rounds whose planned memory
-/// ([`crate::limits::planned_fit_bytes`]) fits `opts.memory_bytes`
-/// together, each fit given its plan and an equal part of what the round
-/// leaves ([`IdentifyOptions::memory_bytes`]). Rounds do not wait inside
-/// rayon jobs, so nothing can deadlock, and the results do not depend on
-/// them.
-pub fn fit_logs(
-    paths: &[PathBuf],
-    opts: &IdentifyOptions,
-    tick: &(dyn Fn() + Sync),
-) -> Vec<Result<(RigMeta, LogFit)>> {
-    // A log too long to fit is refused by its reader before it is decoded.
-    let ingest = crate::ingest::IngestOptions {
-        max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
-        ..Default::default()
-    };
-    let budget = opts.memory_bytes;
-    let planned = planned_fit_memory(paths, budget);
-    in_rounds(&planned, budget, opts, |i, o| {
-        let p = &paths[i];
-        let r = guarded(p, || {
-            let mut run = crate::ingest::read(p, &ingest)?;
-            // The fit reads the common grid only: the channels as recorded
-            // (times and values, about a fifth of the fit's memory) go.
-            run.channels = Vec::new();
-            let f = fit_log(&run, o)?;
-            Ok((run.rig, f))
-        });
-        tick();
-        r
-    })
-}
-
-/// The planned memory of fitting each log of `paths` within `budget`
-/// ([`crate::limits::planned_fit_bytes`] of its samples, counted before it
-/// is decoded by [`crate::ingest::planned_samples`], one log at a time).
-/// A single log gets the whole budget whatever its size: nothing is
-/// counted (0).
-pub fn planned_fit_memory(paths: &[PathBuf], budget: u64) -> Vec<u64> {
-    if paths.len() <= 1 {
-        return vec![0; paths.len()];
-    }
-    let ingest = crate::ingest::IngestOptions {
-        max_samples: Some(crate::limits::MAX_FIT_SAMPLES),
-        ..Default::default()
-    };
-    paths
-        .iter()
-        .map(|p| {
-            let n = crate::ingest::planned_samples(p, &ingest);
-            crate::limits::planned_fit_bytes(n, budget)
-        })
-        .collect()
-}
-
-/// Fits logs already read, in parallel, panic-guarded and in rounds that
-/// fit the memory, as [`fit_logs`].
-pub fn fit_runs(
-    runs: &[&Run],
-    opts: &IdentifyOptions,
-    tick: &(dyn Fn() + Sync),
-) -> Vec<Result<LogFit>> {
-    let budget = opts.memory_bytes;
-    let planned: Vec<u64> = runs
-        .iter()
-        .map(|r| crate::limits::planned_fit_bytes(Some(r.samples() as u64), budget))
-        .collect();
-    in_rounds(&planned, budget, opts, |i, o| {
-        let r = guarded(&runs[i].source, || fit_log(runs[i], o));
-        tick();
-        r
-    })
-}
-
-/// Runs `job(i, options)` for every item, the items of each
-/// [`crate::limits::rounds`] group of `planned` at once (rayon), the
-/// groups one after the other; each job's options carry its memory share.
-/// Results in item order.
-fn in_rounds<T: Send>(
-    planned: &[u64],
-    budget: u64,
-    opts: &IdentifyOptions,
-    job: impl Fn(usize, &IdentifyOptions) -> T + Sync,
-) -> Vec<T> {
-    let mut out = Vec::with_capacity(planned.len());
-    for round in crate::limits::rounds(planned, budget) {
-        let sum = planned[round.clone()]
-            .iter()
-            .fold(0u64, |a, &b| a.saturating_add(b));
-        let spare = budget.saturating_sub(sum) / round.len() as u64;
-        let done: Vec<T> = round
-            .into_par_iter()
-            .map(|i| {
-                let o = IdentifyOptions {
-                    memory_bytes: planned[i].saturating_add(spare).min(budget),
-                    ..opts.clone()
-                };
-                job(i, &o)
-            })
-            .collect();
-        out.extend(done);
-    }
-    out
-}
-
-/// The standard uncertainty (s) of the drive's and of x2's alignment with
-/// x1 that ingest leaves (s = half-width/1.96 of the shift's interval): an
-/// applied shift is known to s; a precise one left unapplied (below
-/// `ingest`'s floor, the estimator's own bias) is a misalignment within
-/// ±shift, σ² = shift²/3 + s²; an imprecise one leaves its whole estimate,
-/// σ² = shift² + s²; a channel without an estimate (it does not move)
-/// none.
-fn alignment_sigma(delays: &crate::ingest::ChannelDelays) -> (f64, f64) {
-    let sigma = |q: crate::ingest::Quantity| -> f64 {
-        let Some(c) = delays.get(q) else {
-            return 0.0;
-        };
-        let (Some(e), Some([lo, hi])) = (c.estimated_s, c.interval_s) else {
-            return 0.0;
-        };
-        let half = 0.5 * (hi - lo);
-        let s = half / 1.96;
-        let v = if c.applied {
-            s * s
-        } else if e.abs() >= 2.0 * half {
-            e * e / 3.0 + s * s
-        } else {
-            e * e + s * s
-        };
-        if v.is_finite() {
-            v.sqrt()
-        } else {
-            0.0
-        }
-    };
-    (
-        sigma(crate::ingest::Quantity::X0),
-        sigma(crate::ingest::Quantity::X2),
-    )
-}
-
 /// The calibration budget's variances of the [`quantities`] of `ef`: the
 /// log re-fitted (same law, no bootstrap) with each sensor's gain at
 /// 1 + u, each shift taken as a rectangular ±u error (σ = |δ|/√3).
@@ -978,7 +820,7 @@ fn refine(
                 oe,
             )
             .and_then(|r| {
-                let (s0, s2) = alignment_sigma(&run.delays);
+                let (s0, s2) = run.delays.alignment_sigma();
                 r.with_pad_hints(hints)
                     .with_alignment_uncertainty(s0, s2)
                     .run(starts, bias, forced, u)

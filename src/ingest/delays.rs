@@ -174,6 +174,40 @@ impl ChannelDelays {
     pub fn get(&self, q: Quantity) -> Option<&ChannelDelay> {
         self.channels.iter().find(|c| c.quantity == q)
     }
+
+    /// The standard uncertainty (s) of the drive's and of x2's alignment
+    /// with x1 that these shifts leave (s = half-width/1.96 of a shift's
+    /// interval): an applied shift is known to s; a precise one left
+    /// unapplied (below [`MIN_POSITION_SHIFT_SAMPLES`], the estimator's own
+    /// bias) is a misalignment within ±shift, σ² = shift²/3 + s²; an
+    /// imprecise one leaves its whole estimate, σ² = shift² + s²; a channel
+    /// without an estimate (it does not move) none. The output-error
+    /// intervals carry it (`identify::output_error::Refinement::with_alignment_uncertainty`).
+    pub fn alignment_sigma(&self) -> (f64, f64) {
+        let sigma = |q: Quantity| -> f64 {
+            let Some(c) = self.get(q) else {
+                return 0.0;
+            };
+            let (Some(e), Some([lo, hi])) = (c.estimated_s, c.interval_s) else {
+                return 0.0;
+            };
+            let half = 0.5 * (hi - lo);
+            let s = half / 1.96;
+            let v = if c.applied {
+                s * s
+            } else if e.abs() >= PRECISION * half {
+                e * e / 3.0 + s * s
+            } else {
+                e * e + s * s
+            };
+            if v.is_finite() {
+                v.sqrt()
+            } else {
+                0.0
+            }
+        };
+        (sigma(Quantity::X0), sigma(Quantity::X2))
+    }
 }
 
 /// One estimated shift (relative to its reference) with its variance.
