@@ -1096,7 +1096,17 @@ fn synth_and_fit_for(
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = bin().arg("fit").arg(&log).arg("--json").output().unwrap();
+    fit_entry(&log)
+}
+
+/// `fit --json` of `log`: its fit entry.
+fn fit_entry(log: &std::path::Path) -> serde_json::Value {
+    let o = common::bin()
+        .arg("fit")
+        .arg(log)
+        .arg("--json")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     v["fits"][0].clone()
@@ -1255,10 +1265,7 @@ fn a_sub_sample_lag_behind_a_compliant_contact_is_corrected() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = bin().arg("fit").arg(&log).arg("--json").output().unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let f = &v["fits"][0];
+    let f = &fit_entry(&log);
     let label = format!("{f:#}");
     // The lag was measured and x2 (the other channels) shifted by it.
     let x2 = f["channel_delays_s"]["x2"].as_f64().expect(&label);
