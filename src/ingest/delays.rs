@@ -435,7 +435,9 @@ pub(crate) fn estimate(r: &Resampled, rig: &RigMeta) -> Estimate {
     // correction cannot leave a larger misalignment than it removes. An
     // imprecise sub-millisecond estimate (a sensor filter's lag, ±0.9 ms
     // on some synth logs) applied as it stands misaligned the log further;
-    // the fit's own lags of x1 and x2 take such lags up where they matter.
+    // what is left unapplied enters the output-error intervals
+    // (`ChannelDelays::alignment_sigma`), and the fit's own lags of x1 and
+    // x2 take it up where the residuals show it.
     let precise = |s: &Shift| s.significant() && s.s.abs() >= PRECISION * s.half();
     let applies = |s: &Shift| precise(s) && s.s.abs() > min_shift;
     let applies_position = |s: &Shift| precise(s) && s.s.abs() > MIN_POSITION_SHIFT_SAMPLES * dt;
