@@ -610,16 +610,37 @@ impl Refinement {
         starts: &[Vec<f64>],
         step: &[f64],
     ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
+        let (th, proj, _) = self
+            .evaluated_starts(fam, starts)
+            .into_iter()
+            .min_by(|a, b| a.2.total_cmp(&b.2))
+            .ok_or(RefineError::StartNotSimulable)?;
+        self.minimise_from(fam, th, proj, step)
+    }
+
+    /// The simulable starts among `starts`, each with its start-state
+    /// projection and its cost.
+    fn evaluated_starts(&self, fam: Fam, starts: &[Vec<f64>]) -> Vec<(Vec<f64>, Proj, f64)> {
         let prob = self.problem(&self.data, fam);
-        let (mut th, proj, _) = starts
+        starts
             .iter()
             .filter_map(|t| {
                 let p = prob.projection(t, None)?;
                 let c = prob.eval(t, Some(&p), None)?;
                 Some((t.clone(), p, c))
             })
-            .min_by(|a, b| a.2.total_cmp(&b.2))
-            .ok_or(RefineError::StartNotSimulable)?;
+            .collect()
+    }
+
+    /// [`Self::minimise`] from the start `th` with its projection `proj`.
+    fn minimise_from(
+        &self,
+        fam: Fam,
+        mut th: Vec<f64>,
+        proj: Proj,
+        step: &[f64],
+    ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
+        let prob = self.problem(&self.data, fam);
         let fail = RefineError::NotSimulable;
         // The segment starts move to their least-squares values (free
         // multiple-shooting nodes), so the linearised projection holds.
@@ -1075,27 +1096,24 @@ impl Refinement {
         starts: &[Vec<f64>],
         step: &[f64],
     ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
-        let prob = self.problem(&self.data, fam);
-        let mut best_per_kappa: Vec<(f64, f64, &Vec<f64>)> = Vec::new();
-        for t in starts {
-            let Some(c) = prob
-                .projection(t, None)
-                .and_then(|p| prob.eval(t, Some(&p), None))
-            else {
-                continue;
-            };
+        // The best start of each distinct ln κ (the last of θ), in order.
+        let mut best_per_kappa: Vec<(Vec<f64>, Proj, f64)> = Vec::new();
+        for (t, p, c) in self.evaluated_starts(fam, starts) {
             let ln_k = t[t.len() - 1];
-            match best_per_kappa.iter_mut().find(|b| b.0 == ln_k) {
-                Some(b) if c < b.1 => *b = (ln_k, c, t),
+            match best_per_kappa
+                .iter_mut()
+                .find(|b| b.0[b.0.len() - 1] == ln_k)
+            {
+                Some(b) if c < b.2 => *b = (t, p, c),
                 Some(_) => {}
-                None => best_per_kappa.push((ln_k, c, t)),
+                None => best_per_kappa.push((t, p, c)),
             }
         }
         let mut best: Option<(Vec<f64>, f64, u64, ProjAt)> = None;
         let mut iterations = 0;
         let mut last_err = RefineError::StartNotSimulable;
-        for (_, _, t) in best_per_kappa {
-            match self.minimise(fam, std::slice::from_ref(t), step) {
+        for (t, p, _) in best_per_kappa {
+            match self.minimise_from(fam, t, p, step) {
                 Ok(r) => {
                     iterations += r.2;
                     if best.as_ref().is_none_or(|b| r.1 < b.1) {
