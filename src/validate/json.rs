@@ -73,6 +73,8 @@ struct ValidationOut<'a> {
     replay_sensitivity: &'a [Option<crate::validate::sensitive::Sensitivity>],
     score: ScoreOut<'a>,
     draws: usize,
+    /// The first-round draws whose steady states make the `predicted` band.
+    steady_band_draws: usize,
     band_precision: &'a crate::validate::predict::BandPrecision,
     #[serde(serialize_with = "crate::warning::as_messages")]
     warnings: &'a [crate::warning::Warning],
@@ -138,6 +140,7 @@ impl Validation {
                 points: pts.len(),
             },
             draws: p.draws,
+            steady_band_draws: p.steady_draws,
             band_precision: &p.band,
             warnings: &self.warnings,
             warning_codes: crate::warning::codes(&self.warnings),

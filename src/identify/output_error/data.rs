@@ -147,3 +147,89 @@ impl Data {
         d
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2-s record at 1 kHz of harmonic columns (x0 = cos, x1 = 2 sin,
+    /// x2 = sin, x2's smoothed copy and its derivative alike).
+    fn harmonic_data(f: f64) -> Data {
+        let dt = 1e-3;
+        let w = 2.0 * std::f64::consts::PI * f;
+        let t: Vec<f64> = (0..2000).map(|i| i as f64 * dt).collect();
+        let col = |g: &dyn Fn(f64) -> f64| -> Column { t.iter().map(|&t| g(t)).collect() };
+        Data {
+            t: col(&|t| t),
+            x1: col(&|t| 2.0 * (w * t).sin()),
+            x2: col(&|t| (w * t).sin()),
+            x1s: col(&|t| 2.0 * (w * t).sin()),
+            v1s: col(&|t| 2.0 * w * (w * t).cos()),
+            x2s: col(&|t| (w * t).sin()),
+            v2s: col(&|t| w * (w * t).cos()),
+            x0: col(&|t| (w * t).cos()),
+            anchors: Vec::new(),
+            segs: Vec::new(),
+            compared: Vec::new(),
+            a: 1.0,
+            freq: f,
+            phase: 0.3,
+            drive: DriveModel::Harmonic,
+            dt,
+            means: [0.0; 5],
+            sig: (1e-6, 1e-6),
+            a2: None,
+            delays: false,
+            gains: Gains::default(),
+        }
+    }
+
+    /// The shifted records are the signals at t + s to second order (a
+    /// 0.5-ms shift of a 5-Hz record: |s·ω|² / 2 ≈ 1.2e-4, central
+    /// differences (ω·dt)²/6 ≈ 1.6e-4 relative), the drive's phase moves
+    /// by −ω·s, the unshifted channels keep their columns (shared, not
+    /// copied), and the samples without two neighbours are left as they
+    /// were.
+    #[test]
+    fn shifted_records_are_the_signals_a_shift_later() {
+        let f = 5.0;
+        let w = 2.0 * std::f64::consts::PI * f;
+        let d = harmonic_data(f);
+        let (s0, s2) = (-0.5e-3, 0.5e-3);
+        let e = d.shifted(s0, s2);
+        let n = d.t.len();
+        let mut worst: [f64; 4] = [0.0; 4];
+        for i in 1..n - 1 {
+            let t = d.t[i];
+            let errs = [
+                e.x0[i] - (w * (t + s0)).cos(),
+                e.x2[i] - (w * (t + s2)).sin(),
+                e.x2s[i] - (w * (t + s2)).sin(),
+                e.v2s[i] - w * (w * (t + s2)).cos(),
+            ];
+            for (k, err) in errs.iter().enumerate() {
+                worst[k] = worst[k].max(err.abs());
+            }
+        }
+        let bound = (w * s2).powi(2) / 2.0 + s2.abs() * w * (w * d.dt).powi(2) / 6.0;
+        for (k, wk) in worst.iter().enumerate() {
+            let scale = if k == 3 { w } else { 1.0 };
+            assert!(
+                *wk <= 1.01 * bound * scale,
+                "column {k}: {wk:e} > {:e}",
+                bound * scale
+            );
+            // The first-order term is taken: an unshifted record would be
+            // off by |s·ω| ≈ 1.6e-2.
+            assert!(*wk < 0.05 * (w * s2).abs() * scale);
+        }
+        assert!((e.phase - (d.phase - w * s0)).abs() < 1e-15);
+        assert!(std::sync::Arc::ptr_eq(&e.x1, &d.x1));
+        assert!(std::sync::Arc::ptr_eq(&e.v1s, &d.v1s));
+        assert_eq!((e.x0[0], e.x2[n - 1]), (d.x0[0], d.x2[n - 1]));
+        // No shift: every column shared and the phase unchanged.
+        let z = d.shifted(0.0, 0.0);
+        assert!(std::sync::Arc::ptr_eq(&z.x0, &d.x0) && std::sync::Arc::ptr_eq(&z.x2, &d.x2));
+        assert_eq!(z.phase, d.phase);
+    }
+}
