@@ -190,6 +190,21 @@ pub fn finite_blocks(y: &[f64]) -> Vec<(usize, usize)> {
 /// the local least-squares polynomial there too. Blocks shorter than
 /// `degree + 2` samples give NaN.
 pub fn savgol(y: &[f64], dt: f64, half: usize, degree: usize, deriv: usize) -> Vec<f64> {
+    savgol_within(y, dt, half, degree, deriv, 0..y.len())
+}
+
+/// [`savgol`] of `y` at the samples `keep` only (NaN elsewhere): the same
+/// values there, bit for bit, without the edge windows' weights of the
+/// samples not wanted (a window's amplitude smooths a slice with margins
+/// whose edge weights were most of its cost).
+pub fn savgol_within(
+    y: &[f64],
+    dt: f64,
+    half: usize,
+    degree: usize,
+    deriv: usize,
+    keep: std::ops::Range<usize>,
+) -> Vec<f64> {
     let mut out = vec![f64::NAN; y.len()];
     let h = half as i64;
     let interior = savgol_weights(-h, h, degree, deriv, dt);
@@ -199,15 +214,17 @@ pub fn savgol(y: &[f64], dt: f64, half: usize, degree: usize, deriv: usize) -> V
             continue;
         }
         let w = (2 * half + 1).min(n) as i64;
-        for i in s..e {
+        for i in s.max(keep.start)..e.min(keep.end) {
             let ii = i as i64;
             // Window [a, a + w) inside [s, e), as centred on i as possible.
             let a = (ii - w / 2).clamp(s as i64, e as i64 - w);
             let (lo, hi) = (a - ii, a + w - 1 - ii);
+            let edge;
             let weights = if lo == -h && hi == h {
-                interior.clone()
+                interior.as_deref()
             } else {
-                savgol_weights(lo, hi, degree.min(w as usize - 1), deriv, dt)
+                edge = savgol_weights(lo, hi, degree.min(w as usize - 1), deriv, dt);
+                edge.as_deref()
             };
             if let Some(wt) = weights {
                 let mut acc = 0.0;
@@ -266,6 +283,33 @@ pub fn tau_int(
 mod tests {
     use super::*;
     use crate::stats::Rng;
+
+    /// `savgol_within` gives `savgol`'s values bit for bit on the kept
+    /// samples (edges of the record and of a gap included) and NaN
+    /// elsewhere.
+    #[test]
+    fn savgol_within_is_savgol_on_the_kept_samples() {
+        let mut rng = Rng::new(7);
+        let mut y: Vec<f64> = (0..300)
+            .map(|i| (i as f64 * 0.05).sin() + 0.01 * rng.normal())
+            .collect();
+        for v in y.iter_mut().skip(140).take(5) {
+            *v = f64::NAN;
+        }
+        for deriv in [0, 1] {
+            let full = savgol(&y, 1e-3, 12, 4, deriv);
+            for keep in [0..300, 0..20, 100..160, 280..300, 150..150] {
+                let part = savgol_within(&y, 1e-3, 12, 4, deriv, keep.clone());
+                for (i, (p, f)) in part.iter().zip(&full).enumerate() {
+                    if keep.contains(&i) {
+                        assert_eq!(p.to_bits(), f.to_bits(), "sample {i}");
+                    } else {
+                        assert!(p.is_nan(), "sample {i}");
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn savgol_differentiates_cubics_exactly_interior_and_edges() {

@@ -2,7 +2,7 @@
 //! local-polynomial reconstruction, the stand-still test, and the
 //! estimator's noise and bias.
 
-use crate::identify::smooth::savgol;
+use crate::identify::smooth::savgol_within;
 use crate::ingest::{Quantity, Run};
 use crate::stats::median;
 
@@ -28,7 +28,7 @@ pub(super) fn amplitude(
     }
     // Smooth a slice with a margin so the window sees interior weights.
     let (sa, sb) = (ia.saturating_sub(half + 1), (ib + half + 2).min(n));
-    let s = savgol(&y[sa..sb], dt, half, 4, 0);
+    let s = savgol_within(&y[sa..sb], dt, half, 4, 0, ia - sa..ib - sa + 1);
     let w = &s[ia - sa..=ib - sa];
     let finite = w.iter().filter(|v| v.is_finite()).count();
     if finite * 2 < w.len() {
@@ -208,7 +208,10 @@ pub(super) fn noise_bias(
     }
     let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
     let (sa, sb) = (ia.saturating_sub(2 * half + 2), (ib + 2 * half + 3).min(n));
-    let smooth = savgol(&y[sa..sb], dt, half, 4, 0);
+    // Smoothed where `amplitude` below reads it (the window and its
+    // margin of half + 1).
+    let keep = (ia - sa).saturating_sub(half + 1)..(ib - sa + half + 2).min(sb - sa);
+    let smooth = savgol_within(&y[sa..sb], dt, half, 4, 0, keep);
     let t_s = t0 + sa as f64 * dt;
     let h = half as i64;
     let w0 = crate::identify::smooth::savgol_weights(-h, h, 4, 0, dt)?[half];
