@@ -23,7 +23,8 @@
 //!   stop once every coverage is known to `band_coverage_se`. Where the cap
 //!   comes first, a warning gives the precision reached. Draw k is the same
 //!   law whatever the number drawn (one seeded sequence): a larger cap only
-//!   adds draws.
+//!   adds draws. The further rounds replay only: the steady-state band
+//!   keeps the first round's draws (no score is computed from it).
 //! * **Steady-state call**: a step counts as having reached its steady
 //!   state when the replay's amplitude over its window is within
 //!   [`PredictOptions::steady_tolerance`] of the steady-state prediction
