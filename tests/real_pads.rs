@@ -1228,28 +1228,10 @@ fn a_sub_sample_lag_behind_a_compliant_contact_is_corrected() {
     let log = dir.path().join("lagged.mcap");
     let (rs, rd, kt) = (0.5852552822899103, 0.3662798040994145, 4528.506141633922);
     let o = bin()
-        .args([
-            "synth",
-            "--m1-kg",
-            "3",
-            "--m2-kg",
-            "1",
-            "--k1-n-per-m",
-            "200",
-        ])
-        .args([
-            "--k2-n-per-m",
-            "500",
-            "--d-n-s-per-m",
-            "0.08944271909999159",
-        ])
-        .args([
-            "--amplitude-m",
-            "0.002",
-            "--frequency-hz",
-            "1.7310587367826507",
-        ])
-        .args(["--normal-force", "2.0", "--law", "static-dynamic"])
+        .arg("synth")
+        .args(common::STUDY_RIG)
+        .args(["--frequency-hz", "1.7310587367826507"])
+        .args(["--law", "static-dynamic"])
         .args(["--rs-n", &rs.to_string(), "--rd-n", &rd.to_string()])
         .args(["--contact-stiffness-n-per-m", &kt.to_string()])
         .args([
