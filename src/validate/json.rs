@@ -140,7 +140,7 @@ impl Validation {
                 points: pts.len(),
             },
             draws: p.draws,
-            steady_band_draws: p.steady_draws,
+            steady_band_draws: p.steady_band_draws,
             band_precision: &p.band,
             warnings: &self.warnings,
             warning_codes: crate::warning::codes(&self.warnings),

@@ -209,8 +209,10 @@ pub(super) fn noise_bias(
     let (ia, ib) = (ia.max(0.0) as usize, (ib as usize).min(n - 1));
     let (sa, sb) = (ia.saturating_sub(2 * half + 2), (ib + 2 * half + 3).min(n));
     // Smoothed where `amplitude` below reads it (the window and its
-    // margin of half + 1).
-    let keep = (ia - sa).saturating_sub(half + 1)..(ib - sa + half + 2).min(sb - sa);
+    // margin of half + 1), one sample wider each side in case its own
+    // rounding of the window's ends to samples differs by one (still
+    // interior weights: the slice's margin is 2·half + 2).
+    let keep = (ia - sa).saturating_sub(half + 2)..(ib - sa + half + 3).min(sb - sa);
     let smooth = savgol_within(&y[sa..sb], dt, half, 4, 0, keep);
     let t_s = t0 + sa as f64 * dt;
     let h = half as i64;

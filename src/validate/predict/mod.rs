@@ -254,7 +254,7 @@ pub struct Prediction {
     pub draws: usize,
     /// Of those, the laws whose steady states make the steady-state band
     /// (the first round's: no score is computed from that band).
-    pub steady_draws: usize,
+    pub steady_band_draws: usize,
     /// How precisely the draws fix the band's scores.
     pub band: BandPrecision,
     /// Things the user should know.
@@ -1091,7 +1091,7 @@ pub fn predict_pads(
         replay_sensitivity,
         score,
         draws: d_replay.len(),
-        steady_draws: d_steady.len(),
+        steady_band_draws: d_steady.len(),
         band,
         warnings,
     })
