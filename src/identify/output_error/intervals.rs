@@ -40,6 +40,10 @@ fn inverse_equilibrated(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
     )
 }
 
+/// The sensors' gains' part of Rs's and Rd's intervals (95 % half-widths,
+/// N; see [`OutputErrorFit::calibration_half_width_n`]).
+pub(super) type CalibrationPart = (Option<f64>, Option<f64>);
+
 /// Quantities reported of a refined law: Rs⁺, Rd, a, ρs⁺, ρd, D*, then
 /// Rs⁻ (N), ρs⁻, the split Δ (N) and ln κ (NaN where not fitted).
 const NQ: usize = 10;
@@ -96,9 +100,12 @@ pub struct PadFit {
 }
 
 impl Refinement {
-    /// Sandwich intervals over segments plus the calibration budget, and
-    /// the real-pad parameters' intervals; conditional on the parameters
-    /// θⱼ, j in `fixed` (a profile point: those held, not estimated).
+    /// Sandwich intervals over segments plus the calibration budget, the
+    /// real-pad parameters' intervals, and the gains' part of Rs's and Rd's
+    /// (their calibration half-widths, N: see
+    /// [`OutputErrorFit::calibration_half_width_n`]); conditional on the
+    /// parameters θⱼ, j in `fixed` (a profile point: those held, not
+    /// estimated).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn intervals(
         &self,
@@ -109,7 +116,7 @@ impl Refinement {
         rs_known: bool,
         inflation: f64,
         fixed: &[usize],
-    ) -> Option<(Intervals, PadFit)> {
+    ) -> Option<(Intervals, PadFit, CalibrationPart)> {
         let Variances {
             q0,
             var_stat,
@@ -143,6 +150,10 @@ impl Refinement {
             plus_bounded: false,
             threshold_unresolved: false,
         };
+        let cal = |k: usize, present: bool| {
+            let c = 1.96 * var_cal[k].sqrt();
+            (present && q0[k].is_finite() && c.is_finite()).then_some(c)
+        };
         Some((
             Intervals {
                 rs_n: iv(0, rs_known),
@@ -153,6 +164,7 @@ impl Refinement {
                 dstar: iv(5, true),
             },
             pads,
+            (cal(0, rs_known), cal(1, true)),
         ))
     }
 

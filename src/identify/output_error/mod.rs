@@ -129,6 +129,7 @@ pub use adequacy::{
 use anchors::{m1_sums, shooting_segments, slip_anchors, stick_anchors};
 use data::*;
 pub use drop::{DropProfile, THRESHOLD_EVIDENCE_BIC};
+use intervals::CalibrationPart;
 pub use intervals::PadFit;
 pub use lm::Minimiser;
 pub use problem::Ext;
@@ -320,6 +321,14 @@ pub struct OutputErrorFit {
     /// 95 % intervals (sandwich over segments + calibration budget; for a
     /// never-sticking log Rs holds the bounds, as in [`super::LogFit`]).
     pub intervals: Intervals,
+    /// The sensors' gains' part of the Rs and Rd intervals: its 95 %
+    /// half-widths (N; Rs's None where the law does not stick). It is
+    /// common to logs recorded with the same sensors; the rest of each
+    /// interval (statistical, misfit, channel alignment) is the log's own.
+    /// Rs's is the chosen law's, before any widening or bounding of the
+    /// Rs interval.
+    #[serde(default)]
+    pub calibration_half_width_n: (Option<f64>, Option<f64>),
     /// The real-pad parameters of the chosen law with their intervals
     /// (all None for the paper's symmetric, rigid pad).
     #[serde(default)]

@@ -141,7 +141,8 @@ impl Refinement {
             let Some(proj) = self.proj_of(fam, proj.as_ref().unwrap_or(&base.proj_at)) else {
                 continue;
             };
-            let Some((_, pads)) = self.intervals(fam, th, &proj, u, true, inflation, &[0]) else {
+            let Some((_, pads, _)) = self.intervals(fam, th, &proj, u, true, inflation, &[0])
+            else {
                 continue;
             };
             if let Some((a, b)) = pads.contact_stiffness_interval {

@@ -185,24 +185,25 @@ impl Refinement {
         let mut best = self.pick_family(&families);
         let mut notes = Vec::new();
         let sticks_of = |f: &FamilyFit| self.sticks_of(f);
-        let assess = |i: usize| -> Result<(Adequacy, Intervals, PadFit), RefineError> {
-            let f = &fits[i];
-            let proj = self.proj(f)?;
-            let adequacy = self.adequacy(f.fam(), &f.th, &proj)?;
-            let (intervals, pads) = self
-                .intervals(
-                    f.fam(),
-                    &f.th,
-                    &proj,
-                    u,
-                    sticks_of(&families[i]),
-                    adequacy.inflation,
-                    &[],
-                )
-                .ok_or(RefineError::TooFewSegmentsForIntervals)?;
-            Ok((adequacy, intervals, pads))
-        };
-        let (mut adequacy, mut intervals, mut pads) = assess(best)?;
+        let assess =
+            |i: usize| -> Result<(Adequacy, Intervals, PadFit, CalibrationPart), RefineError> {
+                let f = &fits[i];
+                let proj = self.proj(f)?;
+                let adequacy = self.adequacy(f.fam(), &f.th, &proj)?;
+                let (intervals, pads, cal) = self
+                    .intervals(
+                        f.fam(),
+                        &f.th,
+                        &proj,
+                        u,
+                        sticks_of(&families[i]),
+                        adequacy.inflation,
+                        &[],
+                    )
+                    .ok_or(RefineError::TooFewSegmentsForIntervals)?;
+                Ok((adequacy, intervals, pads, cal))
+            };
+        let (mut adequacy, mut intervals, mut pads, mut calibration) = assess(best)?;
         // Parsimony, second rule: an extra parameter whose interval holds
         // its nested value (D* = 0; ρs = ρd; the split Δ = 0) is not
         // supported by the data.
@@ -220,7 +221,7 @@ impl Refinement {
                 .position(|f| f.kind == fits[best].kind && f.ext == without)
             {
                 best = c;
-                (adequacy, intervals, pads) = assess(c)?;
+                (adequacy, intervals, pads, calibration) = assess(c)?;
             }
         }
         if forced.is_none()
@@ -239,7 +240,7 @@ impl Refinement {
                 if nested {
                     notes.push(crate::warning::Warning::NestedCoulomb { law: l.kind });
                     best = c;
-                    (adequacy, intervals, pads) = assess(c)?;
+                    (adequacy, intervals, pads, calibration) = assess(c)?;
                 }
             }
         }
@@ -298,6 +299,7 @@ impl Refinement {
             families,
             start_rms_m,
             intervals,
+            calibration_half_width_n: calibration,
             pads,
             segments: self.data.segs.len(),
             samples: n,
