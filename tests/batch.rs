@@ -180,7 +180,21 @@ fn public_batch() {
     assert_eq!(fit_of("char_N1.2.mcap")["never_sticks"], true);
     for name in ["char_N2.2.mcap", "char_N4.mcap", "char_N7.2.mcap"] {
         assert_eq!(by_log(name)["static"], "point", "{name}");
+        // The points are the estimates the fits report (the refined ones).
+        let e = fit_of(name);
+        assert_eq!(e["estimate"], "output-error", "{name}");
+        let n = f(&e["normal_force_n"]);
+        for (q, r) in [("mu_s_log", "r_s_n"), ("mu_d_log", "r_d_n")] {
+            let want = f(&e[r]) / n;
+            assert!(
+                (f(&by_log(name)[q]) - want).abs() < 1e-12 * want,
+                "{name} {q}"
+            );
+        }
     }
+    // The logs agree within their intervals (their sensors' gains differ
+    // from log to log, which the conflict check allows): no conflict.
+    assert_eq!(v["conflicts"], serde_json::json!([]), "{}", v["conflicts"]);
     // The recommendation: inside its window, with a worst case inside its
     // interval and a cliff below it.
     let n = f(&v["recommended_normal_force_n"]);

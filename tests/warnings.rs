@@ -133,8 +133,10 @@ fn validate_gives_a_code_per_warning() {
 
 #[test]
 fn batch_gives_a_code_per_warning() {
-    // The bundled pad's logs scatter more than their intervals say (a
-    // conflict); char_N4.mcap given twice counts once, with a warning.
+    // char_N4.mcap given twice counts once, with a warning. The bundled
+    // pad's logs agree within their intervals: no conflict (their sensors'
+    // gains differ from log to log, by up to 1.6 % in the normal force,
+    // which the equation-error estimates' scatter once flagged as one).
     let logs = [
         "char_N1.2.mcap",
         "char_N2.2.mcap",
@@ -152,7 +154,7 @@ fn batch_gives_a_code_per_warning() {
     let mut found = Vec::new();
     // The batch and one fit record per log given.
     assert_eq!(check(&v, "", &mut found), 1 + logs.len());
-    assert!(has(&found, "", "conflict"), "{found:?}");
+    assert!(!has(&found, "", "conflict"), "{found:?}");
     assert!(has(&found, "", "duplicate"), "{found:?}");
     assert!(has(&found, "/fits[0]", "never_sticks"), "{found:?}");
 }

@@ -137,7 +137,8 @@ pub struct Conflict {
     pub kind: &'static str,
     /// The logs: the one that disagrees first, then those it disagrees with.
     pub logs: Vec<PathBuf>,
-    /// Size in σ of the combined uncertainty (for `scatter`: the Birge ratio).
+    /// Size in σ of the combined uncertainty, calibration parts included
+    /// (for `scatter`: the Birge ratio against the whole intervals).
     pub size_sigma: f64,
     /// Size relative to the others' μN (for `scatter`: the relative RMS
     /// spread of the points' R/N).

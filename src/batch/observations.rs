@@ -2,6 +2,7 @@
 //! uncertainties) and the coefficient fit over the logs.
 
 use super::*;
+use crate::identify::{Estimate, Measured};
 
 /// Half-width of an interval around `est`: mean of both sides.
 pub(super) fn half_width(est: f64, iv: Option<(f64, f64)>) -> Option<f64> {
@@ -30,19 +31,72 @@ pub(super) fn split_sigma(
     }
 }
 
-/// One log's observations. The batch reads the *equation-error* estimate
-/// and its intervals: its bootstrap separates the statistical part (which
-/// averages over logs) from the calibration part (common to the batch); the
-/// output-error refinement has no such split.
+/// Statistical σ and relative calibration half-width of one estimate from
+/// its combined 95 % interval and the calibration part's half-width `cal`
+/// (the rest is the log's own; the combined interval's half-width where
+/// the calibration part is unknown).
+pub(super) fn split_by_calibration(
+    est: f64,
+    combined: Option<(f64, f64)>,
+    cal: Option<f64>,
+) -> (Option<f64>, Option<f64>) {
+    match (half_width(est, combined), cal) {
+        (Some(c), Some(k)) if c > 0.0 && k.is_finite() => {
+            let own = (c * c - k * k).max(0.0).sqrt();
+            ((own > 0.0).then_some(own / 1.96), Some(k / est.abs()))
+        }
+        (Some(c), _) if c > 0.0 => (Some(c / 1.96), None),
+        _ => (None, None),
+    }
+}
+
+/// One log's observations, of the estimate the fit reports. The batch
+/// needs each interval split into the log's own part (statistical, misfit,
+/// channel alignment: it averages over logs) and the calibration part
+/// (the sensors' gains: common to the batch). The equation-error estimate
+/// gives the split by its bootstrap; the output-error refinement by its
+/// gains' part ([`OutputErrorFit::calibration_half_width_n`]). (The
+/// equation-error estimates of the bundled logs carry biases that scatter
+/// 6.3× their bootstrap intervals over the batch; the refined ones agree
+/// within theirs.)
+///
+/// [`OutputErrorFit::calibration_half_width_n`]: crate::identify::output_error::OutputErrorFit::calibration_half_width_n
 pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> BatchLog {
     let e = &f.fit;
     let oe = f.output_error.as_ref();
     let n = f.normal_force_n;
-    let (rd_sigma, rd_cal) = split_sigma(e.law.rd_n, e.stat.rd, f.equation_error.rd_n);
-    let rd = if !e.stuck && e.law.rd_n.is_finite() {
-        rd_sigma.map(|s| (e.law.rd_n, s))
+    // (A fit saved before the refinement kept its gains' part reads as
+    // before: the equation-error estimate.)
+    let refined = oe
+        .filter(|o| f.estimate == Estimate::OutputError && o.calibration_half_width_n.1.is_some());
+    let never_sticks = matches!(f.measured, Measured::NeverSticks(_));
+    // The reported point of Rd and its statistical σ, and Rd's relative
+    // calibration half-width.
+    let (rd_point, (rd_sigma, rd_cal)) = match refined {
+        Some(o) => (
+            o.law.rd_n,
+            split_by_calibration(o.law.rd_n, f.rd_interval_n, o.calibration_half_width_n.1),
+        ),
+        None => (
+            e.law.rd_n,
+            split_sigma(e.law.rd_n, e.stat.rd, f.equation_error.rd_n),
+        ),
+    };
+    let rd = if !e.stuck && rd_point.is_finite() {
+        rd_sigma.map(|s| (rd_point, s))
     } else {
         None
+    };
+    // Rs bounded between Rd and an upper bound: never sticks (the reversal
+    // bound), or a contact threshold the refinement did not resolve (the
+    // profile's bound).
+    let rs_between = |high: Option<f64>| match (rd, high) {
+        (Some((rdv, rds)), Some(ub)) if ub.is_finite() => StaticObs::Between {
+            low_n: rdv,
+            low_sigma_n: rds,
+            high_n: ub,
+        },
+        _ => StaticObs::Unknown,
     };
     let mut rs_cal = None;
     let static_obs = if e.stuck {
@@ -50,15 +104,23 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
             Some(lb) if lb.is_finite() => StaticObs::Above { bound_n: lb },
             _ => StaticObs::Unknown,
         }
-    } else if e.never_sticks {
-        match (rd, e.rs_upper_bound_n) {
-            (Some((rdv, rds)), Some(ub)) if ub.is_finite() => StaticObs::Between {
-                low_n: rdv,
-                low_sigma_n: rds,
-                high_n: ub,
-            },
-            _ => StaticObs::Unknown,
+    } else if let Some(o) = refined {
+        if never_sticks || o.pads.threshold_unresolved || o.pads.plus_bounded {
+            rs_between(f.rs_interval_n.map(|iv| iv.1))
+        } else {
+            let (s, c) =
+                split_by_calibration(o.law.rs_n, f.rs_interval_n, o.calibration_half_width_n.0);
+            rs_cal = c;
+            match s {
+                Some(sigma) if o.law.rs_n.is_finite() => StaticObs::Point {
+                    rs_n: o.law.rs_n,
+                    sigma_n: sigma,
+                },
+                _ => StaticObs::Unknown,
+            }
         }
+    } else if e.never_sticks {
+        rs_between(e.rs_upper_bound_n)
     } else {
         let (s, c) = split_sigma(e.law.rs_n, e.stat.rs, f.equation_error.rs_n);
         rs_cal = c;
@@ -81,13 +143,17 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
         });
     }
     let ratio = |x: f64| (x.is_finite() && n > 0.0).then(|| x / n);
+    let (rs_point, rs_iv, rho_s_iv) = match refined {
+        Some(o) => (o.law.rs_n, f.rs_interval_n, f.rho_s_interval),
+        None => (e.law.rs_n, f.equation_error.rs_n, f.equation_error.rho_s),
+    };
     let mu_s = match static_obs {
         StaticObs::Point { rs_n, .. } => (ratio(rs_n), None, None),
         StaticObs::Above { .. } => (None, f.rs_lower_bound_n().and_then(ratio), None),
         StaticObs::Between { .. } => (
             None,
-            f.equation_error.rs_n.and_then(|i| ratio(i.0)),
-            f.equation_error.rs_n.and_then(|i| ratio(i.1)),
+            rs_iv.and_then(|i| ratio(i.0)),
+            rs_iv.and_then(|i| ratio(i.1)),
         ),
         StaticObs::Unknown => (None, None, None),
     };
@@ -99,11 +165,11 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
         calibration_rel: (rs_cal, rd_cal),
         drive_amplitude_m: f.drive.amplitude_m,
         rho_s: {
-            let r = e.law.rs_n / f.force_scale_n;
+            let r = rs_point / f.force_scale_n;
             r.is_finite().then_some(r)
         },
         rho_s_lower_bound: f.rho_s_lower_bound(),
-        rho_s_interval: f.equation_error.rho_s,
+        rho_s_interval: rho_s_iv,
         mu_s,
         mu_d: rd.and_then(|(r, _)| ratio(r)),
         model_rho_s: f64::NAN,
@@ -294,7 +360,7 @@ pub(super) fn find_conflicts(
 }
 
 /// One observation of a quantity: (log index, observation, calibration).
-type Item = (usize, Obs, Option<f64>);
+pub(super) type Item = (usize, Obs, Option<f64>);
 
 /// Fits μs (censored) and μd of the logs, robustly: logs in conflict with
 /// the others are found ([`find_conflicts`]) and set aside where the data
@@ -407,6 +473,57 @@ fn collect_observations(
     (obs_s, obs_d)
 }
 
+/// The observations as the conflict checks see them: each σ widened by
+/// the log's calibration part and the normal-force gain (95 % half-widths,
+/// relative; a bound, which has no calibration part of its own, takes the
+/// points' median), so that logs conflict only beyond their whole
+/// intervals.
+pub(super) fn tension_obs(items: &[Item], gain_n: f64) -> Vec<Obs> {
+    let mut cals: Vec<f64> = items
+        .iter()
+        .filter_map(|x| x.2)
+        .filter(|c| c.is_finite())
+        .collect();
+    cals.sort_by(f64::total_cmp);
+    let typical = cals.get(cals.len() / 2).copied().unwrap_or(0.0);
+    items
+        .iter()
+        .map(|&(_, o, cal)| {
+            let rel = cal
+                .filter(|c| c.is_finite())
+                .unwrap_or(typical)
+                .hypot(gain_n)
+                / 1.96;
+            let wide = |s: f64, r: f64| s.hypot(rel * r.abs());
+            match o {
+                Obs::Point { n, r, s } => Obs::Point {
+                    n,
+                    r,
+                    s: wide(s, r),
+                },
+                Obs::Above { n, lb, s } => Obs::Above {
+                    n,
+                    lb,
+                    s: wide(s, lb),
+                },
+                Obs::Between {
+                    n,
+                    lo,
+                    slo,
+                    hi,
+                    shi,
+                } => Obs::Between {
+                    n,
+                    lo,
+                    slo: wide(slo, lo),
+                    hi,
+                    shi: wide(shi, hi),
+                },
+            }
+        })
+        .collect()
+}
+
 /// Warns of the logs whose equation-error and output-error Rs or Rd differ
 /// by more than 1.96σ.
 fn warn_disagreements(logs: &[BatchLog], warnings: &mut Vec<Warning>) {
@@ -467,7 +584,13 @@ fn fit_quantity(
 ) -> Result<(MuFit, MuFit, Vec<Conflict>)> {
     let all_refs: Vec<&Item> = items.iter().collect();
     let all = mu_fit(&all_refs, name, gain_n)?;
-    let obs: Vec<Obs> = items.iter().map(|x| x.1).collect();
+    // Whether logs contradict each other is judged on their whole
+    // intervals: the sensors' gains may differ from log to log (another
+    // sensor, a re-calibration; the bundled logs' normal-force gains differ
+    // by up to 1.6 %), and a difference the logs' own intervals allow is no
+    // conflict. (The μ fits keep the statistical σ and add the calibration
+    // as one common part: see the module notes.)
+    let obs = tension_obs(items, gain_n);
     let idx: Vec<usize> = items.iter().map(|x| x.0).collect();
     let doubt: Vec<f64> = idx
         .iter()
@@ -509,9 +632,16 @@ fn fit_quantity(
         });
     }
     let mut found = found;
-    if robust.birge > 1.5 {
+    let kept_obs: Vec<Obs> = obs
+        .iter()
+        .zip(&kept)
+        .filter(|(_, &k)| k)
+        .map(|(o, _)| *o)
+        .collect();
+    let scatter = fit_mu(&kept_obs).map_or(1.0, |f| f.2);
+    if scatter > 1.5 {
         found.push(scatter_conflict(
-            quantity, sym, &robust, &obs, &idx, &kept, logs,
+            quantity, sym, &robust, scatter, &obs, &idx, &kept, logs,
         ));
     }
     Ok((robust, all, found))
@@ -519,10 +649,12 @@ fn fit_quantity(
 
 /// The "scatter" conflict of a quantity whose kept, measured logs scatter
 /// more than their intervals say (Birge ratio of the robust fit > 1.5).
+#[allow(clippy::too_many_arguments)]
 fn scatter_conflict(
     quantity: &'static str,
     sym: &str,
     robust: &MuFit,
+    scatter: f64,
     obs: &[Obs],
     idx: &[usize],
     kept: &[bool],
@@ -543,14 +675,15 @@ fn scatter_conflict(
         quantity,
         kind: "scatter",
         logs: pts.iter().map(|&i| logs[idx[i]].log.clone()).collect(),
-        size_sigma: robust.birge,
+        size_sigma: scatter,
         size_rel: rms,
         set_aside: false,
         what: format!(
-            "{sym}: the measured logs scatter {:.1}× more than their own intervals say ({:.2} % RMS about {sym} = {:.4}): σ inflated by that factor",
-            robust.birge,
+            "{sym}: the measured logs scatter {:.1}× more than their own intervals say ({:.2} % RMS about {sym} = {:.4}): statistical σ inflated {:.1}×",
+            scatter,
             100.0 * rms,
-            robust.mu
+            robust.mu,
+            robust.birge
         ),
     }
 }

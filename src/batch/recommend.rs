@@ -84,6 +84,13 @@ pub(super) enum NoRecommendation {
         /// The setting tolerance (fraction).
         setting_tolerance: f64,
     },
+    /// Measured logs contradict each other on Rs and the data do not say
+    /// which is off.
+    #[error("the logs contradict each other on Rs and the data do not say which is off ({mu_words}, widened by their disagreement): the batch's premise, one pad whose friction is proportional to the normal force, does not hold for these logs, so no normal force is recommended; see the conflicts, and check which log is of another pad or setting, or add logs")]
+    Contradicted {
+        /// The μ interval in words.
+        mu_words: String,
+    },
     /// No node's whole box was evaluated.
     #[error("no setting on the ρs grid [{rho_min}, {rho_max}] has its whole uncertainty range ({mu_words}) evaluated; widen --rho-min/--rho-max")]
     NoBoxEvaluated {
@@ -110,6 +117,14 @@ impl Search<'_> {
     ) -> Result<Outcome, SimError> {
         if !self.box_ok {
             return Ok(Err(self.no_box_reason()));
+        }
+        // A setting robust over an interval that only holds the
+        // contradicting logs' values (Student's t on their scatter) would
+        // still be a guess.
+        if self.unresolved {
+            return Ok(Err(NoRecommendation::Contradicted {
+                mu_words: self.mu_words.clone(),
+            }));
         }
         if let Err(reason) = self.refine_region(table)? {
             return Ok(Err(reason));
@@ -169,7 +184,15 @@ impl Search<'_> {
             worst_interval,
             rho_s_box: (box_a, box_b),
         };
-        if rob[..best].iter().all(Option::is_none) || rob[best + 1..].iter().all(Option::is_none) {
+        // At the grid's edge: the box of the next coarse setting beyond the
+        // recommendation would leave the grid, so a better setting may lie
+        // outside it. (Not the edge of the refined region: the robust
+        // optimum often lies at its low end, next to the cliff, where the
+        // box of any lower setting reaches the cliff; the coarse search has
+        // ruled out those settings. The former test, on the refined region,
+        // fired there on the bundled batch at 40 grid points and not at 80.)
+        let q = (rho_max / rho_min).powf(1.0 / self.steps.max(1) as f64);
+        if box_a / q < rho_min || box_b * q > rho_max {
             warnings.push(crate::warning::Warning::RecommendationAtEdge);
         }
         let cliff = self.cliff(table, best, rho_rec, w_rec.amplitude1, warnings)?;
