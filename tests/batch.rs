@@ -68,6 +68,23 @@ fn run_batch(logs: &[PathBuf], rho_points: usize, extra: &[&str]) -> (Option<i32
     (out.status.code(), v, stderr)
 }
 
+/// A grid that starts just below the recommendation's box: the next
+/// setting's box would leave the grid, so the recommendation is at the
+/// grid's edge and says so.
+#[test]
+fn recommendation_at_the_grid_edge() {
+    let logs: Vec<PathBuf> = BATCH.iter().map(|n| data(n)).collect();
+    let (code, v, stderr) = run_batch(&logs, 12, &["--rho-min", "0.85"]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (a, _) = pair(&v["recommended_rho_s_box"]);
+    assert!(a >= 0.85, "the box fits the grid: {a}");
+    let codes = v["warning_codes"].as_array().unwrap();
+    assert!(
+        codes.iter().any(|c| c == "recommendation_edge"),
+        "{codes:?}"
+    );
+}
+
 /// The public batch: coefficients, censored logs, recommendation, keys, report.
 #[test]
 fn public_batch() {
@@ -195,6 +212,13 @@ fn public_batch() {
     // The logs agree within their intervals (their sensors' gains differ
     // from log to log, which the conflict check allows): no conflict.
     assert_eq!(v["conflicts"], serde_json::json!([]), "{}", v["conflicts"]);
+    // The grid reaches far below the recommendation's box: no edge warning
+    // (it fired at the low end of the refined region, next to the cliff).
+    let codes = v["warning_codes"].as_array().unwrap();
+    assert!(
+        !codes.iter().any(|c| c == "recommendation_edge"),
+        "{codes:?}"
+    );
     // The recommendation: inside its window, with a worst case inside its
     // interval and a cliff below it.
     let n = f(&v["recommended_normal_force_n"]);
