@@ -88,8 +88,9 @@
 //!   (a log of another pad 70 % off three logs that scatter 1 %).
 //!   The conflict names the log, the logs it disagrees with one to
 //!   one (else the others' measured logs), the size in σ and relative to
-//!   μ·N. Measured points that scatter beyond their whole intervals (Birge ratio
-//!   above 1.5) are a `scatter` conflict of all of them.
+//!   μ·N. Measured points that scatter beyond their whole intervals (Birge
+//!   ratio above 1.5, and their χ² beyond its 99.73 % point: the 3σ of the
+//!   tension) are a `scatter` conflict of all of them.
 //! * **Robust combination.** Repeatedly, among the logs in conflict and
 //!   those they contradict one to one, the log whose removal leaves the least
 //!   misfit (−2 log-likelihood of the rest at its own maximum, with the

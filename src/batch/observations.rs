@@ -638,8 +638,19 @@ fn fit_quantity(
         .filter(|(_, &k)| k)
         .map(|(o, _)| *o)
         .collect();
-    let scatter = fit_mu(&kept_obs).map_or(1.0, |f| f.2);
-    if scatter > 1.5 {
+    // Scatter beyond the whole intervals, large (Birge ratio above 1.5)
+    // and significant at the conflicts' 3σ (99.73 %): with two points a
+    // Birge ratio of 1.5 is a 1.5σ difference, which one pair in seven
+    // shows by chance (a batch of the gain study had μd's two points
+    // 1.6σ apart).
+    let (scatter, chi2, dof) = match fit_mu(&kept_obs) {
+        Some((_, _, b, Some(c))) => {
+            let dof = point_obs(&kept_obs).len().saturating_sub(1) as f64;
+            (b, c * dof, dof)
+        }
+        _ => (1.0, 0.0, 0.0),
+    };
+    if scatter > 1.5 && chi2 > crate::stats::chi_squared_quantile(0.9973, dof) {
         found.push(scatter_conflict(
             quantity, sym, &robust, scatter, &obs, &idx, &kept, logs,
         ));

@@ -10,7 +10,7 @@ mod rng;
 use argmin::core::{CostFunction, Executor};
 use argmin::solver::goldensectionsearch::GoldenSectionSearch;
 pub use rng::Rng;
-use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
+use statrs::distribution::{ChiSquared, ContinuousCDF, Normal, StudentsT};
 
 /// The `p`-quantile of Student's t with `dof` degrees of freedom; the
 /// normal quantile where `dof` is not positive and finite (no scatter to
@@ -22,6 +22,15 @@ pub fn student_t_quantile(p: f64, dof: f64) -> f64 {
         }
     }
     normal_quantile(p)
+}
+
+/// The `p`-quantile of the χ² distribution with `dof` degrees of freedom
+/// (NaN where `dof` is not positive and finite).
+pub fn chi_squared_quantile(p: f64, dof: f64) -> f64 {
+    match ChiSquared::new(dof) {
+        Ok(c) if dof.is_finite() => c.inverse_cdf(p),
+        _ => f64::NAN,
+    }
 }
 
 /// The `p`-quantile of the standard normal distribution.
@@ -141,6 +150,17 @@ pub fn golden_section(a: f64, b: f64, iters: u64, f: impl Fn(f64) -> f64) -> f64
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// χ² quantiles against tabulated values: 95 % with 1 and 3 degrees
+    /// of freedom (3.8415, 7.8147); the 3σ point with one is 3² = 9.
+    #[test]
+    fn chi_squared_quantiles() {
+        assert!((chi_squared_quantile(0.95, 1.0) - 3.841_459).abs() < 1e-5);
+        assert!((chi_squared_quantile(0.95, 3.0) - 7.814_728).abs() < 1e-5);
+        let p3 = 1.0 - 2.0 * (1.0 - 0.998_650_1);
+        assert!((chi_squared_quantile(p3, 1.0) - 9.0).abs() < 1e-3);
+        assert!(chi_squared_quantile(0.9, 0.0).is_nan());
+    }
 
     /// The type-6 tails hold their nominal probability on average; type 7
     /// (linear between X₍₁₎ and X₍N₎) does not. Uniform samples of 41
