@@ -1117,6 +1117,43 @@ fn covers(v: &serde_json::Value, key: &str, truth: f64) -> bool {
     iv[0].as_f64().unwrap() <= truth && truth <= iv[1].as_f64().unwrap()
 }
 
+/// A slider held for good behind a compliant contact (the bundled rig at
+/// 30 N, kt 13400 N/m: Rs 12.6 N is never reached): M2 rides on the
+/// contact spring, so its velocity shows no stick, and the fit once read a
+/// static/dynamic law with Rs 0.037 N (untested, refinement failed). It is
+/// stuck, with a lower bound below the true Rs and the `slider_held`
+/// warning giving the contact stiffness (within 2 %).
+#[test]
+fn a_slider_held_behind_a_contact_is_stuck() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("held.mcap");
+    let o = common::bin()
+        .args(["synth", "--normal-force", "30", "--seed", "5"])
+        .args(["--contact-stiffness-n-per-m", "13400", "--out"])
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let f = fit_entry(&log);
+    assert_eq!(f["stuck"], true, "{f}");
+    assert_eq!(f["never_sticks"], false);
+    let lb = f["r_s_lower_bound_n"].as_f64().unwrap();
+    assert!(lb > 2.0 && lb <= 12.6, "{lb}");
+    let codes = f["warning_codes"].as_array().unwrap();
+    let i = codes
+        .iter()
+        .position(|c| c == "slider_held")
+        .unwrap_or_else(|| panic!("{codes:?}"));
+    let w = f["warnings"][i].as_str().unwrap();
+    let kt: f64 = w
+        .split("kt ")
+        .nth(1)
+        .and_then(|t| t.split(' ').next())
+        .and_then(|t| t.parse().ok())
+        .unwrap_or_else(|| panic!("{w}"));
+    assert!((kt / 13400.0 - 1.0).abs() < 0.02, "{w}");
+}
+
 /// A pad whose static threshold is lower backwards (Rs⁻ 0.80 N against
 /// Rs⁺ 0.924 N, equal dynamic levels) sticks at one reversal only: the
 /// screen sees breakaways towards + only, the split threshold wins the

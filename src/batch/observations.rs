@@ -143,6 +143,7 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
         });
     }
     let ratio = |x: f64| (x.is_finite() && n > 0.0).then(|| x / n);
+    let rigid = oe.is_none_or(|o| o.chosen.ext.is_empty());
     let (rs_point, rs_iv, rho_s_iv) = match refined {
         Some(o) => (o.law.rs_n, f.rs_interval_n, f.rho_s_interval),
         None => (e.law.rs_n, f.equation_error.rs_n, f.equation_error.rho_s),
@@ -175,8 +176,12 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
         model_rho_s: f64::NAN,
         worst: None,
         consistent: None,
+        // (A refined law with a real-pad extension, a contact spring or
+        // direction-dependent levels, is a model the equation-error fit
+        // does not have: their disagreement casts no doubt. On a
+        // compliant pad it was 57–113σ on every log that slid.)
         estimate_disagreement: (
-            if matches!(static_obs, StaticObs::Point { .. }) {
+            if matches!(static_obs, StaticObs::Point { .. }) && rigid {
                 estimate_disagreement(
                     e.law.rs_n,
                     f.equation_error.rs_n,
@@ -185,7 +190,7 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
             } else {
                 0.0
             },
-            if rd.is_some() {
+            if rd.is_some() && rigid {
                 estimate_disagreement(
                     e.law.rd_n,
                     f.equation_error.rd_n,

@@ -112,6 +112,8 @@ pub struct Contact {
     /// Damping d of the rig (N·s/m), for the passive force
     /// ([`Contact::passive_at`]).
     pub d_n_s_per_m: f64,
+    /// Mass M2 of the rig (kg).
+    pub m2_kg: f64,
     /// Contact force by eq. 7 (N, bias included).
     pub r: Column,
     /// The drive fit.
@@ -684,6 +686,7 @@ pub(crate) fn compute_reusing(
         a2,
         v1,
         d_n_s_per_m: d,
+        m2_kg: m2,
         r: r.into(),
         drive,
         v2_offset,

@@ -264,6 +264,108 @@ pub fn compliance_screen(
     })
 }
 
+/// A slider that never broke away behind a compliant contact
+/// ([`slider_held`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Held {
+    /// Contact stiffness kt (N/m) of the whole-log regression.
+    pub kt_n_per_m: f64,
+    /// Range of x2 (1 % to 99 % of the smoothed record, m): M2 rides on
+    /// the contact spring.
+    pub x2_range_m: f64,
+    /// Range of the smoothed contact force about its line in x2, over kt
+    /// (m): what a slip of the slider would move.
+    pub slider_range_m: f64,
+    /// x2's noise σ (m).
+    pub noise_m: f64,
+    /// The contact force's amplitude (N; half its smoothed peak-to-peak
+    /// less twice its smoothed noise): the slider held it, so Rs is above.
+    pub force_amplitude_n: f64,
+}
+
+/// Behind a compliant contact a slider that never breaks away leaves M2
+/// riding on the contact spring: M2 moves (its velocity shows no stick)
+/// while nothing slips. Then the contact force P = K2(x1 − x2) + d(ẋ1 −
+/// ẋ2) − M2ẍ2 = kt·(x2 − xs) with one slider position xs over the whole
+/// log; a slip would move xs. Returns the regression of P on x2 where x2
+/// moves (its smoothed range above [`super::positions::MOVES_FACTOR`]
+/// noise σ), kt > 0, and P's smoothed range about the line is below
+/// [`HELD_FRACTION`] of its own. (Held logs, three contact stiffnesses,
+/// with and without accelerometer: 0.016–0.079; sliding logs, rigid and
+/// compliant, the bundled ones and 24 of the compliant study: 0.65 and
+/// above, or kt ≤ 0.)
+pub fn slider_held(c: &Contact) -> Option<Held> {
+    use super::smooth::savgol;
+    use crate::stats::{mad_sigma, quantile};
+    let (k2, d, m2) = (c.k2_n_per_m, c.d_n_s_per_m, c.m2_kg);
+    let h = c.half_window.max(2);
+    let n = c.t.len();
+    if n < 4 * h + 20 {
+        return None;
+    }
+    // The contact force P = K2(x1 − x2) + d(ẋ1 − ẋ2) − M2ẍ2.
+    let p = |i: usize| k2 * (c.x1[i] - c.x2[i]) + d * (c.v1[i] - c.v2[i]) - m2 * c.a2[i];
+    let idx: Vec<usize> = (h..n - h)
+        .filter(|&i| p(i).is_finite() && c.x2[i].is_finite())
+        .collect();
+    if idx.len() < 20 {
+        return None;
+    }
+    let m = idx.len() as f64;
+    let mp = idx.iter().map(|&i| p(i)).sum::<f64>() / m;
+    let mx = idx.iter().map(|&i| c.x2[i]).sum::<f64>() / m;
+    let (mut sxx, mut sxy) = (0.0, 0.0);
+    for &i in &idx {
+        let (a, b) = (c.x2[i] - mx, p(i) - mp);
+        sxx += a * a;
+        sxy += a * b;
+    }
+    let kt = sxy / sxx;
+    if !(kt > 0.0 && kt.is_finite()) {
+        return None;
+    }
+    let force: Vec<f64> = idx.iter().map(|&i| p(i)).collect();
+    let resid: Vec<f64> = idx
+        .iter()
+        .map(|&i| p(i) - mp - kt * (c.x2[i] - mx))
+        .collect();
+    let x2: Vec<f64> = idx.iter().map(|&i| c.x2[i]).collect();
+    let range = |v: &[f64]| {
+        let s = savgol(v, c.dt, h, 3, 0);
+        quantile(&s, 0.99) - quantile(&s, 0.01)
+    };
+    let d2: Vec<f64> = x2
+        .windows(3)
+        .map(|w| w[2] - 2.0 * w[1] + w[0])
+        .filter(|v| v.is_finite())
+        .collect();
+    let noise = mad_sigma(&d2) / 6f64.sqrt();
+    let (x2_range, force_range, resid_range) = (range(&x2), range(&force), range(&resid));
+    let moves = x2_range > super::positions::MOVES_FACTOR * noise;
+    let held = resid_range < HELD_FRACTION * force_range;
+    if !(moves && held) {
+        return None;
+    }
+    // The force the slider held: half the smoothed contact force's
+    // peak-to-peak (a bias cancels) less twice its smoothed noise, as a
+    // rigid stuck log's bound.
+    let sp = savgol(&force, c.dt, h, 3, 0);
+    let scatter: Vec<f64> = force.iter().zip(&sp).map(|(a, b)| a - b).collect();
+    let noise_s = mad_sigma(&scatter) / ((2 * h + 1) as f64).sqrt();
+    let (lo, hi) = (quantile(&sp, 0.0), quantile(&sp, 1.0));
+    Some(Held {
+        kt_n_per_m: kt,
+        x2_range_m: x2_range,
+        slider_range_m: resid_range / kt,
+        noise_m: noise,
+        force_amplitude_n: ((hi - lo) / 2.0 - 2.0 * noise_s).max(0.0),
+    })
+}
+
+/// The slider is held when the smoothed range of the contact force about
+/// its line in x2 is below this fraction of the force's own range.
+pub const HELD_FRACTION: f64 = 0.25;
+
 /// Both screens of one log (None where the log cannot tell: too few
 /// breakaways in a direction, too few sticks).
 #[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -67,6 +67,7 @@ pub const CODES: &[&str] = &[
     "acceleration_filled",
     "velocity_distrusted",
     "stuck",
+    "slider_held",
     "law_not_fitted",
     "no_simple_law",
     "never_sticks",
@@ -297,6 +298,17 @@ pub enum Warning {
     VelocityDistrusted {
         /// What the positions show.
         why: String,
+    },
+    /// Behind a compliant contact the slider never broke away: M2 rode on
+    /// the contact spring (it moved, so its velocity showed no stick);
+    /// the log is reported as stuck.
+    SliderHeld {
+        /// Contact stiffness kt (N/m) of the contact force against x2.
+        kt_n_per_m: f64,
+        /// Range of x2 (m): M2's motion on the contact spring.
+        x2_range_m: f64,
+        /// The contact force's amplitude (N): the lower bound on Rs.
+        force_amplitude_n: f64,
     },
     /// Too few slip samples: the log is reported as stuck.
     FewSlipSamples {
@@ -762,6 +774,7 @@ impl Warning {
             AccelerationFilled { .. } => "acceleration_filled",
             VelocityDistrusted { .. } => "velocity_distrusted",
             FewSlipSamples { .. } => "stuck",
+            SliderHeld { .. } => "slider_held",
             LawNotFitted { .. } => "law_not_fitted",
             NoSimpleLaw { .. } => "no_simple_law",
             NeverSticks => "never_sticks",
@@ -1028,6 +1041,14 @@ mod tests {
             (
                 VelocityDistrusted { why: "x2 moves".into() },
                 format!("{}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2", "x2 moves"),
+            ),
+            (
+                SliderHeld {
+                    kt_n_per_m: 12070.0,
+                    x2_range_m: 3.75e-4,
+                    force_amplitude_n: 2.26,
+                },
+                "M2 rode on a contact spring (kt 12070 N/m; x2 moved 375 µm, the contact force in proportion) and the slider never broke away: reported as stuck behind a compliant contact (Rs ≥ 2.260 N, the contact force's amplitude)".to_string(),
             ),
             (
                 FewSlipSamples { samples: n },
@@ -1548,7 +1569,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 80;
+    const VARIANTS: usize = 81;
 
     #[test]
     fn every_code_is_documented() {

@@ -34,6 +34,7 @@ impl fmt::Display for Warning {
             VelocityDerived { .. }
             | AccelerationFilled { .. }
             | VelocityDistrusted { .. }
+            | SliderHeld { .. }
             | FewSlipSamples { .. }
             | LawNotFitted { .. }
             | NoSimpleLaw { .. }
@@ -261,6 +262,15 @@ fn fmt_identify(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         VelocityDistrusted { why } => write!(
             f,
             "{why}: the velocity channel is distrusted; stick, slip and ẋ2 come from x2"
+        ),
+        SliderHeld {
+            kt_n_per_m,
+            x2_range_m,
+            force_amplitude_n,
+        } => write!(
+            f,
+            "M2 rode on a contact spring (kt {kt_n_per_m:.0} N/m; x2 moved {:.0} µm, the contact force in proportion) and the slider never broke away: reported as stuck behind a compliant contact (Rs ≥ {force_amplitude_n:.3} N, the contact force's amplitude)",
+            x2_range_m * 1e6
         ),
         FewSlipSamples { samples } => write!(
             f,

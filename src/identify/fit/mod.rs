@@ -175,15 +175,35 @@ pub fn fit(
     let mut warnings = Vec::new();
     let gauge = slip::Gauge::new(c);
     let (samples, idx) = slip::slip_samples(c, seg, &gauge);
-    if seg.stuck() || samples.len() < 20 {
-        if !seg.stuck() {
-            warnings.push(Warning::FewSlipSamples {
-                samples: samples.len(),
-            });
-        }
+    // Behind a compliant contact a slider that never broke away: M2 rode
+    // on the contact spring, so the velocity showed motion and no stick.
+    let held = if seg.stuck() {
+        None
+    } else {
+        super::pads::slider_held(c)
+    };
+    if seg.stuck() || samples.len() < 20 || held.is_some() {
+        let lower_bound = match held {
+            Some(h) => {
+                warnings.push(Warning::SliderHeld {
+                    kt_n_per_m: h.kt_n_per_m,
+                    x2_range_m: h.x2_range_m,
+                    force_amplitude_n: h.force_amplitude_n,
+                });
+                h.force_amplitude_n
+            }
+            None => {
+                if !seg.stuck() {
+                    warnings.push(Warning::FewSlipSamples {
+                        samples: samples.len(),
+                    });
+                }
+                bounds::stuck_lower_bound(c)
+            }
+        };
         return Ok(EquationFit::stuck(
             opts.law.unwrap_or(LawKind::StaticDynamic),
-            bounds::stuck_lower_bound(c),
+            lower_bound,
             samples.len(),
             warnings,
         ));
@@ -335,7 +355,7 @@ pub(crate) fn fit_forced(
     };
     let gauge = slip::Gauge::new(c);
     let (samples, _) = slip::slip_samples(c, seg, &gauge);
-    if seg.stuck() || samples.len() < 20 {
+    if seg.stuck() || samples.len() < 20 || super::pads::slider_held(c).is_some() {
         return full(&opts);
     }
     let never_sticks = seg.never_sticks();
