@@ -279,7 +279,8 @@ pub struct Held {
     /// x2's noise σ (m).
     pub noise_m: f64,
     /// The contact force's amplitude (N; half its smoothed peak-to-peak
-    /// less twice its smoothed noise): the slider held it, so Rs is above.
+    /// less twice its smoothed noise, [`super::fit::held_force_lower_bound`]):
+    /// the slider held it, so Rs is above.
     pub force_amplitude_n: f64,
 }
 
@@ -296,7 +297,7 @@ pub struct Held {
 /// above, or kt ≤ 0.)
 pub fn slider_held(c: &Contact) -> Option<Held> {
     use super::smooth::savgol;
-    use crate::stats::{mad_sigma, quantile};
+    use crate::stats::quantile;
     let (k2, d, m2) = (c.k2_n_per_m, c.d_n_s_per_m, c.m2_kg);
     let h = c.half_window.max(2);
     let n = c.t.len();
@@ -339,31 +340,17 @@ pub fn slider_held(c: &Contact) -> Option<Held> {
         let s = savgol(v, c.dt, h, 3, 0);
         quantile(&s, 0.99) - quantile(&s, 0.01)
     };
-    let d2: Vec<f64> = x2
-        .windows(3)
-        .map(|w| w[2] - 2.0 * w[1] + w[0])
-        .filter(|v| v.is_finite())
-        .collect();
-    let noise = mad_sigma(&d2) / 6f64.sqrt();
-    let (x2_range, force_range, resid_range) = (range(&x2), range(&force), range(&resid));
+    let (x2_range, noise) = super::positions::range_and_noise(&x2, c.dt, h);
+    let (force_range, resid_range) = (range(&force), range(&resid));
     let moves = x2_range > super::positions::MOVES_FACTOR * noise;
     let held = resid_range < HELD_FRACTION * force_range;
-    if !(moves && held) {
-        return None;
-    }
-    // The force the slider held: half the smoothed contact force's
-    // peak-to-peak (a bias cancels) less twice its smoothed noise, as a
-    // rigid stuck log's bound.
-    let sp = savgol(&force, c.dt, h, 3, 0);
-    let scatter: Vec<f64> = force.iter().zip(&sp).map(|(a, b)| a - b).collect();
-    let noise_s = mad_sigma(&scatter) / ((2 * h + 1) as f64).sqrt();
-    let (lo, hi) = (quantile(&sp, 0.0), quantile(&sp, 1.0));
-    Some(Held {
+    (moves && held).then(|| Held {
         kt_n_per_m: kt,
         x2_range_m: x2_range,
         slider_range_m: resid_range / kt,
         noise_m: noise,
-        force_amplitude_n: ((hi - lo) / 2.0 - 2.0 * noise_s).max(0.0),
+        // The force the slider held, bounded as a rigid stuck log's.
+        force_amplitude_n: super::fit::held_force_lower_bound(&force, c.dt, h),
     })
 }
 

@@ -34,7 +34,7 @@ pub struct Contradiction {
 
 /// Range of the smoothed x2 (1 % to 99 % quantiles) and x2's noise σ
 /// (second differences).
-fn range_and_noise(x2: &[f64], dt: f64, half: usize) -> (f64, f64) {
+pub(super) fn range_and_noise(x2: &[f64], dt: f64, half: usize) -> (f64, f64) {
     let s = savgol(x2, dt, half, 3, 0);
     let range = quantile(&s, 0.99) - quantile(&s, 0.01);
     let d2: Vec<f64> = x2

@@ -41,16 +41,17 @@ fn line_at(p: &[f64], a: usize, b: usize, at: f64) -> Option<(f64, f64)> {
 /// A stuck log's lower bound on Rs: half the peak-to-peak smoothed passive
 /// force, minus two noise levels so noise cannot inflate it.
 pub(super) fn stuck_lower_bound(c: &Contact) -> f64 {
-    let half = c.half_window;
-    let passive = c.passive();
-    let p = savgol(&passive, c.dt, half, 3, 0);
-    let noise = mad_sigma(
-        &passive
-            .iter()
-            .zip(&p)
-            .map(|(a, b)| a - b)
-            .collect::<Vec<_>>(),
-    );
+    held_force_lower_bound(&c.passive(), c.dt, c.half_window)
+}
+
+/// A lower bound on the force a stuck contact held, from the record of
+/// that force: half the peak-to-peak of its smoothed record (a bias
+/// cancels), minus two of the smoothed record's noise levels so noise
+/// cannot inflate it. (Also the bound of a slider held behind a compliant
+/// contact: [`crate::identify::pads::slider_held`].)
+pub(crate) fn held_force_lower_bound(force: &[f64], dt: f64, half: usize) -> f64 {
+    let p = savgol(force, dt, half, 3, 0);
+    let noise = mad_sigma(&force.iter().zip(&p).map(|(a, b)| a - b).collect::<Vec<_>>());
     let h = half as f64;
     let noise_s = noise / (2.0 * h + 1.0).sqrt();
     let hi = quantile(&p, 1.0);

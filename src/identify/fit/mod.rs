@@ -39,6 +39,7 @@
 
 mod bootstrap;
 mod bounds;
+pub(crate) use bounds::held_force_lower_bound;
 mod select;
 mod slip;
 mod velocity;
