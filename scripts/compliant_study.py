@@ -56,7 +56,8 @@ def fit(rows):
         k = f.get('contact_stiffness')
         res.append(dict(r, secs=round(dt, 2), law=f['law'], k=k, k_iv=f['contact_stiffness_interval'],
                         k_lb=f['contact_stiffness_lower_bound'], rs_fit=f['r_s_n'], rs_iv=f['r_s_interval_n'],
-                        rd_iv=f['r_d_interval_n'], adequate=f['adequate']))
+                        rd_fit=f['r_d_n'], rd_iv=f['r_d_interval_n'], adequate=f['adequate'],
+                        rough='rough_cost' in f['warning_codes']))
     n = len(res)
     comp = [x for x in res if x['k'] is not None]
     print(f"logs {n}; contact chosen {len(comp)}; adequate {sum(bool(x['adequate']) for x in res)}; "
@@ -68,12 +69,15 @@ def fit(rows):
     print(f"Rs measured {len(meas)}: covered {sum(inside(x['rs_iv'], x['rs']) for x in meas)}; "
           f"Rs only bounded {len(unres)}: bounds hold it {sum(inside(x['rs_iv'], x['rs']) for x in unres)}, "
           f"no bounds {sum(x['rs_iv'] is None for x in unres)}")
-    print(f"Rd covered {sum(inside(x['rd_iv'], x['rd']) for x in res)}/{n}")
+    print(f"Rd covered {sum(inside(x['rd_iv'], x['rd']) for x in res)}/{n}; "
+          f"within 3 % {sum(abs(x['rd_fit'] / x['rd'] - 1) < 0.03 for x in res)}/{n}; "
+          f"rough_cost {sum(x['rough'] for x in res)}")
     for x in res:
         print(f"  {os.path.basename(x['log'])} pre {x['pre_um']:.0f} um kappa {x['kappa']:.3f} -> {x['law']} "
               f"{x['k'] and round(x['k'], 3)} {x['k_iv'] and [round(v, 3) for v in x['k_iv']]} | Rs {x['rs']:.3f} "
               f"fit {x['rs_fit'] and round(x['rs_fit'], 3)} {x['rs_iv'] and [round(v, 3) for v in x['rs_iv']]} "
-              f"| Rd {x['rd']:.3f} {x['rd_iv'] and [round(v, 3) for v in x['rd_iv']]} | {x['secs']} s")
+              f"| Rd {x['rd']:.3f} fit {x['rd_fit']:.4f} {x['rd_iv'] and [round(v, 3) for v in x['rd_iv']]} "
+              f"| {'rough ' if x['rough'] else ''}{x['secs']} s")
     if os.environ.get('OUT_JSON'):
         json.dump(res, open(os.environ['OUT_JSON'], 'w'), indent=1)
 

@@ -157,6 +157,11 @@ pub struct OutputErrorJson {
     pub samples: usize,
     /// Effective number of independent samples in the criterion.
     pub effective_samples: f64,
+    /// The largest ratio (either way) of a statistical width from the
+    /// residuals' secants over the chosen law's intervals to the
+    /// tangent's: 1 on a smooth cost; from 1.25 on the intervals are the
+    /// widest of the secants' (warning `rough_cost`).
+    pub interval_secant_ratio: f64,
     /// How the drive was simulated (`harmonic` or `sampled`).
     pub drive: &'static str,
     /// Wall seconds of the refinement.
@@ -514,6 +519,7 @@ impl LogFit {
                     segments: o.segments,
                     samples: o.samples,
                     effective_samples: o.n_eff,
+                    interval_secant_ratio: o.interval_secant_ratio,
                     drive: o.drive.as_str(),
                     seconds: o.seconds,
                     criteria: o

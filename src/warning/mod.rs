@@ -310,6 +310,15 @@ pub enum Warning {
         /// The contact force's amplitude (N): the lower bound on Rs.
         force_amplitude_n: f64,
     },
+    /// The output-error cost is not smooth at the scale of the chosen
+    /// law's intervals (short sticks switch with the parameters): its
+    /// widths from the residuals' secants stray from the tangent's, and
+    /// each interval is the widest of the secants'.
+    RoughCost {
+        /// The largest ratio (either way) of a secant's width to the
+        /// tangent's.
+        secant_ratio: f64,
+    },
     /// Too few slip samples: the log is reported as stuck.
     FewSlipSamples {
         /// Usable slip samples.
@@ -775,6 +784,7 @@ impl Warning {
             VelocityDistrusted { .. } => "velocity_distrusted",
             FewSlipSamples { .. } => "stuck",
             SliderHeld { .. } => "slider_held",
+            RoughCost { .. } => "rough_cost",
             LawNotFitted { .. } => "law_not_fitted",
             NoSimpleLaw { .. } => "no_simple_law",
             NeverSticks => "never_sticks",
@@ -1049,6 +1059,10 @@ mod tests {
                     force_amplitude_n: 2.26,
                 },
                 "M2 rode on a contact spring (kt 12070 N/m; x2 moved 375 µm, the contact force in proportion) and the slider never broke away: reported as stuck behind a compliant contact (Rs ≥ 2.260 N, the contact force's amplitude)".to_string(),
+            ),
+            (
+                RoughCost { secant_ratio: 4.81 },
+                "the fit's cost is not smooth at the scale of its intervals (short sticks switch with the parameters): widths from secants over the intervals stray from the tangent's by up to ×4.81; each interval is the widest of them".to_string(),
             ),
             (
                 FewSlipSamples { samples: n },

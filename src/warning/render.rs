@@ -35,6 +35,7 @@ impl fmt::Display for Warning {
             | AccelerationFilled { .. }
             | VelocityDistrusted { .. }
             | SliderHeld { .. }
+            | RoughCost { .. }
             | FewSlipSamples { .. }
             | LawNotFitted { .. }
             | NoSimpleLaw { .. }
@@ -271,6 +272,10 @@ fn fmt_identify(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             f,
             "M2 rode on a contact spring (kt {kt_n_per_m:.0} N/m; x2 moved {:.0} µm, the contact force in proportion) and the slider never broke away: reported as stuck behind a compliant contact (Rs ≥ {force_amplitude_n:.3} N, the contact force's amplitude)",
             x2_range_m * 1e6
+        ),
+        RoughCost { secant_ratio } => write!(
+            f,
+            "the fit's cost is not smooth at the scale of its intervals (short sticks switch with the parameters): widths from secants over the intervals stray from the tangent's by up to ×{secant_ratio:.2}; each interval is the widest of them"
         ),
         FewSlipSamples { samples } => write!(
             f,

@@ -44,6 +44,17 @@ fn inverse_equilibrated(hm: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
 /// N; see [`OutputErrorFit::calibration_half_width_n`]).
 pub(super) type CalibrationPart = (Option<f64>, Option<f64>);
 
+/// One linearisation of the residuals at θ̂: the Jacobian (row-major),
+/// H⁻¹ and the sandwich covariance.
+type Linearisation = (Vec<f64>, Vec<Vec<f64>>, Vec<Vec<f64>>);
+
+/// Rounds of secant Jacobians at the intervals' scale.
+const SECANT_ROUNDS: usize = 3;
+
+/// Largest ratio of a secant's to the tangent's width (either way) of a
+/// smooth cost: beyond it every secant's width is kept.
+pub(super) const MAX_SECANT_RATIO: f64 = 1.25;
+
 /// Quantities reported of a refined law: Rs⁺, Rd, a, ρs⁺, ρd, D*, then
 /// Rs⁻ (N), ρs⁻, the split Δ (N) and ln κ (NaN where not fitted).
 const NQ: usize = 10;
@@ -66,6 +77,11 @@ pub(super) struct Variances {
     pub naive_stat: Vec<f64>,
     /// The sandwich variance of each parameter θⱼ (0 where held).
     pub stat: Vec<f64>,
+    /// The largest ratio (either way) of a parameter's statistical width
+    /// from the residuals' secants over its interval to its width from
+    /// the tangent: 1 on a smooth cost; from [`MAX_SECANT_RATIO`] on,
+    /// the reported variances are the widest of the secants'.
+    pub secant_ratio: f64,
 }
 
 /// The real-pad parameters of a refined law and their 95 % intervals
@@ -101,9 +117,10 @@ pub struct PadFit {
 
 impl Refinement {
     /// Sandwich intervals over segments plus the calibration budget, the
-    /// real-pad parameters' intervals, and the gains' part of Rs's and Rd's
+    /// real-pad parameters' intervals, the gains' part of Rs's and Rd's
     /// (their calibration half-widths, N: see
-    /// [`OutputErrorFit::calibration_half_width_n`]); conditional on the
+    /// [`OutputErrorFit::calibration_half_width_n`]) and the secants'
+    /// ratio ([`Variances::secant_ratio`]); conditional on the
     /// parameters θⱼ, j in `fixed` (a profile point: those held, not
     /// estimated).
     #[allow(clippy::too_many_arguments)]
@@ -116,15 +133,16 @@ impl Refinement {
         rs_known: bool,
         inflation: f64,
         fixed: &[usize],
-    ) -> Option<(Intervals, PadFit, CalibrationPart)> {
+    ) -> Option<(Intervals, PadFit, CalibrationPart, f64)> {
         let Variances {
             q0,
             var_stat,
             var_cal,
             var_align,
             t975,
+            secant_ratio,
             ..
-        } = self.variances(fam, th, proj, u, fixed)?;
+        } = self.variances(fam, th, proj, u, inflation, fixed)?;
         let iv = |k: usize, present: bool| -> Option<(f64, f64)> {
             if !present || !q0[k].is_finite() {
                 return None;
@@ -165,6 +183,7 @@ impl Refinement {
             },
             pads,
             (cal(0, rs_known), cal(1, true)),
+            secant_ratio,
         ))
     }
 
@@ -177,6 +196,7 @@ impl Refinement {
         th: &[f64],
         proj: &Proj,
         u: f64,
+        inflation: f64,
         fixed: &[usize],
     ) -> Option<Variances> {
         let prob = self.problem(&self.data, fam);
@@ -184,14 +204,10 @@ impl Refinement {
         let mut r0 = Res::new();
         prob.eval(th, Some(proj), Some(&mut r0))?;
         let m = r0.len();
-        let jac = self.jacobian(&prob, fam.kind, th, proj, m)?;
-        let (hinv, cov, t975) = if fixed.is_empty() {
-            let all: Vec<usize> = (0..p).collect();
-            self.sandwich(&jac, p, &all, &r0)?
-        } else {
-            // The held columns out, and back as zero rows and columns.
-            let free_ix: Vec<usize> = (0..p).filter(|j| !fixed.contains(j)).collect();
-            let (h, c, t) = self.sandwich(&jac, p, &free_ix, &r0)?;
+        // The held columns out, and back as zero rows and columns.
+        let free_ix: Vec<usize> = (0..p).filter(|j| !fixed.contains(j)).collect();
+        let sandwich_at = |jac: &[f64]| {
+            let (h, c, t) = self.sandwich(jac, p, &free_ix, &r0)?;
             let expand = |a: Vec<Vec<f64>>| -> Vec<Vec<f64>> {
                 let mut out = vec![vec![0.0; p]; p];
                 for (i, row) in a.into_iter().enumerate() {
@@ -201,8 +217,59 @@ impl Refinement {
                 }
                 out
             };
-            (expand(h), expand(c), t)
+            Some((expand(h), expand(c), t))
         };
+        let tangent = Self::tangent_steps(&prob, fam.kind, th);
+        let jac = self.jacobian(&prob, th, proj, m, &tangent)?;
+        let (hinv, cov, t975) = sandwich_at(&jac)?;
+        // The intervals are linear in the residuals: checked at their own
+        // scale by the residuals' secants over each parameter's half-width
+        // (widened by the misfit as the intervals are). Where the cost is
+        // smooth the secants agree with the tangent (the bundled logs'
+        // widths to 0.2 %); where short sticks switch with the parameters
+        // (a contact ringing after each slip) the tangent sees the steep
+        // pieces between the jumps and the secants scatter by factors:
+        // there every secant's linearisation is kept, and each quantity
+        // takes the widest.
+        let mut lins: Vec<Linearisation> = Vec::new();
+        let ratio = |a: &[Vec<f64>], b: &[Vec<f64>]| {
+            free_ix
+                .iter()
+                .map(|&j| (a[j][j] / b[j][j]).sqrt())
+                .map(|r| {
+                    if r.is_finite() {
+                        r.max(1.0 / r)
+                    } else {
+                        f64::INFINITY
+                    }
+                })
+                .fold(1.0f64, f64::max)
+        };
+        let mut secant_ratio = 1.0f64;
+        for _ in 0..SECANT_ROUNDS {
+            let last = lins.last().map_or(&cov, |l| &l.2);
+            let steps: Vec<f64> = (0..p)
+                .map(|j| tangent[j].max(inflation.max(1.0) * t975 * last[j][j].sqrt()))
+                .collect();
+            // A secant whose ends the engine cannot simulate (or whose
+            // sandwich is singular) ends the check: the tangent stands.
+            let Some((jn, (hn, cn, _))) = self
+                .jacobian(&prob, th, proj, m, &steps)
+                .and_then(|j| sandwich_at(&j).map(|s| (j, s)))
+            else {
+                break;
+            };
+            secant_ratio = secant_ratio.max(ratio(&cn, &cov));
+            let settled = ratio(&cn, last) < 1.1;
+            lins.push((jn, hn, cn));
+            if settled && secant_ratio < 1.1 {
+                break;
+            }
+        }
+        if secant_ratio < MAX_SECANT_RATIO {
+            lins.clear();
+        }
+        lins.insert(0, (jac, hinv, cov));
         // The reported quantities as functions of θ (and the amplitude).
         let k2 = self.rig.k2;
         let ss = k2 / self.rig.omega;
@@ -241,16 +308,28 @@ impl Refinement {
                     (quantities(&t, self.data.a)[qi] - q0[qi]) / h
                 })
                 .collect();
-            let mut s = 0.0;
-            for a in 0..p {
-                for b in 0..p {
-                    s += grad[a] * cov[a][b] * grad[b];
+            let quad = |cov: &[Vec<f64>]| {
+                let mut s = 0.0;
+                for a in 0..p {
+                    for b in 0..p {
+                        s += grad[a] * cov[a][b] * grad[b];
+                    }
                 }
-            }
-            *v = s.max(0.0);
+                s.max(0.0)
+            };
+            *v = lins.iter().map(|l| quad(&l.2)).fold(0.0, f64::max);
         }
-        let (var_cal, var_align) =
-            self.calibration_variance(fam, th, proj, u, (&r0, &jac, &hinv), &quantities, &q0)?;
+        let mut var_cal = [0.0f64; NQ];
+        let mut var_align = [0.0f64; NQ];
+        for (jac, hinv, _) in &lins {
+            let (c, a) =
+                self.calibration_variance(fam, th, proj, u, (&r0, jac, hinv), &quantities, &q0)?;
+            for k in 0..NQ {
+                var_cal[k] = var_cal[k].max(c[k]);
+                var_align[k] = var_align[k].max(a[k]);
+            }
+        }
+        let (_, hinv, cov) = &lins[0];
         Some(Variances {
             q0,
             var_stat,
@@ -259,7 +338,33 @@ impl Refinement {
             t975,
             naive_stat: (0..p).map(|j| hinv[j][j]).collect(),
             stat: (0..p).map(|j| cov[j][j]).collect(),
+            secant_ratio,
         })
+    }
+
+    /// The central-difference steps of θ's components at θ (the
+    /// tangent's): the family's own, forces 0.2 % of the sliding level,
+    /// ln κ 0.01, the gains 3e-4.
+    fn tangent_steps(prob: &Problem<'_>, kind: LawKind, th: &[f64]) -> Vec<f64> {
+        let (law, _, _, _) = prob.unpack(th);
+        let kl = n_params(kind);
+        (0..th.len())
+            .map(|j| {
+                if j < kl {
+                    kind.family()
+                        .oe_jac_step(j, &law)
+                        .unwrap_or(2e-3 * law.rd_n.abs().max(1e-2))
+                } else if j == kl || (j == kl + 3 && prob.ext.split) {
+                    // The bias and the split Δ: forces.
+                    2e-3 * law.rd_n.abs().max(1e-2)
+                } else if j >= kl + 3 {
+                    // ln κ.
+                    1e-2
+                } else {
+                    3e-4
+                }
+            })
+            .collect()
     }
 
     /// The Jacobian of the residuals by central differences, row-major
@@ -268,29 +373,14 @@ impl Refinement {
     fn jacobian(
         &self,
         prob: &Problem<'_>,
-        kind: LawKind,
         th: &[f64],
         proj: &Proj,
         m: usize,
+        steps: &[f64],
     ) -> Option<Vec<f64>> {
         let p = th.len();
-        let (law, _, _, _) = prob.unpack(th);
-        let kl = n_params(kind);
         let mut jac = vec![0.0; 2 * m * p];
-        for j in 0..p {
-            let h = if j < kl {
-                kind.family()
-                    .oe_jac_step(j, &law)
-                    .unwrap_or(2e-3 * law.rd_n.abs().max(1e-2))
-            } else if j == kl || (j == kl + 3 && prob.ext.split) {
-                // The bias and the split Δ: forces.
-                2e-3 * law.rd_n.abs().max(1e-2)
-            } else if j >= kl + 3 {
-                // ln κ.
-                1e-2
-            } else {
-                3e-4
-            };
+        for (j, &h) in steps.iter().enumerate() {
             let mut rp = Res::new();
             let mut rm = Res::new();
             let mut tp = th.to_vec();

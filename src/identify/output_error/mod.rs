@@ -129,8 +129,8 @@ pub use adequacy::{
 use anchors::{m1_sums, shooting_segments, slip_anchors, stick_anchors};
 use data::*;
 pub use drop::{DropProfile, THRESHOLD_EVIDENCE_BIC};
-use intervals::CalibrationPart;
 pub use intervals::PadFit;
+use intervals::{CalibrationPart, MAX_SECANT_RATIO};
 pub use lm::Minimiser;
 pub use problem::Ext;
 use problem::*;
@@ -329,6 +329,14 @@ pub struct OutputErrorFit {
     /// Rs interval.
     #[serde(default)]
     pub calibration_half_width_n: (Option<f64>, Option<f64>),
+    /// How far the chosen law's statistical widths from the residuals'
+    /// secants over its intervals stray from the tangent's (the largest
+    /// ratio either way; 1 on a smooth cost). From 1.25 on the cost is
+    /// not linear at the intervals' scale (short sticks switching with
+    /// the parameters), and each interval is the widest of the secants'
+    /// (warning `rough_cost`). Older saved fits: 1.
+    #[serde(default = "one")]
+    pub interval_secant_ratio: f64,
     /// The real-pad parameters of the chosen law with their intervals
     /// (all None for the paper's symmetric, rigid pad).
     #[serde(default)]
@@ -362,6 +370,11 @@ pub struct OutputErrorFit {
     /// ones).
     #[serde(default)]
     pub drop_profile: Option<DropProfile>,
+}
+
+/// The secants' ratio of a smooth cost (older saved fits).
+fn one() -> f64 {
+    1.0
 }
 
 /// The prepared refinement of one log.
@@ -1074,9 +1087,24 @@ impl Refinement {
             }
         }
         let len = cands[0].len();
-        cands.extend(extra.iter().filter(|t| t.len() == len).cloned());
         let (th, cost, it, proj_at) = if ext.contact {
-            self.minimise_each_kappa(fam, &cands, &step)?
+            // Each donor start is minimised on its own: they share the
+            // donor's κ, and the one with the lowest start cost is not the
+            // one that ends lowest (a contact ringing after every slip
+            // sticks briefly where its velocity grazes zero, so whether a
+            // short stick happens switches with the threshold and the
+            // cost jumps between the starts; docs/real-pads.md).
+            let mut best = self.minimise_each_kappa(fam, &cands, &step);
+            for t in extra.iter().filter(|t| t.len() == len) {
+                if let Ok(r) = self.minimise(fam, std::slice::from_ref(t), &step) {
+                    best = match best {
+                        Ok(b) if b.1 <= r.1 => Ok((b.0, b.1, b.2 + r.2, b.3)),
+                        Ok(b) => Ok((r.0, r.1, b.2 + r.2, r.3)),
+                        Err(_) => Ok(r),
+                    };
+                }
+            }
+            best?
         } else {
             self.minimise(fam, &cands, &step)?
         };

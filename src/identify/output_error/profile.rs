@@ -57,7 +57,7 @@ impl Refinement {
         step[0] = 0.0;
         // The calibration of the deviance, along ln κ (the last of θ).
         let base_proj = self.proj_of(fam, &base.proj_at)?;
-        let v = self.variances(fam, &base.th, &base_proj, u, &[0])?;
+        let v = self.variances(fam, &base.th, &base_proj, u, inflation, &[0])?;
         let k = base.th.len() - 1;
         let scale = v.naive_stat[k] / v.stat[k];
         if !(scale.is_finite() && scale > 0.0) {
@@ -131,7 +131,9 @@ impl Refinement {
                     Some(at) => self.proj_of(fam, at)?,
                     None => self.proj_of(fam, &base.proj_at)?,
                 };
-                let cal = self.variances(fam, &top.2, &proj, u, &[])?.var_cal[0];
+                let cal = self
+                    .variances(fam, &top.2, &proj, u, inflation, &[])?
+                    .var_cal[0];
                 Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * cal).sqrt())
             }
             None => None,
@@ -141,7 +143,7 @@ impl Refinement {
             let Some(proj) = self.proj_of(fam, proj.as_ref().unwrap_or(&base.proj_at)) else {
                 continue;
             };
-            let Some((_, pads, _)) = self.intervals(fam, th, &proj, u, true, inflation, &[0])
+            let Some((_, pads, ..)) = self.intervals(fam, th, &proj, u, true, inflation, &[0])
             else {
                 continue;
             };

@@ -185,25 +185,28 @@ impl Refinement {
         let mut best = self.pick_family(&families);
         let mut notes = Vec::new();
         let sticks_of = |f: &FamilyFit| self.sticks_of(f);
-        let assess =
-            |i: usize| -> Result<(Adequacy, Intervals, PadFit, CalibrationPart), RefineError> {
-                let f = &fits[i];
-                let proj = self.proj(f)?;
-                let adequacy = self.adequacy(f.fam(), &f.th, &proj)?;
-                let (intervals, pads, cal) = self
-                    .intervals(
-                        f.fam(),
-                        &f.th,
-                        &proj,
-                        u,
-                        sticks_of(&families[i]),
-                        adequacy.inflation,
-                        &[],
-                    )
-                    .ok_or(RefineError::TooFewSegmentsForIntervals)?;
-                Ok((adequacy, intervals, pads, cal))
-            };
-        let (mut adequacy, mut intervals, mut pads, mut calibration) = assess(best)?;
+        let assess = |i: usize| -> Result<
+            (Adequacy, Intervals, PadFit, CalibrationPart, f64),
+            RefineError,
+        > {
+            let f = &fits[i];
+            let proj = self.proj(f)?;
+            let adequacy = self.adequacy(f.fam(), &f.th, &proj)?;
+            let (intervals, pads, cal, secants) = self
+                .intervals(
+                    f.fam(),
+                    &f.th,
+                    &proj,
+                    u,
+                    sticks_of(&families[i]),
+                    adequacy.inflation,
+                    &[],
+                )
+                .ok_or(RefineError::TooFewSegmentsForIntervals)?;
+            Ok((adequacy, intervals, pads, cal, secants))
+        };
+        let (mut adequacy, mut intervals, mut pads, mut calibration, mut secant_ratio) =
+            assess(best)?;
         // Parsimony, second rule: an extra parameter whose interval holds
         // its nested value (D* = 0; ρs = ρd; the split Δ = 0) is not
         // supported by the data.
@@ -221,7 +224,7 @@ impl Refinement {
                 .position(|f| f.kind == fits[best].kind && f.ext == without)
             {
                 best = c;
-                (adequacy, intervals, pads, calibration) = assess(c)?;
+                (adequacy, intervals, pads, calibration, secant_ratio) = assess(c)?;
             }
         }
         if forced.is_none()
@@ -240,7 +243,7 @@ impl Refinement {
                 if nested {
                     notes.push(crate::warning::Warning::NestedCoulomb { law: l.kind });
                     best = c;
-                    (adequacy, intervals, pads, calibration) = assess(c)?;
+                    (adequacy, intervals, pads, calibration, secant_ratio) = assess(c)?;
                 }
             }
         }
@@ -276,6 +279,9 @@ impl Refinement {
                 );
             }
         }
+        if secant_ratio >= MAX_SECANT_RATIO {
+            notes.push(crate::warning::Warning::RoughCost { secant_ratio });
+        }
         let fam = fits[best].fam();
         let chosen = families[best].clone();
         // How strongly the data prefer the chosen family over the best
@@ -300,6 +306,7 @@ impl Refinement {
             start_rms_m,
             intervals,
             calibration_half_width_n: calibration,
+            interval_secant_ratio: secant_ratio,
             pads,
             segments: self.data.segs.len(),
             samples: n,
