@@ -1247,6 +1247,32 @@ fn compliant_contacts_are_identified() {
     }
 }
 
+/// Synthesises a 20-s characteristic log of a static/dynamic pad behind
+/// a contact spring kt (N/m) on the study rig at `freq_hz` (the options
+/// `extra` added: seed, sensors, delays) to `log` and fits it.
+fn synth_compliant_and_fit(
+    log: &std::path::Path,
+    freq_hz: &str,
+    (rs, rd, kt): (f64, f64, f64),
+    extra: &[&str],
+) -> serde_json::Value {
+    let o = common::bin()
+        .arg("synth")
+        .args(common::STUDY_RIG)
+        .args(["--frequency-hz", freq_hz])
+        .args(["--law", "static-dynamic"])
+        .args(["--rs-n", &rs.to_string(), "--rd-n", &rd.to_string()])
+        .args(["--contact-stiffness-n-per-m", &kt.to_string()])
+        .args(["--duration-s", "20"])
+        .args(extra)
+        .arg("--out")
+        .arg(log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    fit_entry(log)
+}
+
 /// A compliant contact on another rig (M1 3 kg, M2 1 kg, K1 200 N/m, K2
 /// 500 N/m; Rs 0.585 N, Rd 0.366 N, κ 9.06, 130 µm of pre-sliding; the
 /// typical sensors) whose x1 record lags by 0.7 ms, below one sample and
@@ -1260,31 +1286,15 @@ fn compliant_contacts_are_identified() {
 /// intervals: κ, Rs and Rd within 3 % and covered.
 #[test]
 fn a_sub_sample_lag_behind_a_compliant_contact_is_corrected() {
-    use common::bin;
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("lagged.mcap");
     let (rs, rd, kt) = (0.5852552822899103, 0.3662798040994145, 4528.506141633922);
-    let o = bin()
-        .arg("synth")
-        .args(common::STUDY_RIG)
-        .args(["--frequency-hz", "1.7310587367826507"])
-        .args(["--law", "static-dynamic"])
-        .args(["--rs-n", &rs.to_string(), "--rd-n", &rd.to_string()])
-        .args(["--contact-stiffness-n-per-m", &kt.to_string()])
-        .args([
-            "--channel-delay-s",
-            "x1=0.0007",
-            "--seed",
-            "2",
-            "--duration-s",
-            "20",
-        ])
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let f = &fit_entry(&log);
+    let f = &synth_compliant_and_fit(
+        &log,
+        "1.7310587367826507",
+        (rs, rd, kt),
+        &["--channel-delay-s", "x1=0.0007", "--seed", "2"],
+    );
     let label = format!("{f:#}");
     // The lag was measured and x2 (the other channels) shifted by it.
     let x2 = f["channel_delays_s"]["x2"].as_f64().expect(&label);
@@ -1400,7 +1410,6 @@ fn validation_simulates_the_fitted_contact_spring() {
 /// or bound holds the truth.
 #[test]
 fn a_long_period_compliant_orbit_finds_the_levels() {
-    use common::bin;
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("c015.mcap");
     let sensors = dir.path().join("sensors.json");
@@ -1444,21 +1453,13 @@ fn a_long_period_compliant_orbit_finds_the_levels() {
     );
     std::fs::write(&sensors, json).unwrap();
     let (rs, rd, kt) = (0.5271203268220095, 0.4494496858305175, 17982.038514015785);
-    let o = bin()
-        .arg("synth")
-        .args(common::STUDY_RIG)
-        .args(["--frequency-hz", "1.6427615600187577"])
-        .args(["--law", "static-dynamic"])
-        .args(["--rs-n", &rs.to_string(), "--rd-n", &rd.to_string()])
-        .args(["--contact-stiffness-n-per-m", &kt.to_string()])
-        .args(["--seed", "515", "--duration-s", "20", "--sensors"])
-        .arg(&sensors)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let f = &fit_entry(&log);
+    let sensors = sensors.to_str().unwrap();
+    let f = &synth_compliant_and_fit(
+        &log,
+        "1.6427615600187577",
+        (rs, rd, kt),
+        &["--seed", "515", "--sensors", sensors],
+    );
     let label = format!("{f:#}");
     let codes = f["warning_codes"].to_string();
     assert!(codes.contains("rough_cost"), "{codes}");
