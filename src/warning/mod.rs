@@ -68,6 +68,7 @@ pub const CODES: &[&str] = &[
     "velocity_distrusted",
     "stuck",
     "slider_held",
+    "rough_cost",
     "law_not_fitted",
     "no_simple_law",
     "never_sticks",
@@ -1583,7 +1584,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 81;
+    const VARIANTS: usize = 82;
 
     #[test]
     fn every_code_is_documented() {
