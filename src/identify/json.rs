@@ -160,7 +160,7 @@ pub struct OutputErrorJson {
     /// The largest ratio (either way) of a statistical width from the
     /// residuals' secants over the chosen law's intervals to the
     /// tangent's: 1 on a smooth cost; from 1.25 on the intervals are the
-    /// widest of the secants' (warning `rough_cost`).
+    /// widest of the tangent's and the secants' (warning `rough_cost`).
     pub interval_secant_ratio: f64,
     /// How the drive was simulated (`harmonic` or `sampled`).
     pub drive: &'static str,

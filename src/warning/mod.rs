@@ -314,7 +314,7 @@ pub enum Warning {
     /// The output-error cost is not smooth at the scale of the chosen
     /// law's intervals (short sticks switch with the parameters): its
     /// widths from the residuals' secants stray from the tangent's, and
-    /// each interval is the widest of the secants'.
+    /// each interval is the widest of the tangent's and the secants'.
     RoughCost {
         /// The largest ratio (either way) of a secant's width to the
         /// tangent's.
