@@ -369,7 +369,10 @@ impl Refinement {
 
     /// The Jacobian of the residuals by central differences, row-major
     /// (2m rows: r1 and r2 per sample, `m` samples; one column per
-    /// parameter): one allocation, not one per row.
+    /// parameter): one allocation, not one per row. A parameter at the
+    /// edge of its admissible range (a gain at its bound, where the model
+    /// one step beyond cannot be simulated) takes the one-sided difference
+    /// towards the inside.
     fn jacobian(
         &self,
         prob: &Problem<'_>,
@@ -380,21 +383,35 @@ impl Refinement {
     ) -> Option<Vec<f64>> {
         let p = th.len();
         let mut jac = vec![0.0; 2 * m * p];
+        let mut r0: Option<Res> = None;
         for (j, &h) in steps.iter().enumerate() {
-            let mut rp = Res::new();
-            let mut rm = Res::new();
-            let mut tp = th.to_vec();
-            tp[j] += h;
-            prob.eval(&tp, Some(proj), Some(&mut rp))?;
-            let mut tm = th.to_vec();
-            tm[j] -= h;
-            prob.eval(&tm, Some(proj), Some(&mut rm))?;
-            if rp.len() != m || rm.len() != m {
-                return None;
-            }
+            let at = |d: f64| {
+                let mut t = th.to_vec();
+                t[j] += d;
+                let mut r = Res::new();
+                prob.eval(&t, Some(proj), Some(&mut r))
+                    .filter(|_| r.len() == m)
+                    .map(|_| r)
+            };
+            let (rp, rm, span) = match (at(h), at(-h)) {
+                (Some(rp), Some(rm)) => (rp, rm, 2.0 * h),
+                (one_side, other_side) => {
+                    if r0.is_none() {
+                        let mut r = Res::new();
+                        prob.eval(th, Some(proj), Some(&mut r))?;
+                        r0 = Some(r).filter(|r| r.len() == m);
+                    }
+                    let c = r0.clone()?;
+                    match (one_side, other_side) {
+                        (Some(rp), None) => (rp, c, h),
+                        (None, Some(rm)) => (c, rm, h),
+                        _ => return None,
+                    }
+                }
+            };
             for i in 0..m {
-                jac[2 * i * p + j] = (rp[i].1 - rm[i].1) / (2.0 * h);
-                jac[(2 * i + 1) * p + j] = (rp[i].2 - rm[i].2) / (2.0 * h);
+                jac[2 * i * p + j] = (rp[i].1 - rm[i].1) / span;
+                jac[(2 * i + 1) * p + j] = (rp[i].2 - rm[i].2) / span;
             }
         }
         Some(jac)
