@@ -968,15 +968,70 @@ impl Refinement {
             if let Some(i) = simple_threshold(fits).filter(|i| !bases.contains(i)) {
                 bases.push(i);
             }
+            // A shaped law (the numerical engine, about ten times the
+            // cost) comes last: the closed-form families' contact fits
+            // probe the contact first (`Self::shaped_contact_kappas`).
+            let shaped = |f: &Refined| f.kind.family().has_velocity_scale();
+            bases.sort_by_key(|&i| shaped(&fits[i]));
             for i in bases {
                 let ext = Ext {
                     contact: true,
                     ..fits[i].ext
                 };
-                let extra = self.contact_donor_starts(fits, i);
-                try_ext(i, ext, (&[], &kappas, &extra), fits, out);
+                if shaped(&fits[i]) {
+                    let Some(kappas) = self.shaped_contact_kappas(fits, &kappas, out.n_eff) else {
+                        continue;
+                    };
+                    try_ext(i, ext, (&[], &kappas, &[]), fits, out);
+                } else {
+                    let extra = self.contact_donor_starts(fits, i);
+                    try_ext(i, ext, (&[], &kappas, &extra), fits, out);
+                }
             }
         }
+    }
+
+    /// The contact stiffnesses the contact extension of a shaped law
+    /// starts from, after the closed-form families' contact fits (the
+    /// probe): none where the best of them does not beat its own rigid
+    /// optimum by more than [`BIC_WEAK`] (the contact is then not what the
+    /// law misses, and the shaped law's extension would cost minutes for
+    /// nothing: on a never-sticking Stribeck pad whose first pass failed
+    /// for a channel lag, six κ starts on the numerical engine took 668 s
+    /// of a 675-s fit, docs/real-pads.md); else the probe's κ and the
+    /// screen's (each minimised). Without a probe: `screen` (the screen's
+    /// κ or the grid).
+    fn shaped_contact_kappas(
+        &self,
+        fits: &[Refined],
+        screen: &[f64],
+        n_eff: f64,
+    ) -> Option<Vec<f64>> {
+        let probe = fits
+            .iter()
+            .filter(|f| f.ext.contact && !f.kind.family().has_velocity_scale())
+            .min_by(|a, b| a.cost.total_cmp(&b.cost));
+        let Some(p) = probe else {
+            return Some(screen.to_vec());
+        };
+        let rigid = fits.iter().find(|f| {
+            f.kind == p.kind
+                && f.ext
+                    == Ext {
+                        contact: false,
+                        ..p.ext
+                    }
+        })?;
+        let gain = n_eff * (rigid.cost / p.cost).ln() - n_eff.ln();
+        if gain.is_nan() || gain <= BIC_WEAK {
+            return None;
+        }
+        let kappa = self.problem(&self.data, p.fam()).ext_values(&p.th).kappa?;
+        let mut kappas = vec![kappa];
+        if screen.len() == 1 && screen[0] != kappa {
+            kappas.push(screen[0]);
+        }
+        Some(kappas)
     }
 
     /// True when a refined shaped law's drop is resolved by the log: its
