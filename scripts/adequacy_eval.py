@@ -23,7 +23,7 @@ for name, fam, *_ in rows:
         miss_rs=m_rs, miss_rd=m_rd, nr=(ad.get('noise_ratio_x1'), ad.get('noise_ratio_x2')),
         flagged=[(x['channel'], x['against'], round(x['z'], 1), round(x['effect'], 2)) for x in ad.get('structure', []) if 'force' not in x['channel'] and x['z'] > 3.7 and x['effect'] > 0.5],
         force=[(x['channel'], x['against'], round(x['z'], 1), round(x['effect'], 2)) for x in ad.get('structure', []) if 'force' in x['channel']],
-        inflation=ad.get('interval_inflation'),
+        inflation=ad.get('interval_inflation'), codes=f.get('warning_codes', []),
         spring=[(f.get('spring_screen') or {}).get(k) for k in ('stiffness_change', 'z', 'flagged')]))
 json.dump(res, open(f'{OUT}/eval.json', 'w'), indent=1)
 n = len(res); adq = sum(bool(r['adequate']) for r in res)
@@ -37,6 +37,7 @@ cov_rd = [r['miss_rd'] <= 1 for r in res if r['miss_rd'] is not None]
 fam_ok = sum(1 for r in res if r['law'] == r['fam'])
 nrs = sorted(max(v for v in r['nr'] if v is not None) for r in res if any(v is not None for v in r['nr']))
 sz = sorted(abs(r['spring'][1]) for r in res if r['spring'][1] is not None)
+print(f"rough_cost warnings: {sum('rough_cost' in (r['codes'] or []) for r in res)}")
 print(f"spring screen: flagged {sum(bool(r['spring'][2]) for r in res)}, largest |z| {[round(v, 2) for v in sz[-5:]]}")
 print(f'largest noise ratios (x1 or x2): {[round(v, 3) for v in nrs[-5:]]}')
 print(f'logs {n}: adequate {adq} ({100*adq/n:.0f} %); family right {fam_ok}; Rs covered {sum(cov_rs)}/{len(cov_rs)}, Rd covered {sum(cov_rd)}/{len(cov_rd)}; misses > 2 half-widths {len(big)}, of them adequate (unflagged) {len(unflagged)}')
