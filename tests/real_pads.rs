@@ -1236,12 +1236,19 @@ fn compliant_contacts_are_identified() {
         assert!(covers(&f, "r_d_interval_n", 0.748), "{label}");
         assert_eq!(f["adequate"], true, "{label}");
         // Measured, or bounded: [Rd's low end, the profile's upper bound],
-        // a finite bound above the truth.
+        // a finite bound above the truth. The bound holds the channels'
+        // alignment (the profile again with the drive's and x2's records
+        // shifted by ± their standard uncertainty, 167 µs and 77 µs here:
+        // the highest admitted threshold rises from 0.947 N to 1.394 N
+        // and 1.176 N): 1.75 N (20 s) and 1.79 N (12 s), where it was
+        // 0.952 N and 1.048 N without that part. Not a blow-up: the
+        // deviance's change over its slope, extrapolated, had put such
+        // bounds at 10–18 times the truth on the compliant study.
         assert!(covers(&f, "r_s_interval_n", 0.924), "{label}");
         if !rs_known {
             assert!(f["r_s_n"].is_null() && f["rho_s"].is_null(), "{label}");
             let hi = f["r_s_interval_n"][1].as_f64().unwrap();
-            assert!(hi < 1.3 * 0.924, "{label}");
+            assert!(hi < 2.5 * 0.924, "{label}");
         }
         assert_eq!(f["direction_dependent"], false);
     }
@@ -1261,47 +1268,16 @@ fn compliant_contacts_are_identified() {
 #[test]
 fn a_fit_at_the_edge_of_a_gain_range_still_gets_intervals() {
     let dir = tempfile::tempdir().unwrap();
-    let sensors = dir.path().join("sensors.json");
-    std::fs::write(&sensors, SENSORS_S003).unwrap();
-    let log = dir.path().join("stribeck_compliant.mcap");
-    let rig = [
-        "--m1-kg",
-        "3",
-        "--m2-kg",
-        "1",
-        "--k1-n-per-m",
-        "200",
-        "--k2-n-per-m",
-        "500",
-        "--d-n-s-per-m",
-        "0.08944271909999159",
-        "--amplitude-m",
-        "0.002",
-        "--frequency-hz",
-        "2.549378372768607",
-        "--normal-force",
-        "2.0",
-    ];
     let (rs, rd, kt) = (0.581230932033889, 0.3937837263132712, 6271.989373566756);
-    let o = common::bin()
-        .arg("synth")
-        .args(rig)
-        .args([
-            "--law",
-            "stribeck",
-            "--stribeck-velocity-m-per-s",
-            "0.006826934655731421",
-        ])
-        .args(["--rs-n", &rs.to_string(), "--rd-n", &rd.to_string()])
-        .args(["--contact-stiffness-n-per-m", &kt.to_string()])
-        .args(["--seed", "703", "--duration-s", "20", "--sensors"])
-        .arg(&sensors)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let f = fit_entry(&log);
+    let f = synth_with_sensors_and_fit(
+        dir.path(),
+        "--m1-kg 3 --m2-kg 1 --k1-n-per-m 200 --k2-n-per-m 500 \
+         --d-n-s-per-m 0.08944271909999159 --amplitude-m 0.002 \
+         --frequency-hz 2.549378372768607 --normal-force 2.0 --law stribeck \
+         --stribeck-velocity-m-per-s 0.006826934655731421 --rs-n 0.581230932033889 \
+         --rd-n 0.3937837263132712 --contact-stiffness-n-per-m 6271.989373566756 --seed 703",
+        SENSORS_S003,
+    );
     let label = format!("{f:#}");
     let warned = |s: &str| {
         f["warnings"]
@@ -1319,6 +1295,157 @@ fn a_fit_at_the_edge_of_a_gain_range_still_gets_intervals() {
     );
     assert_eq!(f["adequate"], false, "{label}");
 }
+
+/// Synthesises a 20-s log with the options `args` (rig, pad, seed;
+/// whitespace-separated) and the sensors `sensors` (`synth --sensors`
+/// JSON) and fits it.
+fn synth_with_sensors_and_fit(
+    dir: &std::path::Path,
+    args: &str,
+    sensors: &str,
+) -> serde_json::Value {
+    let sensors_json = dir.join("sensors.json");
+    std::fs::write(&sensors_json, sensors).unwrap();
+    let log = dir.join("log.mcap");
+    let o = common::bin()
+        .arg("synth")
+        .args(args.split_whitespace())
+        .args(["--duration-s", "20", "--sensors"])
+        .arg(&sensors_json)
+        .arg("--out")
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    fit_entry(&log)
+}
+
+/// c021 of the compliant study (`scripts/compliant_study.py`: M1 5 kg, M2
+/// 1 kg, K1 = K2 = 400 N/m; Rs 0.536 N, Rd 0.448 N, kt 3921 N/m, 137 µm of
+/// pre-sliding; its sensors): the log does not resolve Rs above Rd, and
+/// the profile's upper bound, with the gains' part only, was 0.533 N, 0.6 %
+/// short of the truth. With the alignment's part (the profile again with
+/// the drive's and x2's records shifted by ± their standard uncertainty)
+/// it is 0.589 N.
+#[test]
+fn the_threshold_bound_holds_the_channels_alignment() {
+    let dir = tempfile::tempdir().unwrap();
+    let (rs, rd, kt) = (0.5363204051584902, 0.4476822766325222, 3920.864781846307);
+    let f = synth_with_sensors_and_fit(
+        dir.path(),
+        "--m1-kg 5 --m2-kg 1 --k1-n-per-m 400 --k2-n-per-m 400 --d-n-s-per-m 0.1 \
+         --amplitude-m 0.0025 --frequency-hz 1.906684915302423 --normal-force 2.0 \
+         --law static-dynamic --rs-n 0.5363204051584902 --rd-n 0.4476822766325222 \
+         --contact-stiffness-n-per-m 3920.864781846307 --seed 521",
+        SENSORS_C021,
+    );
+    let label = format!("{f:#}");
+    assert!(f["r_s_n"].is_null(), "{label}");
+    assert!(covers(&f, "r_s_interval_n", rs), "{label}");
+    assert!(covers(&f, "r_d_interval_n", rd), "{label}");
+    assert!(
+        covers(&f, "contact_stiffness_interval", kt / 400.0),
+        "{label}"
+    );
+    assert!(
+        f["r_s_interval_n"][1].as_f64().unwrap() < 1.5 * rs,
+        "{label}"
+    );
+}
+
+/// The sensors of [`the_threshold_bound_holds_the_channels_alignment`].
+const SENSORS_C021: &str = r#"{
+ "x0": {
+  "rate_hz": 1000.0,
+  "noise": 3.688648203493873e-06,
+  "quant": 0.0,
+  "gain": 1.0030715451914962,
+  "offset": 0.001139633467552807,
+  "lowpass_hz": null,
+  "buffer_s": 0.2,
+  "start_offset_ns": null,
+  "jitter_ns": 2000,
+  "p_lost_buffer": 0.0,
+  "p_dropout": 0.0,
+  "dropout_burst_max": 4,
+  "noise_correlation_s": 0.0012973345369095273
+ },
+ "x1": {
+  "rate_hz": 1000.0,
+  "noise": 1.8697741582890817e-06,
+  "quant": 3e-07,
+  "gain": 1.0050427834109046,
+  "offset": -0.0005129662676663575,
+  "lowpass_hz": null,
+  "buffer_s": 0.05,
+  "start_offset_ns": null,
+  "jitter_ns": 10000,
+  "p_lost_buffer": 0.0,
+  "p_dropout": 0.0,
+  "dropout_burst_max": 4,
+  "noise_correlation_s": 0.0
+ },
+ "x2": {
+  "rate_hz": 1000.0,
+  "noise": 2.631556293414235e-06,
+  "quant": 1e-06,
+  "gain": 0.9952660169804503,
+  "offset": 0.0001485667222279048,
+  "lowpass_hz": 431.7619754581306,
+  "buffer_s": 0.2,
+  "start_offset_ns": null,
+  "jitter_ns": 2000,
+  "p_lost_buffer": 0.01,
+  "p_dropout": 0.0,
+  "dropout_burst_max": 4,
+  "noise_correlation_s": 0.0
+ },
+ "v2": {
+  "rate_hz": 500.0,
+  "noise": 0.000255996036493818,
+  "quant": 1e-05,
+  "gain": 0.9958386425690905,
+  "offset": 8.845125400594847e-05,
+  "lowpass_hz": 267.94110668373,
+  "buffer_s": 0.05,
+  "start_offset_ns": null,
+  "jitter_ns": 0,
+  "p_lost_buffer": 0.0,
+  "p_dropout": 0.0002,
+  "dropout_burst_max": 4,
+  "noise_correlation_s": 0.0
+ },
+ "a2": {
+  "rate_hz": 2000.0,
+  "noise": 0.02,
+  "quant": 0.001,
+  "gain": 1.00686317377478,
+  "offset": -0.0067121344008646295,
+  "lowpass_hz": 250.0,
+  "buffer_s": 0.05,
+  "start_offset_ns": null,
+  "jitter_ns": 10000,
+  "p_lost_buffer": 0.0,
+  "p_dropout": 0.0002,
+  "dropout_burst_max": 4,
+  "noise_correlation_s": 0.0
+ },
+ "normal_force": {
+  "rate_hz": 10.0,
+  "noise": 0.0,
+  "quant": 0.01,
+  "gain": 0.9938176726462881,
+  "offset": -0.0029256384687059434,
+  "lowpass_hz": null,
+  "buffer_s": 0.5,
+  "start_offset_ns": null,
+  "jitter_ns": 10000,
+  "p_lost_buffer": 0.005,
+  "p_dropout": 0.0,
+  "dropout_burst_max": 4,
+  "noise_correlation_s": 0.0
+ }
+}"#;
 
 /// The sensors of [`a_fit_at_the_edge_of_a_gain_range_still_gets_intervals`]
 /// (`synth --sensors`, drawn as `scripts/adequacy_study.py` draws them).

@@ -632,18 +632,35 @@ impl Refinement {
         starts: &[Vec<f64>],
         step: &[f64],
     ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
+        self.minimise_on(&self.data, fam, starts, step)
+    }
+
+    /// [`Self::minimise`] on `data` (the log's own, or a copy with a
+    /// channel shifted or scaled).
+    fn minimise_on(
+        &self,
+        data: &Data,
+        fam: Fam,
+        starts: &[Vec<f64>],
+        step: &[f64],
+    ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
         let (th, proj, _) = self
-            .evaluated_starts(fam, starts)
+            .evaluated_starts(data, fam, starts)
             .into_iter()
             .min_by(|a, b| a.2.total_cmp(&b.2))
             .ok_or(RefineError::StartNotSimulable)?;
-        self.minimise_from(fam, th, proj, step)
+        self.minimise_from(data, fam, th, proj, step)
     }
 
     /// The simulable starts among `starts`, each with its start-state
-    /// projection and its cost.
-    fn evaluated_starts(&self, fam: Fam, starts: &[Vec<f64>]) -> Vec<(Vec<f64>, Proj, f64)> {
-        let prob = self.problem(&self.data, fam);
+    /// projection and its cost on `data`.
+    fn evaluated_starts(
+        &self,
+        data: &Data,
+        fam: Fam,
+        starts: &[Vec<f64>],
+    ) -> Vec<(Vec<f64>, Proj, f64)> {
+        let prob = self.problem(data, fam);
         starts
             .iter()
             .filter_map(|t| {
@@ -654,15 +671,16 @@ impl Refinement {
             .collect()
     }
 
-    /// [`Self::minimise`] from the start `th` with its projection `proj`.
+    /// [`Self::minimise_on`] from the start `th` with its projection `proj`.
     fn minimise_from(
         &self,
+        data: &Data,
         fam: Fam,
         mut th: Vec<f64>,
         proj: Proj,
         step: &[f64],
     ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
-        let prob = self.problem(&self.data, fam);
+        let prob = self.problem(data, fam);
         let fail = RefineError::NotSimulable;
         // The segment starts move to their least-squares values (free
         // multiple-shooting nodes), so the linearised projection holds.
@@ -1190,7 +1208,7 @@ impl Refinement {
     ) -> Result<(Vec<f64>, f64, u64, ProjAt), RefineError> {
         // The best start of each distinct ln κ (the last of θ), in order.
         let mut best_per_kappa: Vec<(Vec<f64>, Proj, f64)> = Vec::new();
-        for (t, p, c) in self.evaluated_starts(fam, starts) {
+        for (t, p, c) in self.evaluated_starts(&self.data, fam, starts) {
             let ln_k = t[t.len() - 1];
             match best_per_kappa
                 .iter_mut()
@@ -1205,7 +1223,7 @@ impl Refinement {
         let mut iterations = 0;
         let mut last_err = RefineError::StartNotSimulable;
         for (t, p, _) in best_per_kappa {
-            match self.minimise_from(fam, t, p, step) {
+            match self.minimise_from(&self.data, fam, t, p, step) {
                 Ok(r) => {
                     iterations += r.2;
                     if best.as_ref().is_none_or(|b| r.1 < b.1) {

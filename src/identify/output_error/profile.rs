@@ -66,64 +66,75 @@ impl Refinement {
         let crit = (v.t975 * inflation.max(1.0)).powi(2);
         // (Rs, cost, θ, projection; None: the base's own.)
         type Point = (f64, f64, Vec<f64>, Option<ProjAt>);
-        let mut points: Vec<Point> = vec![(rs0, base.cost, base.th.clone(), None)];
         let cmin = |pts: &[Point]| pts.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
         let deviance = |c: f64, cm: f64| (c - cm) * scale;
         let admitted = |c: f64, cm: f64| deviance(c, cm) <= crit;
-        let fit = |rs: f64, from: &[f64]| -> Option<Point> {
+        let fit = |data: &Data, rs: f64, from: &[f64]| -> Option<Point> {
             let mut th = from.to_vec();
             th[0] = rs;
-            let (th, cost, _, proj) = self.minimise(fam, &[th], &step).ok()?;
+            let (th, cost, _, proj) = self.minimise_on(data, fam, &[th], &step).ok()?;
             Some((rs, cost, th, Some(proj)))
         };
-        // Up: doubling steps until the deviance refuses, then bisections.
         let floor = rs0.max(rd0);
-        let mut lo = (floor, base.th.clone());
-        let mut hi = None;
-        // Refits at Rs = r from the last admitted θ and records the point;
-        // an admitted one becomes the last admitted.
-        let step_to = |r: f64, lo: &mut (f64, Vec<f64>), points: &mut Vec<Point>| -> bool {
-            let pt = fit(r, &lo.1);
-            let ok = pt
-                .as_ref()
-                .is_some_and(|p| admitted(p.1, cmin(points).min(p.1)));
-            if let (true, Some(p)) = (ok, pt.as_ref()) {
-                *lo = (r, p.2.clone());
-            }
-            points.extend(pt);
-            ok
-        };
-        let mut c = 0.5;
-        for _ in 0..MAX_STEPS {
-            let r = floor + c * unit;
-            if !step_to(r, &mut lo, &mut points) {
-                hi = Some(r);
-                break;
-            }
-            c *= 2.0;
-        }
-        if let Some(mut h) = hi {
-            for _ in 0..BISECTIONS {
-                let r = 0.5 * (lo.0 + h);
+        // Up from `start` on `data`: doubling steps until the deviance
+        // refuses, then bisections. Every point fitted, and the first
+        // refused threshold (None: none refused).
+        let ladder = |data: &Data, start: Point| -> (Vec<Point>, Option<f64>) {
+            let mut lo = (floor, start.2.clone());
+            let mut points = vec![start];
+            let mut hi = None;
+            // Refits at Rs = r from the last admitted θ and records the
+            // point; an admitted one becomes the last admitted.
+            let step_to = |r: f64, lo: &mut (f64, Vec<f64>), points: &mut Vec<Point>| -> bool {
+                let pt = fit(data, r, &lo.1);
+                let ok = pt
+                    .as_ref()
+                    .is_some_and(|p| admitted(p.1, cmin(points).min(p.1)));
+                if let (true, Some(p)) = (ok, pt.as_ref()) {
+                    *lo = (r, p.2.clone());
+                }
+                points.extend(pt);
+                ok
+            };
+            let mut c = 0.5;
+            for _ in 0..MAX_STEPS {
+                let r = floor + c * unit;
                 if !step_to(r, &mut lo, &mut points) {
-                    h = r;
+                    hi = Some(r);
+                    break;
+                }
+                c *= 2.0;
+            }
+            if let Some(mut h) = hi {
+                for _ in 0..BISECTIONS {
+                    let r = 0.5 * (lo.0 + h);
+                    if !step_to(r, &mut lo, &mut points) {
+                        h = r;
+                    }
                 }
             }
-        }
+            (points, hi)
+        };
+        let (mut points, hi) = ladder(&self.data, (rs0, base.cost, base.th.clone(), None));
         // Down to the sliding level, where the fit left the threshold above
         // it by more than a quarter unit.
         if rs0 - rd0 > 0.25 * unit {
             for r in [rd0 + 0.5 * (rs0 - rd0), rd0] {
-                points.extend(fit(r, &base.th));
+                points.extend(fit(&self.data, r, &base.th));
             }
         }
         let cm = cmin(&points);
         let kept: Vec<&Point> = points.iter().filter(|p| admitted(p.1, cm)).collect();
         // The highest admitted threshold, plus the calibration budget's
         // part of Rs there (in quadrature, as the intervals add them): the
-        // gains' part only. (The alignment's linear response is no small
-        // perturbation at a threshold the log does not resolve: on a 20-µm
-        // contact it put the bound at 3.7 N for a true 0.924 N.)
+        // gains' part by its linear response; the alignment's by the
+        // profile again on the log with the drive's, then x2's record
+        // shifted by ± its standard uncertainty (how far the highest
+        // admitted threshold rises there; no bound where it has none). (The linear response is no small
+        // perturbation to the alignment at a threshold the log does not
+        // resolve: on a 20-µm contact it put the bound at 3.7 N for a true
+        // 0.924 N; the deviance's change over its slope at the top, by
+        // refits or to second order, put c004's at 10.5 N for 0.619 N.)
         let top = kept.iter().max_by(|a, b| a.0.total_cmp(&b.0))?;
         let rs_upper_n = match hi {
             Some(_) => {
@@ -134,7 +145,41 @@ impl Refinement {
                 let cal = self
                     .variances(fam, &top.2, &proj, u, inflation, &[])?
                     .var_cal[0];
-                Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * cal).sqrt())
+                let free = Self::ext_steps(fam, &base.th);
+                // The highest admitted threshold on `data` (infinite where
+                // the ladder never refuses; None where the base cannot be
+                // refitted).
+                let top_on = |data: &Data| -> Option<f64> {
+                    let (th, cost, _, at) = self
+                        .minimise_on(data, fam, std::slice::from_ref(&base.th), &free)
+                        .ok()?;
+                    let (pts, hi) = ladder(data, (th[0], cost, th, Some(at)));
+                    if hi.is_none() {
+                        return Some(f64::INFINITY);
+                    }
+                    let cm = cmin(&pts);
+                    pts.iter()
+                        .filter(|p| admitted(p.1, cm))
+                        .map(|p| p.0)
+                        .max_by(f64::total_cmp)
+                };
+                // An upper bound: each channel's larger rise of the two
+                // signs of its shift.
+                let (s0, s2) = self.alignment_sigma;
+                let align: f64 = [(s0, 0.0), (0.0, s2)]
+                    .into_iter()
+                    .filter(|(a, b)| a + b > 0.0)
+                    .map(|(a, b)| {
+                        [1.0, -1.0]
+                            .into_iter()
+                            .filter_map(|sg| top_on(&self.data.shifted(sg * a, sg * b)))
+                            .map(|t| (t - top.0).max(0.0))
+                            .fold(0.0, f64::max)
+                            .powi(2)
+                    })
+                    .sum();
+                Some(floor + ((top.0 - floor).powi(2) + 1.96 * 1.96 * (cal + align)).sqrt())
+                    .filter(|b| b.is_finite())
             }
             None => None,
         };
