@@ -4,7 +4,9 @@
 //! Rs = Rd, the family's bound), and misses when the true threshold is
 //! higher. The profile holds Rs at a ladder of values, refits the rest,
 //! keeps the values the criterion's deviance admits, and gives Rs's upper
-//! bound and κ's interval over every admitted threshold.
+//! bound (with the calibration budget: the gains' linear response, and the
+//! profile again on the records shifted by their alignment's uncertainty)
+//! and κ's interval over every admitted threshold.
 
 use super::*;
 use crate::identify::Interval;
@@ -21,7 +23,8 @@ const BISECTIONS: usize = 3;
 pub(super) struct ThresholdProfile {
     /// The largest Rs (N) the log admits; None where the ladder never
     /// reached a refused value (no upper bound within 2^MAX_STEPS noise
-    /// units).
+    /// units), on the log or on it with a channel shifted by its
+    /// alignment's uncertainty.
     pub rs_upper_n: Option<f64>,
     /// κ's 95 % interval: the union of its intervals conditional on each
     /// admitted Rs.
@@ -130,11 +133,12 @@ impl Refinement {
         // gains' part by its linear response; the alignment's by the
         // profile again on the log with the drive's, then x2's record
         // shifted by ± its standard uncertainty (how far the highest
-        // admitted threshold rises there; no bound where it has none). (The linear response is no small
-        // perturbation to the alignment at a threshold the log does not
-        // resolve: on a 20-µm contact it put the bound at 3.7 N for a true
-        // 0.924 N; the deviance's change over its slope at the top, by
-        // refits or to second order, put c004's at 10.5 N for 0.619 N.)
+        // admitted threshold rises there; no bound where it has none).
+        // (The linear response is no small perturbation to the alignment
+        // at a threshold the log does not resolve: on a 20-µm contact it
+        // put the bound at 3.7 N for a true 0.924 N; the deviance's change
+        // over its slope at the top, by refits or to second order, put
+        // c004's at 10.5 N for 0.619 N.)
         let top = kept.iter().max_by(|a, b| a.0.total_cmp(&b.0))?;
         let rs_upper_n = match hi {
             Some(_) => {
