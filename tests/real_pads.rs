@@ -1083,20 +1083,12 @@ fn synth_and_fit_for(
     secs: f64,
     extra: &[&str],
 ) -> serde_json::Value {
-    use common::bin;
-    let log = dir.join(name);
-    let o = bin()
-        .args(["synth", "--normal-force", "2.2", "--duration-s"])
-        .arg(secs.to_string())
-        .arg("--seed")
-        .arg(seed.to_string())
-        .args(extra)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    fit_entry(&log)
+    let mut args: Vec<String> = ["--normal-force", "2.2", "--duration-s"]
+        .map(String::from)
+        .to_vec();
+    args.extend([secs.to_string(), "--seed".into(), seed.to_string()]);
+    args.extend(extra.iter().map(|a| a.to_string()));
+    synth_to_and_fit(&dir.join(name), &args)
 }
 
 /// `fit --json` of `log`: its fit entry.
@@ -1267,10 +1259,8 @@ fn compliant_contacts_are_identified() {
 /// but Rd, Rs and κ are covered.
 #[test]
 fn a_fit_at_the_edge_of_a_gain_range_still_gets_intervals() {
-    let dir = tempfile::tempdir().unwrap();
     let (rs, rd, kt) = (0.581230932033889, 0.3937837263132712, 6271.989373566756);
     let f = synth_with_sensors_and_fit(
-        dir.path(),
         "--m1-kg 3 --m2-kg 1 --k1-n-per-m 200 --k2-n-per-m 500 \
          --d-n-s-per-m 0.08944271909999159 --amplitude-m 0.002 \
          --frequency-hz 2.549378372768607 --normal-force 2.0 --law stribeck \
@@ -1287,37 +1277,33 @@ fn a_fit_at_the_edge_of_a_gain_range_still_gets_intervals() {
             .any(|w| w.as_str().unwrap().contains(s))
     };
     assert!(!warned("output-error refinement not possible"), "{label}");
-    assert!(covers(&f, "r_d_interval_n", rd), "{label}");
-    assert!(covers(&f, "r_s_interval_n", rs), "{label}");
-    assert!(
-        covers(&f, "contact_stiffness_interval", kt / 500.0),
-        "{label}"
-    );
+    assert_covered(&f, rs, rd, kt / 500.0);
     assert_eq!(f["adequate"], false, "{label}");
+}
+
+/// Rs's, Rd's and κ's intervals in the fit entry `f` hold the truths.
+fn assert_covered(f: &serde_json::Value, rs: f64, rd: f64, kappa: f64) {
+    for (key, truth) in [
+        ("r_s_interval_n", rs),
+        ("r_d_interval_n", rd),
+        ("contact_stiffness_interval", kappa),
+    ] {
+        assert!(covers(f, key, truth), "{key} misses {truth}: {f:#}");
+    }
 }
 
 /// Synthesises a 20-s log with the options `args` (rig, pad, seed;
 /// whitespace-separated) and the sensors `sensors` (`synth --sensors`
 /// JSON) and fits it.
-fn synth_with_sensors_and_fit(
-    dir: &std::path::Path,
-    args: &str,
-    sensors: &str,
-) -> serde_json::Value {
+fn synth_with_sensors_and_fit(args: &str, sensors: &str) -> serde_json::Value {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
     let sensors_json = dir.join("sensors.json");
     std::fs::write(&sensors_json, sensors).unwrap();
-    let log = dir.join("log.mcap");
-    let o = common::bin()
-        .arg("synth")
-        .args(args.split_whitespace())
-        .args(["--duration-s", "20", "--sensors"])
-        .arg(&sensors_json)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    fit_entry(&log)
+    let mut args: Vec<String> = args.split_whitespace().map(String::from).collect();
+    args.extend(["--duration-s", "20", "--sensors"].map(String::from));
+    args.push(sensors_json.to_str().unwrap().into());
+    synth_to_and_fit(&dir.join("log.mcap"), &args)
 }
 
 /// c021 of the compliant study (`scripts/compliant_study.py`: M1 5 kg, M2
@@ -1329,10 +1315,8 @@ fn synth_with_sensors_and_fit(
 /// it is 0.589 N.
 #[test]
 fn the_threshold_bound_holds_the_channels_alignment() {
-    let dir = tempfile::tempdir().unwrap();
     let (rs, rd, kt) = (0.5363204051584902, 0.4476822766325222, 3920.864781846307);
     let f = synth_with_sensors_and_fit(
-        dir.path(),
         "--m1-kg 5 --m2-kg 1 --k1-n-per-m 400 --k2-n-per-m 400 --d-n-s-per-m 0.1 \
          --amplitude-m 0.0025 --frequency-hz 1.906684915302423 --normal-force 2.0 \
          --law static-dynamic --rs-n 0.5363204051584902 --rd-n 0.4476822766325222 \
@@ -1341,12 +1325,7 @@ fn the_threshold_bound_holds_the_channels_alignment() {
     );
     let label = format!("{f:#}");
     assert!(f["r_s_n"].is_null(), "{label}");
-    assert!(covers(&f, "r_s_interval_n", rs), "{label}");
-    assert!(covers(&f, "r_d_interval_n", rd), "{label}");
-    assert!(
-        covers(&f, "contact_stiffness_interval", kt / 400.0),
-        "{label}"
-    );
+    assert_covered(&f, rs, rd, kt / 400.0);
     assert!(
         f["r_s_interval_n"][1].as_f64().unwrap() < 1.5 * rs,
         "{label}"
@@ -1537,15 +1516,33 @@ fn synth_compliant_and_fit(
     (rs, rd, kt): (f64, f64, f64),
     extra: &[&str],
 ) -> serde_json::Value {
+    let mut args: Vec<String> = common::STUDY_RIG.iter().map(|a| a.to_string()).collect();
+    args.extend(
+        [
+            "--frequency-hz",
+            freq_hz,
+            "--law",
+            "static-dynamic",
+            "--rs-n",
+            &rs.to_string(),
+            "--rd-n",
+            &rd.to_string(),
+            "--contact-stiffness-n-per-m",
+            &kt.to_string(),
+            "--duration-s",
+            "20",
+        ]
+        .map(String::from),
+    );
+    args.extend(extra.iter().map(|a| a.to_string()));
+    synth_to_and_fit(log, &args)
+}
+
+/// `stickslip synth ARGS --out LOG`, then the fit entry of `log`.
+fn synth_to_and_fit(log: &std::path::Path, args: &[String]) -> serde_json::Value {
     let o = common::bin()
         .arg("synth")
-        .args(common::STUDY_RIG)
-        .args(["--frequency-hz", freq_hz])
-        .args(["--law", "static-dynamic"])
-        .args(["--rs-n", &rs.to_string(), "--rd-n", &rd.to_string()])
-        .args(["--contact-stiffness-n-per-m", &kt.to_string()])
-        .args(["--duration-s", "20"])
-        .args(extra)
+        .args(args)
         .arg("--out")
         .arg(log)
         .output()
