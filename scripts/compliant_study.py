@@ -17,25 +17,27 @@ from adequacy_study import RIGS, draw  # noqa: E402
 B = os.environ.get('B', 'target/release/stickslip')
 
 
-def logs(out, n):
+def logs(out, n, family=('static-dynamic', 1), prefix='c', seeds=(3434, 500)):
+    """Writes n logs of `family` (its name and index in the draw's family
+    cycle) behind a contact spring; `seeds`: the draw's and synth's."""
     os.makedirs(out, exist_ok=True)
-    rng = random.Random(3434)
+    rng = random.Random(seeds[0])
     rows = []
     for i in range(n):
-        # Static-dynamic pads (index 4·1 + rig): the draw's family cycle.
-        args, s, fam = draw(rng, 4 + (i % len(RIGS)))
-        assert fam == 'static-dynamic'
+        # The family's pads (index 4·family + rig): the draw's family cycle.
+        args, s, fam = draw(rng, 4 * family[1] + (i % len(RIGS)))
+        assert fam == family[0], fam
         rig = RIGS[i % len(RIGS)]
         rs = float(args[args.index('--rs-n') + 1])
         rd = float(args[args.index('--rd-n') + 1])
         pre = rng.uniform(15e-6, 150e-6)
         kt = rs / pre
         args += ['--contact-stiffness-n-per-m', str(kt)]
-        name = f'{out}/c{i:03d}.mcap'
-        sj = f'{out}/c{i:03d}.sensors.json'
+        name = f'{out}/{prefix}{i:03d}.mcap'
+        sj = f'{out}/{prefix}{i:03d}.sensors.json'
         if not os.path.exists(name):
             json.dump(s, open(sj, 'w'))
-            subprocess.run([B, 'synth', '--out', name, '--sensors', sj, '--seed', str(500 + i),
+            subprocess.run([B, 'synth', '--out', name, '--sensors', sj, '--seed', str(seeds[1] + i),
                             '--duration-s', '20'] + args, check=True, capture_output=True)
         rows.append(dict(log=name, rs=rs, rd=rd, kappa=kt / rig['k2'], pre_um=pre * 1e6))
     json.dump(rows, open(f'{out}/rows.json', 'w'), indent=1)

@@ -9,42 +9,21 @@ reads instead.
     python3 scripts/stribeck_compliant_study.py DIR N --fit    # fit them, print the table
 
 B=path/to/stickslip picks the binary (default target/release/stickslip)."""
-import json, os, random, subprocess, sys, time
+import json, os, subprocess, sys, time
 
 sys.path.insert(0, os.path.dirname(__file__))
 sys.argv, ARGV = sys.argv[:1] + ['-', '1'], sys.argv  # adequacy_study reads argv on import
-from adequacy_study import RIGS, draw  # noqa: E402
+import compliant_study  # noqa: E402
 sys.argv = ARGV
 
 B = os.environ.get('B', 'target/release/stickslip')
+compliant_study.B = B
+inside = compliant_study.inside
 
 
 def logs(out, n):
-    os.makedirs(out, exist_ok=True)
-    rng = random.Random(3131)
-    rows = []
-    for i in range(n):
-        # Stribeck pads (index 4·3 + rig): the draw's family cycle.
-        args, s, fam = draw(rng, 12 + (i % len(RIGS)))
-        assert fam == 'stribeck', fam
-        rs = float(args[args.index('--rs-n') + 1])
-        rd = float(args[args.index('--rd-n') + 1])
-        pre = rng.uniform(15e-6, 150e-6)
-        kt = rs / pre
-        args += ['--contact-stiffness-n-per-m', str(kt)]
-        name = f'{out}/s{i:03d}.mcap'
-        sj = f'{out}/s{i:03d}.sensors.json'
-        if not os.path.exists(name):
-            json.dump(s, open(sj, 'w'))
-            subprocess.run([B, 'synth', '--out', name, '--sensors', sj, '--seed', str(700 + i),
-                            '--duration-s', '20'] + args, check=True, capture_output=True)
-        rows.append(dict(log=name, rs=rs, rd=rd, kappa=kt / RIGS[i % len(RIGS)]['k2']))
-    json.dump(rows, open(f'{out}/rows.json', 'w'), indent=1)
-    return rows
-
-
-def inside(iv, v):
-    return iv is not None and iv[0] <= v <= iv[1]
+    # Stribeck pads (the draw's fourth family), their own seeds.
+    return compliant_study.logs(out, n, ('stribeck', 3), 's', (3131, 700))
 
 
 def fit(rows):
