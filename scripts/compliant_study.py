@@ -84,9 +84,14 @@ def fit(rows):
         json.dump(res, open(os.environ['OUT_JSON'], 'w'), indent=1)
 
 
-if __name__ == '__main__':
+def main(logs, fit, default_n):
+    """DIR [N] [--fit]: writes N logs (default `default_n`) and fits them."""
     out = sys.argv[1]
-    n = int(sys.argv[2]) if len(sys.argv) > 2 else 24
+    n = int(sys.argv[2]) if len(sys.argv) > 2 else default_n
     rows = logs(out, n)
     if '--fit' in sys.argv:
         fit(rows)
+
+
+if __name__ == '__main__':
+    main(logs, fit, 24)

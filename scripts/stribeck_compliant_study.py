@@ -44,8 +44,4 @@ def fit(rows):
 
 
 if __name__ == '__main__':
-    out = sys.argv[1]
-    n = int(sys.argv[2]) if len(sys.argv) > 2 else 8
-    rows = logs(out, n)
-    if '--fit' in sys.argv:
-        fit(rows)
+    compliant_study.main(logs, fit, 8)

@@ -203,7 +203,6 @@ impl Refinement {
         let p = th.len();
         let mut r0 = Res::new();
         prob.eval(th, Some(proj), Some(&mut r0))?;
-        let m = r0.len();
         // The held columns out, and back as zero rows and columns.
         let free_ix: Vec<usize> = (0..p).filter(|j| !fixed.contains(j)).collect();
         let sandwich_at = |jac: &[f64]| {
@@ -220,7 +219,7 @@ impl Refinement {
             Some((expand(h), expand(c), t))
         };
         let tangent = Self::tangent_steps(&prob, fam.kind, th);
-        let jac = self.jacobian(&prob, th, proj, m, &tangent)?;
+        let jac = self.jacobian(&prob, th, proj, &r0, &tangent)?;
         let (hinv, cov, t975) = sandwich_at(&jac)?;
         // The intervals are linear in the residuals: checked at their own
         // scale by the residuals' secants over each parameter's half-width
@@ -254,7 +253,7 @@ impl Refinement {
             // A secant whose ends the engine cannot simulate (or whose
             // sandwich is singular) ends the check: the tangent stands.
             let Some((jn, (hn, cn, _))) = self
-                .jacobian(&prob, th, proj, m, &steps)
+                .jacobian(&prob, th, proj, &r0, &steps)
                 .and_then(|j| sandwich_at(&j).map(|s| (j, s)))
             else {
                 break;
@@ -369,21 +368,21 @@ impl Refinement {
 
     /// The Jacobian of the residuals by central differences, row-major
     /// (2m rows: r1 and r2 per sample, `m` samples; one column per
-    /// parameter): one allocation, not one per row. A parameter at the
-    /// edge of its admissible range (a gain at its bound, where the model
-    /// one step beyond cannot be simulated) takes the one-sided difference
-    /// towards the inside.
+    /// parameter; `r0` the residuals at θ): one allocation, not one per
+    /// row. A parameter at the edge of its admissible range (a gain at its
+    /// bound, where the model one step beyond cannot be simulated) takes
+    /// the one-sided difference towards the inside.
     fn jacobian(
         &self,
         prob: &Problem<'_>,
         th: &[f64],
         proj: &Proj,
-        m: usize,
+        r0: &Res,
         steps: &[f64],
     ) -> Option<Vec<f64>> {
         let p = th.len();
+        let m = r0.len();
         let mut jac = vec![0.0; 2 * m * p];
-        let mut r0: Option<Res> = None;
         for (j, &h) in steps.iter().enumerate() {
             let at = |d: f64| {
                 let mut t = th.to_vec();
@@ -395,19 +394,9 @@ impl Refinement {
             };
             let (rp, rm, span) = match (at(h), at(-h)) {
                 (Some(rp), Some(rm)) => (rp, rm, 2.0 * h),
-                (one_side, other_side) => {
-                    if r0.is_none() {
-                        let mut r = Res::new();
-                        prob.eval(th, Some(proj), Some(&mut r))?;
-                        r0 = Some(r).filter(|r| r.len() == m);
-                    }
-                    let c = r0.clone()?;
-                    match (one_side, other_side) {
-                        (Some(rp), None) => (rp, c, h),
-                        (None, Some(rm)) => (c, rm, h),
-                        _ => return None,
-                    }
-                }
+                (Some(rp), None) => (rp, r0.clone(), h),
+                (None, Some(rm)) => (r0.clone(), rm, h),
+                (None, None) => return None,
             };
             for i in 0..m {
                 jac[2 * i * p + j] = (rp[i].1 - rm[i].1) / span;

@@ -414,6 +414,12 @@ const MIN_DIRECTION_BREAKAWAYS: usize = 4;
 /// best of them by the cost starts the minimiser).
 const KAPPA_GRID: [f64; 6] = [3.0, 10.0, 30.0, 100.0, 300.0, 1000.0];
 
+/// The κ starts of the contact extension: the compliance screen's, or
+/// the grid where it did not fire.
+fn kappa_starts(screen: Option<f64>) -> Vec<f64> {
+    screen.map_or(KAPPA_GRID.to_vec(), |k| vec![k])
+}
+
 impl Refinement {
     /// Prepares the shooting segments and the nuisance averages of a log
     /// (`x0` is the drive channel as used, on the contact's time base).
@@ -975,10 +981,8 @@ impl Refinement {
             }
         }
         if h.kt_n_per_m.is_some() || !out.adequacy.adequate {
-            let kappas: Vec<f64> = match h.kt_n_per_m {
-                Some(kt) => vec![kt / self.rig.k2],
-                None => KAPPA_GRID.to_vec(),
-            };
+            let screen = h.kt_n_per_m.map(|kt| kt / self.rig.k2);
+            let kappas = kappa_starts(screen);
             let chosen = fits
                 .iter()
                 .position(|f| f.kind == out.chosen.law.kind && f.ext == out.chosen.ext);
@@ -997,7 +1001,7 @@ impl Refinement {
                     ..fits[i].ext
                 };
                 if shaped(&fits[i]) {
-                    let Some(kappas) = self.shaped_contact_kappas(fits, &kappas, out.n_eff) else {
+                    let Some(kappas) = self.shaped_contact_kappas(fits, screen, out.n_eff) else {
                         continue;
                     };
                     try_ext(i, ext, (&[], &kappas, &[]), fits, out);
@@ -1017,12 +1021,12 @@ impl Refinement {
     /// nothing: on a never-sticking Stribeck pad whose first pass failed
     /// for a channel lag, six κ starts on the numerical engine took 668 s
     /// of a 675-s fit, docs/real-pads.md); else the probe's κ and the
-    /// screen's (each minimised). Without a probe: `screen` (the screen's
-    /// κ or the grid).
+    /// compliance screen's `screen` where it fired (each minimised).
+    /// Without a probe: the screen's κ, or the grid.
     fn shaped_contact_kappas(
         &self,
         fits: &[Refined],
-        screen: &[f64],
+        screen: Option<f64>,
         n_eff: f64,
     ) -> Option<Vec<f64>> {
         let probe = fits
@@ -1030,7 +1034,7 @@ impl Refinement {
             .filter(|f| f.ext.contact && !f.kind.family().has_velocity_scale())
             .min_by(|a, b| a.cost.total_cmp(&b.cost));
         let Some(p) = probe else {
-            return Some(screen.to_vec());
+            return Some(kappa_starts(screen));
         };
         let rigid = fits.iter().find(|f| {
             f.kind == p.kind
@@ -1046,9 +1050,7 @@ impl Refinement {
         }
         let kappa = self.problem(&self.data, p.fam()).ext_values(&p.th).kappa?;
         let mut kappas = vec![kappa];
-        if screen.len() == 1 && screen[0] != kappa {
-            kappas.push(screen[0]);
-        }
+        kappas.extend(screen.filter(|&k| k != kappa));
         Some(kappas)
     }
 

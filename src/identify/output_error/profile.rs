@@ -56,7 +56,9 @@ impl Refinement {
             return None;
         }
         let (rs0, rd0) = (base.th[0], base.th[1]);
-        let mut step = Self::ext_steps(fam, &base.th);
+        // The minimiser's steps: all free (`free`), and with Rs held.
+        let free = Self::ext_steps(fam, &base.th);
+        let mut step = free.clone();
         step[0] = 0.0;
         // The calibration of the deviance, along ln κ (the last of θ).
         let base_proj = self.proj_of(fam, &base.proj_at)?;
@@ -149,7 +151,6 @@ impl Refinement {
                 let cal = self
                     .variances(fam, &top.2, &proj, u, inflation, &[])?
                     .var_cal[0];
-                let free = Self::ext_steps(fam, &base.th);
                 // The highest admitted threshold on `data` (infinite where
                 // the ladder never refuses; None where the base cannot be
                 // refitted).
