@@ -1281,6 +1281,86 @@ fn a_fit_at_the_edge_of_a_gain_range_still_gets_intervals() {
     assert_eq!(f["adequate"], false, "{label}");
 }
 
+/// Stribeck pads behind a contact spring (`scripts/stribeck_compliant_study.py`,
+/// s000 and s001: two rigs, sensors drawn as `scripts/adequacy_study.py`
+/// draws them, 124 µm and 39 µm of pre-sliding). Before session 32 the
+/// Stribeck family got a contact spring only where its rigid law had been
+/// chosen: s001's small drop (Rs 0.369 N over Rd 0.314 N) read as Coulomb +
+/// contact, κ 2.3 % low with an interval that missed; s000's as
+/// static/dynamic + contact, Rs 58 % high (inside a wide interval), κ 18 %
+/// low and Rd 1.3 % high, both missed. Now the Stribeck family with the chosen law's contact
+/// is refined where x2's residuals follow the velocity, from the
+/// static/dynamic + contact fit, each velocity-scale start minimised again
+/// until it stops falling (from the start at the true scale the first
+/// minimisation stopped 1.7 % in cost above a narrow peak with Rs +50 %).
+#[test]
+fn stribeck_pads_behind_a_contact_are_read_as_such() {
+    for (args, sensors, (rs, rd, kt, k2)) in [
+        (
+            "--m1-kg 5 --m2-kg 1 --k1-n-per-m 400 --k2-n-per-m 400 --d-n-s-per-m 0.1 \
+             --amplitude-m 0.0025 --frequency-hz 1.471260998300953 --normal-force 2.0 \
+             --rs-n 0.3692489287159804 --rd-n 0.3136437757959605 --law stribeck \
+             --stribeck-velocity-m-per-s 0.011778684091468719 \
+             --contact-stiffness-n-per-m 2989.3555414306124 --seed 701",
+            SENSORS_STRIBECK_S001,
+            (
+                0.3692489287159804,
+                0.3136437757959605,
+                2989.3555414306124,
+                400.0,
+            ),
+        ),
+        (
+            "--m1-kg 8.35 --m2-kg 2.0875 --k1-n-per-m 670 --k2-n-per-m 670 \
+             --d-n-s-per-m 0.11219458543084866 --amplitude-m 0.0025 \
+             --frequency-hz 1.805502038889993 --normal-force 2.0 --rs-n 0.9859327653273926 \
+             --rd-n 0.7226247545938849 --law stribeck \
+             --stribeck-velocity-m-per-s 0.005106886016104284 \
+             --contact-stiffness-n-per-m 25513.475626173822 --seed 700",
+            SENSORS_STRIBECK_S000,
+            (
+                0.9859327653273926,
+                0.7226247545938849,
+                25513.475626173822,
+                670.0,
+            ),
+        ),
+    ] {
+        let f = synth_with_sensors_and_fit(args, sensors);
+        let label = format!("{f:#}");
+        assert_eq!(f["law"], "stribeck", "{label}");
+        assert_eq!(f["adequate"], true, "{label}");
+        assert_covered(&f, rs, rd, kt / k2);
+    }
+}
+
+/// c003 of the compliant study (`scripts/compliant_study.py`: M1 3 kg, M2
+/// 1 kg, K1 200 N/m, K2 500 N/m; a static/dynamic pad, Rs 0.507 N, Rd
+/// 0.369 N, kt 20 278 N/m, 25 µm of pre-sliding; its sensors, with an
+/// accelerometer). x2's residuals under static/dynamic + contact follow the
+/// drive phase (z 6.8), so the Stribeck family behind the contact is tried
+/// ([`stribeck_pads_behind_a_contact_are_read_as_such`]); it wins the
+/// criterion with a hump 27 % below the true threshold (Rs 0.372 N, its
+/// interval missing the truth, Rd's too), but the accelerometer's force
+/// residual rises from 1.15 to 1.38 of its noise: the law stays
+/// static/dynamic + contact, every interval holding its truth.
+#[test]
+fn a_static_dynamic_pad_behind_a_contact_is_not_read_as_stribeck() {
+    let (rs, rd, kt) = (0.5074511777422439, 0.3690295985825405, 20278.15245341368);
+    let f = synth_with_sensors_and_fit(
+        "--m1-kg 3 --m2-kg 1 --k1-n-per-m 200 --k2-n-per-m 500 \
+         --d-n-s-per-m 0.08944271909999159 --amplitude-m 0.002 \
+         --frequency-hz 2.1089726154231485 --normal-force 2.0 --rs-n 0.5074511777422439 \
+         --rd-n 0.3690295985825405 --law static-dynamic \
+         --contact-stiffness-n-per-m 20278.15245341368 --seed 503",
+        SENSORS_C003,
+    );
+    let label = format!("{f:#}");
+    assert_eq!(f["law"], "static-dynamic", "{label}");
+    assert_eq!(f["adequate"], true, "{label}");
+    assert_covered(&f, rs, rd, kt / 500.0);
+}
+
 /// Rs's, Rd's and κ's intervals in the fit entry `f` hold the truths.
 fn assert_covered(f: &serde_json::Value, rs: f64, rd: f64, kappa: f64) {
     for (key, truth) in [
@@ -1762,3 +1842,271 @@ fn a_long_period_compliant_orbit_finds_the_levels() {
     assert!((k / kappa - 1.0).abs() < 0.05, "κ {k} for {kappa}");
     assert!(covers(f, "contact_stiffness_interval", kappa), "{label}");
 }
+
+/// The sensors of s000 in [`stribeck_pads_behind_a_contact_are_read_as_such`].
+const SENSORS_STRIBECK_S000: &str = r#"{
+"x0": {
+"rate_hz": 500.0,
+"noise": 6.7405994381864304e-06,
+"quant": 3e-07,
+"gain": 1.0013032306651055,
+"offset": 0.0019060714770151631,
+"lowpass_hz": null,
+"buffer_s": 0.05,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0014991850695386206
+},
+"x1": {
+"rate_hz": 500.0,
+"noise": 3.4258626795854373e-06,
+"quant": 0.0,
+"gain": 1.0039927563900257,
+"offset": 0.0015676929975395955,
+"lowpass_hz": 320.4286006730755,
+"buffer_s": 0.05,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.0,
+"p_dropout": 0.0002,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"x2": {
+"rate_hz": 500.0,
+"noise": 5.215782571024549e-06,
+"quant": 1e-06,
+"gain": 0.991708215490303,
+"offset": -0.0010828492448295163,
+"lowpass_hz": null,
+"buffer_s": 0.1,
+"start_offset_ns": null,
+"jitter_ns": 2000,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0002,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"v2": {
+"rate_hz": 1000.0,
+"noise": 0.0003806576994516911,
+"quant": 1e-05,
+"gain": 0.998340294665642,
+"offset": -5.9144476704242725e-05,
+"lowpass_hz": 294.05051884807995,
+"buffer_s": 0.1,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.0,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"a2": null,
+"normal_force": {
+"rate_hz": 10.0,
+"noise": 0.0,
+"quant": 0.01,
+"gain": 0.9976904786107338,
+"offset": -0.011938123763294674,
+"lowpass_hz": null,
+"buffer_s": 0.5,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+}
+}"#;
+
+/// The sensors of s001 in [`stribeck_pads_behind_a_contact_are_read_as_such`].
+const SENSORS_STRIBECK_S001: &str = r#"{
+"x0": {
+"rate_hz": 500.0,
+"noise": 3.0395031599136635e-06,
+"quant": 0.0,
+"gain": 0.995317506646564,
+"offset": -0.00099936084397913,
+"lowpass_hz": 125.69240362684067,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.01,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"x1": {
+"rate_hz": 500.0,
+"noise": 5.491117057017183e-06,
+"quant": 0.0,
+"gain": 1.0072723981351708,
+"offset": 0.0013036386191235118,
+"lowpass_hz": 381.7930762314019,
+"buffer_s": 0.05,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.0,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0017211687962014226
+},
+"x2": {
+"rate_hz": 500.0,
+"noise": 3.0728258060020484e-06,
+"quant": 0.0,
+"gain": 1.0041237223320787,
+"offset": 0.0017123373961402538,
+"lowpass_hz": null,
+"buffer_s": 0.05,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.0,
+"p_dropout": 0.0002,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.00020993716118595214
+},
+"v2": {
+"rate_hz": 1000.0,
+"noise": 0.0004073567430966261,
+"quant": 1e-05,
+"gain": 0.9913359528730491,
+"offset": 3.643766120959095e-05,
+"lowpass_hz": 171.5244941344901,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 2000,
+"p_lost_buffer": 0.01,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"a2": {
+"rate_hz": 2000.0,
+"noise": 0.02,
+"quant": 0.001,
+"gain": 0.9914533054233223,
+"offset": 0.0029051513183243824,
+"lowpass_hz": 250.0,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"normal_force": {
+"rate_hz": 10.0,
+"noise": 0.0,
+"quant": 0.01,
+"gain": 0.9957657861538656,
+"offset": -0.014793914015385639,
+"lowpass_hz": null,
+"buffer_s": 0.5,
+"start_offset_ns": null,
+"jitter_ns": 2000,
+"p_lost_buffer": 0.01,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+}
+}"#;
+
+/// The sensors of [`a_static_dynamic_pad_behind_a_contact_is_not_read_as_stribeck`].
+const SENSORS_C003: &str = r#"{
+"x0": {
+"rate_hz": 2000.0,
+"noise": 6.2018165181440545e-06,
+"quant": 3e-07,
+"gain": 1.004788409486398,
+"offset": -0.0002256314975755628,
+"lowpass_hz": null,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 10000,
+"p_lost_buffer": 0.01,
+"p_dropout": 0.0002,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"x1": {
+"rate_hz": 2000.0,
+"noise": 4.96800655497727e-06,
+"quant": 1e-06,
+"gain": 1.0081693444191455,
+"offset": -0.0011112164679521778,
+"lowpass_hz": 409.6111696240352,
+"buffer_s": 0.05,
+"start_offset_ns": null,
+"jitter_ns": 2000,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0002,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"x2": {
+"rate_hz": 2000.0,
+"noise": 7.287511330597457e-06,
+"quant": 0.0,
+"gain": 0.9909780213725167,
+"offset": 0.0015488625514658112,
+"lowpass_hz": 131.13682119747997,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 10000,
+"p_lost_buffer": 0.01,
+"p_dropout": 0.0002,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"v2": {
+"rate_hz": 500.0,
+"noise": 0.00032898312672413924,
+"quant": 1e-05,
+"gain": 1.0048912103778935,
+"offset": 1.9801069580162618e-05,
+"lowpass_hz": 236.61289031910303,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 10000,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"a2": {
+"rate_hz": 2000.0,
+"noise": 0.02,
+"quant": 0.001,
+"gain": 0.9902942409158443,
+"offset": 0.00803976341252965,
+"lowpass_hz": 250.0,
+"buffer_s": 0.2,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.01,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+},
+"normal_force": {
+"rate_hz": 10.0,
+"noise": 0.0,
+"quant": 0.01,
+"gain": 1.0021234932488283,
+"offset": 0.0009971869240070763,
+"lowpass_hz": null,
+"buffer_s": 0.5,
+"start_offset_ns": null,
+"jitter_ns": 0,
+"p_lost_buffer": 0.005,
+"p_dropout": 0.0,
+"dropout_burst_max": 4,
+"noise_correlation_s": 0.0
+}
+}"#;

@@ -410,6 +410,41 @@ pub struct PadHints {
 /// measured there (as sticks: four phases).
 const MIN_DIRECTION_BREAKAWAYS: usize = 4;
 
+/// Whether a shaped law behind a contact spring (`to`, chosen by the
+/// criterion over the law `from`) explains what it was tried for
+/// ([`Refinement::shaped_behind_contact`]): x2's largest significant
+/// structure against the velocity or the drive phase shrinks, and the
+/// accelerometer's force record, where the log has one (an independent
+/// measurement of the contact force), is explained no worse (its residual
+/// over its noise). On a static/dynamic pad behind a contact (the
+/// compliant study's c003) the Stribeck law took x2's structure (z 6.8 to
+/// below 3.7) with a hump 27 % below the true threshold, and the force
+/// record's residual rose from 1.15 to 1.38 of its noise (its structure
+/// against position from z 3.0 to 14.9); on the Stribeck pads with an
+/// accelerometer it fell (1.70 → 1.53, 2.79 → 1.42, 21.6 → 1.98).
+fn explains_drop(from: &OutputErrorFit, to: &OutputErrorFit) -> bool {
+    let x2 = |o: &OutputErrorFit| {
+        o.adequacy
+            .structure
+            .iter()
+            .filter(|s| s.channel == "x2" && s.follows_the_motion())
+            .map(|s| s.effect)
+            .fold(0.0, f64::max)
+    };
+    let force_no_worse = match (from.adequacy.force_ratio, to.adequacy.force_ratio) {
+        (Some(a), Some(b)) => b <= a,
+        _ => true,
+    };
+    x2(to) < x2(from) && force_no_worse
+}
+
+/// A minimiser's result: θ̂, its cost, the iterations and where its
+/// start-state projection was computed.
+type Minimum = (Vec<f64>, f64, u64, ProjAt);
+
+/// Times [`Refinement::minimise_restarted`] minimises an optimum again.
+const MAX_RESTARTS: usize = 3;
+
 /// Contact stiffnesses κ tried as starts where the screen gave none (the
 /// best of them by the cost starts the minimiser).
 const KAPPA_GRID: [f64; 6] = [3.0, 10.0, 30.0, 100.0, 300.0, 1000.0];
@@ -890,6 +925,9 @@ impl Refinement {
             }
         }
         self.real_pads(&mut fits, &mut out, forced, u, t0);
+        if forced.is_none() {
+            self.shaped_behind_contact(&mut fits, &mut out, u, t0);
+        }
         // A forced law with a velocity scale the log does not resolve (a
         // drop within one sample: a step to the data) is said to be one.
         if let Some(f) = forced
@@ -1011,6 +1049,148 @@ impl Refinement {
                 }
             }
         }
+    }
+
+    /// The rescue's rule applied again after the real-pad extensions: where
+    /// the chosen law has a contact spring and x2's residuals follow the
+    /// velocity or the drive phase ([`Structure::suggests_a_sharper_drop`]),
+    /// the pad may be a Stribeck pad behind a contact spring, which the
+    /// rigid rescue never reaches (its rigid law is a base of the contact
+    /// extension only where it was chosen). Each rescue family is then
+    /// refined with the chosen law's extensions, from its limit family's
+    /// fit with those extensions (static/dynamic + contact: its levels,
+    /// nuisance parameters and κ, with the family's nested velocity
+    /// scales, [`Self::minimise_restarted`]), and competes by the criterion
+    /// where it resolves its drop ([`Self::resolves_drop`]). The chosen
+    /// law itself may be any family: a small Stribeck drop behind a
+    /// contact reads as Coulomb + contact.
+    fn shaped_behind_contact(
+        &self,
+        fits: &mut Vec<Refined>,
+        out: &mut OutputErrorFit,
+        u: f64,
+        t0: std::time::Instant,
+    ) {
+        let follows = out
+            .adequacy
+            .structure
+            .iter()
+            .any(Structure::suggests_a_sharper_drop);
+        let ext = out.chosen.ext;
+        if !ext.contact || !follows {
+            return;
+        }
+        let va = self.data.a * self.rig.omega;
+        for &rescue in LawKind::all() {
+            let Selection::Rescue { limit } = rescue.family().selection() else {
+                continue;
+            };
+            let Some(base) = fits.iter().find(|f| f.kind == limit && f.ext == ext) else {
+                continue;
+            };
+            if fits.iter().any(|f| f.kind == rescue && f.ext == ext) {
+                continue;
+            }
+            let k = n_params(limit);
+            let (head, tail) = base.th.split_at(k + 3);
+            let optimum = |kd: LawKind| (kd == limit).then(|| head.to_vec());
+            let starts: Vec<Vec<f64>> = rescue
+                .family()
+                .oe_nested(&[], &optimum, va)
+                .into_iter()
+                .map(|t| [&t[..], tail].concat())
+                .collect();
+            let Some(first) = starts.first() else {
+                continue;
+            };
+            let fam = Fam { kind: rescue, ext };
+            let step = Self::ext_steps(fam, first);
+            let fail = |e: String| crate::warning::Warning::StribeckFailed { reason: e };
+            match self.minimise_restarted(fam, &starts, &step, out.n_eff) {
+                Ok((start, (th, cost, iterations, proj_at))) => {
+                    let f = Refined {
+                        kind: rescue,
+                        ext,
+                        th,
+                        cost,
+                        iterations,
+                        proj_at,
+                        start,
+                    };
+                    if !self.resolves_drop(&f) {
+                        continue;
+                    }
+                    fits.push(f);
+                    match self.conclude(fits, None, u, t0) {
+                        Ok(o) if o.chosen.law.kind == rescue && explains_drop(out, &o) => *out = o,
+                        // Not chosen, or not explaining the drop: the
+                        // conclusion stays as it was (the effective sample
+                        // size is taken over the fits, so an unchosen fit
+                        // would still move the intervals).
+                        Ok(_) => {
+                            fits.pop();
+                        }
+                        Err(e) => {
+                            fits.pop();
+                            out.notes.push(fail(e.to_string()));
+                        }
+                    }
+                }
+                Err(e) => out.notes.push(fail(e.to_string())),
+            }
+        }
+    }
+
+    /// [`Self::minimise`] from each of `starts` on its own, each optimum
+    /// minimised again from itself (a new start-state projection and
+    /// simplex) until the deviance n_eff·ln(cost) falls by less than one,
+    /// at most [`MAX_RESTARTS`] times; the lowest optimum kept (its
+    /// iterations the sum) with the start it came from. A shaped law behind a contact spring moves far
+    /// from its start (the static/dynamic law's threshold is not the
+    /// Stribeck peak), and two passes of the projection do not follow it:
+    /// on a Stribeck pad behind a contact the start at the true velocity
+    /// scale stopped at a cost 1.7 % above the narrow-peak optimum (Rs
+    /// +50 %) and ended, minimised again, 0.4 % below it at Rs −5 %
+    /// (docs/real-pads.md).
+    fn minimise_restarted(
+        &self,
+        fam: Fam,
+        starts: &[Vec<f64>],
+        step: &[f64],
+        n_eff: f64,
+    ) -> Result<(Vec<f64>, Minimum), RefineError> {
+        let mut best: Option<(&Vec<f64>, Minimum)> = None;
+        let mut iterations = 0;
+        let mut last_err = RefineError::StartNotSimulable;
+        for st in starts {
+            let mut r = match self.minimise(fam, std::slice::from_ref(st), step) {
+                Ok(r) => r,
+                Err(e) => {
+                    last_err = e;
+                    continue;
+                }
+            };
+            iterations += r.2;
+            for _ in 0..MAX_RESTARTS {
+                let Ok(again) = self.minimise(fam, std::slice::from_ref(&r.0), step) else {
+                    break;
+                };
+                iterations += again.2;
+                let gain = n_eff * (r.1 / again.1).ln();
+                if again.1 < r.1 {
+                    r = again;
+                }
+                if gain.is_nan() || gain < 1.0 {
+                    break;
+                }
+            }
+            if best.as_ref().is_none_or(|b| r.1 < b.1 .1) {
+                best = Some((st, r));
+            }
+        }
+        let (st, mut b) = best.ok_or(last_err)?;
+        b.2 = iterations;
+        Ok((st.clone(), b))
     }
 
     /// The contact stiffnesses the contact extension of a shaped law

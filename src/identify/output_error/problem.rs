@@ -181,6 +181,16 @@ impl Problem<'_> {
         }
         let v_s = law.vs_m_per_s.map(|vs| vs / (d.a * rig.omega));
         let ev = self.ext_values(th);
+        // A contact whose largest pre-sliding deflection Rs/kt is below
+        // 1 % of x2's noise is rigid to the data; on a shaped law (the
+        // numerical engine, whose steps follow the contact's ringing) it
+        // is refused: a minimisation that wandered to κ 1e8 took two
+        // minutes of a 20-s log's fit (docs/real-pads.md).
+        if let (Some(kappa), Some(_)) = (ev.kappa, law.vs_m_per_s) {
+            if law.rs_n.max(law.rd_n) / (kappa * rig.k2) < RIGID_CONTACT_NOISE * d.sig.1 {
+                return None;
+            }
+        }
         // The split: Rs± = Rs ± Δ/2 (a threshold below Rd is simulated at
         // Rd and penalised, as Rd > Rs is).
         let half = 0.5 * ev.split_n / fs;
@@ -542,6 +552,11 @@ pub(super) struct DelayFit {
 /// excess ρd − ρs of `Ctx`, dimensionless): the cost is Σr²·(1 + P) + P·n
 /// with P = PENALTY·excess.
 pub(super) const PENALTY: f64 = 1e3;
+
+/// A contact spring is rigid to the data where its largest pre-sliding
+/// deflection is below this fraction of x2's noise (refused on shaped
+/// laws, [`Problem::ctx`]).
+const RIGID_CONTACT_NOISE: f64 = 0.01;
 
 /// Change of a start component (dimensionless) for the projection's
 /// finite differences: small against the motion (ζ, ζ' ~ 1), large
