@@ -414,14 +414,18 @@ const MIN_DIRECTION_BREAKAWAYS: usize = 4;
 /// criterion over the law `from`) explains what it was tried for
 /// ([`Refinement::shaped_behind_contact`]): x2's largest significant
 /// structure against the velocity or the drive phase shrinks, and the
-/// accelerometer's force record, where the log has one (an independent
-/// measurement of the contact force), is explained no worse (its residual
-/// over its noise). On a static/dynamic pad behind a contact (the
-/// compliant study's c003) the Stribeck law took x2's structure (z 6.8 to
-/// below 3.7) with a hump 27 % below the true threshold, and the force
+/// accelerometer's force record (an independent measurement of the
+/// contact force) is explained no worse (its residual over its noise).
+/// On a static/dynamic pad behind a contact (the compliant study's c003,
+/// x2 behind a 131-Hz filter) the Stribeck law took x2's structure (z 6.8
+/// to below 3.7) with a hump 27 % below the true threshold, and the force
 /// record's residual rose from 1.15 to 1.38 of its noise (its structure
 /// against position from z 3.0 to 14.9); on the Stribeck pads with an
-/// accelerometer it fell (1.70 → 1.53, 2.79 → 1.42, 21.6 → 1.98).
+/// accelerometer it fell (1.70 → 1.53, 2.79 → 1.42, 21.6 → 1.98). A log
+/// without an accelerometer has only the positions, and they do not tell
+/// the two apart: c003 without its accelerometer read as a Stribeck pad,
+/// Rs 0.372 N [0.366, 0.378] for 0.507 (docs/real-pads.md); the law is
+/// then not replaced.
 fn explains_drop(from: &OutputErrorFit, to: &OutputErrorFit) -> bool {
     let x2 = |o: &OutputErrorFit| {
         o.adequacy
@@ -431,10 +435,10 @@ fn explains_drop(from: &OutputErrorFit, to: &OutputErrorFit) -> bool {
             .map(|s| s.effect)
             .fold(0.0, f64::max)
     };
-    let force_no_worse = match (from.adequacy.force_ratio, to.adequacy.force_ratio) {
-        (Some(a), Some(b)) => b <= a,
-        _ => true,
-    };
+    let force_no_worse = matches!(
+        (from.adequacy.force_ratio, to.adequacy.force_ratio),
+        (Some(a), Some(b)) if b <= a
+    );
     x2(to) < x2(from) && force_no_worse
 }
 
@@ -1060,8 +1064,10 @@ impl Refinement {
     /// refined with the chosen law's extensions, from its limit family's
     /// fit with those extensions (static/dynamic + contact: its levels,
     /// nuisance parameters and κ, with the family's nested velocity
-    /// scales, [`Self::minimise_restarted`]), and competes by the criterion
-    /// where it resolves its drop ([`Self::resolves_drop`]). The chosen
+    /// scales, [`Self::minimise_restarted`]), competes by the criterion
+    /// where it resolves its drop ([`Self::resolves_drop`]), and replaces
+    /// the chosen law only where it explains what it was tried for
+    /// ([`explains_drop`]: only on logs with an accelerometer). The chosen
     /// law itself may be any family: a small Stribeck drop behind a
     /// contact reads as Coulomb + contact.
     fn shaped_behind_contact(
@@ -1145,13 +1151,13 @@ impl Refinement {
     /// minimised again from itself (a new start-state projection and
     /// simplex) until the deviance n_eff·ln(cost) falls by less than one,
     /// at most [`MAX_RESTARTS`] times; the lowest optimum kept (its
-    /// iterations the sum) with the start it came from. A shaped law behind a contact spring moves far
-    /// from its start (the static/dynamic law's threshold is not the
-    /// Stribeck peak), and two passes of the projection do not follow it:
-    /// on a Stribeck pad behind a contact the start at the true velocity
-    /// scale stopped at a cost 1.7 % above the narrow-peak optimum (Rs
-    /// +50 %) and ended, minimised again, 0.4 % below it at Rs −5 %
-    /// (docs/real-pads.md).
+    /// iterations the sum) with the start it came from. A shaped law
+    /// behind a contact spring moves far from its start (the static/dynamic
+    /// law's threshold is not the Stribeck peak), and two passes of the
+    /// projection do not follow it: on a Stribeck pad behind a contact the
+    /// start at the true velocity scale stopped at a cost 1.7 % above the
+    /// narrow-peak optimum (Rs +50 %) and ended, minimised again, 0.4 %
+    /// below it at Rs −5 % (docs/real-pads.md).
     fn minimise_restarted(
         &self,
         fam: Fam,
