@@ -223,6 +223,16 @@ pub struct Adequacy {
     pub inflation: f64,
 }
 
+impl Adequacy {
+    /// Some structure test [`Structure::suggests_a_sharper_drop`]: the
+    /// rescue's rule (rigid, and again behind a contact spring).
+    pub fn suggests_a_sharper_drop(&self) -> bool {
+        self.structure
+            .iter()
+            .any(Structure::suggests_a_sharper_drop)
+    }
+}
+
 /// Binned-mean structure tests of the residuals `r` (noise units; NaN
 /// where not measured) of channel `name` against each key.
 pub(super) fn structure_of(

@@ -887,11 +887,7 @@ impl Refinement {
         // 0.006 noise units reached z 4 and the rescue, tried and
         // rejected, took 95 % of a 419-s fit. A drop too small to show
         // above the floor is the drop profile's case: `drop.rs`.)
-        let follows = out
-            .adequacy
-            .structure
-            .iter()
-            .any(Structure::suggests_a_sharper_drop);
+        let follows = out.adequacy.suggests_a_sharper_drop();
         for &rescue in LawKind::all() {
             let Selection::Rescue { limit } = rescue.family().selection() else {
                 continue;
@@ -1077,11 +1073,7 @@ impl Refinement {
         u: f64,
         t0: std::time::Instant,
     ) {
-        let follows = out
-            .adequacy
-            .structure
-            .iter()
-            .any(Structure::suggests_a_sharper_drop);
+        let follows = out.adequacy.suggests_a_sharper_drop();
         let ext = out.chosen.ext;
         if !ext.contact || !follows {
             return;
