@@ -839,54 +839,73 @@ fn refine(
         // (Fitted on every log the lags are not neutral: on a lag-free log
         // with a decreasing law the lagged search ended at a higher cost,
         // D* 1.3 % off.)
-        if let (Ok(o), true) = (&first, opts.lag_fallback && !opts.oe.position_delays) {
-            let signature = o.adequacy.structure.iter().any(|s| s.follows_the_motion());
-            if !o.adequacy.adequate || signature {
-                let oe = output_error::OeOptions {
-                    position_delays: true,
-                    ..opts.oe.clone()
-                };
-                // From the lag-free optima (nested: lags of zero are
-                // feasible, so the search starts where the lag-free one
-                // ended); the equation-error laws where a family has none.
-                let mut starts: Vec<SiLaw> = o.families.iter().map(|f| f.law).collect();
-                starts.extend(
-                    ef.candidates
-                        .iter()
-                        .filter(|c| !starts.iter().any(|s| s.kind == c.kind))
-                        .copied()
-                        .collect::<Vec<_>>(),
-                );
-                if let Ok(o2) = refine_with(&oe, &starts, o.chosen.bias_n) {
+        // A lag-free refinement that failed (a forced Stribeck law on a
+        // log whose x2 lags: the rigid fit's intervals not formed, and its
+        // contact extension collapsing to a step) is tried with the lags
+        // as an inadequate one is: kept where the lagged law is adequate.
+        let retry = match &first {
+            Ok(o) => {
+                !o.adequacy.adequate || o.adequacy.structure.iter().any(|s| s.follows_the_motion())
+            }
+            Err(_) => true,
+        };
+        if retry && opts.lag_fallback && !opts.oe.position_delays {
+            let oe = output_error::OeOptions {
+                position_delays: true,
+                ..opts.oe.clone()
+            };
+            // From the lag-free optima (nested: lags of zero are feasible,
+            // so the search starts where the lag-free one ended); the
+            // equation-error laws where a family has none.
+            let mut starts: Vec<SiLaw> = first
+                .as_ref()
+                .map_or(Vec::new(), |o| o.families.iter().map(|f| f.law).collect());
+            starts.extend(
+                ef.candidates
+                    .iter()
+                    .filter(|c| !starts.iter().any(|s| s.kind == c.kind))
+                    .copied()
+                    .collect::<Vec<_>>(),
+            );
+            let bias = first.as_ref().map_or(ef.bias_n, |o| o.chosen.bias_n);
+            if let Ok(o2) = refine_with(&oe, &starts, bias) {
+                // The BIC difference (n_eff·ln S + k·ln n_eff, two more
+                // parameters, the lag-free fit's n_eff) and whether the
+                // lags explain the signature they were fitted for: the
+                // largest significant structure against velocity or drive
+                // phase shrinks. An adequate law keeps lags only where
+                // both hold. (On slow-sliding logs without any delay a
+                // non-periodic x1 misfit — as strong against time as
+                // against velocity — was read as x1 lagging by −1.5 to
+                // −3 ms: BIC 15–61 lower, the structures as large or
+                // larger, Rd −3 to −5.5 % with intervals that missed.)
+                let against = first.as_ref().ok().map(|o| {
                     let n = o.n_eff.max(2.0);
                     let k = |f: &output_error::FamilyFit| f.law.kind.family().params().len() as f64;
                     let delta_bic = n * (o2.chosen.cost / o.chosen.cost).ln()
                         + (k(&o2.chosen) + 2.0 - k(&o.chosen)) * n.ln();
-                    // An adequate law keeps lags only where they explain
-                    // the signature they were fitted for: the largest
-                    // significant structure against velocity or drive
-                    // phase shrinks. (On slow-sliding logs without any
-                    // delay a non-periodic x1 misfit — as strong against
-                    // time as against velocity — was read as x1 lagging
-                    // by −1.5 to −3 ms: BIC 15–61 lower, the structures
-                    // as large or larger, Rd −3 to −5.5 % with intervals
-                    // that missed.)
                     let explains = output_error::motion_structure(&o2.adequacy.structure)
                         < output_error::motion_structure(&o.adequacy.structure);
-                    let keep = o2.adequacy.adequate
-                        && (!o.adequacy.adequate || (delta_bic < -LAG_EVIDENCE_BIC && explains));
-                    if keep {
-                        let (d1, d2) = o2.chosen.delays_s;
-                        let (i1, i2) = o2.chosen.delays_interval_s;
-                        warnings.push(Warning::PositionDelays {
-                            x1_s: d1,
-                            x1_interval_s: i1,
-                            x2_s: d2,
-                            x2_interval_s: i2,
-                            delta_bic: o.adequacy.adequate.then_some(-delta_bic),
-                        });
-                        first = Ok(o2);
-                    }
+                    (o.adequacy.adequate, delta_bic, explains)
+                });
+                let keep = o2.adequacy.adequate
+                    && match against {
+                        None | Some((false, ..)) => true,
+                        Some((true, delta_bic, explains)) => {
+                            delta_bic < -LAG_EVIDENCE_BIC && explains
+                        }
+                    };
+                if keep {
+                    let (d1, d2) = o2.chosen.delays_s;
+                    let (i1, i2) = o2.chosen.delays_interval_s;
+                    warnings.push(Warning::PositionDelays {
+                        x1_s: d1,
+                        x1_interval_s: i1,
+                        x2_s: d2,
+                        x2_interval_s: i2,
+                        delta_bic: against.filter(|a| a.0).map(|(_, delta_bic, _)| -delta_bic),
+                    });
+                    first = Ok(o2);
                 }
             }
         }

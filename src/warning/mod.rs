@@ -426,6 +426,31 @@ pub enum Warning {
         /// The widened interval's low end (N).
         low_n: f64,
     },
+    /// A Stribeck law behind the contact spring explains the positions
+    /// better than the chosen law, but the log has no accelerometer to
+    /// confirm it: a position sensor's filter leaves x2's residuals the
+    /// same structure a Stribeck drop removes, and the positions alone do
+    /// not tell the two apart. The chosen law is kept; its Rs, Rd (and ρ)
+    /// and κ intervals are widened to hold the Stribeck reading's.
+    StribeckUnconfirmed {
+        /// The Stribeck law's BIC minus the chosen law's (negative: the
+        /// criterion prefers it).
+        delta_bic: f64,
+        /// Its Rs (N) and interval.
+        rs_n: f64,
+        /// Its Rs interval (N).
+        rs_interval_n: Option<(f64, f64)>,
+        /// Its Rd (N).
+        rd_n: f64,
+        /// Its Rd interval (N).
+        rd_interval_n: Option<(f64, f64)>,
+        /// Its velocity scale v_s (m/s).
+        vs_m_per_s: Option<f64>,
+        /// Its contact stiffness κ = kt/K2.
+        kappa: Option<f64>,
+        /// Its κ interval.
+        kappa_interval: Option<(f64, f64)>,
+    },
     /// A forced law's velocity scale is below what the log resolves (its
     /// drop happens within one sample: a step to the data).
     VelocityScaleUnresolved {
@@ -795,7 +820,9 @@ impl Warning {
             ShortSticks { .. } => "short_sticks",
             BoundsContradict { .. } => "contradiction",
             LawChanged { .. } => "law_changed",
-            ThresholdNotIdentified { .. } | DropNotResolved { .. } => "threshold_not_identified",
+            ThresholdNotIdentified { .. } | DropNotResolved { .. } | StribeckUnconfirmed { .. } => {
+                "threshold_not_identified"
+            }
             VelocityScaleUnresolved { .. } => "velocity_scale_not_identified",
             NestedCoulomb { .. } => "parsimony",
             PadRefinementFailed { .. } => "refinement_failed",
@@ -1173,6 +1200,19 @@ mod tests {
                     "the {} law's velocity scale v_s = {:.2e} m/s is below what this log resolves (the slider gains {:.2e} m/s within one sample after breakaway): its drop is a step to the data, so v_s is not identified and the law acts as a step from Rs to Rd",
                     s.as_str(), 2e-15, 1.5e-4
                 ),
+            ),
+            (
+                StribeckUnconfirmed {
+                    delta_bic: -19.7,
+                    rs_n: 0.372,
+                    rs_interval_n: Some((0.366, 0.378)),
+                    rd_n: 0.353,
+                    rd_interval_n: Some((0.345, 0.361)),
+                    vs_m_per_s: Some(0.0021),
+                    kappa: Some(41.9),
+                    kappa_interval: Some((40.3, 43.5)),
+                },
+                "the positions are explained better by a Stribeck law behind the contact (ΔBIC -19.7: Rs 0.3720 N [0.3660, 0.3780], Rd 0.3530 N [0.3450, 0.3610], v_s 2.100 mm/s, κ 41.90 [40.30, 43.50]), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals are widened to hold both readings".to_string(),
             ),
             (
                 ThresholdNotIdentified { other: s, delta_bic: 3.25, other_rs_n: 1.5, interval_n: (1.2, 1.3) },
@@ -1584,7 +1624,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 82;
+    const VARIANTS: usize = 83;
 
     #[test]
     fn every_code_is_documented() {

@@ -49,6 +49,7 @@ impl fmt::Display for Warning {
             | LawChanged { .. }
             | ThresholdNotIdentified { .. }
             | DropNotResolved { .. }
+            | StribeckUnconfirmed { .. }
             | VelocityScaleUnresolved { .. }
             | NestedCoulomb { .. }
             | PadRefinementFailed { .. }
@@ -384,6 +385,30 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             "this log does not identify the breakaway threshold: the {} law explains it almost as well (ΔBIC {delta_bic:.1}) with Rs {other_rs_n:.4} N, outside the chosen law's interval [{lo:.4}, {hi:.4}] N; the Rs interval is widened to hold it",
             other.as_str()
         ),
+        StribeckUnconfirmed {
+            delta_bic,
+            rs_n,
+            rs_interval_n,
+            rd_n,
+            rd_interval_n,
+            vs_m_per_s,
+            kappa,
+            kappa_interval,
+        } => {
+            let iv = |i: &Option<(f64, f64)>, p: usize| {
+                i.map_or(String::new(), |(a, b)| format!(" [{a:.p$}, {b:.p$}]"))
+            };
+            let vs = vs_m_per_s.map_or(String::new(), |v| format!(", v_s {:.3} mm/s", v * 1e3));
+            let k = kappa.map_or(String::new(), |k| {
+                format!(", κ {k:.2}{}", iv(kappa_interval, 2))
+            });
+            write!(
+                f,
+                "the positions are explained better by a Stribeck law behind the contact (ΔBIC {delta_bic:.1}: Rs {rs_n:.4} N{}, Rd {rd_n:.4} N{}{vs}{k}), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals are widened to hold both readings",
+                iv(rs_interval_n, 4),
+                iv(rd_interval_n, 4)
+            )
+        }
         DropNotResolved {
             vs_m_per_s,
             vs_admitted_m_per_s,

@@ -115,6 +115,38 @@ pub struct PadFit {
     pub threshold_unresolved: bool,
 }
 
+/// Why a fit's intervals could not be formed (named in the warning when
+/// a refinement gives up for it).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum IntervalsFailure {
+    /// The law at its optimum cannot be simulated over the log.
+    #[error("the law at its optimum cannot be simulated over the log")]
+    OptimumNotSimulable,
+    /// Neither side of a parameter's difference step can be simulated.
+    #[error("the law cannot be simulated on either side of parameter {parameter}'s step")]
+    StepNotSimulable {
+        /// The parameter's index in θ.
+        parameter: usize,
+    },
+    /// The residuals do not depend on some combination of the parameters
+    /// (the information matrix is singular).
+    #[error("the residuals do not determine every parameter (singular information matrix)")]
+    Singular,
+    /// Too few shooting segments hold residuals for the cluster-robust
+    /// sandwich.
+    #[error("too few shooting segments ({used}) for {params} parameters")]
+    TooFewSegments {
+        /// Segments with residuals.
+        used: usize,
+        /// Parameters.
+        params: usize,
+    },
+    /// The log with a sensor's gain or a channel's alignment perturbed
+    /// cannot be simulated.
+    #[error("the law cannot be simulated with the calibration perturbed")]
+    CalibrationNotSimulable,
+}
+
 impl Refinement {
     /// Sandwich intervals over segments plus the calibration budget, the
     /// real-pad parameters' intervals, the gains' part of Rs's and Rd's
@@ -133,7 +165,7 @@ impl Refinement {
         rs_known: bool,
         inflation: f64,
         fixed: &[usize],
-    ) -> Option<(Intervals, PadFit, CalibrationPart, f64)> {
+    ) -> Result<(Intervals, PadFit, CalibrationPart, f64), IntervalsFailure> {
         let Variances {
             q0,
             var_stat,
@@ -172,7 +204,7 @@ impl Refinement {
             let c = 1.96 * var_cal[k].sqrt();
             (present && q0[k].is_finite() && c.is_finite()).then_some(c)
         };
-        Some((
+        Ok((
             Intervals {
                 rs_n: iv(0, rs_known),
                 rd_n: iv(1, true),
@@ -198,11 +230,12 @@ impl Refinement {
         u: f64,
         inflation: f64,
         fixed: &[usize],
-    ) -> Option<Variances> {
+    ) -> Result<Variances, IntervalsFailure> {
         let prob = self.problem(&self.data, fam);
         let p = th.len();
         let mut r0 = Res::new();
-        prob.eval(th, Some(proj), Some(&mut r0))?;
+        prob.eval(th, Some(proj), Some(&mut r0))
+            .ok_or(IntervalsFailure::OptimumNotSimulable)?;
         // The held columns out, and back as zero rows and columns.
         let free_ix: Vec<usize> = (0..p).filter(|j| !fixed.contains(j)).collect();
         let sandwich_at = |jac: &[f64]| {
@@ -216,7 +249,7 @@ impl Refinement {
                 }
                 out
             };
-            Some((expand(h), expand(c), t))
+            Ok((expand(h), expand(c), t))
         };
         let tangent = Self::tangent_steps(&prob, fam.kind, th);
         let jac = self.jacobian(&prob, th, proj, &r0, &tangent)?;
@@ -252,7 +285,7 @@ impl Refinement {
                 .collect();
             // A secant whose ends the engine cannot simulate (or whose
             // sandwich is singular) ends the check: the tangent stands.
-            let Some((jn, (hn, cn, _))) = self
+            let Ok((jn, (hn, cn, _))) = self
                 .jacobian(&prob, th, proj, &r0, &steps)
                 .and_then(|j| sandwich_at(&j).map(|s| (j, s)))
             else {
@@ -321,15 +354,16 @@ impl Refinement {
         let mut var_cal = [0.0f64; NQ];
         let mut var_align = [0.0f64; NQ];
         for (jac, hinv, _) in &lins {
-            let (c, a) =
-                self.calibration_variance(fam, th, proj, u, (&r0, jac, hinv), &quantities, &q0)?;
+            let (c, a) = self
+                .calibration_variance(fam, th, proj, u, (&r0, jac, hinv), &quantities, &q0)
+                .ok_or(IntervalsFailure::CalibrationNotSimulable)?;
             for k in 0..NQ {
                 var_cal[k] = var_cal[k].max(c[k]);
                 var_align[k] = var_align[k].max(a[k]);
             }
         }
         let (_, hinv, cov) = &lins[0];
-        Some(Variances {
+        Ok(Variances {
             q0,
             var_stat,
             var_cal,
@@ -379,7 +413,7 @@ impl Refinement {
         proj: &Proj,
         r0: &Res,
         steps: &[f64],
-    ) -> Option<Vec<f64>> {
+    ) -> Result<Vec<f64>, IntervalsFailure> {
         let p = th.len();
         let m = r0.len();
         let mut jac = vec![0.0; 2 * m * p];
@@ -396,14 +430,14 @@ impl Refinement {
                 (Some(rp), Some(rm)) => (rp, rm, 2.0 * h),
                 (Some(rp), None) => (rp, r0.clone(), h),
                 (None, Some(rm)) => (r0.clone(), rm, h),
-                (None, None) => return None,
+                (None, None) => return Err(IntervalsFailure::StepNotSimulable { parameter: j }),
             };
             for i in 0..m {
                 jac[2 * i * p + j] = (rp[i].1 - rm[i].1) / span;
                 jac[(2 * i + 1) * p + j] = (rp[i].2 - rm[i].2) / span;
             }
         }
-        Some(jac)
+        Ok(jac)
     }
 
     /// The sandwich over shooting segments for the Jacobian columns
@@ -419,7 +453,7 @@ impl Refinement {
         stride: usize,
         cols: &[usize],
         r0: &Res,
-    ) -> Option<(Vec<Vec<f64>>, Vec<Vec<f64>>, f64)> {
+    ) -> Result<(Vec<Vec<f64>>, Vec<Vec<f64>>, f64), IntervalsFailure> {
         let m = r0.len();
         let p = cols.len();
         // H = JᵀJ and the per-segment scores g_k = J_kᵀ r_k.
@@ -442,10 +476,12 @@ impl Refinement {
                 }
             }
         }
-        let hinv = inverse(&hm).or_else(|| inverse_equilibrated(&hm))?;
+        let hinv = inverse(&hm)
+            .or_else(|| inverse_equilibrated(&hm))
+            .ok_or(IntervalsFailure::Singular)?;
         let used = g.iter().filter(|v| v.iter().any(|x| *x != 0.0)).count();
         if used <= p + 1 {
-            return None;
+            return Err(IntervalsFailure::TooFewSegments { used, params: p });
         }
         let mut meat = vec![vec![0.0; p]; p];
         for gk in &g {
@@ -458,7 +494,7 @@ impl Refinement {
         let corr = used as f64 / (used - p) as f64;
         let t975 = student_t975((used - p) as f64);
         let cov = crate::stats::regress::sandwich(&hinv, &meat, corr);
-        Some((hinv, cov, t975))
+        Ok((hinv, cov, t975))
     }
 
     /// Calibration: linear response of the reported quantities to each

@@ -130,7 +130,7 @@ use anchors::{m1_sums, shooting_segments, slip_anchors, stick_anchors};
 use data::*;
 pub use drop::{DropProfile, THRESHOLD_EVIDENCE_BIC};
 pub use intervals::PadFit;
-use intervals::{CalibrationPart, MAX_SECANT_RATIO};
+use intervals::{CalibrationPart, IntervalsFailure, MAX_SECANT_RATIO};
 pub use lm::Minimiser;
 pub use problem::Ext;
 use problem::*;
@@ -138,7 +138,7 @@ use problem::*;
 use super::contact::{Contact, Gains};
 use super::segment::Segmentation;
 use super::smooth::{savgol, solve_small};
-use super::Intervals;
+use super::{Interval, Intervals};
 use crate::ingest::RigMeta;
 use crate::model::{Absorber, Drive, Model};
 use crate::model::{LawKind, Selection, SiLaw};
@@ -182,9 +182,9 @@ pub enum RefineError {
     /// No family could be refined.
     #[error("no family to refine")]
     NoFamily,
-    /// Too few segments left for the cluster-robust intervals.
-    #[error("too few shooting segments for intervals")]
-    TooFewSegmentsForIntervals,
+    /// The chosen fit's intervals could not be formed.
+    #[error("no intervals: {0}")]
+    Intervals(#[from] IntervalsFailure),
     /// The residuals do not line up with the samples compared.
     #[error("residual bookkeeping failed")]
     Bookkeeping,
@@ -410,23 +410,35 @@ pub struct PadHints {
 /// measured there (as sticks: four phases).
 const MIN_DIRECTION_BREAKAWAYS: usize = 4;
 
-/// Whether a shaped law behind a contact spring (`to`, chosen by the
-/// criterion over the law `from`) explains what it was tried for
-/// ([`Refinement::shaped_behind_contact`]): x2's largest significant
-/// structure against the velocity or the drive phase shrinks, and the
-/// accelerometer's force record (an independent measurement of the
-/// contact force) is explained no worse (its residual over its noise).
-/// On a static/dynamic pad behind a contact (the compliant study's c003,
-/// x2 behind a 131-Hz filter) the Stribeck law took x2's structure (z 6.8
-/// to below 3.7) with a hump 27 % below the true threshold, and the force
-/// record's residual rose from 1.15 to 1.38 of its noise (its structure
-/// against position from z 3.0 to 14.9); on the Stribeck pads with an
-/// accelerometer it fell (1.70 → 1.53, 2.79 → 1.42, 21.6 → 1.98). A log
-/// without an accelerometer has only the positions, and they do not tell
-/// the two apart: c003 without its accelerometer read as a Stribeck pad,
-/// Rs 0.372 N [0.366, 0.378] for 0.507 (docs/real-pads.md); the law is
-/// then not replaced.
-fn explains_drop(from: &OutputErrorFit, to: &OutputErrorFit) -> bool {
+/// What a shaped law behind a contact spring (`to`, chosen by the
+/// criterion over the law `from`) explains of what it was tried for
+/// ([`Refinement::shaped_behind_contact`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum DropVerdict {
+    /// x2's largest significant structure against the velocity or the
+    /// drive phase does not shrink: the shaped law took something else.
+    Unexplained,
+    /// It shrinks, and the accelerometer's force record (an independent
+    /// measurement of the contact force) is explained no worse (its
+    /// residual over its noise).
+    Confirmed,
+    /// It shrinks, and the force record is explained worse.
+    Refuted,
+    /// It shrinks, and the log has no accelerometer: the positions alone
+    /// do not tell the shaped law from a position sensor's filter.
+    Unconfirmed,
+}
+
+/// The [`DropVerdict`] of `to` over `from`. On a static/dynamic pad
+/// behind a contact (the compliant study's c003, x2 behind a 131-Hz
+/// filter) the Stribeck law took x2's structure (z 6.8 to below 3.7) with
+/// a hump 27 % below the true threshold, and the force record's residual
+/// rose from 1.15 to 1.38 of its noise (its structure against position
+/// from z 3.0 to 14.9); on the Stribeck pads with an accelerometer it
+/// fell (1.70 → 1.53, 2.79 → 1.42, 21.6 → 1.98). Without its
+/// accelerometer c003 read as a Stribeck pad, Rs 0.372 N [0.366, 0.378]
+/// for 0.507 (docs/real-pads.md).
+fn drop_verdict(from: &OutputErrorFit, to: &OutputErrorFit) -> DropVerdict {
     let x2 = |o: &OutputErrorFit| {
         o.adequacy
             .structure
@@ -435,11 +447,58 @@ fn explains_drop(from: &OutputErrorFit, to: &OutputErrorFit) -> bool {
             .map(|s| s.effect)
             .fold(0.0, f64::max)
     };
-    let force_no_worse = matches!(
-        (from.adequacy.force_ratio, to.adequacy.force_ratio),
-        (Some(a), Some(b)) if b <= a
+    if x2(to) >= x2(from) {
+        return DropVerdict::Unexplained;
+    }
+    match (from.adequacy.force_ratio, to.adequacy.force_ratio) {
+        (Some(a), Some(b)) if b <= a => DropVerdict::Confirmed,
+        (Some(_), Some(_)) => DropVerdict::Refuted,
+        _ => DropVerdict::Unconfirmed,
+    }
+}
+
+/// Where the positions prefer a shaped law behind the contact (`other`)
+/// that no accelerometer confirms ([`DropVerdict::Unconfirmed`]): the
+/// chosen law `out` is kept, its Rs, Rd, ρs, ρd and κ intervals widened
+/// to the union with `other`'s, with a warning giving both readings.
+fn hold_both_readings(out: &mut OutputErrorFit, other: &OutputErrorFit) {
+    let union = |a: Option<Interval>, b: Option<Interval>| match (a, b) {
+        (Some((l, h)), Some((c, d))) => Some((l.min(c), h.max(d))),
+        (a, _) => a,
+    };
+    let delta_bic = {
+        let bic = |kind: LawKind| {
+            other
+                .families
+                .iter()
+                .find(|f| f.law.kind == kind && f.ext == out.chosen.ext)
+                .map(|f| f.bic)
+        };
+        match (bic(other.chosen.law.kind), bic(out.chosen.law.kind)) {
+            (Some(a), Some(b)) => a - b,
+            _ => other.chosen.bic - out.chosen.bic,
+        }
+    };
+    out.notes
+        .push(crate::warning::Warning::StribeckUnconfirmed {
+            delta_bic,
+            rs_n: other.law.rs_n,
+            rs_interval_n: other.intervals.rs_n,
+            rd_n: other.law.rd_n,
+            rd_interval_n: other.intervals.rd_n,
+            vs_m_per_s: other.law.vs_m_per_s,
+            kappa: other.pads.contact_stiffness,
+            kappa_interval: other.pads.contact_stiffness_interval,
+        });
+    let (o, iv) = (&other.intervals, &mut out.intervals);
+    iv.rs_n = union(iv.rs_n, o.rs_n);
+    iv.rd_n = union(iv.rd_n, o.rd_n);
+    iv.rho_s = union(iv.rho_s, o.rho_s);
+    iv.rho_d = union(iv.rho_d, o.rho_d);
+    out.pads.contact_stiffness_interval = union(
+        out.pads.contact_stiffness_interval,
+        other.pads.contact_stiffness_interval,
     );
-    x2(to) < x2(from) && force_no_worse
 }
 
 /// A minimiser's result: θ̂, its cost, the iterations and where its
@@ -873,7 +932,34 @@ impl Refinement {
         if fits.is_empty() {
             return Err(last_err);
         }
-        let mut out = self.conclude(&fits, forced, u, t0)?;
+        let mut concluded = self.conclude(&fits, forced, u, t0);
+        if let Some(k) = forced.filter(|k| k.family().has_velocity_scale()) {
+            let wants = match &concluded {
+                Ok(o) => self.hints.kt_n_per_m.is_some() || !o.adequacy.adequate,
+                Err(_) => true,
+            };
+            if wants {
+                let n = fits.len();
+                let tried = self.forced_behind_contact(k, &mut fits, (starts, bias));
+                if fits.len() > n {
+                    match self.conclude(&fits, forced, u, t0) {
+                        Ok(o) => concluded = Ok(o),
+                        Err(e) => {
+                            fits.truncate(n);
+                            if concluded.is_err() {
+                                concluded = Err(e);
+                            }
+                        }
+                    }
+                }
+                if let (Ok(o), Err(e)) = (&mut concluded, tried) {
+                    o.notes.push(crate::warning::Warning::PadRefinementFailed {
+                        reason: e.to_string(),
+                    });
+                }
+            }
+        }
+        let mut out = concluded?;
         // A Stribeck pad: none of the simple families explains the log, or
         // the static/dynamic law (the Stribeck family's limit v_s → 0)
         // does, but x2's residuals follow the velocity or the drive phase
@@ -1034,6 +1120,11 @@ impl Refinement {
             let shaped = |f: &Refined| f.kind.family().has_velocity_scale();
             bases.sort_by_key(|&i| shaped(&fits[i]));
             for i in bases {
+                // (A forced shaped law's contact fit is already refined:
+                // `Self::forced_behind_contact`.)
+                if fits[i].ext.contact {
+                    continue;
+                }
                 let ext = Ext {
                     contact: true,
                     ..fits[i].ext
@@ -1062,8 +1153,10 @@ impl Refinement {
     /// nuisance parameters and κ, with the family's nested velocity
     /// scales, [`Self::minimise_restarted`]), competes by the criterion
     /// where it resolves its drop ([`Self::resolves_drop`]), and replaces
-    /// the chosen law only where it explains what it was tried for
-    /// ([`explains_drop`]: only on logs with an accelerometer). The chosen
+    /// the chosen law only where it explains what it was tried for and the
+    /// accelerometer confirms it ([`drop_verdict`]); without an
+    /// accelerometer the chosen law is kept with intervals that hold both
+    /// readings ([`hold_both_readings`]). The chosen
     /// law itself may be any family: a small Stribeck drop behind a
     /// contact reads as Coulomb + contact.
     fn shaped_behind_contact(
@@ -1078,7 +1171,6 @@ impl Refinement {
         if !ext.contact || !follows {
             return;
         }
-        let va = self.data.a * self.rig.omega;
         for &rescue in LawKind::all() {
             let Selection::Rescue { limit } = rescue.family().selection() else {
                 continue;
@@ -1089,42 +1181,24 @@ impl Refinement {
             if fits.iter().any(|f| f.kind == rescue && f.ext == ext) {
                 continue;
             }
-            let k = n_params(limit);
-            let (head, tail) = base.th.split_at(k + 3);
-            let optimum = |kd: LawKind| (kd == limit).then(|| head.to_vec());
-            let starts: Vec<Vec<f64>> = rescue
-                .family()
-                .oe_nested(&[], &optimum, va)
-                .into_iter()
-                .map(|t| [&t[..], tail].concat())
-                .collect();
-            let Some(first) = starts.first() else {
-                continue;
-            };
-            let fam = Fam { kind: rescue, ext };
-            let step = Self::ext_steps(fam, first);
             let fail = |e: String| crate::warning::Warning::StribeckFailed { reason: e };
-            match self.minimise_restarted(fam, &starts, &step, out.n_eff) {
-                Ok((start, (th, cost, iterations, proj_at))) => {
-                    let f = Refined {
-                        kind: rescue,
-                        ext,
-                        th,
-                        cost,
-                        iterations,
-                        proj_at,
-                        start,
-                    };
-                    if !self.resolves_drop(&f) {
-                        continue;
-                    }
+            match self.shaped_from(rescue, base, out.n_eff) {
+                Ok(Some(f)) => {
                     fits.push(f);
                     match self.conclude(fits, None, u, t0) {
-                        Ok(o) if o.chosen.law.kind == rescue && explains_drop(out, &o) => *out = o,
-                        // Not chosen, or not explaining the drop: the
-                        // conclusion stays as it was (the effective sample
-                        // size is taken over the fits, so an unchosen fit
-                        // would still move the intervals).
+                        Ok(o) if o.chosen.law.kind == rescue => match drop_verdict(out, &o) {
+                            DropVerdict::Confirmed => *out = o,
+                            DropVerdict::Unconfirmed => {
+                                fits.pop();
+                                hold_both_readings(out, &o);
+                            }
+                            DropVerdict::Unexplained | DropVerdict::Refuted => {
+                                fits.pop();
+                            }
+                        },
+                        // Not chosen: the conclusion stays as it was (the
+                        // effective sample size is taken over the fits, so
+                        // an unchosen fit would still move the intervals).
                         Ok(_) => {
                             fits.pop();
                         }
@@ -1134,9 +1208,100 @@ impl Refinement {
                         }
                     }
                 }
+                Ok(None) => {}
                 Err(e) => out.notes.push(fail(e.to_string())),
             }
         }
+    }
+
+    /// The shaped family `shaped` refined with `base`'s extensions from
+    /// `base`, a fit of its limit family (static/dynamic + contact: its
+    /// levels, nuisance parameters and κ, with the family's nested
+    /// velocity scales, [`Self::minimise_restarted`] with the effective
+    /// sample size `n_eff`). `Ok(None)`: no start, or the optimum does not
+    /// resolve its drop ([`Self::resolves_drop`]).
+    fn shaped_from(
+        &self,
+        shaped: LawKind,
+        base: &Refined,
+        n_eff: f64,
+    ) -> Result<Option<Refined>, RefineError> {
+        let va = self.data.a * self.rig.omega;
+        let (limit, ext) = (base.kind, base.ext);
+        let (head, tail) = base.th.split_at(n_params(limit) + 3);
+        let optimum = |kd: LawKind| (kd == limit).then(|| head.to_vec());
+        let starts: Vec<Vec<f64>> = shaped
+            .family()
+            .oe_nested(&[], &optimum, va)
+            .into_iter()
+            .map(|t| [&t[..], tail].concat())
+            .collect();
+        let Some(first) = starts.first() else {
+            return Ok(None);
+        };
+        let fam = Fam { kind: shaped, ext };
+        let step = Self::ext_steps(fam, first);
+        let (start, (th, cost, iterations, proj_at)) =
+            self.minimise_restarted(fam, &starts, &step, n_eff)?;
+        let f = Refined {
+            kind: shaped,
+            ext,
+            th,
+            cost,
+            iterations,
+            proj_at,
+            start,
+        };
+        Ok(self.resolves_drop(&f).then_some(f))
+    }
+
+    /// A forced shaped law (`fit --law stribeck`) behind a contact spring:
+    /// its rigid fit alone cannot follow a pad that deflects before it
+    /// slides (a Stribeck pad behind a contact: intervals not formed, the
+    /// whole refinement given up). Where the compliance screen fired, the
+    /// rigid fit is not adequate, or its conclusion failed, the family is
+    /// refined with a contact spring as `--law auto` reaches it: the limit
+    /// family's rigid fit, its contact extension (the screen's κ or the
+    /// grid), and the shaped family from that ([`Self::shaped_from`]).
+    /// The fit joins `fits` (the forced family's fits, which compete by
+    /// the criterion); the simple families' fits are helpers only.
+    fn forced_behind_contact(
+        &self,
+        shaped: LawKind,
+        fits: &mut Vec<Refined>,
+        (starts, bias): (&[SiLaw], f64),
+    ) -> Result<(), RefineError> {
+        let Selection::Rescue { limit } = shaped.family().selection() else {
+            return Ok(());
+        };
+        let contact = Ext {
+            split: false,
+            contact: true,
+        };
+        if fits.iter().any(|f| f.kind == shaped && f.ext == contact) {
+            return Ok(());
+        }
+        // The simple families as helpers (the limit family may have no
+        // equation-error start: it starts from their optima).
+        let mut helpers: Vec<Refined> = Vec::new();
+        for &kind in LawKind::all() {
+            if kind.family().selection() == Selection::Simple {
+                if let Some(f) = self.refine(kind, starts, bias, &helpers)? {
+                    helpers.push(f);
+                }
+            }
+        }
+        let rigid = helpers
+            .iter()
+            .find(|f| f.kind == limit)
+            .ok_or(RefineError::NoFamily)?;
+        let kappas = kappa_starts(self.hints.kt_n_per_m.map(|kt| kt / self.rig.k2));
+        let base = self.refine_ext(rigid, contact, &[], &kappas, &[])?;
+        let (_, n_eff) = self.effective_samples(std::slice::from_ref(&base))?;
+        if let Some(f) = self.shaped_from(shaped, &base, n_eff)? {
+            fits.push(f);
+        }
+        Ok(())
     }
 
     /// [`Self::minimise`] from each of `starts` on its own, each optimum

@@ -62,7 +62,9 @@ impl Refinement {
         step[0] = 0.0;
         // The calibration of the deviance, along ln κ (the last of θ).
         let base_proj = self.proj_of(fam, &base.proj_at)?;
-        let v = self.variances(fam, &base.th, &base_proj, u, inflation, &[0])?;
+        let v = self
+            .variances(fam, &base.th, &base_proj, u, inflation, &[0])
+            .ok()?;
         let k = base.th.len() - 1;
         let scale = v.naive_stat[k] / v.stat[k];
         if !(scale.is_finite() && scale > 0.0) {
@@ -149,7 +151,8 @@ impl Refinement {
                     None => self.proj_of(fam, &base.proj_at)?,
                 };
                 let cal = self
-                    .variances(fam, &top.2, &proj, u, inflation, &[])?
+                    .variances(fam, &top.2, &proj, u, inflation, &[])
+                    .ok()?
                     .var_cal[0];
                 // The highest admitted threshold on `data` (infinite where
                 // the ladder never refuses; None where the base cannot be
@@ -193,8 +196,7 @@ impl Refinement {
             let Some(proj) = self.proj_of(fam, proj.as_ref().unwrap_or(&base.proj_at)) else {
                 continue;
             };
-            let Some((_, pads, ..)) = self.intervals(fam, th, &proj, u, true, inflation, &[0])
-            else {
+            let Ok((_, pads, ..)) = self.intervals(fam, th, &proj, u, true, inflation, &[0]) else {
                 continue;
             };
             if let Some((a, b)) = pads.contact_stiffness_interval {

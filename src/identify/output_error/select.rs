@@ -8,7 +8,7 @@ impl Refinement {
     /// The number of residual samples per channel and the effective number
     /// of independent ones (n over the correlation time of the residuals of
     /// the richest fit) for the criterion.
-    fn effective_samples(&self, fits: &[Refined]) -> Result<(usize, f64), RefineError> {
+    pub(super) fn effective_samples(&self, fits: &[Refined]) -> Result<(usize, f64), RefineError> {
         // The criterion: n_eff from the residuals of the richest fit.
         let richest = fits
             .iter()
@@ -192,17 +192,15 @@ impl Refinement {
             let f = &fits[i];
             let proj = self.proj(f)?;
             let adequacy = self.adequacy(f.fam(), &f.th, &proj)?;
-            let (intervals, pads, cal, secants) = self
-                .intervals(
-                    f.fam(),
-                    &f.th,
-                    &proj,
-                    u,
-                    sticks_of(&families[i]),
-                    adequacy.inflation,
-                    &[],
-                )
-                .ok_or(RefineError::TooFewSegmentsForIntervals)?;
+            let (intervals, pads, cal, secants) = self.intervals(
+                f.fam(),
+                &f.th,
+                &proj,
+                u,
+                sticks_of(&families[i]),
+                adequacy.inflation,
+                &[],
+            )?;
             Ok((adequacy, intervals, pads, cal, secants))
         };
         let (mut adequacy, mut intervals, mut pads, mut calibration, mut secant_ratio) =
