@@ -450,6 +450,10 @@ pub enum Warning {
         kappa: Option<f64>,
         /// Its κ interval.
         kappa_interval: Option<(f64, f64)>,
+        /// The chosen law's own Rs interval before widening (N).
+        own_rs_interval_n: Option<(f64, f64)>,
+        /// The chosen law's own κ interval before widening.
+        own_kappa_interval: Option<(f64, f64)>,
     },
     /// A forced law's velocity scale is below what the log resolves (its
     /// drop happens within one sample: a step to the data).
@@ -1211,8 +1215,10 @@ mod tests {
                     vs_m_per_s: Some(0.0021),
                     kappa: Some(41.9),
                     kappa_interval: Some((40.3, 43.5)),
+                    own_rs_interval_n: Some((0.49, 0.53)),
+                    own_kappa_interval: Some((40.3, 42.0)),
                 },
-                "the positions are explained better by a Stribeck law behind the contact (ΔBIC -19.7: Rs 0.3720 N [0.3660, 0.3780], Rd 0.3530 N [0.3450, 0.3610], v_s 2.100 mm/s, κ 41.90 [40.30, 43.50]), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals are widened to hold both readings".to_string(),
+                "the positions are explained better by a Stribeck law behind the contact (ΔBIC -19.7: Rs 0.3720 N [0.3660, 0.3780], Rd 0.3530 N [0.3450, 0.3610], v_s 2.100 mm/s, κ 41.90 [40.30, 43.50]), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals (its own: Rs [0.4900, 0.5300] N, κ [40.30, 42.00]) are widened to hold both readings".to_string(),
             ),
             (
                 ThresholdNotIdentified { other: s, delta_bic: 3.25, other_rs_n: 1.5, interval_n: (1.2, 1.3) },

@@ -394,9 +394,24 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             vs_m_per_s,
             kappa,
             kappa_interval,
+            own_rs_interval_n,
+            own_kappa_interval,
         } => {
             let iv = |i: &Option<(f64, f64)>, p: usize| {
                 i.map_or(String::new(), |(a, b)| format!(" [{a:.p$}, {b:.p$}]"))
+            };
+            let own = [
+                own_rs_interval_n.map(|_| format!("Rs{} N", iv(own_rs_interval_n, 4))),
+                own_kappa_interval.map(|_| format!("κ{}", iv(own_kappa_interval, 2))),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>()
+            .join(", ");
+            let own = if own.is_empty() {
+                own
+            } else {
+                format!(" (its own: {own})")
             };
             let vs = vs_m_per_s.map_or(String::new(), |v| format!(", v_s {:.3} mm/s", v * 1e3));
             let k = kappa.map_or(String::new(), |k| {
@@ -404,7 +419,7 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             });
             write!(
                 f,
-                "the positions are explained better by a Stribeck law behind the contact (ΔBIC {delta_bic:.1}: Rs {rs_n:.4} N{}, Rd {rd_n:.4} N{}{vs}{k}), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals are widened to hold both readings",
+                "the positions are explained better by a Stribeck law behind the contact (ΔBIC {delta_bic:.1}: Rs {rs_n:.4} N{}, Rd {rd_n:.4} N{}{vs}{k}), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals{own} are widened to hold both readings",
                 iv(rs_interval_n, 4),
                 iv(rd_interval_n, 4)
             )

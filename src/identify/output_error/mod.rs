@@ -489,6 +489,8 @@ fn hold_both_readings(out: &mut OutputErrorFit, other: &OutputErrorFit) {
             vs_m_per_s: other.law.vs_m_per_s,
             kappa: other.pads.contact_stiffness,
             kappa_interval: other.pads.contact_stiffness_interval,
+            own_rs_interval_n: out.intervals.rs_n,
+            own_kappa_interval: out.pads.contact_stiffness_interval,
         });
     let (o, iv) = (&other.intervals, &mut out.intervals);
     iv.rs_n = union(iv.rs_n, o.rs_n);
