@@ -917,14 +917,7 @@ impl Refinement {
         // families it nests; those are refined for that only and do not
         // compete.
         if let (Some(k), true) = (forced, fits.is_empty()) {
-            let mut helpers: Vec<Refined> = Vec::new();
-            for &kind in LawKind::all() {
-                if kind != k && kind.family().selection() == Selection::Simple {
-                    if let Ok(Some(f)) = self.refine(kind, starts, bias, &helpers) {
-                        helpers.push(f);
-                    }
-                }
-            }
+            let helpers = self.simple_helpers(starts, bias, k);
             match self.refine(k, starts, bias, &helpers) {
                 Ok(Some(f)) => fits.push(f),
                 Ok(None) => {}
@@ -1122,15 +1115,15 @@ impl Refinement {
             let shaped = |f: &Refined| f.kind.family().has_velocity_scale();
             bases.sort_by_key(|&i| shaped(&fits[i]));
             for i in bases {
-                // (A forced shaped law's contact fit is already refined:
-                // `Self::forced_behind_contact`.)
-                if fits[i].ext.contact {
-                    continue;
-                }
                 let ext = Ext {
                     contact: true,
                     ..fits[i].ext
                 };
+                // (A forced shaped law's contact fit may be refined
+                // already: `Self::forced_behind_contact`.)
+                if fits.iter().any(|f| f.kind == fits[i].kind && f.ext == ext) {
+                    continue;
+                }
                 if shaped(&fits[i]) {
                     let Some(kappas) = self.shaped_contact_kappas(fits, screen, out.n_eff) else {
                         continue;
@@ -1285,14 +1278,7 @@ impl Refinement {
         }
         // The simple families as helpers (the limit family may have no
         // equation-error start: it starts from their optima).
-        let mut helpers: Vec<Refined> = Vec::new();
-        for &kind in LawKind::all() {
-            if kind.family().selection() == Selection::Simple {
-                if let Some(f) = self.refine(kind, starts, bias, &helpers)? {
-                    helpers.push(f);
-                }
-            }
-        }
+        let helpers = self.simple_helpers(starts, bias, shaped);
         let rigid = helpers
             .iter()
             .find(|f| f.kind == limit)
@@ -1304,6 +1290,21 @@ impl Refinement {
             fits.push(f);
         }
         Ok(())
+    }
+
+    /// The simple families other than `except`, each refined from its
+    /// equation-error law in `starts` or the optima of those before it
+    /// (helpers for a forced family's starts; they do not compete).
+    fn simple_helpers(&self, starts: &[SiLaw], bias: f64, except: LawKind) -> Vec<Refined> {
+        let mut helpers: Vec<Refined> = Vec::new();
+        for &kind in LawKind::all() {
+            if kind != except && kind.family().selection() == Selection::Simple {
+                if let Ok(Some(f)) = self.refine(kind, starts, bias, &helpers) {
+                    helpers.push(f);
+                }
+            }
+        }
+        helpers
     }
 
     /// [`Self::minimise`] from each of `starts` on its own, each optimum
