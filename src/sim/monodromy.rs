@@ -28,6 +28,23 @@
 //! e^{A4Δ} = [[E, B⁻¹(E − I)·c, 0], [0, 1, 0], [0, 0, 0]] with E = e^{BΔ}
 //! of the 2×2 stick matrix B and c = (0, 1/m).
 //!
+//! Behind a contact spring κ (issue 34) the slider's position ζs is a
+//! fifth coordinate while it is held (state `[ζ1, ζ1', ζ2, ζ2', ζs]`; in a
+//! slip the massless slider follows M2, ζs = ζ2 − f/κ, and carries no
+//! perturbation of its own). The held phase is linear with ζs a constant
+//! input κζs of M2's equation: e^{A5Δ} = [[E, κH⁻¹(E − I)·e4], [0, 1]]
+//! with E = e^{HΔ} of the 4×4 held matrix H. Its events:
+//!
+//! * slide end (slip → held, g = ζ2'): the slider stops where the spring
+//!   holds the sliding level, ζs = ζ2 − ρd(dir)·dir/κ (a reset R with
+//!   ∂ζs⁺/∂x = e3ᵀ); M2's acceleration F − ρd(dir)·dir is the same on both
+//!   sides (f⁺ = R·f⁻), so S = R: only ζs's row changes, to e3ᵀ;
+//! * breakaway (held → slip, g = κ(ζ2 − ζs) ∓ ρs): ∇g = κ(e3 − e5),
+//!   ∇g·f⁻ = κζ2', and ζ2'' jumps from F − κ(ζ2 − ζs) = F − ρs(dir)·dir to
+//!   F − ρd(dir)·dir − D*ζ2', so ζ2'’s row gains
+//!   (ζ2''⁺ − ζ2''⁻)/ζ2' · (e3 − e5)ᵀ (grazing where ζ2' vanishes); ζs's
+//!   row becomes 0 (the slider follows M2).
+//!
 //! One run gives the Jacobian that forward differences need dim + 1 runs
 //! for, and it is exact where they carry an O(h) error. Where the formula
 //! does not hold — a grazing event (∇g·f⁻ ≈ 0), several switches at one
@@ -59,7 +76,26 @@ pub struct Monodromy {
     stick: Spectral<2>,
     /// B⁻¹ of the 2×2 stick matrix.
     stick_inv: [[f64; 2]; 2],
+    /// Behind a contact spring: the held phase's set-up.
+    contact: Option<Box<Contact>>,
 }
+
+/// The held phase of a pad behind a contact spring (see the module doc).
+#[derive(Debug, Clone)]
+struct Contact {
+    kappa: f64,
+    /// Breakaway thresholds by sliding direction (ρs⁺, ρs⁻).
+    rho_s: [f64; 2],
+    /// The slope D* of the sliding friction.
+    slope: f64,
+    held: Spectral<4>,
+    /// H⁻¹ of the 4×4 held matrix.
+    held_inv: [[f64; 4]; 4],
+}
+
+/// A 5×5 Jacobian in the state `[ζ1, ζ1', ζ2, ζ2', ζs]` (ζs: the slider's
+/// position behind a contact spring while it is held).
+pub type M5 = [[f64; 5]; 5];
 
 /// Records a run's events (nothing else; no exact extremes).
 #[derive(Default)]
@@ -157,12 +193,7 @@ impl Monodromy {
             return None;
         };
         let rho_d = [1.0, -1.0].map(|dir| model.law.levels(dir).rho_d);
-        // (The saltation of a contact spring's events is not built yet:
-        // such a model is marched.)
-        if model.law.is_frictionless()
-            || model.law.is_always_stuck()
-            || model.contact_stiffness.is_some()
-        {
+        if model.law.is_frictionless() || model.law.is_always_stuck() {
             return None;
         }
         let ab = model.absorber;
@@ -170,13 +201,33 @@ impl Monodromy {
         let b = absorber::stick_matrix(&ab);
         let stick = Spectral::new(&b)?;
         let stick_inv = linalg::real_inverse(&b)?;
+        let contact = match model.contact_stiffness {
+            Some(kappa) => {
+                let h = absorber::held_matrix(&ab, kappa);
+                Some(Box::new(Contact {
+                    kappa,
+                    rho_s: [1.0, -1.0].map(|dir| model.law.levels(dir).rho_s),
+                    slope,
+                    held: Spectral::new(&h)?,
+                    held_inv: linalg::real_inverse(&h)?,
+                }))
+            }
+            None => None,
+        };
         Some(Self {
             ab,
             rho_d,
             slip,
             stick,
             stick_inv,
+            contact,
         })
+    }
+
+    /// Whether the model has a contact spring (the state then has a fifth
+    /// coordinate while held: [`Monodromy::map_ext`]).
+    pub fn is_contact(&self) -> bool {
+        self.contact.is_some()
     }
 
     /// e^{A4Δ} of a stuck phase in the full state (see the module doc).
@@ -262,7 +313,12 @@ impl Monodromy {
     /// the run's start, drive cos(ητ)) that starts in `mode` and meets
     /// `events` (in order, inside the span). `None` where the variational
     /// formula does not hold (see the module doc).
+    /// Behind a contact spring the held state has five coordinates:
+    /// `None` (see [`Monodromy::carry_ext`]).
     pub fn carry(&self, mode: Mode, events: &[Event], t0: f64, t1: f64, eta: f64) -> Option<M4> {
+        if self.contact.is_some() {
+            return None;
+        }
         let mut m = identity();
         let mut mode = mode;
         let mut t_prev = t0;
@@ -289,6 +345,124 @@ impl Monodromy {
         }
         Some(mul(&self.flow(mode, delta), &m))
     }
+
+    /// [`Monodromy::map`] in the extended state `[ζ1, ζ1', ζ2, ζ2', ζs]`
+    /// (ζs: the slider held behind a contact spring, from a held start the
+    /// mode's `z2`); for a rigid stick the 4×4 Jacobian in the upper left
+    /// (its ζs row and column are zero).
+    pub fn map_ext(&self, sim: &Sim, init: Init, periods: u64) -> Option<([f64; 4], Mode, M5)> {
+        if self.contact.is_none() {
+            let (x, mode, m) = self.map(sim, init, periods)?;
+            let mut j = [[0.0; 5]; 5];
+            for (r, row) in m.iter().enumerate() {
+                j[r][..4].copy_from_slice(row);
+            }
+            return Some((x, mode, j));
+        }
+        let mut rec = Events(Vec::with_capacity(8 * periods as usize));
+        let end = sim.run(init, periods, &mut rec);
+        if !matches!(end.status, Status::Completed) {
+            return None;
+        }
+        let m = self.carry_ext(init.mode, &rec.0, 0.0, end.tau)?;
+        Some((end.x, end.mode, m))
+    }
+
+    /// [`Monodromy::carry`] for a pad behind a contact spring, in the
+    /// extended state (see the module doc; its saltations do not involve
+    /// the drive); `None` for a rigid stick or where the variational
+    /// formula does not hold.
+    pub fn carry_ext(&self, mode: Mode, events: &[Event], t0: f64, t1: f64) -> Option<M5> {
+        let c = self.contact.as_deref()?;
+        let mut m: M5 = std::array::from_fn(|i| std::array::from_fn(|j| f64::from(i == j)));
+        let mut mode = mode;
+        let mut t_prev = t0;
+        for ev in events {
+            let delta = ev.tau - t_prev;
+            if delta <= 0.0 {
+                return None;
+            }
+            m = mul5(&self.flow_ext(c, mode, delta), &m);
+            let x = &ev.x;
+            match (ev.kind, mode) {
+                (EventKind::Stick, Mode::Slip { .. }) => {
+                    // S = R: the slider stops at ζ2 − ρd·dir/κ.
+                    m[4] = m[2];
+                }
+                (EventKind::SlipPlus | EventKind::SlipMinus, Mode::Stick { .. }) => {
+                    let dir = if ev.kind == EventKind::SlipPlus {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    let force = x[0] - x[2] + self.ab.damping * (x[1] - x[3]);
+                    let before = force - c.rho_s[side(dir)] * dir;
+                    let after = force - self.rho_d[side(dir)] * dir - c.slope * x[3];
+                    if grazing(x[3], x[1].abs() + x[3].abs()) {
+                        return None;
+                    }
+                    let jump = (after - before) / x[3];
+                    let (r2, r4) = (m[2], m[4]);
+                    for (j, v) in m[3].iter_mut().enumerate() {
+                        *v += jump * (r2[j] - r4[j]);
+                    }
+                    m[4] = [0.0; 5];
+                }
+                _ => return None,
+            }
+            mode = match ev.kind {
+                EventKind::Stick => Mode::Stick { z2: 0.0 },
+                EventKind::SlipPlus => Mode::Slip { dir: 1.0 },
+                _ => Mode::Slip { dir: -1.0 },
+            };
+            t_prev = ev.tau;
+        }
+        let delta = t1 - t_prev;
+        if delta < 0.0 {
+            return None;
+        }
+        Some(mul5(&self.flow_ext(c, mode, delta), &m))
+    }
+
+    /// e^{A5Δ} of a phase behind a contact spring (see the module doc): a
+    /// slip carries no perturbation of ζs.
+    fn flow_ext(&self, c: &Contact, mode: Mode, delta: f64) -> M5 {
+        let mut out = [[0.0; 5]; 5];
+        match mode {
+            Mode::Slip { .. } => {
+                let e = self.slip.exp(delta);
+                for (o, r) in out.iter_mut().zip(&e) {
+                    o[..4].copy_from_slice(r);
+                }
+            }
+            Mode::Stick { .. } => {
+                let e = c.held.exp(delta);
+                // κH⁻¹(E − I)·e4.
+                let w: [f64; 4] = std::array::from_fn(|i| e[i][3] - f64::from(i == 3));
+                for (i, (o, r)) in out.iter_mut().zip(&e).enumerate() {
+                    o[..4].copy_from_slice(r);
+                    o[4] = c.kappa * (0..4).map(|k| c.held_inv[i][k] * w[k]).sum::<f64>();
+                }
+                out[4][4] = 1.0;
+            }
+        }
+        out
+    }
+}
+
+fn mul5(a: &M5, b: &M5) -> M5 {
+    let mut c = [[0.0; 5]; 5];
+    for i in 0..5 {
+        for k in 0..5 {
+            let aik = a[i][k];
+            if aik != 0.0 {
+                for j in 0..5 {
+                    c[i][j] += aik * b[k][j];
+                }
+            }
+        }
+    }
+    c
 }
 
 #[cfg(test)]
@@ -443,6 +617,145 @@ mod tests {
         for k in ["stick", "slip+", "slip-", "reverse+", "reverse-"] {
             assert!(kinds.contains(k), "no {k} event in the cases: {kinds:?}");
         }
+    }
+
+    /// Extended coordinates of a state behind a contact spring (held: ζs
+    /// the mode's slider position; slipping: four).
+    fn ext(init: &Init) -> ([f64; 5], usize) {
+        let x = init.x;
+        match init.mode {
+            Mode::Stick { z2 } => ([x[0], x[1], x[2], x[3], z2], 5),
+            Mode::Slip { .. } => ([x[0], x[1], x[2], x[3], 0.0], 4),
+        }
+    }
+
+    /// The variational Jacobian behind a contact spring agrees with central
+    /// differences in the extended state, from held and sliding starts, over
+    /// 1 and 3 periods: stiff and soft contacts, ρs above and equal to ρd,
+    /// with a slope, direction-dependent levels, on two absorbers.
+    #[test]
+    fn contact_jacobian_matches_differences() {
+        let sym = None;
+        // (ρs, ρd, slope, η, κ, negative levels).
+        let cases = [
+            (0.375, 0.3, 0.0, 0.6, 20.0, sym),
+            (0.375, 0.375, 0.0, 0.6, 5.0, sym),
+            (0.5, 0.4, -0.02, 0.75, 100.0, sym),
+            (0.05, 0.05, 0.0, 0.45, 40.0, sym),
+            (1.2, 0.9, 0.0, 0.7, 10.0, sym),
+            (0.5, 0.4, 0.0, 0.6, 20.0, Some((0.35, 0.25))),
+            (0.375, 0.375, -0.01, 0.9, 8.0, Some((0.45, 0.45))),
+        ];
+        let other = Absorber {
+            m: 2.0,
+            k: 0.5,
+            damping: 0.01,
+        };
+        let mut kinds = std::collections::BTreeSet::new();
+        let mut starts = [0usize; 2];
+        for &(rs, rd, slope, eta, kappa, minus) in &cases {
+            let mut paper = model(rs, rd, slope);
+            paper.law = paper
+                .law
+                .with_minus(minus.map(|(rho_s, rho_d)| crate::model::Levels { rho_s, rho_d }));
+            paper.contact_stiffness = Some(kappa);
+            let second = Model {
+                absorber: other,
+                ..paper
+            };
+            for m in [paper, second] {
+                let sim = Sim::new(&m, eta).unwrap();
+                let mono = Monodromy::new(&sim).unwrap();
+                assert!(mono.is_contact());
+                // States on the attractor at several drive phases (held and
+                // sliding starts where the orbit has both), each run from
+                // drive phase 0.
+                for frac in [0.0, 0.3, 0.55, 0.8] {
+                    let e = sim.run_span(
+                        Init::rest(),
+                        0.0,
+                        1.0,
+                        (60.0 + frac) * sim.period(),
+                        &mut (),
+                    );
+                    let st = Init {
+                        x: e.x,
+                        mode: e.mode,
+                    };
+                    for p in [1, 3] {
+                        let mut rec = Events::default();
+                        sim.run(st, p, &mut rec);
+                        for ev in &rec.0 {
+                            kinds.insert(ev.kind.as_str());
+                        }
+                        let label = format!(
+                            "m {} rho {rs} {rd} minus {minus:?} slope {slope} eta {eta} kappa {kappa} p {p} from {:?}",
+                            m.absorber.m, st.mode
+                        );
+                        let Some((x, mode, j)) = mono.map_ext(&sim, st, p) else {
+                            panic!("no variational Jacobian: {label}");
+                        };
+                        let end = sim.run(st, p, &mut ());
+                        assert_eq!((x, mode), (end.x, end.mode), "{label}");
+                        let (y, dim) = ext(&st);
+                        let (_, dim_end) = ext(&Init { x, mode });
+                        let run = |y: [f64; 5]| {
+                            let init = Init {
+                                x: [y[0], y[1], y[2], y[3]],
+                                mode: match st.mode {
+                                    Mode::Stick { .. } => Mode::Stick { z2: y[4] },
+                                    slip => slip,
+                                },
+                            };
+                            let e = sim.run(init, p, &mut ());
+                            assert_eq!(
+                                matches!(e.mode, Mode::Stick { .. }),
+                                matches!(mode, Mode::Stick { .. }),
+                                "{label}: a difference step changed the end mode"
+                            );
+                            ext(&Init {
+                                x: e.x,
+                                mode: e.mode,
+                            })
+                            .0
+                        };
+                        let mut fd = [[0.0; 5]; 5];
+                        for c in 0..dim {
+                            let h = 1e-6 * (1.0 + y[c].abs());
+                            let (mut a, mut b) = (y, y);
+                            a[c] += h;
+                            b[c] -= h;
+                            let (pa, pb) = (run(a), run(b));
+                            for i in 0..dim_end {
+                                fd[i][c] = (pa[i] - pb[i]) / (2.0 * h);
+                            }
+                        }
+                        let scale = fd
+                            .iter()
+                            .flat_map(|r| r[..dim].iter())
+                            .fold(1.0f64, |a, v| a.max(v.abs()));
+                        for i in 0..dim_end {
+                            for c in 0..dim {
+                                assert!(
+                                    (j[i][c] - fd[i][c]).abs() <= 1e-6 * scale,
+                                    "{label}: J[{i}][{c}] = {} against {} (differences)",
+                                    j[i][c],
+                                    fd[i][c]
+                                );
+                            }
+                        }
+                        starts[usize::from(dim == 4)] += 1;
+                    }
+                }
+            }
+        }
+        for k in ["stick", "slip+", "slip-"] {
+            assert!(kinds.contains(k), "no {k} event in the cases: {kinds:?}");
+        }
+        assert!(
+            starts[0] > 0 && starts[1] > 0,
+            "held and sliding starts: {starts:?}"
+        );
     }
 
     fn e_map(sim: &Sim, init: Init, p: u64) -> ([f64; 4], Mode) {
