@@ -22,7 +22,7 @@ use common::{data, f, truth};
 use serde_json::Value;
 use std::path::PathBuf;
 use std::process::Command;
-use stickslip::batch::{default_eta_range, drive_etas, worst_case};
+use stickslip::batch::{default_eta_range, drive_etas, worst_case, PadShape};
 use stickslip::model::Absorber;
 use stickslip::sim::sweep::SteadyConfig;
 
@@ -311,8 +311,8 @@ fn paper_worst_case_cliff() {
         max_periods: 500,
         ..SteadyConfig::default()
     };
-    let hi = worst_case(&ab, 0.75, 0.75, &etas, &cfg).unwrap();
-    let lo = worst_case(&ab, 0.65, 0.65, &etas, &cfg).unwrap();
+    let hi = worst_case(&ab, PadShape::PAPER, 0.75, 0.75, &etas, &cfg).unwrap();
+    let lo = worst_case(&ab, PadShape::PAPER, 0.65, 0.65, &etas, &cfg).unwrap();
     eprintln!(
         "W(0.75) = {} at {}, W(0.65) = {} at {}",
         hi.amplitude1, hi.eta, lo.amplitude1, lo.eta

@@ -213,6 +213,41 @@ impl From<&CurvePoint> for CurveOut {
     }
 }
 
+/// One real-pad extension over the logs.
+#[derive(Serialize)]
+struct CombinedOut {
+    value: f64,
+    interval: Interval,
+    chi2_per_dof: Option<f64>,
+    logs_chosen: usize,
+    logs_eligible: usize,
+    simulated: bool,
+}
+
+impl From<&super::Combined> for CombinedOut {
+    fn from(c: &super::Combined) -> Self {
+        CombinedOut {
+            value: c.value,
+            interval: c.interval.into(),
+            chi2_per_dof: c.chi2_per_dof,
+            logs_chosen: c.chosen,
+            logs_eligible: c.eligible,
+            simulated: c.used,
+        }
+    }
+}
+
+/// The pad the worst cases simulate and the extensions the logs chose.
+#[derive(Serialize)]
+struct PadOut {
+    /// κ simulated (`null`: rigid).
+    contact_stiffness: Option<f64>,
+    /// ρs⁻/ρs⁺ simulated (`null`: symmetric).
+    rho_s_minus_ratio: Option<f64>,
+    contact: Option<CombinedOut>,
+    split: Option<CombinedOut>,
+}
+
 /// The batch keys (everything but `fits`).
 #[derive(Serialize)]
 struct BatchOut<'a> {
@@ -226,6 +261,7 @@ struct BatchOut<'a> {
     conflicts: Vec<ConflictOut<'a>>,
     mu_ratio: f64,
     mu_ratio_interval: Interval,
+    pad_model: PadOut,
     #[serde(flatten)]
     recommendation: RecommendationOut,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -321,6 +357,12 @@ impl Batch {
                 .collect(),
             mu_ratio: b.ratio,
             mu_ratio_interval: b.ratio_interval.into(),
+            pad_model: PadOut {
+                contact_stiffness: b.pad.shape.contact_stiffness,
+                rho_s_minus_ratio: b.pad.shape.rs_minus_ratio,
+                contact: b.pad.contact.as_ref().map(CombinedOut::from),
+                split: b.pad.split.as_ref().map(CombinedOut::from),
+            },
             recommendation,
             recommendation_reason: b.recommendation_reason.as_deref(),
             cliff,

@@ -180,6 +180,7 @@ mod conflicts;
 mod json;
 mod mu;
 mod observations;
+mod pad;
 mod recommend;
 mod worst;
 pub use crate::error::BatchError;
@@ -188,6 +189,7 @@ use conflicts::*;
 pub use mu::ln_norm_cdf;
 use mu::*;
 use observations::*;
+pub use pad::{BatchPad, Combined, PadShape};
 use worst::*;
 pub use worst::{
     default_eta_range, drive_etas, drive_grid, rig_warnings, worst_case, worst_case_on, DriveGrid,
@@ -580,6 +582,9 @@ pub struct Batch {
     pub ratio_interval: (f64, f64),
     /// The rig's absorber (m, k, D).
     pub absorber: Absorber,
+    /// The pad the worst cases simulate (the real-pad extensions the logs
+    /// chose, combined over them).
+    pub pad: BatchPad,
     /// Drive amplitude of ρ (m) and where it came from.
     pub drive_amplitude_m: f64,
     /// `nominal` or `option`.
@@ -673,6 +678,7 @@ fn drive_scale(
 fn settings_worst(
     logs: &mut [BatchLog],
     ab: &Absorber,
+    shape: PadShape,
     ratio: f64,
     etas: &DriveGrid,
     opts: &BatchOptions,
@@ -686,7 +692,7 @@ fn settings_worst(
     let setting_w: Vec<Worst> = settings
         .par_iter()
         .map(|&r| {
-            let w = worst_case_on(ab, r, ratio * r, etas, &opts.steady);
+            let w = worst_case_on(ab, shape, r, ratio * r, etas, &opts.steady);
             tick(1);
             w
         })
@@ -769,6 +775,8 @@ pub fn batch_with_progress(
         conflicts,
     } = fit_coefficients(&mut logs, opts.normal_force_gain_uncertainty, &mut warnings)?;
     let (ratio, ratio_interval) = ratio_estimate(&mu_s, &mu_d);
+    let pad = pad::batch_pad(fits, &mut warnings);
+    let shape = pad.shape;
 
     let ab = rig.constants().absorber();
     ab.validate().map_err(BatchError::Rig)?;
@@ -807,6 +815,7 @@ pub fn batch_with_progress(
     } = rho_grid(opts, &mu_s, &logs)?;
     let mut table = Table {
         ab,
+        shape,
         etas: &etas,
         cfg: opts.steady,
         ratios,
@@ -823,11 +832,13 @@ pub fn batch_with_progress(
         .map(|k| geom_node(rho_min, rho_max, steps, k))
         .collect();
     table.add(&coarse, false).map_err(sim_err)?;
-    let (n, periods) = settings_worst(&mut logs, &ab, ratio, &etas, opts, tick).map_err(sim_err)?;
+    let (n, periods) =
+        settings_worst(&mut logs, &ab, shape, ratio, &etas, opts, tick).map_err(sim_err)?;
     table.evaluations += n;
     table.periods += periods;
     let search = recommend::Search {
         ab,
+        shape,
         etas: &etas,
         opts,
         ratio,
@@ -872,6 +883,7 @@ pub fn batch_with_progress(
         ratio,
         ratio_interval,
         absorber: ab,
+        pad,
         drive_amplitude_m: amp,
         drive_amplitude_source: amp_source,
         measured_drive_amplitude_m: measured_amp,
@@ -1410,10 +1422,19 @@ mod tests {
                 o.eta_coarse_stride,
             );
             for rho in rhos {
-                let u = worst_case(&ab, rho, ratio * rho, &grid.etas, &o.steady).unwrap();
-                let a = worst_case_on(&ab, rho, ratio * rho, &grid, &o.steady).unwrap();
+                let u = worst_case(
+                    &ab,
+                    PadShape::PAPER,
+                    rho,
+                    ratio * rho,
+                    &grid.etas,
+                    &o.steady,
+                )
+                .unwrap();
+                let a = worst_case_on(&ab, PadShape::PAPER, rho, ratio * rho, &grid, &o.steady)
+                    .unwrap();
                 // Whether the uniform maximum is a settled steady state.
-                let m = worst_model(&ab, rho, ratio * rho).unwrap();
+                let m = worst_model(&ab, PadShape::PAPER, rho, ratio * rho).unwrap();
                 let branch = curve(&m, &grid.etas, u.branch, &o.steady).unwrap();
                 let settled = branch.iter().any(|p| p.eta == u.eta && p.steady);
                 let tol = if settled { 1e-3 } else { 0.03 };
@@ -1474,9 +1495,10 @@ mod tests {
             (1.673, 0.032),
             (2.0219, 0.032),
         ] {
-            let a = worst_case(&ab, rho, 0.8 * rho, &dense, &reference).unwrap();
-            let b = worst_case(&ab, rho, 0.8 * rho, &fast, &o.steady).unwrap();
-            let c = worst_case_on(&ab, rho, 0.8 * rho, &refined, &o.steady).unwrap();
+            let a = worst_case(&ab, PadShape::PAPER, rho, 0.8 * rho, &dense, &reference).unwrap();
+            let b = worst_case(&ab, PadShape::PAPER, rho, 0.8 * rho, &fast, &o.steady).unwrap();
+            let c =
+                worst_case_on(&ab, PadShape::PAPER, rho, 0.8 * rho, &refined, &o.steady).unwrap();
             for (w, what) in [(b, "uniform"), (c, "refined")] {
                 let e = w.amplitude1 / a.amplitude1 - 1.0;
                 assert!(

@@ -11,6 +11,8 @@ use crate::sim::SimError;
 pub(super) struct Search<'a> {
     /// The absorber.
     pub ab: Absorber,
+    /// The pad's shape.
+    pub shape: super::PadShape,
     /// The η grid of a worst case.
     pub etas: &'a DriveGrid,
     /// The batch options.
@@ -297,7 +299,14 @@ impl Search<'_> {
         let mut w_bad = table.nodes[i].1[0];
         for _ in 0..7 {
             let m = (bad * good).sqrt();
-            let w = worst_case_on(&self.ab, m, self.ratio * m, self.etas, &self.opts.steady)?;
+            let w = worst_case_on(
+                &self.ab,
+                self.shape,
+                m,
+                self.ratio * m,
+                self.etas,
+                &self.opts.steady,
+            )?;
             table.evaluations += 1;
             table.periods += w.periods;
             (self.tick)(1);

@@ -89,17 +89,19 @@ pub fn default_eta_range(ab: &Absorber) -> (f64, f64) {
 }
 
 /// W = max over `etas` of A1/A, the worse of the steady states continued
-/// upwards, downwards and from rest, for the law (ρs, ρd) without slope.
+/// upwards, downwards and from rest, for the law (ρs, ρd) without slope on
+/// a pad of shape `shape` ([`PadShape::PAPER`]: symmetric and rigid).
 /// Every η is evaluated; [`worst_case_on`] evaluates a coarse grid and
 /// refines it next to the branches' maxima.
 pub fn worst_case(
     ab: &Absorber,
+    shape: PadShape,
     rho_s: f64,
     rho_d: f64,
     etas: &[f64],
     cfg: &SteadyConfig,
 ) -> std::result::Result<Worst, SimError> {
-    let model = worst_model(ab, rho_s, rho_d)?;
+    let model = worst_model(ab, shape, rho_s, rho_d)?;
     let curves: std::result::Result<Vec<Vec<Point>>, SimError> = BRANCHES
         .par_iter()
         .map(|&d| match d {
@@ -122,24 +124,31 @@ pub fn worst_case(
 /// The branches of a worst case, in the order of [`Worst::branch`] ties.
 const BRANCHES: [Direction; 3] = [Direction::Up, Direction::Down, Direction::Rest];
 
-/// The model of a worst case: the law (ρs, min(ρd, ρs)) without slope.
+/// The model of a worst case: the law (ρs, min(ρd, ρs)) without slope, on
+/// the pad `shape` (a split threshold ρs⁻ = ratio·ρs with the dynamic
+/// level shared, at most ρs⁻; a contact spring κ).
 pub(super) fn worst_model(
     ab: &Absorber,
+    shape: PadShape,
     rho_s: f64,
     rho_d: f64,
 ) -> std::result::Result<Model, SimError> {
+    let rho_d = rho_d.min(rho_s);
     let model = Model {
         absorber: *ab,
         law: Law::Linear {
             rho_s,
-            rho_d: rho_d.min(rho_s),
+            rho_d,
             slope: 0.0,
-            minus: None,
+            minus: shape.rs_minus_ratio.map(|r| crate::model::Levels {
+                rho_s: r * rho_s,
+                rho_d: rho_d.min(r * rho_s),
+            }),
         },
         stop_below: None,
-        contact_stiffness: None,
+        contact_stiffness: shape.contact_stiffness,
     };
-    model.law.validate()?;
+    model.validate().map_err(SimError::Param)?;
     Ok(model)
 }
 
@@ -218,15 +227,16 @@ struct Continued {
 /// Counts (`unsettled`, `coexisting`, `points`) are over the η evaluated.
 pub fn worst_case_on(
     ab: &Absorber,
+    shape: PadShape,
     rho_s: f64,
     rho_d: f64,
     grid: &DriveGrid,
     cfg: &SteadyConfig,
 ) -> std::result::Result<Worst, SimError> {
     if grid.is_uniform() {
-        return worst_case(ab, rho_s, rho_d, &grid.etas, cfg);
+        return worst_case(ab, shape, rho_s, rho_d, &grid.etas, cfg);
     }
-    let model = worst_model(ab, rho_s, rho_d)?;
+    let model = worst_model(ab, shape, rho_s, rho_d)?;
     let etas = &grid.etas;
     let n = etas.len();
     let mut active = grid.coarse.clone();
@@ -382,6 +392,7 @@ fn continue_branch(
 /// ends of the ratio's interval.
 pub(super) struct Table<'a> {
     pub(super) ab: Absorber,
+    pub(super) shape: PadShape,
     pub(super) etas: &'a DriveGrid,
     pub(super) cfg: SteadyConfig,
     pub(super) ratios: Vec<f64>,
@@ -408,12 +419,12 @@ impl Table<'_> {
             let r = self.find(r).map_or(r, |i| self.nodes[i].0);
             work.extend((have..k).map(|q| (r, q)));
         }
-        let (ab, etas, cfg, tick) = (self.ab, self.etas, self.cfg, self.tick);
+        let (ab, shape, etas, cfg, tick) = (self.ab, self.shape, self.etas, self.cfg, self.tick);
         let ratios = &self.ratios;
         let ws: std::result::Result<Vec<Worst>, SimError> = work
             .par_iter()
             .map(|&(r, q)| {
-                let w = worst_case_on(&ab, r, ratios[q] * r, etas, &cfg);
+                let w = worst_case_on(&ab, shape, r, ratios[q] * r, etas, &cfg);
                 tick(1);
                 w
             })

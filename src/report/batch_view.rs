@@ -125,6 +125,7 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
             None => "none found on the grid".into(),
         },
     ));
+    v.push(KeyValue::new("pad simulated", pad_words(&b.pad)));
     v.push(KeyValue::new(
         "model",
         format!(
@@ -145,6 +146,42 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
         ),
     ));
     v
+}
+
+/// The pad the worst cases simulate, in words: each real-pad extension
+/// the logs chose, combined over them, and whether it is simulated.
+fn pad_words(pad: &crate::batch::BatchPad) -> String {
+    let one = |name: &str, c: &crate::batch::Combined| {
+        format!(
+            "{name} {:.4} [{:.4}, {:.4}] from {} of {} logs that slid{}, {}",
+            c.value,
+            c.interval.0,
+            c.interval.1,
+            c.chosen,
+            c.eligible,
+            c.chi2_per_dof
+                .map_or(String::new(), |x| format!(" (χ²/dof {x:.2})")),
+            if c.used {
+                "simulated"
+            } else {
+                "not simulated (fewer than half)"
+            }
+        )
+    };
+    let parts: Vec<String> = [
+        pad.contact.as_ref().map(|c| one("contact stiffness κ", c)),
+        pad.split
+            .as_ref()
+            .map(|c| one("split threshold ρs⁻/ρs⁺", c)),
+    ]
+    .into_iter()
+    .flatten()
+    .collect();
+    if parts.is_empty() {
+        "the paper's pad (symmetric, rigid stick): no log chose an extension".into()
+    } else {
+        parts.join("; ")
+    }
 }
 
 /// The batch section of the report (settings ordered by normal force);

@@ -107,6 +107,7 @@ pub const CODES: &[&str] = &[
     "intercept",
     "mu_d_above_mu_s",
     "censored_disagrees",
+    "pad_not_simulated",
     "duplicate",
     "same_record",
 ];
@@ -686,6 +687,18 @@ pub enum Warning {
         /// Upper bound (N).
         high_n: f64,
     },
+    /// Some logs chose a real-pad extension, fewer than half of those
+    /// that could have: the batch simulates the pad without it.
+    BatchPadNotSimulated {
+        /// Which extension (in words).
+        extension: String,
+        /// Logs that chose it.
+        chosen: usize,
+        /// Logs that could have (M2 slid under a refined fit).
+        eligible: usize,
+        /// Its value combined over the logs that chose it.
+        value: f64,
+    },
     /// A log's equation-error and output-error estimates disagree.
     EstimatesDisagree {
         /// The log.
@@ -863,6 +876,7 @@ impl Warning {
             Intercept { .. } => "intercept",
             MuDAboveMuS { .. } => "mu_d_above_mu_s",
             CensoredDisagrees { .. } => "censored_disagrees",
+            BatchPadNotSimulated { .. } => "pad_not_simulated",
             DuplicateFile { .. } | DuplicateTest { .. } => "duplicate",
             SameRecord { .. } => "same_record",
         }
@@ -1474,6 +1488,18 @@ mod tests {
                 ),
             ),
             (
+                BatchPadNotSimulated {
+                    extension: "a contact spring κ".into(),
+                    chosen: 1,
+                    eligible: 4,
+                    value: 41.5,
+                },
+                format!(
+                    "{} of {} logs that slid chose {} (combined {:.4}); fewer than half: the worst cases simulate the pad without it",
+                    1, 4, "a contact spring κ", 41.5
+                ),
+            ),
+            (
                 EstimatesDisagree { log: p.clone(), quantity: "Rs", z: 2.345 },
                 format!(
                     "{}: its equation-error and output-error {q} differ by {:.1}σ: the log's {q} is in doubt",
@@ -1630,7 +1656,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 83;
+    const VARIANTS: usize = 84;
 
     #[test]
     fn every_code_is_documented() {

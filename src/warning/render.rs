@@ -84,6 +84,7 @@ impl fmt::Display for Warning {
             | NormalForceNotPositive { .. }
             | EmptyStaticBounds { .. }
             | EstimatesDisagree { .. }
+            | BatchPadNotSimulated { .. }
             | Conflict { .. }
             | UnresolvedConflict { .. }
             | ConflictSetAside { .. }
@@ -706,6 +707,15 @@ fn fmt_batch(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             f,
             "{}: static-friction bounds are empty ({low_n:.4} N ≥ {high_n:.4} N): the log contradicts its own never-sticks call; left out of μs",
             log.display()
+        ),
+        BatchPadNotSimulated {
+            extension,
+            chosen,
+            eligible,
+            value,
+        } => write!(
+            f,
+            "{chosen} of {eligible} logs that slid chose {extension} (combined {value:.4}); fewer than half: the worst cases simulate the pad without it"
         ),
         EstimatesDisagree { log, quantity: q, z } => write!(
             f,
