@@ -339,6 +339,34 @@ fn early_stop_only_where_march_does_not_settle_subset() {
     assert!(fired > 0, "the subset must exercise the early stop");
 }
 
+/// Behind a contact spring the early stop's tangent is carried in the
+/// extended state (the held slider's position a fifth coordinate, issue
+/// 34): a quasi-periodic response of a compliant pad (κ 5, ρs 0.5, ρd 0.4,
+/// D 0.003, η 0.96 from rest) stops early as `not-settling`, where the
+/// plain 20 000-period march does not settle either. (Before, the tangent
+/// was not carried behind a contact and such points marched to the end of
+/// the budget.)
+#[test]
+fn early_stop_behind_a_contact_spring() {
+    let m = Model {
+        absorber: Absorber {
+            m: 4.0,
+            k: 1.0,
+            damping: 0.003,
+        },
+        law: Law::Linear {
+            rho_s: 0.5,
+            rho_d: 0.4,
+            slope: 0.0,
+            minus: None,
+        },
+        stop_below: None,
+        contact_stiffness: Some(5.0),
+    };
+    let (fired, points) = early_stop_only_where_march_does_not_settle(&[("κ 5", m)], &[0.96]);
+    assert_eq!((fired, points), (1, 1));
+}
+
 /// The attractor issue's full grid: seven laws × η 0.2–1.6 in steps of
 /// 0.01, from rest. `cargo test --release --test attractor -- --ignored`.
 #[test]

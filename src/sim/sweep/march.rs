@@ -122,9 +122,6 @@ pub(super) fn march_to_steady_extremes(
                 .engine
                 .exact()
                 .and_then(|sim| eng.shooting.get(sim))
-                // (The tangent is carried in four coordinates: not behind
-                // a contact spring.)
-                .filter(|m| !m.is_contact())
                 .map(|m| Tangent::new(m, eta, t, w.state.mode));
         }
         // Without ranges, the last block locates extremes only over the
@@ -226,7 +223,8 @@ pub(super) struct Offset<'t, 'a, 's> {
 }
 
 /// A tangent vector carried along the march by the variational equations
-/// ([`Monodromy::carry`], period by period), for the largest finite-time
+/// ([`Monodromy::carry`], behind a contact spring [`Monodromy::carry_ext`]
+/// in the extended state, period by period), for the largest finite-time
 /// Lyapunov exponent per block of the marching fallback: about zero on a
 /// quasi-periodic response (an invariant torus), clearly positive on a
 /// chaotic transient, negative while an orbit is approached.
@@ -234,7 +232,9 @@ pub(super) struct Tangent<'s> {
     mono: &'s Monodromy,
     eta: f64,
     period: f64,
-    v: [f64; 4],
+    /// In the extended state `[ζ1, ζ1', ζ2, ζ2', ζs]` (ζs: a slider held
+    /// behind a contact spring; 0 otherwise).
+    v: [f64; 5],
     /// The current period's events and the mode it started in.
     events: Vec<Event>,
     mode: Mode,
@@ -247,11 +247,20 @@ pub(super) struct Tangent<'s> {
 impl<'s> Tangent<'s> {
     const START: [f64; 4] = [0.8, 0.4, 0.4, 0.2];
 
-    fn new(mono: &'s Monodromy, eta: f64, period: f64, mode: Mode) -> Self {
-        let mut v = Self::START;
-        if matches!(mode, Mode::Stick { .. }) {
-            v[3] = 0.0;
+    /// The start vector in `mode`: a rigid stick has no velocity
+    /// perturbation of M2; a slider held behind a contact spring gets a
+    /// perturbation of its own.
+    fn start(mono: &Monodromy, mode: Mode) -> [f64; 5] {
+        let [a, b, c, d] = Self::START;
+        match mode {
+            Mode::Stick { .. } if mono.is_contact() => [a, b, c, d, 0.3],
+            Mode::Stick { .. } => [a, b, c, 0.0, 0.0],
+            Mode::Slip { .. } => [a, b, c, d, 0.0],
         }
+    }
+
+    fn new(mono: &'s Monodromy, eta: f64, period: f64, mode: Mode) -> Self {
+        let v = Self::start(mono, mode);
         Self {
             mono,
             eta,
@@ -269,12 +278,25 @@ impl<'s> Tangent<'s> {
     fn period_end(&mut self, n: u64, mode: Mode) {
         let t0 = (n - 1) as f64 * self.period;
         let t1 = n as f64 * self.period;
-        let grown = self
-            .mono
-            .carry(self.mode, &self.events, t0, t1, self.eta)
-            .map(|m| -> [f64; 4] {
-                std::array::from_fn(|i| (0..4).map(|c| m[i][c] * self.v[c]).sum())
-            });
+        let grown = if self.mono.is_contact() {
+            self.mono
+                .carry_ext(self.mode, &self.events, t0, t1)
+                .map(|m| -> [f64; 5] {
+                    std::array::from_fn(|i| (0..5).map(|c| m[i][c] * self.v[c]).sum())
+                })
+        } else {
+            self.mono
+                .carry(self.mode, &self.events, t0, t1, self.eta)
+                .map(|m| -> [f64; 5] {
+                    std::array::from_fn(|i| {
+                        if i < 4 {
+                            (0..4).map(|c| m[i][c] * self.v[c]).sum()
+                        } else {
+                            0.0
+                        }
+                    })
+                })
+        };
         let norm = grown.map_or(f64::NAN, |w| w.iter().map(|q| q * q).sum::<f64>().sqrt());
         match grown {
             Some(w) if norm.is_finite() && norm > 0.0 => {
@@ -283,10 +305,7 @@ impl<'s> Tangent<'s> {
             }
             _ => {
                 self.lost = true;
-                self.v = Self::START;
-                if matches!(mode, Mode::Stick { .. }) {
-                    self.v[3] = 0.0;
-                }
+                self.v = Self::start(self.mono, mode);
             }
         }
         self.periods += 1;
