@@ -1774,6 +1774,7 @@ const SENSORS_STRIBECK_S001: &str = include_str!("sensors/stribeck_s001.json");
 /// The sensors of [`a_stribeck_pad_behind_a_contact_without_an_accelerometer`]
 /// (no accelerometer).
 const SENSORS_STRIBECK_S000: &str = include_str!("sensors/stribeck_s000.json");
+const SENSORS_STRIBECK_S006: &str = include_str!("sensors/stribeck_s006.json");
 
 /// The sensors of [`a_static_dynamic_pad_behind_a_contact_is_not_read_as_stribeck`].
 const SENSORS_C003: &str = include_str!("sensors/c003.json");
@@ -1894,4 +1895,43 @@ fn the_batch_simulates_the_fitted_split_threshold() {
     assert!((r / 0.88 - 1.0).abs() < 0.02, "{pad}");
     assert!(pad["contact_stiffness"].is_null(), "{pad}");
     assert_eq!(pad["split"]["simulated"], true, "{pad}");
+}
+
+/// `fit --law stribeck` on a Stribeck pad behind a contact whose threshold
+/// the log does not resolve (the Stribeck compliant study's s006: another
+/// rig, M1 12 kg, M2 2.5 kg, K1 1500 N/m, K2 1000 N/m; Rs 1.751 N, Rd
+/// 1.273 N, v_s 13 mm/s, κ 37.3, 47 µm of pre-sliding; no accelerometer).
+/// The forced law's threshold is bounded by the profile of the static/
+/// dynamic fit behind the contact, as in `--law auto`, where that fit
+/// is only a helper of the forced family's starts: Rs in [1.19, 4.04] N.
+/// (Before session 34 the forced fit gave Rs no value and no interval.)
+#[test]
+fn a_forced_stribeck_pad_behind_a_contact_bounds_its_unresolved_threshold() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let sensors = dir.join("sensors.json");
+    std::fs::write(&sensors, SENSORS_STRIBECK_S006).unwrap();
+    let log = dir.join("s006.mcap");
+    let o = common::bin()
+        .args(
+            "synth --m1-kg 12 --m2-kg 2.5 --k1-n-per-m 1500 --k2-n-per-m 1000 \
+             --d-n-s-per-m 0.1 --amplitude-m 0.003 --frequency-hz 1.6726663501316728 \
+             --normal-force 2.0 --rs-n 1.751289765241449 --rd-n 1.2730136430545147 \
+             --law stribeck --stribeck-velocity-m-per-s 0.013370699080826148 \
+             --contact-stiffness-n-per-m 37250.9638924838 --seed 706 --duration-s 20"
+                .split_whitespace(),
+        )
+        .arg("--sensors")
+        .arg(&sensors)
+        .arg("--out")
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (rs, rd, kappa) = (1.751289765241449, 1.2730136430545147, 37.2509638924838);
+    let forced = fit_entry_with(&log, &["--law", "stribeck"]);
+    let label = format!("{forced:#}");
+    assert_eq!(forced["law"], "stribeck", "{label}");
+    assert!(forced["r_s_interval_n"].is_array(), "{label}");
+    assert_covered(&forced, rs, rd, kappa);
 }

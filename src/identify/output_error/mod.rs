@@ -385,6 +385,10 @@ pub struct Refinement {
     minimiser: Minimiser,
     never_sticks: bool,
     evals: std::cell::Cell<usize>,
+    /// A forced shaped law's limit-family fit behind a contact spring
+    /// ([`Refinement::forced_behind_contact`]): it does not compete, but
+    /// profiles an unresolved threshold (`profile_unresolved`).
+    profile_helper: std::cell::RefCell<Option<Refined>>,
     hints: PadHints,
     keep_projection_values: usize,
     /// Standard uncertainty (s) of the drive's and of x2's alignment with
@@ -666,6 +670,7 @@ impl Refinement {
             minimiser: opts.minimiser,
             never_sticks: seg.never_sticks(),
             evals: std::cell::Cell::new(0),
+            profile_helper: std::cell::RefCell::new(None),
             hints: PadHints::default(),
             keep_projection_values: opts.keep_projection_values,
             alignment_sigma: (0.0, 0.0),
@@ -1259,7 +1264,9 @@ impl Refinement {
     /// family's rigid fit, its contact extension (the screen's κ or the
     /// grid), and the shaped family from that ([`Self::shaped_from`]).
     /// The fit joins `fits` (the forced family's fits, which compete by
-    /// the criterion); the simple families' fits are helpers only.
+    /// the criterion); the simple families' fits are helpers only, and the
+    /// limit family's contact fit profiles a threshold the shaped law
+    /// leaves unresolved (as in `--law auto`).
     fn forced_behind_contact(
         &self,
         shaped: LawKind,
@@ -1289,6 +1296,9 @@ impl Refinement {
         if let Some(f) = self.shaped_from(shaped, &base, n_eff)? {
             fits.push(f);
         }
+        // (Kept for the profile of a threshold the shaped law does not
+        // resolve: in `--law auto` the same fit is among the families.)
+        *self.profile_helper.borrow_mut() = Some(base);
         Ok(())
     }
 

@@ -334,9 +334,13 @@ impl Refinement {
         intervals: &mut Intervals,
         pads: &mut PadFit,
     ) {
+        // (A forced shaped law's is a helper, not among `fits`.)
+        let helper = self.profile_helper.borrow();
+        let matches = |f: &&Refined| f.kind == LawKind::StaticDynamic && f.ext == chosen.ext;
         let Some(sd) = fits
             .iter()
-            .find(|f| f.kind == LawKind::StaticDynamic && f.ext == chosen.ext)
+            .find(matches)
+            .or_else(|| helper.as_ref().filter(matches))
         else {
             return;
         };
