@@ -1404,27 +1404,17 @@ fn warned(f: &serde_json::Value, s: &str) -> bool {
 #[test]
 fn a_stribeck_pad_behind_a_contact_without_an_accelerometer() {
     let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path();
-    let sensors = dir.join("sensors.json");
-    std::fs::write(&sensors, SENSORS_STRIBECK_S000).unwrap();
-    let log = dir.join("s000.mcap");
-    let o = common::bin()
-        .args(
-            "synth --m1-kg 8.35 --m2-kg 2.0875 --k1-n-per-m 670 --k2-n-per-m 670 \
+    let log = synth_with_sensor_file(
+        tmp.path(),
+        SENSORS_STRIBECK_S000,
+        "s000.mcap",
+        "--m1-kg 8.35 --m2-kg 2.0875 --k1-n-per-m 670 --k2-n-per-m 670 \
              --d-n-s-per-m 0.11219458543084866 --amplitude-m 0.0025 \
              --frequency-hz 1.805502038889993 --normal-force 2.0 \
              --rs-n 0.9859327653273926 --rd-n 0.7226247545938849 --law stribeck \
              --stribeck-velocity-m-per-s 0.005106886016104284 \
-             --contact-stiffness-n-per-m 25513.475626173822 --seed 700 --duration-s 20"
-                .split_whitespace(),
-        )
-        .arg("--sensors")
-        .arg(&sensors)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+             --contact-stiffness-n-per-m 25513.475626173822 --seed 700 --duration-s 20",
+    );
     let (rs, rd, kappa) = (
         0.9859327653273926,
         0.7226247545938849,
@@ -1773,11 +1763,68 @@ const SENSORS_STRIBECK_S001: &str = include_str!("sensors/stribeck_s001.json");
 
 /// The sensors of [`a_stribeck_pad_behind_a_contact_without_an_accelerometer`]
 /// (no accelerometer).
+/// Writes `sensors` (a sensor model's JSON) and a log `name` made by
+/// `synth ARGS --sensors …` into `dir`; the log's path.
+fn synth_with_sensor_file(
+    dir: &std::path::Path,
+    sensors: &str,
+    name: &str,
+    args: &str,
+) -> std::path::PathBuf {
+    let file = dir.join("sensors.json");
+    std::fs::write(&file, sensors).unwrap();
+    let log = dir.join(name);
+    let o = common::bin()
+        .arg("synth")
+        .args(args.split_whitespace())
+        .arg("--sensors")
+        .arg(&file)
+        .arg("--out")
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    log
+}
+
 const SENSORS_STRIBECK_S000: &str = include_str!("sensors/stribeck_s000.json");
 const SENSORS_STRIBECK_S006: &str = include_str!("sensors/stribeck_s006.json");
 
 /// The sensors of [`a_static_dynamic_pad_behind_a_contact_is_not_read_as_stribeck`].
 const SENSORS_C003: &str = include_str!("sensors/c003.json");
+
+/// `batch --json` of characteristic logs of one static/dynamic pad (μs
+/// 0.42, μd 0.34, the bundled rig) at the normal forces `forces`, seeds
+/// from `seed`, each with the synth options `extra(N)`.
+fn batch_of_synth_logs(
+    dir: &std::path::Path,
+    seed: u64,
+    forces: &[f64],
+    extra: impl Fn(f64) -> Vec<String>,
+) -> serde_json::Value {
+    let mut logs = Vec::new();
+    for (i, &n) in forces.iter().enumerate() {
+        let log = dir.join(format!("pad_{n}.mcap"));
+        let o = common::bin()
+            .args([
+                "synth",
+                "--test",
+                "characteristic",
+                "--law",
+                "static-dynamic",
+            ])
+            .args(["--mu-s", "0.42", "--mu-d", "0.34"])
+            .args(["--normal-force", &n.to_string()])
+            .args(extra(n))
+            .args(["--seed", &(seed + i as u64).to_string(), "--out"])
+            .arg(&log)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        logs.push(log);
+    }
+    common::json_of(common::bin().arg("batch").args(&logs).arg("--json"))
+}
 
 /// The batch simulates the contact spring its logs fitted (issue 34): one
 /// compliant pad (the bundled rig, μs 0.42, μd 0.34, kt 11 550 N/m, κ
@@ -1793,27 +1840,9 @@ fn the_batch_simulates_the_fitted_contact_spring() {
     let dir = tempfile::tempdir().unwrap();
     let kt = 11_550.0;
     let kappa = kt / 670.0;
-    let mut logs = Vec::new();
-    for (i, n) in ["2.2", "4", "7.2"].iter().enumerate() {
-        let log = dir.path().join(format!("c_{n}.mcap"));
-        let o = common::bin()
-            .args([
-                "synth",
-                "--test",
-                "characteristic",
-                "--law",
-                "static-dynamic",
-            ])
-            .args(["--mu-s", "0.42", "--mu-d", "0.34", "--normal-force", n])
-            .args(["--contact-stiffness-n-per-m", &kt.to_string()])
-            .args(["--seed", &(41 + i).to_string(), "--out"])
-            .arg(&log)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        logs.push(log);
-    }
-    let b = common::json_of(common::bin().arg("batch").args(&logs).arg("--json"));
+    let b = batch_of_synth_logs(dir.path(), 41, &[2.2, 4.0, 7.2], |_| {
+        vec!["--contact-stiffness-n-per-m".into(), kt.to_string()]
+    });
     let pad = &b["pad_model"];
     let k = pad["contact_stiffness"]
         .as_f64()
@@ -1866,28 +1895,9 @@ fn the_batch_simulates_the_fitted_contact_spring() {
 #[test]
 fn the_batch_simulates_the_fitted_split_threshold() {
     let dir = tempfile::tempdir().unwrap();
-    let mut logs = Vec::new();
-    for (i, n) in [2.2f64, 4.0, 7.2].iter().enumerate() {
-        let log = dir.path().join(format!("d_{n}.mcap"));
-        let o = common::bin()
-            .args([
-                "synth",
-                "--test",
-                "characteristic",
-                "--law",
-                "static-dynamic",
-            ])
-            .args(["--mu-s", "0.42", "--mu-d", "0.34"])
-            .args(["--normal-force", &n.to_string()])
-            .args(["--rs-minus-n", &(0.88 * 0.42 * n).to_string()])
-            .args(["--seed", &(61 + i).to_string(), "--out"])
-            .arg(&log)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        logs.push(log);
-    }
-    let b = common::json_of(common::bin().arg("batch").args(&logs).arg("--json"));
+    let b = batch_of_synth_logs(dir.path(), 61, &[2.2, 4.0, 7.2], |n| {
+        vec!["--rs-minus-n".into(), (0.88 * 0.42 * n).to_string()]
+    });
     let pad = &b["pad_model"];
     let r = pad["rho_s_minus_ratio"]
         .as_f64()
@@ -1908,30 +1918,57 @@ fn the_batch_simulates_the_fitted_split_threshold() {
 #[test]
 fn a_forced_stribeck_pad_behind_a_contact_bounds_its_unresolved_threshold() {
     let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path();
-    let sensors = dir.join("sensors.json");
-    std::fs::write(&sensors, SENSORS_STRIBECK_S006).unwrap();
-    let log = dir.join("s006.mcap");
-    let o = common::bin()
-        .args(
-            "synth --m1-kg 12 --m2-kg 2.5 --k1-n-per-m 1500 --k2-n-per-m 1000 \
+    let log = synth_with_sensor_file(
+        tmp.path(),
+        SENSORS_STRIBECK_S006,
+        "s006.mcap",
+        "--m1-kg 12 --m2-kg 2.5 --k1-n-per-m 1500 --k2-n-per-m 1000 \
              --d-n-s-per-m 0.1 --amplitude-m 0.003 --frequency-hz 1.6726663501316728 \
              --normal-force 2.0 --rs-n 1.751289765241449 --rd-n 1.2730136430545147 \
              --law stribeck --stribeck-velocity-m-per-s 0.013370699080826148 \
-             --contact-stiffness-n-per-m 37250.9638924838 --seed 706 --duration-s 20"
-                .split_whitespace(),
-        )
-        .arg("--sensors")
-        .arg(&sensors)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+             --contact-stiffness-n-per-m 37250.9638924838 --seed 706 --duration-s 20",
+    );
     let (rs, rd, kappa) = (1.751289765241449, 1.2730136430545147, 37.2509638924838);
     let forced = fit_entry_with(&log, &["--law", "stribeck"]);
     let label = format!("{forced:#}");
     assert_eq!(forced["law"], "stribeck", "{label}");
     assert!(forced["r_s_interval_n"].is_array(), "{label}");
     assert_covered(&forced, rs, rd, kappa);
+}
+
+/// A Stribeck pad whose static threshold depends on the sliding direction
+/// (the bundled rig at 2.2 N: Rs 0.924 N towards +, 0.80 N towards −, Rd
+/// 0.748 N both ways, v_s 5 mm/s): the Stribeck family's levels split as
+/// the simple families' do (v_s shared). Before session 34 no family
+/// explained it: static/dynamic, inadequate, Rs [0.84, 1.13], 40 s; now
+/// the split Stribeck law, adequate, Rs⁺ within 1 % and covered, Rd
+/// covered, Rs⁻ bounded or measured, its interval covering, 7 s.
+#[test]
+fn a_direction_dependent_stribeck_pad_is_identified() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("ds1.mcap");
+    let o = common::bin()
+        .args(["synth", "--test", "characteristic", "--normal-force", "2.2"])
+        .args(["--law", "stribeck", "--rs-n", "0.924", "--rd-n", "0.748"])
+        .args([
+            "--stribeck-velocity-m-per-s",
+            "0.005",
+            "--rs-minus-n",
+            "0.80",
+        ])
+        .args(["--seed", "7", "--out"])
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let f = fit_entry(&log);
+    let label = format!("{f:#}");
+    assert_eq!(f["law"], "stribeck", "{label}");
+    assert_eq!(f["direction_dependent"], true, "{label}");
+    assert_eq!(f["adequate"], true, "{label}");
+    let rs = f["r_s_n"].as_f64().unwrap();
+    assert!((rs / 0.924 - 1.0).abs() < 0.01, "{label}");
+    assert!(covers(&f, "r_s_interval_n", 0.924), "{label}");
+    assert!(covers(&f, "r_d_interval_n", 0.748), "{label}");
+    assert!(covers(&f, "r_s_minus_interval_n", 0.80), "{label}");
 }

@@ -127,13 +127,14 @@ fn identity() -> M4 {
     m
 }
 
-fn mul(a: &M4, b: &M4) -> M4 {
-    let mut c = [[0.0; 4]; 4];
-    for i in 0..4 {
-        for k in 0..4 {
+/// The product of two N×N matrices (4: the state; 5: the extended state).
+fn mul<const N: usize>(a: &[[f64; N]; N], b: &[[f64; N]; N]) -> [[f64; N]; N] {
+    let mut c = [[0.0; N]; N];
+    for i in 0..N {
+        for k in 0..N {
             let aik = a[i][k];
             if aik != 0.0 {
-                for j in 0..4 {
+                for j in 0..N {
                     c[i][j] += aik * b[k][j];
                 }
             }
@@ -382,7 +383,7 @@ impl Monodromy {
             if delta <= 0.0 {
                 return None;
             }
-            m = mul5(&self.flow_ext(c, mode, delta), &m);
+            m = mul(&self.flow_ext(c, mode, delta), &m);
             let x = &ev.x;
             match (ev.kind, mode) {
                 (EventKind::Stick, Mode::Slip { .. }) => {
@@ -421,7 +422,7 @@ impl Monodromy {
         if delta < 0.0 {
             return None;
         }
-        Some(mul5(&self.flow_ext(c, mode, delta), &m))
+        Some(mul(&self.flow_ext(c, mode, delta), &m))
     }
 
     /// e^{A5Δ} of a phase behind a contact spring (see the module doc): a
@@ -448,21 +449,6 @@ impl Monodromy {
         }
         out
     }
-}
-
-fn mul5(a: &M5, b: &M5) -> M5 {
-    let mut c = [[0.0; 5]; 5];
-    for i in 0..5 {
-        for k in 0..5 {
-            let aik = a[i][k];
-            if aik != 0.0 {
-                for j in 0..5 {
-                    c[i][j] += aik * b[k][j];
-                }
-            }
-        }
-    }
-    c
 }
 
 #[cfg(test)]
@@ -501,14 +487,25 @@ mod tests {
             let e = sim.run(Init { x: y, mode }, p, &mut ());
             e.x
         };
-        let mut j = [[0.0; 4]; 4];
-        for c in 0..dim {
+        central(x, dim, 4, run)
+    }
+
+    /// Central differences of `run` at `x`: columns 0..`cols`, rows
+    /// 0..`rows` (the rest 0).
+    fn central<const N: usize>(
+        x: [f64; N],
+        cols: usize,
+        rows: usize,
+        run: impl Fn([f64; N]) -> [f64; N],
+    ) -> [[f64; N]; N] {
+        let mut j = [[0.0; N]; N];
+        for c in 0..cols {
             let h = 1e-6 * (1.0 + x[c].abs());
             let (mut a, mut b) = (x, x);
             a[c] += h;
             b[c] -= h;
             let (pa, pb) = (run(a), run(b));
-            for i in 0..4 {
+            for i in 0..rows {
                 j[i][c] = (pa[i] - pb[i]) / (2.0 * h);
             }
         }
@@ -575,11 +572,7 @@ mod tests {
                 mode: e.mode,
             };
             for p in [1, 3] {
-                let mut rec = Events::default();
-                sim.run(start, p, &mut rec);
-                for ev in &rec.0 {
-                    kinds.insert(ev.kind.as_str());
-                }
+                record_kinds(&sim, start, p, &mut kinds);
                 let Some((x, mode, j)) = mono.map(&sim, start, p) else {
                     panic!(
                         "no variational Jacobian for m {} rho {rs} {rd} minus {:?} slope {slope} eta {eta} p {p}",
@@ -683,11 +676,7 @@ mod tests {
                         mode: e.mode,
                     };
                     for p in [1, 3] {
-                        let mut rec = Events::default();
-                        sim.run(st, p, &mut rec);
-                        for ev in &rec.0 {
-                            kinds.insert(ev.kind.as_str());
-                        }
+                        record_kinds(&sim, st, p, &mut kinds);
                         let label = format!(
                             "m {} rho {rs} {rd} minus {minus:?} slope {slope} eta {eta} kappa {kappa} p {p} from {:?}",
                             m.absorber.m, st.mode
@@ -719,17 +708,7 @@ mod tests {
                             })
                             .0
                         };
-                        let mut fd = [[0.0; 5]; 5];
-                        for c in 0..dim {
-                            let h = 1e-6 * (1.0 + y[c].abs());
-                            let (mut a, mut b) = (y, y);
-                            a[c] += h;
-                            b[c] -= h;
-                            let (pa, pb) = (run(a), run(b));
-                            for i in 0..dim_end {
-                                fd[i][c] = (pa[i] - pb[i]) / (2.0 * h);
-                            }
-                        }
+                        let fd = central(y, dim, dim_end, run);
                         let scale = fd
                             .iter()
                             .flat_map(|r| r[..dim].iter())
@@ -756,6 +735,20 @@ mod tests {
             starts[0] > 0 && starts[1] > 0,
             "held and sliding starts: {starts:?}"
         );
+    }
+
+    /// Adds the kinds of the events of `p` periods from `start` to `kinds`.
+    fn record_kinds(
+        sim: &Sim,
+        start: Init,
+        p: u64,
+        kinds: &mut std::collections::BTreeSet<&'static str>,
+    ) {
+        let mut rec = Events::default();
+        sim.run(start, p, &mut rec);
+        for ev in &rec.0 {
+            kinds.insert(ev.kind.as_str());
+        }
     }
 
     fn e_map(sim: &Sim, init: Init, p: u64) -> ([f64; 4], Mode) {
