@@ -1045,7 +1045,8 @@ impl Refinement {
     /// and chosen only by the criterion: the split threshold on the simple
     /// family with a threshold where the direction screen fired or the law
     /// so far does not explain the log (a short log may hold too few
-    /// one-sided breakaways for the screen); then a
+    /// one-sided breakaways for the screen), and on a shaped law's rigid
+    /// fit (the Stribeck family, kept only where chosen); then a
     /// contact spring where the compliance screen fired or the law so far
     /// does not explain the log (a compliant contact rings on its spring
     /// after every slip, so the velocity may show no stick at all and the

@@ -45,9 +45,9 @@ impl Shooting {
 
 /// A section state in the coordinates shooting varies, `[ζ1, ζ1', ζ2,
 /// ζ2', ζs]`: a rigid stick varies the first three (ζ2' = 0, ζs = ζ2: the
-/// state's ζ2 is the stuck position), a
-/// slip the first four (the slider follows M2: ζs = 0 here), a slider held
-/// behind a contact spring all five (ζs: the mode's held position).
+/// state's ζ2 is the stuck position), a slip the first four (the slider
+/// follows M2: ζs = 0 here), a slider held behind a contact spring all
+/// five (ζs: the mode's held position).
 pub(super) fn ext(init: &Init, contact: bool) -> [f64; 5] {
     let x = init.x;
     match init.mode {
