@@ -43,8 +43,9 @@ impl PadShape {
 pub struct Combined {
     /// The combined value (κ, or the ratio ρs⁻/ρs⁺).
     pub value: f64,
-    /// Its 95 % interval.
-    pub interval: (f64, f64),
+    /// Its 95 % interval (`None`: one log, without an interval of its
+    /// own: nothing says how well it is known).
+    pub interval: Option<(f64, f64)>,
     /// χ² per degree of freedom of the logs about it (None: one log).
     pub chi2_per_dof: Option<f64>,
     /// The logs that chose the extension.
@@ -106,18 +107,24 @@ fn combine(
             / (pts.len() - 1) as f64
     });
     if known.is_empty() {
-        // No log gave an interval: the values' own spread.
+        // No log gave an interval: the values' own spread (none for one).
         let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
             (a.0.min(p.0), a.1.max(p.0))
         });
-        sigma = 0.5 * (hi - lo) / 1.96;
+        sigma = if pts.len() > 1 {
+            0.5 * (hi - lo) / 1.96
+        } else {
+            f64::NAN
+        };
     } else if let Some(c) = chi2_per_dof.filter(|c| *c > 1.0) {
         sigma *= c.sqrt();
     }
     let chosen = chosen.max(pts.len());
     Some(Combined {
         value: mean.exp(),
-        interval: ((mean - 1.96 * sigma).exp(), (mean + 1.96 * sigma).exp()),
+        interval: sigma
+            .is_finite()
+            .then(|| ((mean - 1.96 * sigma).exp(), (mean + 1.96 * sigma).exp())),
         chi2_per_dof: chi2_per_dof.filter(|_| !known.is_empty()),
         chosen,
         eligible,
@@ -197,7 +204,7 @@ mod tests {
         let chi = c.chi2_per_dof.unwrap();
         assert!(chi > 100.0, "{chi}");
         let s = (1.1f64.ln() / 1.96) / 2f64.sqrt() * chi.sqrt();
-        assert!((c.interval.1 / 40.0 - (1.96 * s).exp()).abs() < 1e-9);
+        assert!((c.interval.unwrap().1 / 40.0 - (1.96 * s).exp()).abs() < 1e-9);
         // Agreeing logs: no widening.
         let c = combine(&[(40.0, iv(40.0)), (40.4, iv(40.4))], 2, 5).unwrap();
         assert!(c.chi2_per_dof.unwrap() < 1.0);
@@ -205,5 +212,7 @@ mod tests {
         assert!(combine(&[], 1, 3).is_none());
         // A log that chose it but only bounds it counts towards the half.
         assert!(combine(&[(40.0, iv(40.0))], 2, 4).unwrap().used);
+        // One log without an interval: no interval claimed.
+        assert_eq!(combine(&[(40.0, None)], 1, 1).unwrap().interval, None);
     }
 }

@@ -153,10 +153,12 @@ pub fn batch_summary(b: &Batch) -> Vec<KeyValue> {
 fn pad_words(pad: &crate::batch::BatchPad) -> String {
     let one = |name: &str, c: &crate::batch::Combined| {
         format!(
-            "{name} {:.4} [{:.4}, {:.4}] from {} of {} logs that slid{}, {}",
+            "{name} {:.4} {} from {} of {} logs that slid{}, {}",
             c.value,
-            c.interval.0,
-            c.interval.1,
+            c.interval
+                .map_or("(no interval)".into(), |(lo, hi)| format!(
+                    "[{lo:.4}, {hi:.4}]"
+                )),
             c.chosen,
             c.eligible,
             c.chi2_per_dof

@@ -1061,14 +1061,14 @@ impl Refinement {
         t0: std::time::Instant,
     ) {
         let h = self.hints;
+        let fail = |e: RefineError| crate::warning::Warning::PadRefinementFailed {
+            reason: e.to_string(),
+        };
         let try_ext = |i: usize,
                        ext: Ext,
                        (splits, kappas, extra): (&[f64], &[f64], &[Vec<f64>]),
                        fits: &mut Vec<Refined>,
                        out: &mut OutputErrorFit| {
-            let fail = |e: RefineError| crate::warning::Warning::PadRefinementFailed {
-                reason: e.to_string(),
-            };
             match self.refine_ext(&fits[i], ext, splits, kappas, extra) {
                 Ok(f) => {
                     fits.push(f);
@@ -1147,18 +1147,11 @@ impl Refinement {
                             }
                             Err(e) => {
                                 fits.pop();
-                                out.notes
-                                    .push(crate::warning::Warning::PadRefinementFailed {
-                                        reason: e.to_string(),
-                                    });
+                                out.notes.push(fail(e));
                             }
                         }
                     }
-                    Err(e) => out
-                        .notes
-                        .push(crate::warning::Warning::PadRefinementFailed {
-                            reason: e.to_string(),
-                        }),
+                    Err(e) => out.notes.push(fail(e)),
                 }
             }
         }
