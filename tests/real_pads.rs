@@ -1972,3 +1972,138 @@ fn a_direction_dependent_stribeck_pad_is_identified() {
     assert!(covers(&f, "r_d_interval_n", 0.748), "{label}");
     assert!(covers(&f, "r_s_minus_interval_n", 0.80), "{label}");
 }
+
+/// Levels per direction from calibrated position zeros (the rig key
+/// `position_zero_uncertainty_m`, 10 µm here; the synth draws the x0, x1,
+/// x2 offsets within it): the fitted force bias is then half the
+/// difference of the dynamic levels plus the zeros' part, so every level
+/// of each direction is measured. On the bundled rig (Rs⁺ 0.924, Rd⁺
+/// 0.748, Rs⁻ 0.84, Rd⁻ 0.68 N: 9 % apart) and on a second rig (M1 5 kg,
+/// M2 1 kg, K 400 N/m; Rs⁺ 0.591, Rd⁺ 0.510, Rs⁻ 0.683, Rd⁻ 0.570 N: 12–16 %
+/// apart), typical sensors: all four levels within 3 % with covering
+/// intervals. A symmetric pad with calibrated zeros: no difference
+/// claimed (the dynamic difference's interval holds 0, no warning). The
+/// same direction-dependent pad without the key: no levels per direction
+/// (the zeros are unknown), as before.
+#[test]
+fn calibrated_zeros_give_the_levels_of_each_direction() {
+    let dir = tempfile::tempdir().unwrap();
+    let second_rig = [
+        "--m1-kg",
+        "5",
+        "--m2-kg",
+        "1",
+        "--k1-n-per-m",
+        "400",
+        "--k2-n-per-m",
+        "400",
+        "--d-n-s-per-m",
+        "0.1",
+        "--amplitude-m",
+        "0.0025",
+        "--frequency-hz",
+        "1.48",
+        "--normal-force",
+        "2",
+        "--rs-n",
+        "0.591",
+        "--rd-n",
+        "0.510",
+        "--seed",
+        "11",
+    ];
+    let bundled = ["--normal-force", "2.2", "--seed", "3"];
+    let calibrated = ["--position-zero-uncertainty-m", "1e-5"];
+    let cases: [(&str, Vec<&str>, [f64; 4]); 2] = [
+        (
+            "bundled.mcap",
+            [
+                &bundled[..],
+                &calibrated,
+                &["--rs-minus-n", "0.84", "--rd-minus-n", "0.68"],
+            ]
+            .concat(),
+            [0.924, 0.748, 0.84, 0.68],
+        ),
+        (
+            "second.mcap",
+            [
+                &second_rig[..],
+                &calibrated,
+                &["--rs-minus-n", "0.683", "--rd-minus-n", "0.570"],
+            ]
+            .concat(),
+            [0.591, 0.510, 0.683, 0.570],
+        ),
+    ];
+    let keys = [
+        ("r_s_n", "r_s_interval_n"),
+        ("r_d_n", "r_d_interval_n"),
+        ("r_s_minus_n", "r_s_minus_interval_n"),
+        ("r_d_minus_n", "r_d_minus_interval_n"),
+    ];
+    for (name, args, truth) in &cases {
+        let log = dir.path().join(name);
+        let args: Vec<String> = args.iter().map(|a| a.to_string()).collect();
+        let f = synth_to_and_fit(&log, &args);
+        let t: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join("truth.json")).unwrap())
+                .unwrap();
+        for ch in ["/drive/position", "/mass1/position", "/mass2/position"] {
+            let off = t["files"][name]["sensors"][ch]["offset"].as_f64().unwrap();
+            assert!(off.abs() <= 1e-5, "{name} {ch}: offset {off}");
+        }
+        let label = format!("{name}: {f:#}");
+        assert_eq!(f["levels_gauge"], "calibrated zeros", "{label}");
+        assert_eq!(f["direction_dependent"], true, "{label}");
+        assert_eq!(f["levels_by_direction"]["resolved"], true, "{label}");
+        for ((v, iv), t) in keys.iter().zip(truth) {
+            let x = f[v].as_f64().unwrap_or_else(|| panic!("{v} null: {label}"));
+            assert!((x / t - 1.0).abs() < 0.03, "{v} {x} against {t}: {label}");
+            assert!(covers(&f, iv, *t), "{iv} {} misses {t}: {label}", f[iv]);
+        }
+        assert!(
+            f["warnings"].as_array().unwrap().iter().any(|w| w
+                .as_str()
+                .unwrap()
+                .contains("friction levels depend on the sliding direction")),
+            "{label}"
+        );
+    }
+    // Symmetric, calibrated: nothing claimed, the numbers given.
+    let f = synth_to_and_fit(
+        &dir.path().join("symmetric.mcap"),
+        &[&bundled[..], &calibrated]
+            .concat()
+            .iter()
+            .map(|a| a.to_string())
+            .collect::<Vec<_>>(),
+    );
+    let label = format!("symmetric: {f:#}");
+    let c = &f["levels_by_direction"];
+    assert_eq!(c["resolved"], false, "{label}");
+    assert!(covers(c, "dynamic_split_interval_n", 0.0), "{label}");
+    assert!(f["levels_gauge"].is_null(), "{label}");
+    assert_eq!(f["direction_dependent"], false, "{label}");
+    assert!(f["r_d_minus_n"].is_null(), "{label}");
+    assert!(
+        !f["warning_codes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|c| c == "direction_dependent"),
+        "{label}"
+    );
+    // The direction-dependent pad, zeros unknown: no levels per direction.
+    let args: Vec<String> = [
+        &bundled[..],
+        &["--rs-minus-n", "0.84", "--rd-minus-n", "0.68"],
+    ]
+    .concat()
+    .iter()
+    .map(|a| a.to_string())
+    .collect();
+    let f = synth_to_and_fit(&dir.path().join("unknown.mcap"), &args);
+    assert!(f["levels_by_direction"].is_null(), "{f:#}");
+    assert_ne!(f["levels_gauge"], "calibrated zeros");
+}

@@ -220,6 +220,12 @@ pub struct SynthArgs {
     /// and its friction slider (a Jenkins element; default: a rigid stick).
     #[arg(long = "contact-stiffness-n-per-m", allow_hyphen_values = true)]
     pub contact_stiffness: Option<f64>,
+    /// Calibrated position zeros: draw the x0, x1 and x2 offsets within
+    /// this bound (m) and write it as the rig key
+    /// `position_zero_uncertainty_m` (default: offsets of up to 0.1 mm,
+    /// unknown to the analyst).
+    #[arg(long = "position-zero-uncertainty-m", allow_hyphen_values = true)]
+    pub position_zero_uncertainty: Option<f64>,
     /// Replace an existing log at --out (and its channel map); without it
     /// an existing file is refused.
     #[arg(long)]
@@ -290,6 +296,7 @@ impl SynthArgs {
             rs_minus_n: self.rs_minus_n,
             rd_minus_n: self.rd_minus_n,
             contact_stiffness_n_per_m: self.contact_stiffness,
+            position_zero_uncertainty_m: self.position_zero_uncertainty,
             force: self.force,
         }
     }

@@ -390,6 +390,13 @@ pub struct LogFitJson {
     pub pad_screen: super::pads::PadScreen,
     /// The coupling spring's screen.
     pub spring_screen: Option<super::springs::SpringScreen>,
+    /// How the levels of the two directions are fixed: `"equal dynamic
+    /// levels"` (a split threshold with unknown zeros), `"calibrated
+    /// zeros"` (every level of each direction), null (symmetric).
+    pub levels_gauge: Option<&'static str>,
+    /// The levels of each direction where the log declares calibrated
+    /// position zeros, resolved or not (null: zeros unknown).
+    pub levels_by_direction: Option<super::output_error::CalibratedLevels>,
 }
 
 impl LogFit {
@@ -450,7 +457,7 @@ impl LogFit {
             .filter(|_| self.estimate == Estimate::OutputError);
         let pads = self.pads();
         let split = pads.filter(|_| self.direction_dependent());
-        LogFitJson {
+        let mut j = LogFitJson {
             log: log.display().to_string(),
             law: self.kind().as_str(),
             rho_s: self.rho_s(),
@@ -578,6 +585,32 @@ impl LogFit {
             contact_stiffness_lower_bound: self.contact_stiffness_lower_bound(),
             pad_screen: self.pad_screen,
             spring_screen: self.spring_screen,
+            levels_gauge: split.map(|_| "equal dynamic levels"),
+            levels_by_direction: pads.and_then(|p| p.calibrated),
+        };
+        // Calibrated zeros that resolve the levels' difference between the
+        // directions: the interface keys hold the levels of each direction
+        // (the plain ones towards +), not the symmetric gauge's.
+        if let Some(c) = pads.and_then(|p| p.calibrated).filter(|c| c.resolved) {
+            j.direction_dependent = true;
+            j.levels_gauge = Some("calibrated zeros");
+            j.rho_s = c.rho[0];
+            j.rho_d = c.rho[1];
+            j.rho_s_interval = Iv(c.rho_intervals[0]);
+            j.rho_d_interval = Iv(c.rho_intervals[1]);
+            j.r_s_n = c.rs_plus_n;
+            j.r_d_n = Some(c.rd_plus_n);
+            j.r_s_interval_n = Iv(c.rs_plus_interval_n);
+            j.r_d_interval_n = Iv(c.rd_plus_interval_n);
+            j.rho_s_minus = c.rho[2];
+            j.rho_d_minus = c.rho[3];
+            j.rho_s_minus_interval = Iv(c.rho_intervals[2]);
+            j.rho_d_minus_interval = Iv(c.rho_intervals[3]);
+            j.r_s_minus_n = c.rs_minus_n;
+            j.r_d_minus_n = Some(c.rd_minus_n);
+            j.r_s_minus_interval_n = Iv(c.rs_minus_interval_n);
+            j.r_d_minus_interval_n = Iv(c.rd_minus_interval_n);
         }
+        j
     }
 }

@@ -1108,19 +1108,49 @@ fn equation_error_intervals(
 /// a side only bounded, a compliant contact); `k2` in N/m.
 fn pad_warnings(o: &OutputErrorFit, k2: f64, warnings: &mut Vec<Warning>) {
     let iv = &o.intervals;
-    if let (Some(split_n), Some(interval_n)) = (o.pads.split_n, o.pads.split_interval_n) {
+    let calibrated = o.pads.calibrated.filter(|c| c.resolved);
+    if let Some(c) = calibrated {
+        warnings.push(Warning::LevelsByDirection {
+            zero_uncertainty_m: c.zero_uncertainty_m,
+            rd_split_n: c.dynamic_split_n,
+            interval_n: c.dynamic_split_interval_n.unwrap_or((f64::NAN, f64::NAN)),
+            levels_n: [
+                c.rs_plus_n,
+                Some(c.rd_plus_n),
+                c.rs_minus_n,
+                Some(c.rd_minus_n),
+            ],
+        });
+        // One side only bounded (M2 breaks away towards the other side
+        // only), with the bounds of its own direction's levels; where
+        // neither side is measured (a log that never sticks, a threshold
+        // behind a contact) their own warnings say so.
+        for (side, bounds_n, other) in [
+            ('-', c.rs_minus_interval_n, c.rs_plus_n),
+            ('+', c.rs_plus_interval_n, c.rs_minus_n),
+        ] {
+            let bounded = if side == '-' {
+                c.rs_minus_n.is_none()
+            } else {
+                c.rs_plus_n.is_none()
+            };
+            if bounded && other.is_some() && bounds_n.is_some() {
+                warnings.push(Warning::DirectionBounded { side, bounds_n });
+            }
+        }
+    } else if let (Some(split_n), Some(interval_n)) = (o.pads.split_n, o.pads.split_interval_n) {
         warnings.push(Warning::DirectionDependent {
             split_n,
             interval_n,
         });
     }
-    if o.pads.minus_bounded {
+    if o.pads.minus_bounded && calibrated.is_none() {
         warnings.push(Warning::DirectionBounded {
             side: '-',
             bounds_n: o.pads.rs_minus_interval_n,
         });
     }
-    if o.pads.plus_bounded {
+    if o.pads.plus_bounded && calibrated.is_none() {
         warnings.push(Warning::DirectionBounded {
             side: '+',
             bounds_n: iv.rs_n,

@@ -38,7 +38,7 @@ pub use delays::{
     AccelerationConsistency, ChannelDelay, ChannelDelays, VelocityConsistency,
     VELOCITY_GAIN_TOLERANCE,
 };
-pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION};
+pub use rig::{RigError, RigMeta, SweepKind, TestKind, FORMAT_VERSION, ZERO_UNCERTAINTY};
 pub(crate) use run::interpolate;
 pub use run::{Channel, Column, Gap, GapKind, Resampled, Run, Setpoint, MAX_BRIDGE_SAMPLES};
 

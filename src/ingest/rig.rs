@@ -19,6 +19,9 @@ const REQUIRED: [&str; 9] = [
     "normal_force_n",
 ];
 
+/// The optional key declaring calibrated position zeros (m).
+pub const ZERO_UNCERTAINTY: &str = "position_zero_uncertainty_m";
+
 /// Keys read into typed fields (everything else lands in [`RigMeta::extra`]).
 const KNOWN: [&str; 15] = [
     "format",
@@ -261,6 +264,17 @@ impl RigMeta {
                 })
             }
         };
+        // Optional: the position channels' calibrated zeros (kept in
+        // `extra`, checked here so a bad value is refused, not ignored).
+        if let Some(e) = number(map, ZERO_UNCERTAINTY)? {
+            if e < 0.0 {
+                return Err(RigError::OutOfRange {
+                    key: ZERO_UNCERTAINTY.into(),
+                    value: map.get(ZERO_UNCERTAINTY).cloned().unwrap_or_default(),
+                    why: "must not be negative",
+                });
+            }
+        }
         let extra = map
             .iter()
             .filter(|(k, _)| !KNOWN.contains(&k.as_str()))
@@ -359,6 +373,15 @@ impl RigMeta {
     /// Force scale A·K2 (N) with the nominal amplitude: ρ = R / force_scale.
     pub fn force_scale_n(&self) -> f64 {
         self.drive_amplitude_m * self.k2_n_per_m
+    }
+
+    /// The bound (m) within which the position channels x0, x1, x2 read
+    /// zero at the rig's rest state (drive centred, both springs at their
+    /// free length): the optional key `position_zero_uncertainty_m`. With
+    /// it, the friction levels of each sliding direction are identifiable
+    /// (`docs/real-pads.md`); None: the zeros are unknown.
+    pub fn position_zero_uncertainty_m(&self) -> Option<f64> {
+        self.extra_number(ZERO_UNCERTAINTY).filter(|e| *e >= 0.0)
     }
 
     /// An extra key read as a number (e.g. `sweep_rate_hz_per_s` of a
@@ -521,6 +544,8 @@ mod tests {
             ("d_n_s_per_m", "-0.1"),
             ("format", "stickslip-rig-log/2"),
             ("test", "impact"),
+            ("position_zero_uncertainty_m", "-1e-5"),
+            ("position_zero_uncertainty_m", "ten microns"),
         ] {
             let mut m = rig_a();
             m.insert(k.into(), v.into());
@@ -530,5 +555,14 @@ mod tests {
         let mut m = rig_a();
         m.insert("d_n_s_per_m".into(), "0".into());
         assert!(RigMeta::from_map(&m).is_ok(), "zero damping is legal");
+        m.insert("position_zero_uncertainty_m".into(), " 1e-5 ".into());
+        let r = RigMeta::from_map(&m).unwrap();
+        assert_eq!(r.position_zero_uncertainty_m(), Some(1e-5));
+        assert_eq!(
+            RigMeta::from_map(&rig_a())
+                .unwrap()
+                .position_zero_uncertainty_m(),
+            None
+        );
     }
 }

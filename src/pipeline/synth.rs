@@ -114,6 +114,9 @@ pub struct SynthJob {
     pub rd_minus_n: Option<f64>,
     /// Tangential contact stiffness kt (N/m; None: a rigid stick).
     pub contact_stiffness_n_per_m: Option<f64>,
+    /// Calibrated position zeros: the x0, x1, x2 offsets drawn within
+    /// this bound (m) and the bound written to the rig record.
+    pub position_zero_uncertainty_m: Option<f64>,
     /// Replace an existing log at `out` (and its channel map).
     pub force: bool,
 }
@@ -296,6 +299,20 @@ impl SynthJob {
         }
         self.apply_clips(&mut sensors)?;
         self.apply_channel_values(&mut sensors)?;
+        if let Some(e) = self.position_zero_uncertainty_m {
+            if !(e.is_finite() && e >= 0.0) {
+                return Err(input_err(
+                    &self.out,
+                    format!("--position-zero-uncertainty-m {e}: must be finite and >= 0"),
+                ));
+            }
+            // Calibrated zeros: each position offset uniform within ±e,
+            // on a stream of its own (the other draws unchanged).
+            let mut r = crate::stats::Rng::with_stream(self.seed, 0x2E20_CA1B);
+            for m in [&mut sensors.x0, &mut sensors.x1, &mut sensors.x2] {
+                m.offset = r.range(-e, e);
+            }
+        }
         Ok(sensors)
     }
 
@@ -413,6 +430,7 @@ impl SynthJob {
                 rd_minus_n: self.rd_minus_n,
             },
             contact_stiffness_n_per_m: self.contact_stiffness_n_per_m,
+            position_zero_uncertainty_m: self.position_zero_uncertainty_m,
         };
         cfg.validate().map_err(|e| input_err(out, e.to_string()))?;
         Ok(cfg)

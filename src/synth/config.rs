@@ -469,6 +469,11 @@ pub struct SynthConfig {
     /// between M2 and its friction slider; None: the rigid stick.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub contact_stiffness_n_per_m: Option<f64>,
+    /// Calibrated position zeros: the bound (m) written as the rig key
+    /// `position_zero_uncertainty_m`; the sensor models' x0, x1 and x2
+    /// offsets must lie within it. None: zeros unknown (not written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_zero_uncertainty_m: Option<f64>,
 }
 
 impl SynthConfig {
@@ -495,6 +500,7 @@ impl SynthConfig {
             rtol: 1e-10,
             defects: PhysicsDefects::default(),
             contact_stiffness_n_per_m: None,
+            position_zero_uncertainty_m: None,
         }
     }
 
@@ -515,6 +521,21 @@ impl SynthConfig {
                     "a contact stiffness cannot be combined with the test defects (their integrator has a rigid stick)"
                         .to_string(),
                 ));
+            }
+        }
+        if let Some(e) = self.position_zero_uncertainty_m {
+            non_negative("position zero uncertainty", e)?;
+            for (name, m) in [
+                ("x0", &self.sensors.x0),
+                ("x1", &self.sensors.x1),
+                ("x2", &self.sensors.x2),
+            ] {
+                if m.offset.abs() > e {
+                    return Err(bad(format!(
+                        "the {name} offset {} m is outside the declared zero uncertainty {e} m",
+                        m.offset
+                    )));
+                }
             }
         }
         self.test.validate()?;

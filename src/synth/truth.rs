@@ -13,6 +13,9 @@ pub(super) fn rig_record(cfg: &SynthConfig) -> BTreeMap<String, String> {
     };
     let mut extra = BTreeMap::new();
     extra.insert("synth_seed".to_string(), cfg.seed.to_string());
+    if let Some(e) = cfg.position_zero_uncertainty_m {
+        extra.insert(crate::ingest::ZERO_UNCERTAINTY.to_string(), e.to_string());
+    }
     if let TestSpec::Continuous {
         from_hz,
         to_hz,

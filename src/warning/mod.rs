@@ -480,6 +480,18 @@ pub enum Warning {
         /// Its 95 % interval (N).
         interval_n: (f64, f64),
     },
+    /// With calibrated position zeros the friction levels differ by
+    /// sliding direction (the dynamic levels' difference resolved).
+    LevelsByDirection {
+        /// The declared bound on each position zero (m).
+        zero_uncertainty_m: f64,
+        /// Rd⁺ − Rd⁻ (N).
+        rd_split_n: f64,
+        /// Its 95 % interval (N).
+        interval_n: (f64, f64),
+        /// Rs⁺, Rd⁺, Rs⁻, Rd⁻ (N; a threshold None where only bounded).
+        levels_n: [Option<f64>; 4],
+    },
     /// The threshold is split by direction, but M2 never breaks away towards
     /// one side: that side's threshold is only bounded.
     DirectionBounded {
@@ -843,7 +855,9 @@ impl Warning {
             VelocityScaleUnresolved { .. } => "velocity_scale_not_identified",
             NestedCoulomb { .. } => "parsimony",
             PadRefinementFailed { .. } => "refinement_failed",
-            DirectionDependent { .. } | DirectionBounded { .. } => "direction_dependent",
+            DirectionDependent { .. } | DirectionBounded { .. } | LevelsByDirection { .. } => {
+                "direction_dependent"
+            }
             ContactCompliance { .. } => "contact_compliance",
             NonlinearSpring { .. } => "nonlinear_spring",
             Untested { .. } => "untested",
@@ -1391,6 +1405,17 @@ mod tests {
                 format!("a real-pad extension could not be refined ({}); the law without it is kept", "no data"),
             ),
             (
+                LevelsByDirection {
+                    zero_uncertainty_m: 1e-5,
+                    rd_split_n: 0.06,
+                    interval_n: (0.04, 0.08),
+                    levels_n: [Some(0.918), Some(0.742), None, Some(0.682)],
+                },
+                "the friction levels depend on the sliding direction (position zeros calibrated to ±10.0 µm): \
+                 Rs⁺ 0.9180, Rd⁺ 0.7420, Rs⁻ only bounded, Rd⁻ 0.6820 N; Rd⁺ − Rd⁻ = 0.0600 N [0.0400, 0.0800]"
+                    .to_string(),
+            ),
+            (
                 DirectionDependent { split_n: 0.05, interval_n: (0.03, 0.07) },
                 format!(
                     "the static threshold depends on the sliding direction: Rs⁺ − Rs⁻ = {:.4} N [{:.4}, {:.4}] with equal dynamic levels; \
@@ -1656,7 +1681,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 84;
+    const VARIANTS: usize = 85;
 
     #[test]
     fn every_code_is_documented() {

@@ -54,6 +54,7 @@ impl fmt::Display for Warning {
             | NestedCoulomb { .. }
             | PadRefinementFailed { .. }
             | DirectionDependent { .. }
+            | LevelsByDirection { .. }
             | DirectionBounded { .. }
             | ContactCompliance { .. }
             | NonlinearSpring { .. }
@@ -462,6 +463,30 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
              (shifting one direction's levels against the other's is an x2 offset): calibrate the zeros to split the levels",
             split_n, interval_n.0, interval_n.1
         ),
+        LevelsByDirection {
+            zero_uncertainty_m,
+            rd_split_n,
+            interval_n,
+            levels_n,
+        } => {
+            write!(
+                f,
+                "the friction levels depend on the sliding direction (position zeros calibrated to ±{:.1} µm): ",
+                zero_uncertainty_m * 1e6
+            )?;
+            for (i, (name, v)) in ["Rs⁺", "Rd⁺", "Rs⁻", "Rd⁻"].iter().zip(levels_n).enumerate() {
+                let sep = if i == 0 { "" } else { ", " };
+                match v {
+                    Some(v) => write!(f, "{sep}{name} {v:.4}")?,
+                    None => write!(f, "{sep}{name} only bounded")?,
+                }
+            }
+            write!(
+                f,
+                " N; Rd⁺ − Rd⁻ = {rd_split_n:.4} N [{:.4}, {:.4}]",
+                interval_n.0, interval_n.1
+            )
+        }
         DirectionBounded { side, bounds_n } => {
             write!(
                 f,

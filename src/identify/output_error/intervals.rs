@@ -56,8 +56,59 @@ const SECANT_ROUNDS: usize = 3;
 pub(super) const MAX_SECANT_RATIO: f64 = 1.25;
 
 /// Quantities reported of a refined law: Rs⁺, Rd, a, ρs⁺, ρd, D*, then
-/// Rs⁻ (N), ρs⁻, the split Δ (N) and ln κ (NaN where not fitted).
-const NQ: usize = 10;
+/// Rs⁻ (N), ρs⁻, the split Δ (N) and ln κ (NaN where not fitted), then
+/// the levels per direction where the position zeros are calibrated
+/// ([`CalibratedLevels`]): the force bias b (N), Rs⁺, Rd⁺, Rs⁻, Rd⁻ (N)
+/// and ρs⁺, ρd⁺, ρs⁻, ρd⁻.
+const NQ: usize = 19;
+
+/// Index of the first calibrated quantity (the bias) in [`NQ`]'s list.
+const QCAL: usize = 10;
+
+/// The friction levels of each sliding direction, identifiable where the
+/// log declares calibrated position zeros (`position_zero_uncertainty_m`,
+/// `docs/real-pads.md` "Levels per direction from calibrated zeros"): the
+/// fitted force bias b = K2·(p1 − p2) is then the known offsets' part (0
+/// within the declared bound) plus half the difference of the dynamic
+/// levels, and every level of the equivalent symmetric law moves by ±b.
+/// A static threshold is None where the law's is not measured (a log
+/// that never sticks, a side only bounded, a threshold behind a contact
+/// that the log does not resolve).
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CalibratedLevels {
+    /// The declared bound (m) on each position channel's zero.
+    pub zero_uncertainty_m: f64,
+    /// Rd⁺ − Rd⁻ (N): twice the fitted bias.
+    pub dynamic_split_n: f64,
+    /// Its 95 % interval (N), the zeros' bound included.
+    pub dynamic_split_interval_n: Option<Interval>,
+    /// |Rd⁺ − Rd⁻| over its standard uncertainty.
+    pub z: f64,
+    /// The difference is resolved: z² > ln(n_eff) + 2 (the criterion's
+    /// price of one parameter plus its preference margin), or the chosen
+    /// law splits its threshold.
+    pub resolved: bool,
+    /// Rs⁺ (N).
+    pub rs_plus_n: Option<f64>,
+    /// Its interval (N).
+    pub rs_plus_interval_n: Option<Interval>,
+    /// Rd⁺ (N).
+    pub rd_plus_n: f64,
+    /// Its interval (N).
+    pub rd_plus_interval_n: Option<Interval>,
+    /// Rs⁻ (N).
+    pub rs_minus_n: Option<f64>,
+    /// Its interval (N).
+    pub rs_minus_interval_n: Option<Interval>,
+    /// Rd⁻ (N).
+    pub rd_minus_n: f64,
+    /// Its interval (N).
+    pub rd_minus_interval_n: Option<Interval>,
+    /// ρs⁺, ρd⁺, ρs⁻, ρd⁻ (ρ = R/(A·K2)).
+    pub rho: [Option<f64>; 4],
+    /// Their intervals.
+    pub rho_intervals: [Option<Interval>; 4],
+}
 
 /// The reported quantities of one refined law and their variances.
 pub(super) struct Variances {
@@ -113,6 +164,10 @@ pub struct PadFit {
     /// Behind a contact spring the log did not resolve the static
     /// threshold above the sliding level: Rs ≥ Rd only.
     pub threshold_unresolved: bool,
+    /// The levels per direction where the position zeros are calibrated
+    /// (None: zeros unknown; older saved fits).
+    #[serde(default)]
+    pub calibrated: Option<CalibratedLevels>,
 }
 
 /// Why a fit's intervals could not be formed (named in the warning when
@@ -199,6 +254,42 @@ impl Refinement {
             minus_bounded: false,
             plus_bounded: false,
             threshold_unresolved: false,
+            calibrated: self.zero_uncertainty_m.map(|e| {
+                let ivc = |k: usize| iv(k, true);
+                let sd = (t975 * t975 * inflation * inflation * var_stat[QCAL]
+                    + 1.96 * 1.96 * (var_cal[QCAL] + var_align[QCAL]))
+                    .sqrt()
+                    / 1.96;
+                let q = |k: usize| q0[k];
+                let known = |k: usize| value(k).filter(|_| rs_known);
+                CalibratedLevels {
+                    zero_uncertainty_m: e,
+                    dynamic_split_n: 2.0 * q(QCAL),
+                    dynamic_split_interval_n: ivc(QCAL).map(|(l, h)| (2.0 * l, 2.0 * h)),
+                    z: q(QCAL).abs() / sd,
+                    resolved: false,
+                    rs_plus_n: known(QCAL + 1),
+                    rs_plus_interval_n: iv(QCAL + 1, rs_known),
+                    rd_plus_n: q(QCAL + 2),
+                    rd_plus_interval_n: ivc(QCAL + 2),
+                    rs_minus_n: known(QCAL + 3),
+                    rs_minus_interval_n: iv(QCAL + 3, rs_known),
+                    rd_minus_n: q(QCAL + 4),
+                    rd_minus_interval_n: ivc(QCAL + 4),
+                    rho: [
+                        known(QCAL + 5),
+                        value(QCAL + 6),
+                        known(QCAL + 7),
+                        value(QCAL + 8),
+                    ],
+                    rho_intervals: [
+                        iv(QCAL + 5, rs_known),
+                        ivc(QCAL + 6),
+                        iv(QCAL + 7, rs_known),
+                        ivc(QCAL + 8),
+                    ],
+                }
+            }),
         };
         let cal = |k: usize, present: bool| {
             let c = 1.96 * var_cal[k].sqrt();
@@ -315,6 +406,12 @@ impl Refinement {
                 f64::NAN
             };
             let ln_kappa = kappa.map_or(f64::NAN, f64::ln);
+            // The levels per direction with calibrated zeros: the bias
+            // is the levels' common shift (see `CalibratedLevels`).
+            let bias = prob.unpack(th).1;
+            let rs_m = if fam.ext.split { rs_minus } else { l.rs_n };
+            let fs = a * k2;
+            let (sp, dp, sm, dm) = (l.rs_n + bias, l.rd_n + bias, rs_m - bias, l.rd_n - bias);
             [
                 b[0],
                 b[1],
@@ -326,6 +423,15 @@ impl Refinement {
                 rs_minus / (a * k2),
                 split,
                 ln_kappa,
+                bias,
+                sp,
+                dp,
+                sm,
+                dm,
+                sp / fs,
+                dp / fs,
+                sm / fs,
+                dm / fs,
             ]
         };
         let q0 = quantities(th, self.data.a);
@@ -360,6 +466,19 @@ impl Refinement {
             for k in 0..NQ {
                 var_cal[k] = var_cal[k].max(c[k]);
                 var_align[k] = var_align[k].max(a[k]);
+            }
+        }
+        // The declared zeros' part of the bias: b_cal = K2·(p1 − p2) with
+        // each offset within ±ε (rectangular: variance ε²/3 each).
+        if let Some(e) = self.zero_uncertainty_m {
+            let var_b = k2 * k2 * 2.0 * e * e / 3.0;
+            let fs = self.data.a * k2;
+            for (k, v) in var_cal.iter_mut().enumerate().skip(QCAL) {
+                *v += if k < QCAL + 5 {
+                    var_b
+                } else {
+                    var_b / (fs * fs)
+                };
             }
         }
         let (_, hinv, cov) = &lins[0];

@@ -129,7 +129,7 @@ pub use adequacy::{
 use anchors::{m1_sums, shooting_segments, slip_anchors, stick_anchors};
 use data::*;
 pub use drop::{DropProfile, THRESHOLD_EVIDENCE_BIC};
-pub use intervals::PadFit;
+pub use intervals::{CalibratedLevels, PadFit};
 use intervals::{CalibrationPart, IntervalsFailure, MAX_SECANT_RATIO};
 pub use lm::Minimiser;
 pub use problem::Ext;
@@ -394,6 +394,10 @@ pub struct Refinement {
     /// Standard uncertainty (s) of the drive's and of x2's alignment with
     /// x1 ([`Refinement::with_alignment_uncertainty`]).
     alignment_sigma: (f64, f64),
+    /// The bound (m) on the position channels' zeros where the log
+    /// declares them calibrated: the levels per direction are then
+    /// reported ([`CalibratedLevels`]).
+    zero_uncertainty_m: Option<f64>,
 }
 
 /// What the real-pad screen (`crate::identify::pads`) saw: the extensions
@@ -674,6 +678,7 @@ impl Refinement {
             hints: PadHints::default(),
             keep_projection_values: opts.keep_projection_values,
             alignment_sigma: (0.0, 0.0),
+            zero_uncertainty_m: rig.position_zero_uncertainty_m(),
         })
     }
 
@@ -1090,7 +1095,14 @@ impl Refinement {
                     && f.kind.family().selection() == Selection::Simple
             })
         };
-        if h.split || !out.adequacy.adequate {
+        // Calibrated zeros that resolve a difference of the dynamic levels
+        // are a screen of their own: the static thresholds may differ by
+        // direction by another amount, which the log shows where the law
+        // breaks away towards both sides.
+        let calibrated_split = out.pads.calibrated.is_some_and(|c| c.resolved)
+            && out.chosen.breakaways.0 >= MIN_DIRECTION_BREAKAWAYS
+            && out.chosen.breakaways.1 >= MIN_DIRECTION_BREAKAWAYS;
+        if h.split || !out.adequacy.adequate || calibrated_split {
             if let Some(i) = simple_threshold(fits) {
                 let law = fits[i].kind.family().unpack(&fits[i].th);
                 // Either sign: a pad that sticks at one reversal only does
@@ -1116,7 +1128,10 @@ impl Refinement {
         let shaped_rigid = fits
             .iter()
             .position(|f| f.ext.is_empty() && f.kind.family().has_velocity_scale());
-        if let (Some(i), true) = (shaped_rigid, h.split || !out.adequacy.adequate) {
+        if let (Some(i), true) = (
+            shaped_rigid,
+            h.split || !out.adequacy.adequate || calibrated_split,
+        ) {
             if !fits
                 .iter()
                 .any(|f| f.kind == fits[i].kind && f.ext == split)

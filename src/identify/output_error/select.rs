@@ -165,6 +165,76 @@ impl Refinement {
         }
     }
 
+    /// The static thresholds of each direction with calibrated zeros
+    /// ([`PadFit::calibrated`]): a side is measured where the chosen law
+    /// breaks away towards it at least [`MIN_DIRECTION_BREAKAWAYS`] times
+    /// and its threshold is resolved; otherwise its value is None and its
+    /// interval is the symmetric gauge's bounds (the threshold's interval,
+    /// or [Rd's low end, the reversals' bound] of a side never broken
+    /// towards) moved by the side's shift ±b, widened by b's half-width.
+    fn calibrated_sides(&self, f: &FamilyFit, iv: &Intervals, pads: &mut PadFit) {
+        let fs = self.data.a * self.rig.k2;
+        let split = f.ext.split;
+        let (minus_bounded, plus_bounded, unresolved) = (
+            pads.minus_bounded,
+            pads.plus_bounded,
+            pads.threshold_unresolved,
+        );
+        let rs_minus_iv = pads.rs_minus_interval_n;
+        let Some(c) = pads.calibrated.as_mut() else {
+            return;
+        };
+        let b = 0.5 * c.dynamic_split_n;
+        let hw_b = c
+            .dynamic_split_interval_n
+            .map_or(0.0, |(l, h)| 0.25 * (h - l));
+        let rd_lo = iv.rd_n.map(|r| r.0);
+        for (side, shift) in [(0usize, b), (1, -b)] {
+            let breakaways = if side == 0 {
+                f.breakaways.0
+            } else {
+                f.breakaways.1
+            };
+            let bounded = if side == 0 {
+                plus_bounded
+            } else {
+                minus_bounded
+            };
+            let measured = iv.rs_n.is_some()
+                && !bounded
+                && !unresolved
+                && breakaways >= MIN_DIRECTION_BREAKAWAYS;
+            if measured {
+                continue;
+            }
+            let gauge = if breakaways < MIN_DIRECTION_BREAKAWAYS && !bounded {
+                let ub = if side == 0 {
+                    f.reversal_bound_n.0
+                } else {
+                    f.reversal_bound_n.1
+                };
+                match (rd_lo, ub) {
+                    (Some(lo), Some(hi)) if lo <= hi => Some((lo, hi)),
+                    _ => None,
+                }
+            } else if side == 1 && split {
+                rs_minus_iv
+            } else {
+                iv.rs_n
+            };
+            let moved = gauge.map(|(lo, hi)| (lo + shift - hw_b, hi + shift + hw_b));
+            let (value, interval, rho, rho_iv) = if side == 0 {
+                (&mut c.rs_plus_n, &mut c.rs_plus_interval_n, 0, 0)
+            } else {
+                (&mut c.rs_minus_n, &mut c.rs_minus_interval_n, 2, 2)
+            };
+            *value = None;
+            *interval = moved;
+            c.rho[rho] = None;
+            c.rho_intervals[rho_iv] = moved.map(|(l, h)| (l / fs, h / fs));
+        }
+    }
+
     /// Whether a family's law sticks (see [`OutputErrorFit::sticks_found`]).
     fn sticks_of(&self, f: &FamilyFit) -> bool {
         !self.never_sticks || (f.stick_fraction > MIN_STICK_FRACTION && f.stick_runs >= 4)
@@ -275,6 +345,15 @@ impl Refinement {
                     &mut intervals,
                     &mut pads,
                 );
+            }
+        }
+        if pads.calibrated.is_some() {
+            self.calibrated_sides(&families[best], &intervals, &mut pads);
+            if let Some(c) = pads.calibrated.as_mut() {
+                // The difference of the dynamic levels is resolved when it
+                // would pay for its parameter by the criterion (z² is the
+                // χ² it buys) or the chosen law splits its threshold.
+                c.resolved = fits[best].ext.split || c.z * c.z > n_eff.max(1.0).ln() + 2.0;
             }
         }
         if secant_ratio >= MAX_SECANT_RATIO {
