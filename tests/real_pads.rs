@@ -1988,30 +1988,11 @@ fn a_direction_dependent_stribeck_pad_is_identified() {
 #[test]
 fn calibrated_zeros_give_the_levels_of_each_direction() {
     let dir = tempfile::tempdir().unwrap();
-    let second_rig = [
-        "--m1-kg",
-        "5",
-        "--m2-kg",
-        "1",
-        "--k1-n-per-m",
-        "400",
-        "--k2-n-per-m",
-        "400",
-        "--d-n-s-per-m",
-        "0.1",
-        "--amplitude-m",
-        "0.0025",
-        "--frequency-hz",
-        "1.48",
-        "--normal-force",
-        "2",
-        "--rs-n",
-        "0.591",
-        "--rd-n",
-        "0.510",
-        "--seed",
-        "11",
-    ];
+    let second_rig: Vec<&str> = "--m1-kg 5 --m2-kg 1 --k1-n-per-m 400 --k2-n-per-m 400 \
+         --d-n-s-per-m 0.1 --amplitude-m 0.0025 --frequency-hz 1.48 --normal-force 2 \
+         --rs-n 0.591 --rd-n 0.510 --seed 11"
+        .split_whitespace()
+        .collect();
     let bundled = ["--normal-force", "2.2", "--seed", "3"];
     let calibrated = ["--position-zero-uncertainty-m", "1e-5"];
     let cases: [(&str, Vec<&str>, [f64; 4]); 2] = [
