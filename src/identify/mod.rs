@@ -1125,16 +1125,11 @@ fn pad_warnings(o: &OutputErrorFit, k2: f64, warnings: &mut Vec<Warning>) {
         // only), with the bounds of its own direction's levels; where
         // neither side is measured (a log that never sticks, a threshold
         // behind a contact) their own warnings say so.
-        for (side, bounds_n, other) in [
-            ('-', c.rs_minus_interval_n, c.rs_plus_n),
-            ('+', c.rs_plus_interval_n, c.rs_minus_n),
+        for (side, own, bounds_n, other) in [
+            ('-', c.rs_minus_n, c.rs_minus_interval_n, c.rs_plus_n),
+            ('+', c.rs_plus_n, c.rs_plus_interval_n, c.rs_minus_n),
         ] {
-            let bounded = if side == '-' {
-                c.rs_minus_n.is_none()
-            } else {
-                c.rs_plus_n.is_none()
-            };
-            if bounded && other.is_some() && bounds_n.is_some() {
+            if own.is_none() && other.is_some() && bounds_n.is_some() {
                 warnings.push(Warning::DirectionBounded { side, bounds_n });
             }
         }

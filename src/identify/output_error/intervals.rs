@@ -256,10 +256,8 @@ impl Refinement {
             threshold_unresolved: false,
             calibrated: self.zero_uncertainty_m.map(|e| {
                 let ivc = |k: usize| iv(k, true);
-                let sd = (t975 * t975 * inflation * inflation * var_stat[QCAL]
-                    + 1.96 * 1.96 * (var_cal[QCAL] + var_align[QCAL]))
-                    .sqrt()
-                    / 1.96;
+                // b's standard uncertainty: its interval's half-width / 1.96.
+                let sd = ivc(QCAL).map_or(f64::INFINITY, |(l, h)| 0.5 * (h - l) / 1.96);
                 let q = |k: usize| q0[k];
                 let known = |k: usize| value(k).filter(|_| rs_known);
                 CalibratedLevels {

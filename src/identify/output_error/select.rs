@@ -189,17 +189,12 @@ impl Refinement {
             .dynamic_split_interval_n
             .map_or(0.0, |(l, h)| 0.25 * (h - l));
         let rd_lo = iv.rd_n.map(|r| r.0);
-        for (side, shift) in [(0usize, b), (1, -b)] {
-            let breakaways = if side == 0 {
-                f.breakaways.0
-            } else {
-                f.breakaways.1
-            };
-            let bounded = if side == 0 {
-                plus_bounded
-            } else {
-                minus_bounded
-            };
+        // Per side: its index in `rho`, its shift, breakaways towards it,
+        // whether the chosen split bounded it, the reversals' bound.
+        for (k, shift, breakaways, bounded, ub) in [
+            (0, b, f.breakaways.0, plus_bounded, f.reversal_bound_n.0),
+            (2, -b, f.breakaways.1, minus_bounded, f.reversal_bound_n.1),
+        ] {
             let measured = iv.rs_n.is_some()
                 && !bounded
                 && !unresolved
@@ -208,30 +203,25 @@ impl Refinement {
                 continue;
             }
             let gauge = if breakaways < MIN_DIRECTION_BREAKAWAYS && !bounded {
-                let ub = if side == 0 {
-                    f.reversal_bound_n.0
-                } else {
-                    f.reversal_bound_n.1
-                };
                 match (rd_lo, ub) {
                     (Some(lo), Some(hi)) if lo <= hi => Some((lo, hi)),
                     _ => None,
                 }
-            } else if side == 1 && split {
+            } else if k == 2 && split {
                 rs_minus_iv
             } else {
                 iv.rs_n
             };
             let moved = gauge.map(|(lo, hi)| (lo + shift - hw_b, hi + shift + hw_b));
-            let (value, interval, rho, rho_iv) = if side == 0 {
-                (&mut c.rs_plus_n, &mut c.rs_plus_interval_n, 0, 0)
+            let (value, interval) = if k == 0 {
+                (&mut c.rs_plus_n, &mut c.rs_plus_interval_n)
             } else {
-                (&mut c.rs_minus_n, &mut c.rs_minus_interval_n, 2, 2)
+                (&mut c.rs_minus_n, &mut c.rs_minus_interval_n)
             };
             *value = None;
             *interval = moved;
-            c.rho[rho] = None;
-            c.rho_intervals[rho_iv] = moved.map(|(l, h)| (l / fs, h / fs));
+            c.rho[k] = None;
+            c.rho_intervals[k] = moved.map(|(l, h)| (l / fs, h / fs));
         }
     }
 
