@@ -1097,11 +1097,13 @@ impl Refinement {
         };
         // Calibrated zeros that resolve a difference of the dynamic levels
         // are a screen of their own: the static thresholds may differ by
-        // direction by another amount, which the log shows where the law
-        // breaks away towards both sides.
-        let calibrated_split = out.pads.calibrated.is_some_and(|c| c.resolved)
-            && out.chosen.breakaways.0 >= MIN_DIRECTION_BREAKAWAYS
-            && out.chosen.breakaways.1 >= MIN_DIRECTION_BREAKAWAYS;
+        // direction by another amount, wherever the log sticks (the chosen
+        // law may stand in for a split threshold: on a Parquet export of a
+        // pad with Rs⁻ 0.84 N against Rs⁺ 0.924 N a Stribeck law that
+        // never sticks towards − won, Rs⁺ 0.849 N, 8 % low and missed;
+        // requiring the chosen law to break away both ways kept the split
+        // away from it).
+        let calibrated_split = out.pads.calibrated.is_some_and(|c| c.resolved) && out.sticks_found;
         if h.split || !out.adequacy.adequate || calibrated_split {
             if let Some(i) = simple_threshold(fits) {
                 let law = fits[i].kind.family().unpack(&fits[i].th);
