@@ -1995,9 +1995,23 @@ fn calibrated_zeros_give_the_levels_of_each_direction() {
         .collect();
     let bundled = ["--normal-force", "2.2", "--seed", "3"];
     let calibrated = ["--position-zero-uncertainty-m", "1e-5"];
-    let cases: [(&str, Vec<&str>, [f64; 4]); 2] = [
+    let cases: [(&str, Vec<&str>, [f64; 4]); 3] = [
         (
             "bundled.mcap",
+            [
+                &bundled[..],
+                &calibrated,
+                &["--rs-minus-n", "0.84", "--rd-minus-n", "0.68"],
+            ]
+            .concat(),
+            [0.924, 0.748, 0.84, 0.68],
+        ),
+        // The same pad as a Parquet table (1 kHz rows): there a rigid
+        // Stribeck law that never sticks towards − stood in for the split
+        // threshold (Rs⁺ 0.849 N, missed) until the calibrated difference
+        // triggered the split wherever the log sticks.
+        (
+            "bundled.parquet",
             [
                 &bundled[..],
                 &calibrated,
@@ -2030,9 +2044,19 @@ fn calibrated_zeros_give_the_levels_of_each_direction() {
         let t: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(dir.path().join("truth.json")).unwrap())
                 .unwrap();
-        for ch in ["/drive/position", "/mass1/position", "/mass2/position"] {
-            let off = t["files"][name]["sensors"][ch]["offset"].as_f64().unwrap();
-            assert!(off.abs() <= 1e-5, "{name} {ch}: offset {off}");
+        // (The truth names an MCAP's channels by topic, a table's by
+        // quantity.)
+        let sensors = &t["files"][name]["sensors"];
+        for (topic, quantity) in [
+            ("/drive/position", "x0"),
+            ("/mass1/position", "x1"),
+            ("/mass2/position", "x2"),
+        ] {
+            let off = sensors[topic]["offset"]
+                .as_f64()
+                .or(sensors[quantity]["offset"].as_f64())
+                .unwrap();
+            assert!(off.abs() <= 1e-5, "{name} {topic}: offset {off}");
         }
         let label = format!("{name}: {f:#}");
         assert_eq!(f["levels_gauge"], "calibrated zeros", "{label}");
