@@ -306,6 +306,28 @@ impl FamilyFit {
     }
 }
 
+/// A refinement pass before its finish ([`Refinement::run_core`]): the
+/// refined fits and their conclusion, whose intervals still lack the
+/// profile in Rs behind an unresolved contact and the levels of each
+/// direction, and which has not yet tried the Stribeck law behind the
+/// contact.
+pub struct Pass {
+    fits: Vec<Refined>,
+    out: OutputErrorFit,
+    forced: Option<LawKind>,
+    u: f64,
+    t0: std::time::Instant,
+}
+
+impl Pass {
+    /// The pass's conclusion so far (its law, cost, adequacy and families
+    /// are final unless the finish finds a Stribeck law behind the
+    /// contact).
+    pub fn fit(&self) -> &OutputErrorFit {
+        &self.out
+    }
+}
+
 /// What the refinement found.
 #[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub struct OutputErrorFit {
@@ -903,6 +925,21 @@ impl Refinement {
         forced: Option<LawKind>,
         u: f64,
     ) -> Result<OutputErrorFit, RefineError> {
+        Ok(self.finish(self.run_core(starts, bias, forced, u)?))
+    }
+
+    /// [`Self::run`] up to and including the real-pad extensions: every
+    /// step that decides which laws compete, without the two costly ones
+    /// that only a finished pass needs ([`Self::finish`]). The lag
+    /// decision of `identify` reads the conclusion ([`Pass::fit`]) and
+    /// finishes only the pass it keeps.
+    pub fn run_core(
+        &self,
+        starts: &[SiLaw],
+        bias: f64,
+        forced: Option<LawKind>,
+        u: f64,
+    ) -> Result<Pass, RefineError> {
         let t0 = std::time::Instant::now();
         let mut fits: Vec<Refined> = Vec::new();
         let kinds: Vec<LawKind> = match forced {
@@ -1016,6 +1053,29 @@ impl Refinement {
             }
         }
         self.real_pads(&mut fits, &mut out, forced, u, t0);
+        Ok(Pass {
+            fits,
+            out,
+            forced,
+            u,
+            t0,
+        })
+    }
+
+    /// Finishes a pass of [`Self::run_core`]: the profile in Rs behind a
+    /// contact whose threshold the log does not resolve and the levels of
+    /// each direction ([`Self::settle`]), the Stribeck law behind the
+    /// contact where the residuals ask for it
+    /// ([`Self::shaped_behind_contact`]), and the drop profile.
+    pub fn finish(&self, pass: Pass) -> OutputErrorFit {
+        let Pass {
+            mut fits,
+            mut out,
+            forced,
+            u,
+            t0,
+        } = pass;
+        self.settle(&fits, &mut out, u);
         if forced.is_none() {
             self.shaped_behind_contact(&mut fits, &mut out, u, t0);
         }
@@ -1043,7 +1103,9 @@ impl Refinement {
                 out.drop_profile = self.profile_drop(sd, iv, out.n_eff);
             }
         }
-        Ok(out)
+        out.evaluations = self.evals.get();
+        out.seconds = t0.elapsed().as_secs_f64();
+        out
     }
 
     /// The real-pad extensions, each refined from the optimum it extends
@@ -1254,16 +1316,19 @@ impl Refinement {
                 Ok(Some(f)) => {
                     fits.push(f);
                     match self.conclude(fits, None, u, t0) {
-                        Ok(o) if o.chosen.law.kind == rescue => match drop_verdict(out, &o) {
-                            DropVerdict::Confirmed => *out = o,
-                            DropVerdict::Unconfirmed => {
-                                fits.pop();
-                                hold_both_readings(out, &o);
+                        Ok(mut o) if o.chosen.law.kind == rescue => {
+                            self.settle(fits, &mut o, u);
+                            match drop_verdict(out, &o) {
+                                DropVerdict::Confirmed => *out = o,
+                                DropVerdict::Unconfirmed => {
+                                    fits.pop();
+                                    hold_both_readings(out, &o);
+                                }
+                                DropVerdict::Unexplained | DropVerdict::Refuted => {
+                                    fits.pop();
+                                }
                             }
-                            DropVerdict::Unexplained | DropVerdict::Refuted => {
-                                fits.pop();
-                            }
-                        },
+                        }
                         // Not chosen: the conclusion stays as it was (the
                         // effective sample size is taken over the fits, so
                         // an unchosen fit would still move the intervals).

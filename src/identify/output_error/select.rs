@@ -327,18 +327,9 @@ impl Refinement {
                 intervals.rs_n = None;
                 intervals.rho_s = None;
                 pads.threshold_unresolved = true;
-                self.profile_unresolved(
-                    fits,
-                    &fits[best],
-                    adequacy.inflation,
-                    u,
-                    &mut intervals,
-                    &mut pads,
-                );
             }
         }
         if pads.calibrated.is_some() {
-            self.calibrated_sides(&families[best], &intervals, &mut pads);
             if let Some(c) = pads.calibrated.as_mut() {
                 // The difference of the dynamic levels is resolved when it
                 // would pay for its parameter by the criterion (z² is the
@@ -387,6 +378,32 @@ impl Refinement {
             notes,
             drop_profile: None,
         })
+    }
+
+    /// What a conclusion still lacks ([`Self::conclude`] leaves it to the
+    /// conclusion a pass keeps: the profile is costly): behind a contact
+    /// whose threshold the log does not resolve, the profile in Rs
+    /// ([`Self::profile_unresolved`]); with calibrated zeros, the levels
+    /// of each direction from the final intervals
+    /// ([`Self::calibrated_sides`]). Nothing a decision between
+    /// conclusions reads (law, cost, adequacy, b's z) changes.
+    pub(super) fn settle(&self, fits: &[Refined], out: &mut OutputErrorFit, u: f64) {
+        let chosen = fits
+            .iter()
+            .find(|f| f.kind == out.chosen.law.kind && f.ext == out.chosen.ext);
+        if let (Some(f), true) = (chosen, out.pads.threshold_unresolved) {
+            self.profile_unresolved(
+                fits,
+                f,
+                out.adequacy.inflation,
+                u,
+                &mut out.intervals,
+                &mut out.pads,
+            );
+        }
+        if out.pads.calibrated.is_some() {
+            self.calibrated_sides(&out.chosen, &out.intervals, &mut out.pads);
+        }
     }
 
     /// Behind a contact whose threshold the log did not resolve: the
