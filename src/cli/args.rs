@@ -40,6 +40,19 @@ pub fn gain_fraction(s: &str) -> Result<f64, String> {
     }
 }
 
+/// Parser of a length bound (m): a finite number ≥ 0 (the position
+/// zeros' calibration uncertainty).
+pub fn length_bound(s: &str) -> Result<f64, String> {
+    let v = number(s)?;
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(format!(
+            "{v} is not a length bound: give a finite number ≥ 0 in metres, e.g. 1e-5"
+        ))
+    }
+}
+
 /// A number (any f64 syntax, surrounding blanks ignored).
 fn number(s: &str) -> Result<f64, String> {
     s.trim()

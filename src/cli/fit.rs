@@ -59,6 +59,13 @@ pub struct FitArgs {
     /// list of all the logs, for `merge`.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<String>,
+    /// Declare the position channels (x0, x1, x2) calibrated to read zero
+    /// within ±E metres at the rig's rest state (drive centred, springs at
+    /// their free length): the levels of each sliding direction are then
+    /// identified (`levels_by_direction`). Overrides the logs'
+    /// `position_zero_uncertainty_m` key.
+    #[arg(long = "position-zero-uncertainty-m", value_name = "E", value_parser = super::args::length_bound, allow_hyphen_values = true)]
+    pub position_zero_uncertainty: Option<f64>,
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
@@ -107,6 +114,10 @@ pub fn request(args: FitArgs) -> crate::Result<super::Request> {
             },
             gain_uncertainty: args.gain_uncertainty,
             output_error: args.estimate == EstimateChoice::OutputError,
+            oe: identify::OeOptions {
+                position_zero_uncertainty_m: args.position_zero_uncertainty,
+                ..Default::default()
+            },
             ..Default::default()
         },
         out: args.out,

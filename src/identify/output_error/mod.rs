@@ -217,6 +217,11 @@ pub struct OeOptions {
     /// five evaluations each time), so that a long log's families do not
     /// each hold one. 0: always computed again.
     pub keep_projection_values: usize,
+    /// The bound (m) within which the position channels read zero at the
+    /// rig's rest state, declared by the user (`fit
+    /// --position-zero-uncertainty-m`): overrides the log's
+    /// `position_zero_uncertainty_m`; None: the log's key, if any.
+    pub position_zero_uncertainty_m: Option<f64>,
 }
 
 impl Default for OeOptions {
@@ -229,6 +234,7 @@ impl Default for OeOptions {
             position_delays: false,
             // 2 MB a family: logs of up to about two minutes at 1 kHz.
             keep_projection_values: 1 << 18,
+            position_zero_uncertainty_m: None,
         }
     }
 }
@@ -700,7 +706,9 @@ impl Refinement {
             hints: PadHints::default(),
             keep_projection_values: opts.keep_projection_values,
             alignment_sigma: (0.0, 0.0),
-            zero_uncertainty_m: rig.position_zero_uncertainty_m(),
+            zero_uncertainty_m: opts
+                .position_zero_uncertainty_m
+                .or_else(|| rig.position_zero_uncertainty_m()),
         })
     }
 
