@@ -2112,3 +2112,140 @@ fn calibrated_zeros_give_the_levels_of_each_direction() {
     assert!(f["levels_by_direction"].is_null(), "{f:#}");
     assert_ne!(f["levels_gauge"], "calibrated zeros");
 }
+
+/// Zeros declared on the command line (`fit --position-zero-uncertainty-m`)
+/// for a log that lacks the key: the calibrated pad of
+/// [`calibrated_zeros_give_the_levels_of_each_direction`] as a CSV export
+/// with its `position_zero_uncertainty_m` header line removed gives no
+/// levels per direction by itself, and with the option the same levels
+/// as the log that carries the key; the option overrides the key (a wider
+/// bound widens b's interval); a negative or non-finite bound is refused
+/// before anything is read or written.
+#[test]
+fn zeros_declared_on_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let keyed = dir.path().join("keyed.csv");
+    let o = common::bin()
+        .args(["synth", "--normal-force", "2.2", "--seed", "3"])
+        .args(["--position-zero-uncertainty-m", "1e-5"])
+        .args(["--rs-minus-n", "0.84", "--rd-minus-n", "0.68", "--out"])
+        .arg(&keyed)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&keyed).unwrap();
+    let stripped: String = text
+        .lines()
+        .filter(|l| !l.starts_with("#position_zero_uncertainty_m,"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_eq!(stripped.lines().count() + 1, text.lines().count());
+    let bare = dir.path().join("bare.csv");
+    std::fs::write(&bare, stripped).unwrap();
+    std::fs::copy(
+        dir.path().join("keyed.map.toml"),
+        dir.path().join("bare.map.toml"),
+    )
+    .unwrap();
+    let with_key = fit_entry(&keyed);
+    let levels = &with_key["levels_by_direction"];
+    assert_eq!(with_key["levels_gauge"], "calibrated zeros", "{with_key:#}");
+    let without = fit_entry(&bare);
+    assert!(without["levels_by_direction"].is_null(), "{without:#}");
+    let declared = fit_entry_with(&bare, &["--position-zero-uncertainty-m", "1e-5"]);
+    assert_eq!(&declared["levels_by_direction"], levels, "{declared:#}");
+    assert_eq!(declared["rho_s_minus"], with_key["rho_s_minus"]);
+    // The option overrides the key: a bound of 50 µm widens b's interval.
+    let wider = fit_entry_with(&keyed, &["--position-zero-uncertainty-m", "5e-5"]);
+    let c = &wider["levels_by_direction"];
+    assert_eq!(c["zero_uncertainty_m"], 5e-5, "{c:#}");
+    let width = |c: &serde_json::Value| {
+        let iv = &c["dynamic_split_interval_n"];
+        iv[1].as_f64().unwrap() - iv[0].as_f64().unwrap()
+    };
+    assert!(width(c) > width(levels), "{c:#} {levels:#}");
+    for bad in ["-1e-5", "nan", "inf", "ten"] {
+        let out = dir.path().join("never.json");
+        let o = common::bin()
+            .arg("fit")
+            .arg(&bare)
+            .args(["--position-zero-uncertainty-m", bad, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{bad}");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains("error:") && err.contains("position-zero"),
+            "{bad}: {err}"
+        );
+        assert!(!out.exists(), "{bad}");
+    }
+}
+
+/// A never-sticking static/dynamic pad whose position records lag behind
+/// their anti-alias filters (third rig of the calibrated study: M1 12 kg,
+/// M2 2.5 kg, K1 1500, K2 1000 N/m, A 3 mm; x0 and x2 behind ~400-Hz
+/// low-passes; calibrated zeros, levels 7–9 % lower towards −; the
+/// study's z022). The lag-free laws are not adequate (cost 43 times the
+/// lagged one's); the lagged Coulomb law is, and is kept without
+/// finishing the lag-free pass, whose profile in Rs behind a ringing
+/// contact and Stribeck law behind it took 385 s (the fit now takes about
+/// 2 s; `cargo bench --bench fit` times it). The dynamic levels of each
+/// direction within 3 % and covered; the thresholds, never reached, only
+/// bounded, their intervals holding the truth.
+#[test]
+fn a_never_sticking_pad_whose_records_lag() {
+    let dir = tempfile::tempdir().unwrap();
+    let sensors = dir.path().join("sensors.json");
+    std::fs::write(&sensors, NEVER_STICKS_SENSORS).unwrap();
+    let log = dir.path().join("z022.mcap");
+    let o = common::bin()
+        .arg("synth")
+        .args(NEVER_STICKS_ARGS.split_whitespace())
+        .arg("--sensors")
+        .arg(&sensors)
+        .arg("--out")
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let f = fit_entry(&log);
+    let label = format!("{f:#}");
+    assert_eq!(f["adequate"], true, "{label}");
+    let codes = f["warning_codes"].as_array().unwrap();
+    assert!(codes.iter().any(|c| c == "position_delay"), "{codes:?}");
+    let c = &f["levels_by_direction"];
+    for (key, truth) in [
+        ("rd_plus", 1.3496596723261098),
+        ("rd_minus", 1.2904654309338992),
+    ] {
+        let v = c[format!("{key}_n")].as_f64().unwrap();
+        assert!(
+            (v / truth - 1.0).abs() < 0.03,
+            "{key} {v} for {truth}: {label}"
+        );
+        assert!(
+            covers(c, &format!("{key}_interval_n"), truth),
+            "{key}: {label}"
+        );
+    }
+    for (key, truth) in [
+        ("rs_plus", 1.5767969069539283),
+        ("rs_minus", 1.4704867615251511),
+    ] {
+        assert!(c[format!("{key}_n")].is_null(), "{key}: {label}");
+        assert!(
+            covers(c, &format!("{key}_interval_n"), truth),
+            "{key}: {label}"
+        );
+    }
+}
+
+/// The synth arguments and sensors of
+/// [`a_never_sticking_pad_whose_records_lag`]'s log
+/// (`scripts/calibrated_levels_study.py`'s z022; `benches/fit.rs` times
+/// its fit).
+const NEVER_STICKS_ARGS: &str = include_str!("logs/never_sticks_lagging.args");
+/// Its sensors (`synth --sensors`), as the study drew them.
+const NEVER_STICKS_SENSORS: &str = include_str!("logs/never_sticks_lagging.sensors.json");
