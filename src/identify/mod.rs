@@ -567,6 +567,16 @@ impl LogFit {
             .filter(|_| self.estimate == Estimate::OutputError)
             .map(|o| &o.pads)
     }
+    /// The output-error law's force bias b where calibrated position
+    /// zeros resolve the levels of each direction (`levels_gauge`
+    /// "calibrated zeros"): the equivalent symmetric law plus b is the law
+    /// in the zeros' gauge (Rd⁺ = Rd + b, Rd⁻ = Rd − b). None elsewhere.
+    pub fn calibrated_bias_n(&self) -> Option<f64> {
+        self.pads()
+            .and_then(|p| p.calibrated)
+            .filter(|c| c.resolved)
+            .map(|c| 0.5 * c.dynamic_split_n)
+    }
     /// The law's static threshold depends on the sliding direction (a
     /// split was chosen); `rho_s` is then towards +, `rho_s_minus` towards
     /// −, with equal dynamic levels (see [`output_error::Ext`]).

@@ -163,8 +163,10 @@ pub fn run_characteristic(
                 // The equation-error law's Rs is NaN where only bounded.
                 threshold: true,
                 minus_threshold_n: None,
+                law_offset_n: 0.0,
                 alternative,
                 alternative_label: "alternative",
+                alternative_offset_n: 0.0,
             },
             path,
         )?;

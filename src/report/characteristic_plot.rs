@@ -3,7 +3,10 @@
 //! against ẋ2 over the whole log with the fitted law drawn over it (right;
 //! stick samples at ẋ2 = 0 with their passive force). A threshold split
 //! by direction is drawn as it is: up to Rs⁺ towards +, down to −Rs⁻
-//! towards − (a side only bounded is not drawn).
+//! towards − (a side only bounded is not drawn). Where calibrated position
+//! zeros resolve the levels of each direction, the figure is in their
+//! gauge: the measured forces as they are (no bias removed) and each law
+//! with its own force bias, so the branches sit at Rd⁺ and −Rd⁻.
 
 use super::plot::{backend as e, plot_err, register_font, DrawResult};
 use crate::error::Result;
@@ -30,10 +33,17 @@ pub struct CharacteristicFigure<'a> {
     /// (`Some(None)`: only bounded, not drawn; `None`: symmetric, −Rs).
     /// Towards + the law's own Rs, unless only bounded (`threshold`).
     pub minus_threshold_n: Option<Option<f64>>,
+    /// A force (N) added to `law` where drawn: its force bias where the
+    /// points keep theirs (calibrated zeros: the levels become Rd⁺ and
+    /// −Rd⁻, the thresholds Rs⁺ and −Rs⁻); 0 where the points have the
+    /// bias removed.
+    pub law_offset_n: f64,
     /// A second law drawn dashed (e.g. the Stribeck alternative).
     pub alternative: Option<SiLaw>,
     /// Legend name of `alternative`.
     pub alternative_label: &'a str,
+    /// `law_offset_n` of `alternative`.
+    pub alternative_offset_n: f64,
 }
 
 /// Most samples each time panel draws (two drive periods): beyond, every
@@ -121,6 +131,12 @@ pub fn fit_figure(
 ) -> Result<()> {
     let e = &f.fit;
     let split = f.pads().filter(|_| f.direction_dependent());
+    // Calibrated zeros: the points keep the force bias (`fit_points`),
+    // each law is drawn with its own.
+    let (law_offset_n, alternative_offset_n) = match f.calibrated_bias_n() {
+        Some(b) => (b, e.bias_n),
+        None => (0.0, 0.0),
+    };
     let (law, law_label, alternative, alternative_label) = if f.stuck() {
         (None, "fitted", None, "alternative")
     } else if f.estimate == Estimate::OutputError {
@@ -147,17 +163,23 @@ pub fn fit_figure(
             law_label,
             threshold: !f.never_sticks() && !split.is_some_and(|p| p.plus_bounded),
             minus_threshold_n: split.map(|p| p.rs_minus_n.filter(|_| !p.minus_bounded)),
+            law_offset_n,
             alternative,
             alternative_label,
+            alternative_offset_n,
         },
         path,
     )
 }
 
 /// The points [`fit_figure`] draws of a log's characteristic `ch` with its
-/// fit `f` (the fit's force bias removed).
+/// fit `f` (the fit's force bias removed, unless calibrated zeros resolve
+/// the levels of each direction: then the measured forces as they are).
 pub fn fit_points(ch: &Characteristic, f: &LogFit) -> CharacteristicPoints {
-    let bias = f.fit.bias_n;
+    let bias = match f.calibrated_bias_n() {
+        Some(_) => 0.0,
+        None => f.fit.bias_n,
+    };
     CharacteristicPoints::new(
         &ch.contact,
         &ch.segmentation.stick,
@@ -287,13 +309,17 @@ fn characteristic_panel(fig: &CharacteristicFigure<'_>, right: &Area<'_>) -> Dra
     };
     if let Some(l) = fig.law {
         let (minus, plus) = sides(&l);
+        let off = fig.law_offset_n;
         if let Some(m) = minus.filter(|m| m.is_finite()) {
-            rr.0 = rr.0.min(-1.05 * m);
+            rr.0 = rr.0.min(1.05 * (off - m));
         }
         if let Some(p) = plus.filter(|p| p.is_finite()) {
-            rr.1 = rr.1.max(1.05 * p);
+            rr.1 = rr.1.max(1.05 * (p + off));
         }
     }
+    let shifted = |pts: Vec<(f64, f64)>, off: f64| -> Vec<(f64, f64)> {
+        pts.into_iter().map(|(v, r)| (v, r + off)).collect()
+    };
     let mut chart = ChartBuilder::on(right)
         .margin(8)
         .x_label_area_size(36)
@@ -321,14 +347,23 @@ fn characteristic_panel(fig: &CharacteristicFigure<'_>, right: &Area<'_>) -> Dra
         .label("measured")
         .legend(move |(x, y)| Circle::new((x + 10, y), 3, blue.filled()));
     if let Some(l) = fig.law {
-        let split = match fig.minus_threshold_n {
-            Some(Some(m)) => format!(" (Rs⁺ {:.3} N, Rs⁻ {m:.3} N)", l.rs_n),
+        let off = fig.law_offset_n;
+        let mut split = match fig.minus_threshold_n {
+            Some(Some(m)) => format!(" (Rs⁺ {:.3} N, Rs⁻ {:.3} N)", l.rs_n + off, m - off),
             Some(None) => " (Rs⁻ only bounded)".to_string(),
             None => String::new(),
         };
+        if off != 0.0 {
+            let rd = l.sliding_n(0.0);
+            split += &format!(
+                " (calibrated zeros: Rd⁺ {:.3} N, Rd⁻ {:.3} N)",
+                rd + off,
+                rd - off
+            );
+        }
         chart
             .draw_series(LineSeries::new(
-                law_curve(&l, sides(&l), vlo, vhi),
+                shifted(law_curve(&l, sides(&l), vlo, vhi), off),
                 BLACK.stroke_width(2),
             ))
             .map_err(e)?
@@ -336,7 +371,10 @@ fn characteristic_panel(fig: &CharacteristicFigure<'_>, right: &Area<'_>) -> Dra
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
     }
     if let Some(l) = fig.alternative {
-        let pts = law_curve(&l, (Some(l.rs_n), Some(l.rs_n)), vlo, vhi);
+        let pts = shifted(
+            law_curve(&l, (Some(l.rs_n), Some(l.rs_n)), vlo, vhi),
+            fig.alternative_offset_n,
+        );
         let dashed = DashedLineSeries::new(pts, 6, 4, red.stroke_width(2));
         chart
             .draw_series(dashed)
@@ -425,5 +463,55 @@ mod tests {
         assert_eq!(at0(&bounded), vec![-0.748, 0.924]);
         assert_eq!(split.first(), Some(&(-0.1, -0.748)));
         assert_eq!(split.last(), Some(&(0.1, 0.748)));
+    }
+
+    /// In the calibrated zeros' gauge the law is drawn with its force bias
+    /// b: the legend gives Rd⁺ = Rd + b and Rd⁻ = Rd − b, and a split
+    /// threshold's sides Rs⁺ + b and Rs⁻ − b.
+    #[test]
+    fn calibrated_zeros_draw_the_levels_of_each_direction() {
+        let l = SiLaw {
+            kind: LawKind::StaticDynamic,
+            rs_n: 0.88,
+            rd_n: 0.714,
+            slope_n_s_per_m: 0.0,
+            vs_m_per_s: None,
+        };
+        let points = CharacteristicPoints {
+            head: vec![],
+            v_range: (-0.1, 0.1),
+            r_range: (-1.0, 1.0),
+            points: vec![(0.05, 0.748), (-0.05, -0.68)],
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("c.svg");
+        let draw = |offset: f64, minus: Option<Option<f64>>| {
+            characteristic_figure(
+                &CharacteristicFigure {
+                    title: "t",
+                    points: &points,
+                    law: Some(l),
+                    law_label: "output error (used)",
+                    threshold: true,
+                    minus_threshold_n: minus,
+                    law_offset_n: offset,
+                    alternative: None,
+                    alternative_label: "",
+                    alternative_offset_n: 0.0,
+                },
+                &path,
+            )
+            .unwrap();
+            std::fs::read_to_string(&path).unwrap()
+        };
+        let svg = draw(0.034, None);
+        assert!(
+            svg.contains("calibrated zeros: Rd⁺ 0.748 N, Rd⁻ 0.680 N"),
+            "{svg}"
+        );
+        let svg = draw(0.034, Some(Some(0.874)));
+        assert!(svg.contains("Rs⁺ 0.914 N, Rs⁻ 0.840 N"), "{svg}");
+        let svg = draw(0.0, None);
+        assert!(!svg.contains("calibrated"), "{svg}");
     }
 }
