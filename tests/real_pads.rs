@@ -1885,6 +1885,25 @@ fn the_batch_simulates_the_fitted_contact_spring() {
         rigid.amplitude1 / truth.amplitude1 > 1.05,
         "{rigid:?} {truth:?}"
     );
+    // The robust worst case holds the pad at both ends of κ's interval
+    // (at the recommended setting, within the grids' 2 %). (κ is known to
+    // 0.07 % here, so its ends barely move W: the unit test
+    // `batch::tests::the_robust_worst_case_holds_every_pad_variant` is the
+    // one that tells the variants apart.)
+    assert_eq!(pad["contact"]["in_robust_worst_case"], true, "{pad}");
+    let iv = &pad["contact"]["interval"];
+    let robust = common::f(&b["worst_amplitude1_robust"]);
+    for end in [common::f(&iv[0]), common::f(&iv[1])] {
+        let w_end = on(PadShape {
+            rs_minus_ratio: None,
+            contact_stiffness: Some(end),
+        });
+        assert!(
+            robust >= 0.98 * w_end.amplitude1,
+            "robust {robust}, κ {end}: {}",
+            w_end.amplitude1
+        );
+    }
 }
 
 /// The batch simulates the split static threshold its logs fitted: one

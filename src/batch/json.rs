@@ -222,6 +222,8 @@ struct CombinedOut {
     logs_chosen: usize,
     logs_eligible: usize,
     simulated: bool,
+    /// The robust worst case includes the ends of `interval`.
+    in_robust_worst_case: bool,
 }
 
 impl From<&super::Combined> for CombinedOut {
@@ -233,6 +235,7 @@ impl From<&super::Combined> for CombinedOut {
             logs_chosen: c.chosen,
             logs_eligible: c.eligible,
             simulated: c.used,
+            in_robust_worst_case: c.in_robust,
         }
     }
 }

@@ -235,7 +235,8 @@ pub struct BatchOptions {
     pub drive_amplitude_m: Option<f64>,
     /// Gain budget of the normal-force sensor (bound, rectangular).
     pub normal_force_gain_uncertainty: f64,
-    /// Include the ends of the μd/μs interval in the robust worst case.
+    /// Include the ends of the μd/μs interval, and of the simulated pad's
+    /// κ and ρs⁻/ρs⁺ intervals, in the robust worst case.
     pub ratio_variants: bool,
     /// Steady-state solver.
     pub steady: SteadyConfig,
@@ -775,7 +776,7 @@ pub fn batch_with_progress(
         conflicts,
     } = fit_coefficients(&mut logs, opts.normal_force_gain_uncertainty, &mut warnings)?;
     let (ratio, ratio_interval) = ratio_estimate(&mu_s, &mu_d);
-    let pad = pad::batch_pad(fits, &mut warnings);
+    let mut pad = pad::batch_pad(fits, &mut warnings);
     let shape = pad.shape;
 
     let ab = rig.constants().absorber();
@@ -801,11 +802,27 @@ pub fn batch_with_progress(
         opts.eta_fine_halfwidth,
         opts.eta_coarse_stride,
     );
-    let ratios = if opts.ratio_variants && ratio_interval.1 - ratio_interval.0 > 1e-12 {
-        vec![ratio, ratio_interval.0, ratio_interval.1]
-    } else {
-        vec![ratio]
-    };
+    // The robust worst case's variants: the ends of μd/μs's interval and
+    // of the simulated pad's κ and ρs⁻/ρs⁺ (one at a time; their point
+    // values alone said nothing of how well the logs know them).
+    let mut variants = vec![(ratio, shape)];
+    if opts.ratio_variants {
+        if ratio_interval.1 - ratio_interval.0 > 1e-12 {
+            variants.extend([(ratio_interval.0, shape), (ratio_interval.1, shape)]);
+        }
+        let ends = pad.shape_variants();
+        if let Some(c) = pad.contact.as_mut() {
+            c.in_robust = ends
+                .iter()
+                .any(|s| s.contact_stiffness != shape.contact_stiffness);
+        }
+        if let Some(c) = pad.split.as_mut() {
+            c.in_robust = ends
+                .iter()
+                .any(|s| s.rs_minus_ratio != shape.rs_minus_ratio);
+        }
+        variants.extend(ends.into_iter().map(|s| (ratio, s)));
+    }
     let RhoGrid {
         fa,
         fb,
@@ -815,10 +832,9 @@ pub fn batch_with_progress(
     } = rho_grid(opts, &mu_s, &logs)?;
     let mut table = Table {
         ab,
-        shape,
         etas: &etas,
         cfg: opts.steady,
-        ratios,
+        variants,
         nodes: Vec::new(),
         evaluations: 0,
         periods: 0,
@@ -1339,6 +1355,53 @@ mod tests {
         let (e1, _) = ab.eta_linear();
         assert!(v.iter().any(|e| (e - e1).abs() < 1e-12));
         assert!(v.len() > 141 + 3 * 45);
+    }
+
+    /// The robust worst case takes every variant of the pad: a node
+    /// evaluated with `all` holds W of each (ratio, shape) variant, the
+    /// same as the worst case of that pad alone, and the robust value at
+    /// the node is their maximum (a softer contact at the interval's low
+    /// end raises it here).
+    #[test]
+    fn the_robust_worst_case_holds_every_pad_variant() {
+        let ab = Absorber::default();
+        let etas = drive_grid(&ab, default_eta_range(&ab), 41, 0.0, 0.0, 1);
+        let shape = |k: f64| PadShape {
+            rs_minus_ratio: None,
+            contact_stiffness: Some(k),
+        };
+        let variants = vec![(0.8, shape(20.0)), (0.8, shape(2.0)), (0.8, shape(200.0))];
+        let tick = |_: u64| {};
+        let mut table = Table {
+            ab,
+            etas: &etas,
+            cfg: BatchOptions::default().steady,
+            variants: variants.clone(),
+            nodes: Vec::new(),
+            evaluations: 0,
+            periods: 0,
+            tick: &tick,
+        };
+        let rho = 1.0;
+        table.add(&[rho], false).unwrap();
+        assert_eq!(table.robust(rho, rho, false), None);
+        table.add(&[rho], true).unwrap();
+        assert_eq!(table.evaluations, 3);
+        let table_cfg = BatchOptions::default().steady;
+        let alone: Vec<f64> = variants
+            .iter()
+            .map(|&(r, s)| {
+                worst_case_on(&ab, s, rho, r * rho, &etas, &table_cfg)
+                    .unwrap()
+                    .amplitude1
+            })
+            .collect();
+        let at: Vec<f64> = table.nodes[0].1.iter().map(|w| w.amplitude1).collect();
+        assert_eq!(at, alone);
+        let robust = table.robust(rho, rho, false).unwrap();
+        assert_eq!(robust, alone.iter().copied().fold(0.0, f64::max));
+        assert_eq!(table.robust(rho, rho, true), Some(alone[0]));
+        assert!(robust > alone[0], "{alone:?}");
     }
 
     /// The coarse part of the drive grid: stride 1 is the whole grid of

@@ -54,6 +54,9 @@ pub struct Combined {
     pub eligible: usize,
     /// Simulated (chosen by at least half of the eligible logs).
     pub used: bool,
+    /// The ends of its interval are among the robust worst case's
+    /// variants ([`BatchPad::shape_variants`]; set by the batch).
+    pub in_robust: bool,
 }
 
 /// The extensions the logs' fits chose, and the shape simulated.
@@ -65,6 +68,38 @@ pub struct BatchPad {
     pub contact: Option<Combined>,
     /// The split ratio ρs⁻/ρs⁺ over the logs (None: no log chose one).
     pub split: Option<Combined>,
+}
+
+impl BatchPad {
+    /// The simulated shape with one extension at an end of its 95 %
+    /// interval (κ's, then ρs⁻/ρs⁺'s; each end that differs from the
+    /// value), for the robust worst case. Empty for the rigid symmetric
+    /// pad, or where the logs give no interval.
+    pub fn shape_variants(&self) -> Vec<PadShape> {
+        let ends = |c: &Option<Combined>| -> Vec<f64> {
+            c.as_ref()
+                .filter(|c| c.used)
+                .and_then(|c| c.interval.map(|(lo, hi)| (c.value, lo, hi)))
+                .map_or(Vec::new(), |(v, lo, hi)| {
+                    [lo, hi]
+                        .into_iter()
+                        .filter(|e| e.is_finite() && *e > 0.0 && (e - v).abs() > 1e-12 * v)
+                        .collect()
+                })
+        };
+        let mut out: Vec<PadShape> = ends(&self.contact)
+            .into_iter()
+            .map(|k| PadShape {
+                contact_stiffness: Some(k),
+                ..self.shape
+            })
+            .collect();
+        out.extend(ends(&self.split).into_iter().map(|r| PadShape {
+            rs_minus_ratio: Some(r),
+            ..self.shape
+        }));
+        out
+    }
 }
 
 /// Combines per-log values with 95 % intervals in log space (weights from
@@ -129,6 +164,7 @@ fn combine(
         chosen,
         eligible,
         used: 2 * chosen >= eligible.max(1),
+        in_robust: false,
     })
 }
 
@@ -192,6 +228,51 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The robust variants: each simulated extension at each end of its
+    /// interval, the other at its value; none for an extension not
+    /// simulated or without an interval, nor for the rigid symmetric pad.
+    #[test]
+    fn shape_variants_are_the_interval_ends() {
+        let c = |value: f64, interval: Option<(f64, f64)>, used: bool| Combined {
+            value,
+            interval,
+            chi2_per_dof: None,
+            chosen: 2,
+            eligible: 3,
+            used,
+            in_robust: false,
+        };
+        let shape = PadShape {
+            rs_minus_ratio: Some(0.88),
+            contact_stiffness: Some(17.2),
+        };
+        let pad = BatchPad {
+            shape,
+            contact: Some(c(17.2, Some((16.0, 18.5)), true)),
+            split: Some(c(0.88, Some((0.85, 0.91)), true)),
+        };
+        let v = pad.shape_variants();
+        let k = |k: f64| PadShape {
+            contact_stiffness: Some(k),
+            ..shape
+        };
+        let r = |r: f64| PadShape {
+            rs_minus_ratio: Some(r),
+            ..shape
+        };
+        assert_eq!(v, vec![k(16.0), k(18.5), r(0.85), r(0.91)]);
+        let unused = BatchPad {
+            shape: PadShape {
+                contact_stiffness: None,
+                ..shape
+            },
+            contact: Some(c(17.2, Some((16.0, 18.5)), false)),
+            split: Some(c(0.88, None, true)),
+        };
+        assert!(unused.shape_variants().is_empty());
+        assert!(BatchPad::default().shape_variants().is_empty());
+    }
 
     /// Equal intervals: the geometric mean; a scatter beyond the intervals
     /// widens the interval by the Birge ratio; half the logs is enough.

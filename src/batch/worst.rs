@@ -388,15 +388,16 @@ fn continue_branch(
 }
 
 /// W on a table of ρs nodes, computed lazily and reused: every node has W
-/// at the estimated ratio ρd/ρs; nodes in the refined region also at the
-/// ends of the ratio's interval.
+/// of the estimated pad (ratio ρd/ρs and shape); nodes in the refined
+/// region also of its variants (`variants[1..]`: the ends of the ratio's
+/// interval, of κ's and of ρs⁻/ρs⁺'s, one at a time).
 pub(super) struct Table<'a> {
     pub(super) ab: Absorber,
-    pub(super) shape: PadShape,
     pub(super) etas: &'a DriveGrid,
     pub(super) cfg: SteadyConfig,
-    pub(super) ratios: Vec<f64>,
-    /// Sorted ρs nodes and, per node, W for the first 1 or all ratios.
+    /// The estimated pad first, then its variants: (ρd/ρs, shape).
+    pub(super) variants: Vec<(f64, PadShape)>,
+    /// Sorted ρs nodes and, per node, W for the first 1 or all variants.
     pub(super) nodes: Vec<(f64, Vec<Worst>)>,
     pub(super) evaluations: usize,
     /// Forcing periods integrated by the evaluations.
@@ -408,7 +409,7 @@ impl Table<'_> {
     /// Evaluates W at the nodes `rhos` (new ones added; with `all`, every
     /// ratio), in parallel, in a fixed order.
     pub(super) fn add(&mut self, rhos: &[f64], all: bool) -> std::result::Result<(), SimError> {
-        let k = if all { self.ratios.len() } else { 1 };
+        let k = if all { self.variants.len() } else { 1 };
         let mut want: Vec<f64> = rhos.to_vec();
         want.sort_by(f64::total_cmp);
         want.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * b.abs());
@@ -419,12 +420,13 @@ impl Table<'_> {
             let r = self.find(r).map_or(r, |i| self.nodes[i].0);
             work.extend((have..k).map(|q| (r, q)));
         }
-        let (ab, shape, etas, cfg, tick) = (self.ab, self.shape, self.etas, self.cfg, self.tick);
-        let ratios = &self.ratios;
+        let (ab, etas, cfg, tick) = (self.ab, self.etas, self.cfg, self.tick);
+        let variants = &self.variants;
         let ws: std::result::Result<Vec<Worst>, SimError> = work
             .par_iter()
             .map(|&(r, q)| {
-                let w = worst_case_on(&ab, shape, r, ratios[q] * r, etas, &cfg);
+                let (ratio, shape) = variants[q];
+                let w = worst_case_on(&ab, shape, r, ratio * r, etas, &cfg);
                 tick(1);
                 w
             })
@@ -462,10 +464,10 @@ impl Table<'_> {
     }
 
     pub(super) fn full(&self, i: usize) -> bool {
-        self.nodes[i].1.len() == self.ratios.len()
+        self.nodes[i].1.len() == self.variants.len()
     }
 
-    /// Max over ratios (or W at the estimated ratio, `nominal`) at ρ,
+    /// Max over the variants (or W of the estimated pad, `nominal`) at ρ,
     /// interpolated linearly in ln ρ between nodes; None off the grid or
     /// where a node lacks a ratio.
     pub(super) fn interp_max(&self, rho: f64, nominal: bool) -> Option<f64> {
@@ -496,8 +498,8 @@ impl Table<'_> {
         )
     }
 
-    /// Robust worst case over ρ ∈ [a, b]: every ratio (or the estimated
-    /// one, `nominal`) at the nodes inside and interpolated at the ends;
+    /// Robust worst case over ρ ∈ [a, b]: every variant (or the estimated
+    /// pad, `nominal`) at the nodes inside and interpolated at the ends;
     /// None unless all of them are known.
     pub(super) fn robust(&self, a: f64, b: f64, nominal: bool) -> Option<f64> {
         let ea = self.interp_max(a, nominal)?;

@@ -85,7 +85,8 @@ pub struct BatchArgs {
     /// Do not refine the ρs grid around the best candidates.
     #[arg(long)]
     pub no_refine: bool,
-    /// Leave the μd/μs interval out of the robust worst case (estimate only).
+    /// Leave the μd/μs interval, and the simulated pad's κ and ρs⁻/ρs⁺
+    /// intervals, out of the robust worst case (estimates only).
     #[arg(long)]
     pub no_ratio_variants: bool,
     /// Drive amplitude (mm) for ρ = R/(A·K2) (default: the rig's nominal amplitude).
