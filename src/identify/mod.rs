@@ -808,6 +808,16 @@ enum LagFree {
     LagsExplain(OutputErrorFit),
 }
 
+/// A lagged pass begun before the lag-free one was finished ([`refine`]):
+/// finished (or failed), or its core with its refinement, to be finished
+/// if the lag decision needs it from the same starts. (One per fit, on the
+/// stack for a moment: the variants' sizes do not matter.)
+#[allow(clippy::large_enum_variant)]
+enum Tried {
+    Finished(Result<OutputErrorFit, output_error::RefineError>),
+    Core(output_error::Refinement, output_error::Pass),
+}
+
 /// The warning of lags kept: the lagged fit `o2`'s delays, and how much
 /// lower its BIC is than an adequate lag-free law's (None where the
 /// lag-free law was not adequate).
@@ -881,26 +891,36 @@ fn refine(
         };
         let lags_apply = opts.lag_fallback && !opts.oe.position_delays;
         // The lag-free pass up to its real-pad extensions. Where its law
-        // is not adequate and the lagged pass's is, the lags are kept and
-        // the lag-free pass is never finished: its finish (the profile in
-        // Rs behind an unresolved contact; the Stribeck law behind the
+        // is not adequate, the lagged pass up to its extensions too; where
+        // that one is adequate (and stays so, finished), the lags are kept
+        // and the lag-free pass is never finished: its finish (the profile
+        // in Rs behind an unresolved contact; the Stribeck law behind the
         // contact, tried where x2's residuals follow the motion, which is
         // what a lag leaves) would only offer a second reading of what the
         // lags explain. (On a never-sticking log whose x2 lagged, the
         // calibrated study's z022, the finish took 385 s of a 385-s fit
         // and left the law inadequate, its cost 43 times the lagged
-        // Coulomb law's.) Elsewhere the pass is finished and the lags
-        // decided as below; a lagged pass already run from the same starts
-        // is not run again.
-        let mut tried = None;
+        // Coulomb law's.) Elsewhere the lag-free pass is finished and the
+        // lags decided as below; the lagged pass begun from the same
+        // starts is finished, not run again (from other starts, the ones
+        // the finished conclusion gives, it is run as before: its core is
+        // the price of the shortcut, a tenth of s007's lagged pass).
+        let mut tried: Option<((Vec<SiLaw>, f64), Tried)> = None;
         let outcome = refinement(&opts.oe).and_then(|r| {
             let p = r.run_core(&ef.candidates, ef.bias_n, forced, u)?;
             if lags_apply && !p.fit().adequacy.adequate {
                 let from = lagged_starts(Some(p.fit()));
-                match run_lagged(&from) {
-                    Ok(o2) if o2.adequacy.adequate => return Ok(LagFree::LagsExplain(o2)),
-                    o2 => tried = Some((from, o2)),
-                }
+                let core = refinement(&lagged_oe)
+                    .and_then(|r2| Ok((r2.run_core(&from.0, from.1, forced, u)?, r2)));
+                let t = match core {
+                    Ok((p2, r2)) if p2.fit().adequacy.adequate => match r2.finish(p2) {
+                        o2 if o2.adequacy.adequate => return Ok(LagFree::LagsExplain(o2)),
+                        o2 => Tried::Finished(Ok(o2)),
+                    },
+                    Ok((p2, r2)) => Tried::Core(r2, p2),
+                    Err(e) => Tried::Finished(Err(e)),
+                };
+                tried = Some((from, t));
             }
             Ok(LagFree::Finished(r.finish(p)))
         });
@@ -939,7 +959,8 @@ fn refine(
         if retry && lags_apply {
             let from = lagged_starts(first.as_ref().ok());
             let o2 = match tried {
-                Some((f, o2)) if f == from => o2,
+                Some((f, Tried::Finished(o2))) if f == from => o2,
+                Some((f, Tried::Core(r2, p2))) if f == from => Ok(r2.finish(p2)),
                 _ => run_lagged(&from),
             };
             if let Ok(o2) = o2 {
