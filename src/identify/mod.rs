@@ -891,25 +891,30 @@ fn refine(
         };
         let lags_apply = opts.lag_fallback && !opts.oe.position_delays;
         // The lag-free pass up to its real-pad extensions. Where its law
-        // is not adequate, the lagged pass up to its extensions too; where
-        // that one is adequate (and stays so, finished), the lags are kept
-        // and the lag-free pass is never finished: its finish (the profile
-        // in Rs behind an unresolved contact; the Stribeck law behind the
+        // is not adequate and the lagged families alone are (a screen, a
+        // tenth of a pass), the lagged pass up to its extensions; where
+        // that is adequate, and stays so finished, the lags are kept and
+        // the lag-free pass is never finished: its finish (the profile in
+        // Rs behind an unresolved contact; the Stribeck law behind the
         // contact, tried where x2's residuals follow the motion, which is
-        // what a lag leaves) would only offer a second reading of what the
-        // lags explain. (On a never-sticking log whose x2 lagged, the
+        // what a lag leaves) would only offer a second reading of what
+        // the lags explain. (On a never-sticking log whose x2 lagged, the
         // calibrated study's z022, the finish took 385 s of a 385-s fit
         // and left the law inadequate, its cost 43 times the lagged
         // Coulomb law's.) Elsewhere the lag-free pass is finished and the
-        // lags decided as below; the lagged pass begun from the same
-        // starts is finished, not run again (from other starts, the ones
-        // the finished conclusion gives, it is run as before: its core is
-        // the price of the shortcut, a tenth of s007's lagged pass).
+        // lags decided as below, the lagged core begun from the same
+        // starts finished rather than run again. (Without the screen the
+        // early lagged core cost s007, whose lagged laws are not adequate,
+        // 18 s: 126 → 144 s.)
         let mut tried: Option<((Vec<SiLaw>, f64), Tried)> = None;
         let outcome = refinement(&opts.oe).and_then(|r| {
             let p = r.run_core(&ef.candidates, ef.bias_n, forced, u)?;
-            if lags_apply && !p.fit().adequacy.adequate {
-                let from = lagged_starts(Some(p.fit()));
+            let from = lagged_starts(Some(p.fit()));
+            let screened = || {
+                refinement(&lagged_oe)
+                    .is_ok_and(|r2| r2.families_adequate(&from.0, from.1, forced, u))
+            };
+            if lags_apply && !p.fit().adequacy.adequate && screened() {
                 let core = refinement(&lagged_oe)
                     .and_then(|r2| Ok((r2.run_core(&from.0, from.1, forced, u)?, r2)));
                 let t = match core {

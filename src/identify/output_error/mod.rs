@@ -949,39 +949,7 @@ impl Refinement {
         u: f64,
     ) -> Result<Pass, RefineError> {
         let t0 = std::time::Instant::now();
-        let mut fits: Vec<Refined> = Vec::new();
-        let kinds: Vec<LawKind> = match forced {
-            Some(k) => vec![k],
-            None => LawKind::all()
-                .iter()
-                .copied()
-                .filter(|k| k.family().selection() == Selection::Simple)
-                .collect(),
-        };
-        let mut last_err = RefineError::NoFamily;
-        for kind in kinds {
-            match self.refine(kind, starts, bias, &fits) {
-                Ok(Some(f)) => fits.push(f),
-                Ok(None) => {}
-                Err(e) => last_err = e,
-            }
-        }
-        // A forced family without an equation-error start (the
-        // segmentation saw no stick; no Stribeck drop in the equation
-        // error) starts, as in `--law auto`, from the optima of the simple
-        // families it nests; those are refined for that only and do not
-        // compete.
-        if let (Some(k), true) = (forced, fits.is_empty()) {
-            let helpers = self.simple_helpers(starts, bias, k);
-            match self.refine(k, starts, bias, &helpers) {
-                Ok(Some(f)) => fits.push(f),
-                Ok(None) => {}
-                Err(e) => last_err = e,
-            }
-        }
-        if fits.is_empty() {
-            return Err(last_err);
-        }
+        let mut fits = self.refine_families(starts, bias, forced)?;
         let mut concluded = self.conclude(&fits, forced, u, t0);
         if let Some(k) = forced.filter(|k| k.family().has_velocity_scale()) {
             let wants = match &concluded {
@@ -1068,6 +1036,67 @@ impl Refinement {
             u,
             t0,
         })
+    }
+
+    /// The families of a pass (the simple ones, or the forced one), each
+    /// refined from its equation-error start ([`Self::run_core`]'s first
+    /// step).
+    fn refine_families(
+        &self,
+        starts: &[SiLaw],
+        bias: f64,
+        forced: Option<LawKind>,
+    ) -> Result<Vec<Refined>, RefineError> {
+        let mut fits: Vec<Refined> = Vec::new();
+        let kinds: Vec<LawKind> = match forced {
+            Some(k) => vec![k],
+            None => LawKind::all()
+                .iter()
+                .copied()
+                .filter(|k| k.family().selection() == Selection::Simple)
+                .collect(),
+        };
+        let mut last_err = RefineError::NoFamily;
+        for kind in kinds {
+            match self.refine(kind, starts, bias, &fits) {
+                Ok(Some(f)) => fits.push(f),
+                Ok(None) => {}
+                Err(e) => last_err = e,
+            }
+        }
+        // A forced family without an equation-error start (the
+        // segmentation saw no stick; no Stribeck drop in the equation
+        // error) starts, as in `--law auto`, from the optima of the simple
+        // families it nests; those are refined for that only and do not
+        // compete.
+        if let (Some(k), true) = (forced, fits.is_empty()) {
+            let helpers = self.simple_helpers(starts, bias, k);
+            match self.refine(k, starts, bias, &helpers) {
+                Ok(Some(f)) => fits.push(f),
+                Ok(None) => {}
+                Err(e) => last_err = e,
+            }
+        }
+        if fits.is_empty() {
+            return Err(last_err);
+        }
+        Ok(fits)
+    }
+
+    /// Whether the families of [`Self::refine_families`] already explain
+    /// the log (the conclusion's adequacy; false where it fails): a cheap
+    /// screen before a whole pass (`identify`'s lag shortcut).
+    pub fn families_adequate(
+        &self,
+        starts: &[SiLaw],
+        bias: f64,
+        forced: Option<LawKind>,
+        u: f64,
+    ) -> bool {
+        let t0 = std::time::Instant::now();
+        self.refine_families(starts, bias, forced)
+            .and_then(|fits| self.conclude(&fits, forced, u, t0))
+            .is_ok_and(|o| o.adequacy.adequate)
     }
 
     /// Finishes a pass of [`Self::run_core`]: the profile in Rs behind a
