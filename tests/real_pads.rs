@@ -1532,6 +1532,12 @@ fn synth_compliant_and_fit(
 
 /// `stickslip synth ARGS --out LOG`, then the fit entry of `log`.
 fn synth_to_and_fit(log: &std::path::Path, args: &[String]) -> serde_json::Value {
+    synth_to(log, args);
+    fit_entry(log)
+}
+
+/// `synth ARGS --out LOG`, which must succeed.
+fn synth_to<S: AsRef<std::ffi::OsStr>>(log: &std::path::Path, args: impl IntoIterator<Item = S>) {
     let o = common::bin()
         .arg("synth")
         .args(args)
@@ -1540,7 +1546,6 @@ fn synth_to_and_fit(log: &std::path::Path, args: &[String]) -> serde_json::Value
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    fit_entry(log)
 }
 
 /// A compliant contact on another rig (M1 3 kg, M2 1 kg, K1 200 N/m, K2
@@ -2144,14 +2149,12 @@ fn calibrated_zeros_give_the_levels_of_each_direction() {
 fn zeros_declared_on_the_command_line() {
     let dir = tempfile::tempdir().unwrap();
     let keyed = dir.path().join("keyed.csv");
-    let o = common::bin()
-        .args(["synth", "--normal-force", "2.2", "--seed", "3"])
-        .args(["--position-zero-uncertainty-m", "1e-5"])
-        .args(["--rs-minus-n", "0.84", "--rd-minus-n", "0.68", "--out"])
-        .arg(&keyed)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    synth_to(
+        &keyed,
+        "--normal-force 2.2 --seed 3 --position-zero-uncertainty-m 1e-5 \
+         --rs-minus-n 0.84 --rd-minus-n 0.68"
+            .split_whitespace(),
+    );
     let text = std::fs::read_to_string(&keyed).unwrap();
     let stripped: String = text
         .lines()
@@ -2219,16 +2222,13 @@ fn a_never_sticking_pad_whose_records_lag() {
     let sensors = dir.path().join("sensors.json");
     std::fs::write(&sensors, NEVER_STICKS_SENSORS).unwrap();
     let log = dir.path().join("z022.mcap");
-    let o = common::bin()
-        .arg("synth")
-        .args(NEVER_STICKS_ARGS.split_whitespace())
-        .arg("--sensors")
-        .arg(&sensors)
-        .arg("--out")
-        .arg(&log)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let sensors = sensors.to_str().expect("a UTF-8 temp path");
+    synth_to(
+        &log,
+        NEVER_STICKS_ARGS
+            .split_whitespace()
+            .chain(["--sensors", sensors]),
+    );
     let f = fit_entry(&log);
     let label = format!("{f:#}");
     assert_eq!(f["adequate"], true, "{label}");
