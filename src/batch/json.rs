@@ -224,6 +224,18 @@ struct CombinedOut {
     simulated: bool,
     /// The robust worst case includes the ends of `interval`.
     in_robust_worst_case: bool,
+    /// κ's power law in N (`null`: one κ at every setting).
+    by_normal_force: Option<NormalForceOut>,
+}
+
+/// κ = value·(N/reference_normal_force_n)^exponent.
+#[derive(Serialize)]
+struct NormalForceOut {
+    reference_normal_force_n: f64,
+    exponent: f64,
+    exponent_interval: Interval,
+    chi2_per_dof: f64,
+    delta_chi2: f64,
 }
 
 impl From<&super::Combined> for CombinedOut {
@@ -236,6 +248,13 @@ impl From<&super::Combined> for CombinedOut {
             logs_eligible: c.eligible,
             simulated: c.used,
             in_robust_worst_case: c.in_robust,
+            by_normal_force: c.by_normal_force.map(|l| NormalForceOut {
+                reference_normal_force_n: l.reference_n,
+                exponent: l.exponent,
+                exponent_interval: l.exponent_interval.into(),
+                chi2_per_dof: l.chi2_per_dof,
+                delta_chi2: l.delta_chi2,
+            }),
         }
     }
 }

@@ -777,7 +777,6 @@ pub fn batch_with_progress(
     } = fit_coefficients(&mut logs, opts.normal_force_gain_uncertainty, &mut warnings)?;
     let (ratio, ratio_interval) = ratio_estimate(&mu_s, &mu_d);
     let mut pad = pad::batch_pad(fits, &mut warnings);
-    let shape = pad.shape;
 
     let ab = rig.constants().absorber();
     ab.validate().map_err(BatchError::Rig)?;
@@ -802,26 +801,42 @@ pub fn batch_with_progress(
         opts.eta_fine_halfwidth,
         opts.eta_coarse_stride,
     );
-    // The robust worst case's variants: the ends of μd/μs's interval and
-    // of the simulated pad's κ and ρs⁻/ρs⁺ (one at a time; their point
-    // values alone said nothing of how well the logs know them).
+    pad.set_reference(rho_of);
+    let shape = pad.shape;
+    // The robust worst case's variants: the corners of μd/μs's interval
+    // and of the simulated pad's κ (and γ where κ depends on N) and
+    // ρs⁻/ρs⁺ (their point values alone said nothing of how well the logs
+    // know them).
     let mut variants = vec![(ratio, shape)];
     if opts.ratio_variants {
-        if ratio_interval.1 - ratio_interval.0 > 1e-12 {
-            variants.extend([(ratio_interval.0, shape), (ratio_interval.1, shape)]);
-        }
-        let ends = pad.shape_variants();
+        let ratios = if ratio_interval.1 - ratio_interval.0 > 1e-12 {
+            vec![ratio_interval.0, ratio_interval.1]
+        } else {
+            vec![ratio]
+        };
+        let mut corners = pad.shape_variants();
         if let Some(c) = pad.contact.as_mut() {
-            c.in_robust = ends
-                .iter()
-                .any(|s| s.contact_stiffness != shape.contact_stiffness);
+            c.in_robust = corners.iter().any(|s| {
+                s.contact_stiffness != shape.contact_stiffness
+                    || s.contact_power != shape.contact_power
+            });
         }
         if let Some(c) = pad.split.as_mut() {
-            c.in_robust = ends
+            c.in_robust = corners
                 .iter()
                 .any(|s| s.rs_minus_ratio != shape.rs_minus_ratio);
         }
-        variants.extend(ends.into_iter().map(|s| (ratio, s)));
+        if corners.is_empty() {
+            corners.push(shape);
+        }
+        for &r in &ratios {
+            variants.extend(
+                corners
+                    .iter()
+                    .filter(|&&s| (r, s) != (ratio, shape))
+                    .map(|&s| (r, s)),
+            );
+        }
     }
     let RhoGrid {
         fa,
@@ -1367,8 +1382,8 @@ mod tests {
         let ab = Absorber::default();
         let etas = drive_grid(&ab, default_eta_range(&ab), 41, 0.0, 0.0, 1);
         let shape = |k: f64| PadShape {
-            rs_minus_ratio: None,
             contact_stiffness: Some(k),
+            ..PadShape::PAPER
         };
         let variants = vec![(0.8, shape(20.0)), (0.8, shape(2.0)), (0.8, shape(200.0))];
         let tick = |_: u64| {};

@@ -2,21 +2,25 @@
 //! chose (a compliant contact κ = kt/K2, a static threshold that depends
 //! on the sliding direction), combined over the logs.
 //!
-//! Both are properties of the pad, not of the normal force: with friction
-//! proportional to N (Amontons, the premise of the batch) the split is a
-//! fixed ratio ρs⁻/ρs⁺, and the contact's tangential stiffness kt is taken
-//! as independent of N (the Jenkins element with one spring: the
-//! pre-sliding displacement Rs/kt then grows with N, which is why the low
-//! settings' logs often bound κ only from below). Each is combined in log
-//! space, weighted by the logs' intervals (σ of ln κ from the 95 %
-//! interval), with the Birge ratio where the logs scatter beyond their
-//! intervals (the χ² per degree of freedom is reported: a large one says
-//! that κ does depend on N, or that a log misread it). An extension is
-//! simulated when at least half of the logs that slid under a refined fit
-//! chose it; where fewer did, the batch simulates the paper's pad and
-//! says so (a warning with the count and the value), since a single log
-//! choosing an extension is what parsimony lets through in a few per cent
-//! of rigid, symmetric logs.
+//! Both are properties of the pad. With friction proportional to N
+//! (Amontons, the premise of the batch) the split is a fixed ratio
+//! ρs⁻/ρs⁺. The contact's tangential stiffness kt is first taken as
+//! independent of N (the Jenkins element with one spring: the pre-sliding
+//! displacement Rs/kt then grows with N, which is why the low settings'
+//! logs often bound κ only from below); where the logs' κ grow or fall
+//! with N beyond their intervals and a power law κ = κ_ref·(N/N_ref)^γ
+//! explains them (the constant's χ² falls by more than χ²₁'s 99 % point,
+//! in units of the power law's own χ²/dof where that exceeds 1), the batch
+//! simulates κ at each setting from that law (Hertz–Mindlin contacts give
+//! γ = 1/3, rough contacts up to about 1). Each is combined in log space,
+//! weighted by the logs' intervals (σ of ln κ from the 95 % interval),
+//! with the Birge ratio where the logs scatter beyond their intervals (the
+//! χ² per degree of freedom is reported). An extension is simulated when
+//! at least half of the logs that slid under a refined fit chose it;
+//! where fewer did, the batch simulates the paper's pad and says so (a
+//! warning with the count and the value), since a single log choosing an
+//! extension is what parsimony lets through in a few per cent of rigid,
+//! symmetric logs.
 
 use super::*;
 
@@ -26,8 +30,22 @@ pub struct PadShape {
     /// ρs⁻/ρs⁺ of a static threshold split by direction (equal dynamic
     /// levels, as `fit` identifies it); `None`: symmetric.
     pub rs_minus_ratio: Option<f64>,
-    /// κ = kt/K2 of a compliant contact; `None`: the rigid stick.
+    /// κ = kt/K2 of a compliant contact; `None`: the rigid stick. With
+    /// `contact_power`, κ at its reference setting.
     pub contact_stiffness: Option<f64>,
+    /// κ depending on the normal force (`None`: the same κ at every
+    /// setting).
+    pub contact_power: Option<ContactPower>,
+}
+
+/// κ(ρs) = κ_ref·(ρs/ρs_ref)^γ: ρs is proportional to N at a fixed μs,
+/// so this is κ's power law in N.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactPower {
+    /// ρs at the reference normal force N_ref.
+    pub rho_s_ref: f64,
+    /// The exponent γ.
+    pub exponent: f64,
 }
 
 impl PadShape {
@@ -35,19 +53,54 @@ impl PadShape {
     pub const PAPER: PadShape = PadShape {
         rs_minus_ratio: None,
         contact_stiffness: None,
+        contact_power: None,
     };
+
+    /// κ at a setting of static level `rho_s` (`None`: rigid).
+    pub fn contact_at(&self, rho_s: f64) -> Option<f64> {
+        let k = self.contact_stiffness?;
+        Some(match self.contact_power {
+            Some(p) if p.rho_s_ref > 0.0 && rho_s > 0.0 => {
+                k * (rho_s / p.rho_s_ref).powf(p.exponent)
+            }
+            _ => k,
+        })
+    }
+}
+
+/// κ's power law in the normal force, fitted over the logs where a
+/// constant κ does not explain them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NormalForceLaw {
+    /// N_ref (N): the logs' weighted geometric mean normal force, where
+    /// κ_ref's error is uncorrelated with γ's.
+    pub reference_n: f64,
+    /// The exponent γ of κ ∝ N^γ.
+    pub exponent: f64,
+    /// γ's 95 % interval (Birge-widened where the logs scatter about the
+    /// power law beyond their intervals).
+    pub exponent_interval: (f64, f64),
+    /// χ² per degree of freedom of the logs about the power law.
+    pub chi2_per_dof: f64,
+    /// The constant κ's χ² minus the power law's.
+    pub delta_chi2: f64,
 }
 
 /// One extension combined over the logs.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Combined {
-    /// The combined value (κ, or the ratio ρs⁻/ρs⁺).
+    /// The combined value (κ, or the ratio ρs⁻/ρs⁺; κ at N_ref where
+    /// `by_normal_force` holds a power law).
     pub value: f64,
     /// Its 95 % interval (`None`: one log, without an interval of its
     /// own: nothing says how well it is known).
     pub interval: Option<(f64, f64)>,
-    /// χ² per degree of freedom of the logs about it (None: one log).
+    /// χ² per degree of freedom of the logs about one value (None: one
+    /// log).
     pub chi2_per_dof: Option<f64>,
+    /// κ's power law in N, where it explains the logs and one κ does not
+    /// (the contact only).
+    pub by_normal_force: Option<NormalForceLaw>,
     /// The logs that chose the extension.
     pub chosen: usize,
     /// The logs that could have (M2 slid under a refined fit).
@@ -71,35 +124,169 @@ pub struct BatchPad {
 }
 
 impl BatchPad {
-    /// The simulated shape with one extension at an end of its 95 %
-    /// interval (κ's, then ρs⁻/ρs⁺'s; each end that differs from the
-    /// value), for the robust worst case. Empty for the rigid symmetric
-    /// pad, or where the logs give no interval.
+    /// The corners of the simulated extensions' 95 % intervals, for the
+    /// robust worst case: every combination of κ's ends, γ's ends (where κ
+    /// depends on N) and ρs⁻/ρs⁺'s ends (an end that equals its value
+    /// stands for itself; an extension without an interval, at its value).
+    /// Empty for the rigid symmetric pad, or where no simulated extension
+    /// has an interval.
     pub fn shape_variants(&self) -> Vec<PadShape> {
-        let ends = |c: &Option<Combined>| -> Vec<f64> {
-            c.as_ref()
+        let ends = |c: Option<&Combined>, interval: Option<(f64, f64)>, value: f64| {
+            let e: Vec<f64> = c
                 .filter(|c| c.used)
-                .and_then(|c| c.interval.map(|(lo, hi)| (c.value, lo, hi)))
-                .map_or(Vec::new(), |(v, lo, hi)| {
+                .and(interval)
+                .map_or(Vec::new(), |(lo, hi)| {
                     [lo, hi]
                         .into_iter()
-                        .filter(|e| e.is_finite() && *e > 0.0 && (e - v).abs() > 1e-12 * v)
+                        .filter(|e| e.is_finite() && (e - value).abs() > 1e-12 * value.abs())
                         .collect()
-                })
+                });
+            e
         };
-        let mut out: Vec<PadShape> = ends(&self.contact)
-            .into_iter()
-            .map(|k| PadShape {
-                contact_stiffness: Some(k),
-                ..self.shape
-            })
-            .collect();
-        out.extend(ends(&self.split).into_iter().map(|r| PadShape {
-            rs_minus_ratio: Some(r),
-            ..self.shape
-        }));
+        let contact = self.contact.as_ref();
+        let power = contact.and_then(|c| c.by_normal_force);
+        let kappas = ends(
+            contact,
+            contact.and_then(|c| c.interval).filter(|iv| iv.0 > 0.0),
+            self.shape.contact_stiffness.unwrap_or(f64::NAN),
+        );
+        let gammas = ends(
+            contact,
+            power.map(|p| p.exponent_interval),
+            power.map_or(f64::NAN, |p| p.exponent),
+        );
+        let split = self.split.as_ref();
+        let ratios = ends(
+            split,
+            split.and_then(|c| c.interval).filter(|iv| iv.0 > 0.0),
+            self.shape.rs_minus_ratio.unwrap_or(f64::NAN),
+        );
+        if kappas.is_empty() && gammas.is_empty() && ratios.is_empty() {
+            return Vec::new();
+        }
+        let or_value = |e: Vec<f64>, v: Option<f64>| {
+            if e.is_empty() {
+                vec![v]
+            } else {
+                e.into_iter().map(Some).collect()
+            }
+        };
+        let mut out = Vec::new();
+        for k in or_value(kappas, self.shape.contact_stiffness) {
+            for g in or_value(gammas.clone(), power.map(|p| p.exponent)) {
+                for r in or_value(ratios.clone(), self.shape.rs_minus_ratio) {
+                    out.push(PadShape {
+                        contact_stiffness: k,
+                        contact_power: self
+                            .shape
+                            .contact_power
+                            .zip(g)
+                            .map(|(p, exponent)| ContactPower { exponent, ..p }),
+                        rs_minus_ratio: r,
+                    });
+                }
+            }
+        }
         out
     }
+
+    /// Sets ρs_ref of κ's power law from N_ref (`rho_of`: N → ρs at the
+    /// batch's μs and force scale).
+    pub(super) fn set_reference(&mut self, rho_of: impl Fn(f64) -> f64) {
+        let law = self.contact.as_ref().and_then(|c| c.by_normal_force);
+        if let (Some(p), Some(law)) = (self.shape.contact_power.as_mut(), law) {
+            p.rho_s_ref = rho_of(law.reference_n);
+        }
+    }
+}
+
+/// χ²₁'s 99 % point: κ's power law in N replaces one κ when the χ² falls
+/// by more than this (in units of the power law's χ²/dof where above 1).
+const CHI2_1_99: f64 = 6.635;
+
+/// Per-log points of `combine`: ln v and its weight 1/σ², with how many
+/// logs had an interval (logs without one count with the median weight of
+/// the others, or all equally when none has one).
+fn log_points(values: &[(f64, Option<(f64, f64)>)]) -> (Vec<(f64, f64)>, usize) {
+    let pts: Vec<(f64, Option<f64>)> = values
+        .iter()
+        .filter(|(v, _)| v.is_finite() && *v > 0.0)
+        .map(|&(v, iv)| {
+            let sigma = iv
+                .filter(|&(lo, hi)| lo > 0.0 && hi.is_finite() && hi > lo)
+                .map(|(lo, hi)| (hi.ln() - lo.ln()) / (2.0 * 1.96));
+            (v.ln(), sigma)
+        })
+        .collect();
+    let mut known: Vec<f64> = pts.iter().filter_map(|p| p.1).collect();
+    known.sort_by(f64::total_cmp);
+    let fallback = known.get(known.len() / 2).copied().unwrap_or(1.0);
+    let out = pts
+        .iter()
+        .map(|p| (p.0, 1.0 / p.1.unwrap_or(fallback).powi(2)))
+        .collect();
+    (out, known.len())
+}
+
+/// One log's κ at its normal force: (N, κ, κ's 95 % interval).
+type KappaAt = (f64, f64, Option<(f64, f64)>);
+
+/// κ's power law in N over the logs `(N, κ, interval)`, with κ at N_ref
+/// and its 95 % interval; `None` unless at least three logs with
+/// intervals at two or more normal forces explain a power law better than
+/// one κ by [`CHI2_1_99`].
+fn power_in_normal_force(values: &[KappaAt]) -> Option<(NormalForceLaw, f64, (f64, f64))> {
+    let usable: Vec<&KappaAt> = values
+        .iter()
+        .filter(|(n, k, _)| n.is_finite() && *n > 0.0 && k.is_finite() && *k > 0.0)
+        .collect();
+    let (pts, known) = log_points(&usable.iter().map(|v| (v.1, v.2)).collect::<Vec<_>>());
+    if known < 3 || pts.len() < 3 {
+        return None;
+    }
+    let x: Vec<f64> = usable.iter().map(|v| v.0.ln()).collect();
+    let sw: f64 = pts.iter().map(|p| p.1).sum();
+    let xm = x.iter().zip(&pts).map(|(x, p)| x * p.1).sum::<f64>() / sw;
+    let ym = pts.iter().map(|p| p.0 * p.1).sum::<f64>() / sw;
+    let sxx: f64 = x
+        .iter()
+        .zip(&pts)
+        .map(|(x, p)| p.1 * (x - xm).powi(2))
+        .sum();
+    if sxx.is_nan() || sxx <= 0.0 || sxx.is_infinite() {
+        return None;
+    }
+    let sxy: f64 = x
+        .iter()
+        .zip(&pts)
+        .map(|(x, p)| p.1 * (x - xm) * (p.0 - ym))
+        .sum();
+    let gamma = sxy / sxx;
+    let chi2_const: f64 = pts.iter().map(|p| p.1 * (p.0 - ym).powi(2)).sum();
+    let chi2_pow: f64 = x
+        .iter()
+        .zip(&pts)
+        .map(|(x, p)| p.1 * (p.0 - ym - gamma * (x - xm)).powi(2))
+        .sum();
+    let dof = (pts.len() - 2) as f64;
+    let birge = (chi2_pow / dof).max(1.0);
+    let delta = chi2_const - chi2_pow;
+    if delta.is_nan() || delta / birge <= CHI2_1_99 {
+        return None;
+    }
+    let (s_g, s_a) = ((birge / sxx).sqrt(), (birge / sw).sqrt());
+    let law = NormalForceLaw {
+        reference_n: xm.exp(),
+        exponent: gamma,
+        exponent_interval: (gamma - 1.96 * s_g, gamma + 1.96 * s_g),
+        chi2_per_dof: chi2_pow / dof,
+        delta_chi2: delta,
+    };
+    Some((
+        law,
+        ym.exp(),
+        ((ym - 1.96 * s_a).exp(), (ym + 1.96 * s_a).exp()),
+    ))
 }
 
 /// Combines per-log values with 95 % intervals in log space (weights from
@@ -111,26 +298,11 @@ fn combine(
     chosen: usize,
     eligible: usize,
 ) -> Option<Combined> {
-    let pts: Vec<(f64, Option<f64>)> = values
-        .iter()
-        .filter(|(v, _)| v.is_finite() && *v > 0.0)
-        .map(|&(v, iv)| {
-            let sigma = iv
-                .filter(|&(lo, hi)| lo > 0.0 && hi.is_finite() && hi > lo)
-                .map(|(lo, hi)| (hi.ln() - lo.ln()) / (2.0 * 1.96));
-            (v.ln(), sigma)
-        })
-        .collect();
+    let (pts, known) = log_points(values);
     if pts.is_empty() {
         return None;
     }
-    let mut known: Vec<f64> = pts.iter().filter_map(|p| p.1).collect();
-    known.sort_by(f64::total_cmp);
-    let fallback = known.get(known.len() / 2).copied().unwrap_or(1.0);
-    let w: Vec<f64> = pts
-        .iter()
-        .map(|p| 1.0 / p.1.unwrap_or(fallback).powi(2))
-        .collect();
+    let w: Vec<f64> = pts.iter().map(|p| p.1).collect();
     let sw: f64 = w.iter().sum();
     let mean = pts.iter().zip(&w).map(|(p, w)| p.0 * w).sum::<f64>() / sw;
     let mut sigma = 1.0 / sw.sqrt();
@@ -141,7 +313,7 @@ fn combine(
             .sum::<f64>()
             / (pts.len() - 1) as f64
     });
-    if known.is_empty() {
+    if known == 0 {
         // No log gave an interval: the values' own spread (none for one).
         let (lo, hi) = pts.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
             (a.0.min(p.0), a.1.max(p.0))
@@ -160,7 +332,8 @@ fn combine(
         interval: sigma
             .is_finite()
             .then(|| ((mean - 1.96 * sigma).exp(), (mean + 1.96 * sigma).exp())),
-        chi2_per_dof: chi2_per_dof.filter(|_| !known.is_empty()),
+        chi2_per_dof: chi2_per_dof.filter(|_| known > 0),
+        by_normal_force: None,
         chosen,
         eligible,
         used: 2 * chosen >= eligible.max(1),
@@ -177,13 +350,16 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
         .map(|(_, f)| f)
         .filter(|f| f.pads().is_some() && !f.stuck())
         .collect();
-    let kappas: Vec<(f64, Option<(f64, f64)>)> = eligible
+    let kappas_at: Vec<KappaAt> = eligible
         .iter()
         .filter_map(|f| {
             let k = f.contact_stiffness()?;
-            Some((k, f.pads().and_then(|p| p.contact_stiffness_interval)))
+            let iv = f.pads().and_then(|p| p.contact_stiffness_interval);
+            Some((f.normal_force_n, k, iv))
         })
         .collect();
+    let kappas: Vec<(f64, Option<(f64, f64)>)> =
+        kappas_at.iter().map(|&(_, k, iv)| (k, iv)).collect();
     let splits: Vec<(f64, Option<(f64, f64)>)> = eligible
         .iter()
         .filter_map(|f| {
@@ -200,7 +376,14 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
         .collect();
     // (A split whose threshold towards − is only bounded was chosen too.)
     let split_chosen = eligible.iter().filter(|f| f.direction_dependent()).count();
-    let contact = combine(&kappas, kappas.len(), eligible.len());
+    let mut contact = combine(&kappas, kappas.len(), eligible.len());
+    if let (Some(c), Some((law, value, interval))) =
+        (contact.as_mut(), power_in_normal_force(&kappas_at))
+    {
+        c.by_normal_force = Some(law);
+        c.value = value;
+        c.interval = Some(interval);
+    }
     let split = combine(&splits, split_chosen, eligible.len());
     for (c, what) in [
         (&contact, "a contact spring κ"),
@@ -219,6 +402,14 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
         shape: PadShape {
             rs_minus_ratio: split.as_ref().filter(|c| c.used).map(|c| c.value),
             contact_stiffness: contact.as_ref().filter(|c| c.used).map(|c| c.value),
+            contact_power: contact
+                .as_ref()
+                .filter(|c| c.used)
+                .and_then(|c| c.by_normal_force)
+                .map(|law| ContactPower {
+                    rho_s_ref: f64::NAN,
+                    exponent: law.exponent,
+                }),
         },
         contact,
         split,
@@ -229,23 +420,29 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
 mod tests {
     use super::*;
 
-    /// The robust variants: each simulated extension at each end of its
-    /// interval, the other at its value; none for an extension not
-    /// simulated or without an interval, nor for the rigid symmetric pad.
-    #[test]
-    fn shape_variants_are_the_interval_ends() {
-        let c = |value: f64, interval: Option<(f64, f64)>, used: bool| Combined {
+    fn combined(value: f64, interval: Option<(f64, f64)>, used: bool) -> Combined {
+        Combined {
             value,
             interval,
             chi2_per_dof: None,
+            by_normal_force: None,
             chosen: 2,
             eligible: 3,
             used,
             in_robust: false,
-        };
+        }
+    }
+
+    /// The robust variants: the corners of the simulated extensions'
+    /// intervals; an extension without an interval at its value; none for
+    /// an extension not simulated, nor for the rigid symmetric pad.
+    #[test]
+    fn shape_variants_are_the_corners_of_the_intervals() {
+        let c = combined;
         let shape = PadShape {
             rs_minus_ratio: Some(0.88),
             contact_stiffness: Some(17.2),
+            contact_power: None,
         };
         let pad = BatchPad {
             shape,
@@ -253,15 +450,26 @@ mod tests {
             split: Some(c(0.88, Some((0.85, 0.91)), true)),
         };
         let v = pad.shape_variants();
-        let k = |k: f64| PadShape {
+        let kr = |k: f64, r: f64| PadShape {
             contact_stiffness: Some(k),
-            ..shape
-        };
-        let r = |r: f64| PadShape {
             rs_minus_ratio: Some(r),
             ..shape
         };
-        assert_eq!(v, vec![k(16.0), k(18.5), r(0.85), r(0.91)]);
+        assert_eq!(
+            v,
+            vec![
+                kr(16.0, 0.85),
+                kr(16.0, 0.91),
+                kr(18.5, 0.85),
+                kr(18.5, 0.91)
+            ]
+        );
+        // The split without an interval: κ's ends at the split's value.
+        let one = BatchPad {
+            split: Some(c(0.88, None, true)),
+            ..pad.clone()
+        };
+        assert_eq!(one.shape_variants(), vec![kr(16.0, 0.88), kr(18.5, 0.88)]);
         let unused = BatchPad {
             shape: PadShape {
                 contact_stiffness: None,
@@ -272,6 +480,102 @@ mod tests {
         };
         assert!(unused.shape_variants().is_empty());
         assert!(BatchPad::default().shape_variants().is_empty());
+    }
+
+    /// κ's power law in N: recovered from logs that follow one, with γ's
+    /// interval holding it; refused for logs that agree on one κ, for
+    /// logs that scatter about one κ without a trend, and for two logs.
+    #[test]
+    fn kappa_follows_the_normal_force_only_where_the_logs_say_so() {
+        // κ = 17·(N/4)^0.5, known to ±3 % (95 %), slightly off the law.
+        let iv = |k: f64| Some((k / 1.03, k * 1.03));
+        let logs: Vec<KappaAt> = [(2.2, 1.004), (4.0, 0.997), (7.2, 1.002)]
+            .iter()
+            .map(|&(n, e)| {
+                let k = 17.0 * (n / 4.0f64).powf(0.5) * e;
+                (n, k, iv(k))
+            })
+            .collect();
+        let (law, k_ref, (lo, hi)) = power_in_normal_force(&logs).expect("a power law");
+        let (g_lo, g_hi) = law.exponent_interval;
+        assert!(g_lo < 0.5 && 0.5 < g_hi, "{law:?}");
+        assert!((law.exponent - 0.5).abs() < 0.05, "{law:?}");
+        let truth = 17.0 * (law.reference_n / 4.0).powf(0.5);
+        assert!(lo < truth && truth < hi && (k_ref / truth - 1.0).abs() < 0.02);
+        assert!(law.delta_chi2 > CHI2_1_99, "{law:?}");
+        // The shape simulates κ at each setting from it.
+        let shape = PadShape {
+            contact_stiffness: Some(k_ref),
+            contact_power: Some(ContactPower {
+                rho_s_ref: 0.5,
+                exponent: law.exponent,
+            }),
+            ..PadShape::PAPER
+        };
+        let at = shape.contact_at(1.0).unwrap();
+        assert!((at / (k_ref * 2f64.powf(law.exponent)) - 1.0).abs() < 1e-12);
+        // One κ within the intervals: no law.
+        let flat: Vec<_> = [(2.2, 17.1), (4.0, 16.9), (7.2, 17.05)]
+            .iter()
+            .map(|&(n, k)| (n, k, iv(k)))
+            .collect();
+        assert!(power_in_normal_force(&flat).is_none());
+        // Scatter beyond the intervals without a trend: the power law
+        // explains it no better (its own χ²/dof sets the scale).
+        let scatter: Vec<_> = [
+            (2.0, 17.0),
+            (3.0, 22.0),
+            (4.0, 14.0),
+            (5.0, 22.0),
+            (6.0, 17.0),
+        ]
+        .iter()
+        .map(|&(n, k)| (n, k, iv(k)))
+        .collect();
+        assert!(power_in_normal_force(&scatter).is_none());
+        // Two logs cannot tell a law from a misread log.
+        assert!(power_in_normal_force(&logs[..2]).is_none());
+        // Equal normal forces: no exponent.
+        let same: Vec<_> = logs.iter().map(|&(_, k, iv)| (4.0, k, iv)).collect();
+        assert!(power_in_normal_force(&same).is_none());
+    }
+
+    /// Where κ depends on N, the corners also take γ's ends.
+    #[test]
+    fn the_corners_take_the_exponents_ends() {
+        let mut contact = combined(17.0, Some((16.5, 17.5)), true);
+        contact.by_normal_force = Some(NormalForceLaw {
+            reference_n: 4.0,
+            exponent: 0.5,
+            exponent_interval: (0.4, 0.6),
+            chi2_per_dof: 0.3,
+            delta_chi2: 40.0,
+        });
+        let mut pad = BatchPad {
+            shape: PadShape {
+                contact_stiffness: Some(17.0),
+                contact_power: Some(ContactPower {
+                    rho_s_ref: f64::NAN,
+                    exponent: 0.5,
+                }),
+                rs_minus_ratio: None,
+            },
+            contact: Some(contact),
+            split: None,
+        };
+        pad.set_reference(|n| 0.25 * n);
+        assert_eq!(pad.shape.contact_power.unwrap().rho_s_ref, 1.0);
+        let v: Vec<(f64, f64)> = pad
+            .shape_variants()
+            .iter()
+            .map(|s| {
+                (
+                    s.contact_stiffness.unwrap(),
+                    s.contact_power.unwrap().exponent,
+                )
+            })
+            .collect();
+        assert_eq!(v, vec![(16.5, 0.4), (16.5, 0.6), (17.5, 0.4), (17.5, 0.6)]);
     }
 
     /// Equal intervals: the geometric mean; a scatter beyond the intervals

@@ -126,7 +126,8 @@ const BRANCHES: [Direction; 3] = [Direction::Up, Direction::Down, Direction::Res
 
 /// The model of a worst case: the law (ρs, min(ρd, ρs)) without slope, on
 /// the pad `shape` (a split threshold ρs⁻ = ratio·ρs with the dynamic
-/// level shared, at most ρs⁻; a contact spring κ).
+/// level shared, at most ρs⁻; a contact spring κ, at this ρs where it
+/// depends on N).
 pub(super) fn worst_model(
     ab: &Absorber,
     shape: PadShape,
@@ -146,7 +147,7 @@ pub(super) fn worst_model(
             }),
         },
         stop_below: None,
-        contact_stiffness: shape.contact_stiffness,
+        contact_stiffness: shape.contact_at(rho_s),
     };
     model.validate().map_err(SimError::Param)?;
     Ok(model)

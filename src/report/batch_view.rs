@@ -170,8 +170,22 @@ fn pad_words(pad: &crate::batch::BatchPad) -> String {
             }
         )
     };
+    let power = |c: &crate::batch::Combined| {
+        c.by_normal_force.map_or(String::new(), |l| {
+            format!(
+                "; that κ at N_ref {:.3} N, κ ∝ N^γ with γ {:.3} [{:.3}, {:.3}] (χ² {:.1} below one κ's)",
+                l.reference_n,
+                l.exponent,
+                l.exponent_interval.0,
+                l.exponent_interval.1,
+                l.delta_chi2
+            )
+        })
+    };
     let parts: Vec<String> = [
-        pad.contact.as_ref().map(|c| one("contact stiffness κ", c)),
+        pad.contact
+            .as_ref()
+            .map(|c| one("contact stiffness κ", c) + &power(c)),
         pad.split
             .as_ref()
             .map(|c| one("split threshold ρs⁻/ρs⁺", c)),
