@@ -576,9 +576,11 @@ impl LogFit {
             r_d_minus_interval_n: Iv(split.and(self.rd_interval_n)),
             direction_split_n: split.and_then(|p| p.split_n),
             direction_split_interval_n: Iv(split.and_then(|p| p.split_interval_n)),
-            contact_stiffness: self.contact_stiffness(),
+            contact_stiffness: self.contact_stiffness_reported(),
             contact_stiffness_interval: Iv(pads.and_then(|p| p.contact_stiffness_interval)),
-            kt_n_per_m: self.contact_stiffness().map(|k| k * self.k2_n_per_m()),
+            kt_n_per_m: self
+                .contact_stiffness_reported()
+                .map(|k| k * self.k2_n_per_m()),
             kt_interval_n_per_m: Iv(pads
                 .and_then(|p| p.contact_stiffness_interval)
                 .map(|(l, h)| (l * self.k2_n_per_m(), h * self.k2_n_per_m()))),

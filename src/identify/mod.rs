@@ -537,9 +537,9 @@ impl LogFit {
     pub fn rs_n(&self) -> Option<f64> {
         match self.measured {
             Measured::StickSlip(_)
-                if self
-                    .pads()
-                    .is_some_and(|p| p.plus_bounded || p.threshold_unresolved) =>
+                if self.pads().is_some_and(|p| {
+                    p.plus_bounded || p.threshold_unresolved || p.rs_between_readings
+                }) =>
             {
                 None
             }
@@ -596,6 +596,16 @@ impl LogFit {
     /// The contact stiffness κ = kt/K2 of a compliant contact (None: rigid).
     pub fn contact_stiffness(&self) -> Option<f64> {
         self.pads().and_then(|p| p.contact_stiffness)
+    }
+    /// κ as reported: None also where two readings the log cannot tell
+    /// apart disagree on it ([`PadFit::kappa_between_readings`]; the
+    /// interval holds both). [`Self::contact_stiffness`] stays the
+    /// simulated pad's.
+    ///
+    /// [`PadFit::kappa_between_readings`]: output_error::PadFit::kappa_between_readings
+    pub fn contact_stiffness_reported(&self) -> Option<f64> {
+        self.contact_stiffness()
+            .filter(|_| !self.pads().is_some_and(|p| p.kappa_between_readings))
     }
     /// K2 (N/m) of the log's rig (from the force scale A·K2).
     pub fn k2_n_per_m(&self) -> f64 {

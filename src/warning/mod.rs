@@ -455,6 +455,11 @@ pub enum Warning {
         own_rs_interval_n: Option<(f64, f64)>,
         /// The chosen law's own κ interval before widening.
         own_kappa_interval: Option<(f64, f64)>,
+        /// The readings disagree on Rs beyond their intervals: Rs is
+        /// reported as the widened interval only.
+        rs_not_identified: bool,
+        /// The same for κ.
+        kappa_not_identified: bool,
     },
     /// A forced law's velocity scale is below what the log resolves (its
     /// drop happens within one sample: a step to the data).
@@ -1245,8 +1250,10 @@ mod tests {
                     kappa_interval: Some((40.3, 43.5)),
                     own_rs_interval_n: Some((0.49, 0.53)),
                     own_kappa_interval: Some((40.3, 42.0)),
+                    rs_not_identified: true,
+                    kappa_not_identified: false,
                 },
-                "the positions are explained better by a Stribeck law behind the contact (ΔBIC -19.7: Rs 0.3720 N [0.3660, 0.3780], Rd 0.3530 N [0.3450, 0.3610], v_s 2.100 mm/s, κ 41.90 [40.30, 43.50]), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals (its own: Rs [0.4900, 0.5300] N, κ [40.30, 42.00]) are widened to hold both readings".to_string(),
+                "the positions are explained better by a Stribeck law behind the contact (ΔBIC -19.7: Rs 0.3720 N [0.3660, 0.3780], Rd 0.3530 N [0.3450, 0.3610], v_s 2.100 mm/s, κ 41.90 [40.30, 43.50]), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals (its own: Rs [0.4900, 0.5300] N, κ [40.30, 42.00]) are widened to hold both readings; the readings disagree on Rs beyond their intervals: this log does not identify Rs, reported as its interval only".to_string(),
             ),
             (
                 ThresholdNotIdentified { other: s, delta_bic: 3.25, other_rs_n: 1.5, interval_n: (1.2, 1.3) },

@@ -398,6 +398,8 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
             kappa_interval,
             own_rs_interval_n,
             own_kappa_interval,
+            rs_not_identified,
+            kappa_not_identified,
         } => {
             let iv = |i: &Option<(f64, f64)>, p: usize| {
                 i.map_or(String::new(), |(a, b)| format!(" [{a:.p$}, {b:.p$}]"))
@@ -424,6 +426,16 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 "the positions are explained better by a Stribeck law behind the contact (ΔBIC {delta_bic:.1}: Rs {rs_n:.4} N{}, Rd {rd_n:.4} N{}{vs}{k}), but the log has no accelerometer to confirm it (a position sensor's filter leaves x2 the same residuals); the chosen law is kept and its Rs, Rd and κ intervals{own} are widened to hold both readings",
                 iv(rs_interval_n, 4),
                 iv(rd_interval_n, 4)
+            )?;
+            let which = match (rs_not_identified, kappa_not_identified) {
+                (true, true) => "Rs and κ",
+                (true, false) => "Rs",
+                (false, true) => "κ",
+                (false, false) => return Ok(()),
+            };
+            write!(
+                f,
+                "; the readings disagree on {which} beyond their intervals: this log does not identify {which}, reported as its interval only"
             )
         }
         DropNotResolved {

@@ -164,6 +164,15 @@ pub struct PadFit {
     /// Behind a contact spring the log did not resolve the static
     /// threshold above the sliding level: Rs ≥ Rd only.
     pub threshold_unresolved: bool,
+    /// Two readings the log cannot tell apart (a Stribeck law behind the
+    /// contact that no accelerometer confirms, beside the chosen law)
+    /// disagree on Rs beyond their intervals: Rs is reported as the
+    /// interval holding both, without a number.
+    #[serde(default)]
+    pub rs_between_readings: bool,
+    /// The same for κ.
+    #[serde(default)]
+    pub kappa_between_readings: bool,
     /// The levels per direction where the position zeros are calibrated
     /// (None: zeros unknown; older saved fits).
     #[serde(default)]
@@ -254,6 +263,8 @@ impl Refinement {
             minus_bounded: false,
             plus_bounded: false,
             threshold_unresolved: false,
+            rs_between_readings: false,
+            kappa_between_readings: false,
             calibrated: self.zero_uncertainty_m.map(|e| {
                 let ivc = |k: usize| iv(k, true);
                 // b's standard uncertainty: its interval's half-width / 1.96.

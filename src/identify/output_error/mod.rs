@@ -497,7 +497,31 @@ fn drop_verdict(from: &OutputErrorFit, to: &OutputErrorFit) -> DropVerdict {
 /// that no accelerometer confirms ([`DropVerdict::Unconfirmed`]): the
 /// chosen law `out` is kept, its Rs, Rd, ρs, ρd and κ intervals widened
 /// to the union with `other`'s, with a warning giving both readings.
+/// Where the readings disagree on Rs or κ beyond their intervals (either
+/// point outside the other's interval), the log does not tell which is
+/// right: that quantity is reported as the union without a number
+/// ([`PadFit::rs_between_readings`], [`PadFit::kappa_between_readings`];
+/// the simulated law stays the chosen one).
 fn hold_both_readings(out: &mut OutputErrorFit, other: &OutputErrorFit) {
+    let inside = |x: f64, iv: Option<Interval>| iv.is_some_and(|(l, h)| l <= x && x <= h);
+    let disagree = |a: Option<f64>, ia: Option<Interval>, b: Option<f64>, ib: Option<Interval>| {
+        let (Some(a), Some(b)) = (a, b) else {
+            return false;
+        };
+        !inside(a, ib) || !inside(b, ia)
+    };
+    let rs_between = disagree(
+        Some(out.law.rs_n),
+        out.intervals.rs_n,
+        Some(other.law.rs_n),
+        other.intervals.rs_n,
+    ) && !out.pads.threshold_unresolved;
+    let kappa_between = disagree(
+        out.pads.contact_stiffness,
+        out.pads.contact_stiffness_interval,
+        other.pads.contact_stiffness,
+        other.pads.contact_stiffness_interval,
+    );
     let union = |a: Option<Interval>, b: Option<Interval>| match (a, b) {
         (Some((l, h)), Some((c, d))) => Some((l.min(c), h.max(d))),
         (a, _) => a,
@@ -527,7 +551,11 @@ fn hold_both_readings(out: &mut OutputErrorFit, other: &OutputErrorFit) {
             kappa_interval: other.pads.contact_stiffness_interval,
             own_rs_interval_n: out.intervals.rs_n,
             own_kappa_interval: out.pads.contact_stiffness_interval,
+            rs_not_identified: rs_between,
+            kappa_not_identified: kappa_between,
         });
+    out.pads.rs_between_readings = rs_between;
+    out.pads.kappa_between_readings = kappa_between;
     let (o, iv) = (&other.intervals, &mut out.intervals);
     iv.rs_n = union(iv.rs_n, o.rs_n);
     iv.rd_n = union(iv.rd_n, o.rd_n);
