@@ -39,7 +39,8 @@ pub struct PadShape {
 }
 
 /// κ(ρs) = κ_ref·(ρs/ρs_ref)^γ: ρs is proportional to N at a fixed μs,
-/// so this is κ's power law in N.
+/// so this is κ's power law in N (extrapolated by the law beyond the
+/// logs' normal forces).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactPower {
     /// ρs at the reference normal force N_ref.
@@ -131,17 +132,15 @@ impl BatchPad {
     /// Empty for the rigid symmetric pad, or where no simulated extension
     /// has an interval.
     pub fn shape_variants(&self) -> Vec<PadShape> {
-        let ends = |c: Option<&Combined>, interval: Option<(f64, f64)>, value: f64| {
-            let e: Vec<f64> = c
-                .filter(|c| c.used)
+        let ends = |c: Option<&Combined>, interval: Option<(f64, f64)>, value: f64| -> Vec<f64> {
+            c.filter(|c| c.used)
                 .and(interval)
                 .map_or(Vec::new(), |(lo, hi)| {
                     [lo, hi]
                         .into_iter()
                         .filter(|e| e.is_finite() && (e - value).abs() > 1e-12 * value.abs())
                         .collect()
-                });
-            e
+                })
         };
         let contact = self.contact.as_ref();
         let power = contact.and_then(|c| c.by_normal_force);

@@ -427,15 +427,15 @@ fn fmt_refinement(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 iv(rs_interval_n, 4),
                 iv(rd_interval_n, 4)
             )?;
-            let which = match (rs_not_identified, kappa_not_identified) {
-                (true, true) => "Rs and κ",
-                (true, false) => "Rs",
-                (false, true) => "κ",
+            let (which, its) = match (rs_not_identified, kappa_not_identified) {
+                (true, true) => ("Rs and κ", "their intervals"),
+                (true, false) => ("Rs", "its interval"),
+                (false, true) => ("κ", "its interval"),
                 (false, false) => return Ok(()),
             };
             write!(
                 f,
-                "; the readings disagree on {which} beyond their intervals: this log does not identify {which}, reported as its interval only"
+                "; the readings disagree on {which} beyond their intervals: this log does not identify {which}, reported as {its} only"
             )
         }
         DropNotResolved {
