@@ -1866,7 +1866,7 @@ fn batch_of_synth_logs(
 /// batch reported the rigid pad's, 1.34 against 1.14).
 #[test]
 fn the_batch_simulates_the_fitted_contact_spring() {
-    use stickslip::batch::{default_eta_range, drive_etas, worst_case, BatchOptions, PadShape};
+    use stickslip::batch::{worst_case, BatchOptions, PadShape};
     let dir = tempfile::tempdir().unwrap();
     let kt = 11_550.0;
     let kappa = kt / 670.0;
@@ -1888,19 +1888,8 @@ fn the_batch_simulates_the_fitted_contact_spring() {
         common::f(&b["recommended_rho_d"]),
     );
     let w = common::f(&b["worst_amplitude1"]);
-    let ab = Absorber {
-        m: 4.0,
-        k: 1.0,
-        damping: 0.003,
-    };
+    let (ab, etas) = common::public_batch_grid();
     let o = BatchOptions::default();
-    let etas = drive_etas(
-        &ab,
-        default_eta_range(&ab),
-        o.eta_points,
-        o.eta_fine_step,
-        o.eta_fine_halfwidth,
-    );
     let on = |shape| worst_case(&ab, shape, rs, rd, &etas, &o.steady).unwrap();
     let truth = on(PadShape {
         contact_stiffness: Some(kappa),
@@ -1946,7 +1935,7 @@ fn the_batch_simulates_the_fitted_contact_spring() {
 /// 1 %).
 #[test]
 fn the_batch_simulates_a_contact_stiffness_that_grows_with_the_normal_force() {
-    use stickslip::batch::{default_eta_range, drive_etas, worst_case, BatchOptions, PadShape};
+    use stickslip::batch::{worst_case, BatchOptions, PadShape};
     let dir = tempfile::tempdir().unwrap();
     let kt = |n: f64| 11_550.0 * (n / 4.0).sqrt();
     let b = batch_of_synth_logs(dir.path(), 41, &[2.2, 4.0, 7.2], |n| {
@@ -1971,19 +1960,8 @@ fn the_batch_simulates_a_contact_stiffness_that_grows_with_the_normal_force() {
         common::f(&b["recommended_rho_d"]),
     );
     let w = common::f(&b["worst_amplitude1"]);
-    let ab = Absorber {
-        m: 4.0,
-        k: 1.0,
-        damping: 0.003,
-    };
+    let (ab, etas) = common::public_batch_grid();
     let o = BatchOptions::default();
-    let etas = drive_etas(
-        &ab,
-        default_eta_range(&ab),
-        o.eta_points,
-        o.eta_fine_step,
-        o.eta_fine_halfwidth,
-    );
     let truth = worst_case(
         &ab,
         PadShape {

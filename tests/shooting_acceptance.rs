@@ -17,26 +17,16 @@
 //! stable period-1 orbit (A1 0.88, multipliers 0.996) that shooting
 //! accepts on the "rest" branch. Open (issue 34): the batch's worst case
 //! of such pads is low by that much.
-use stickslip::batch::{default_eta_range, drive_etas, worst_case, BatchOptions, PadShape};
-use stickslip::model::Absorber;
+mod common;
+
+use stickslip::batch::{worst_case, BatchOptions, PadShape};
 use stickslip::sim::sweep::SteadyConfig;
 
 #[test]
 #[ignore = "study: prints W with and without shooting"]
 fn worst_case_with_and_without_shooting() {
-    let ab = Absorber {
-        m: 4.0,
-        k: 1.0,
-        damping: 0.003,
-    };
+    let (ab, etas) = common::public_batch_grid();
     let o = BatchOptions::default();
-    let etas = drive_etas(
-        &ab,
-        default_eta_range(&ab),
-        o.eta_points,
-        o.eta_fine_step,
-        o.eta_fine_halfwidth,
-    );
     let marched = SteadyConfig {
         shooting: false,
         max_periods: 2000,

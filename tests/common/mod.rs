@@ -112,3 +112,23 @@ pub fn without_seconds(v: &mut Value) {
         _ => {}
     }
 }
+
+/// The public rig's absorber (m 4, k 1, D 0.003) and the batch's default η
+/// grid on it (uniform coarse grid plus the fine window, unrefined).
+pub fn public_batch_grid() -> (stickslip::model::Absorber, Vec<f64>) {
+    use stickslip::batch::{default_eta_range, drive_etas, BatchOptions};
+    let ab = stickslip::model::Absorber {
+        m: 4.0,
+        k: 1.0,
+        damping: 0.003,
+    };
+    let o = BatchOptions::default();
+    let etas = drive_etas(
+        &ab,
+        default_eta_range(&ab),
+        o.eta_points,
+        o.eta_fine_step,
+        o.eta_fine_halfwidth,
+    );
+    (ab, etas)
+}
