@@ -105,11 +105,7 @@ pub(super) fn log_obs(path: &Path, f: &LogFit, warnings: &mut Vec<Warning>) -> B
             _ => StaticObs::Unknown,
         }
     } else if let Some(o) = refined {
-        if never_sticks
-            || o.pads.threshold_unresolved
-            || o.pads.plus_bounded
-            || o.pads.rs_between_readings
-        {
+        if never_sticks || o.pads.rs_unmeasured() {
             rs_between(f.rs_interval_n.map(|iv| iv.1))
         } else {
             let (s, c) =

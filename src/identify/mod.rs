@@ -537,9 +537,7 @@ impl LogFit {
     pub fn rs_n(&self) -> Option<f64> {
         match self.measured {
             Measured::StickSlip(_)
-                if self.pads().is_some_and(|p| {
-                    p.plus_bounded || p.threshold_unresolved || p.rs_between_readings
-                }) =>
+                if self.pads().is_some_and(output_error::PadFit::rs_unmeasured) =>
             {
                 None
             }

@@ -179,6 +179,15 @@ pub struct PadFit {
     pub calibrated: Option<CalibratedLevels>,
 }
 
+impl PadFit {
+    /// The log gives the static threshold towards + no number, only an
+    /// interval: the law never breaks away that way, the threshold is not
+    /// resolved behind a contact, or two readings disagree on it.
+    pub fn rs_unmeasured(&self) -> bool {
+        self.plus_bounded || self.threshold_unresolved || self.rs_between_readings
+    }
+}
+
 /// Why a fit's intervals could not be formed (named in the warning when
 /// a refinement gives up for it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
