@@ -161,7 +161,12 @@ pub fn fit_figure(
             points,
             law,
             law_label,
-            threshold: !f.never_sticks() && !split.is_some_and(|p| p.plus_bounded),
+            // (No threshold where the fit gives Rs no number: bounded
+            // towards +, unresolved behind a contact, between readings.)
+            threshold: !f.never_sticks()
+                && !f
+                    .pads()
+                    .is_some_and(crate::identify::output_error::PadFit::rs_unmeasured),
             minus_threshold_n: split.map(|p| p.rs_minus_n.filter(|_| !p.minus_bounded)),
             law_offset_n,
             alternative,
