@@ -481,3 +481,40 @@ fn early_stop_counterexample_settles_by_default() {
         q.periods
     );
 }
+
+/// Shooting's acceptance needs the trajectory to keep the orbit's
+/// switching events. At ρs 0.9, ρd 0.7, κ 60 (m 4, k 1, D 0.003), η 0.8
+/// Newton finds a weakly stable period-1 orbit (A1 0.884, multipliers of
+/// modulus 0.996) that the response from rest wanders around (A1 about
+/// 1.2, extra stick phases in some periods); its deviations followed the
+/// linearisation within 10 % for three iterates, and the orbit was
+/// reported as the steady state from rest (until session 38). The plain
+/// 20 000-period march from rest does not settle.
+#[test]
+fn shooting_does_not_report_an_orbit_the_trajectory_wanders_around() {
+    let m = Model {
+        absorber: Absorber {
+            m: 4.0,
+            k: 1.0,
+            damping: 0.003,
+        },
+        law: Law::Linear {
+            rho_s: 0.9,
+            rho_d: 0.7,
+            slope: 0.0,
+            minus: None,
+        },
+        stop_below: None,
+        contact_stiffness: Some(60.0),
+    };
+    let (p, _) = steady_state(&m, 0.8, Init::rest(), &SteadyConfig::default()).unwrap();
+    assert_ne!(p.method, "shooting", "{p:?}");
+    assert!(!p.steady, "{p:?}");
+    let a1 = p.amplitude1.unwrap();
+    assert!(
+        a1 > 1.1,
+        "A1 {a1}: the orbit's 0.884, not the wandering response"
+    );
+    let (r, _) = march(&m, 0.8, Init::rest());
+    assert!(!r.steady && !r.interrupted);
+}

@@ -1862,8 +1862,11 @@ fn batch_of_synth_logs(
 /// log fits κ, the batch combines them (within 3 % of the truth) and
 /// its worst case at the recommended setting is the compliant pad's
 /// (within 2 % of the worst case of the true pad over the batch's whole η
-/// grid), not the rigid pad's, which lies 17 % above it (before: the
-/// batch reported the rigid pad's, 1.34 against 1.14).
+/// grid), not the rigid pad's, which lies more than twice that away (5.7 %
+/// below it since session 38: the true pad's worst case is the response
+/// from rest that wanders at η 0.80, A1 1.38, which shooting used to
+/// replace by a weakly stable orbit of A1 1.14, then 17 % below the rigid
+/// pad's).
 #[test]
 fn the_batch_simulates_the_fitted_contact_spring() {
     use stickslip::batch::{worst_case, BatchOptions, PadShape};
@@ -1903,7 +1906,7 @@ fn the_batch_simulates_the_fitted_contact_spring() {
         rigid.amplitude1
     );
     assert!(
-        rigid.amplitude1 / truth.amplitude1 > 1.05,
+        (rigid.amplitude1 / truth.amplitude1 - 1.0).abs() > 0.04,
         "{rigid:?} {truth:?}"
     );
     // The robust worst case holds the pad at both ends of κ's interval

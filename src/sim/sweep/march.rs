@@ -4,7 +4,7 @@
 
 use super::*;
 use crate::model::Model;
-use crate::sim::engine::{Event, Flow, Init, Mode, Observer, PeriodStats, Status};
+use crate::sim::engine::{Event, EventKind, Flow, Init, Mode, Observer, PeriodStats, Status};
 use crate::sim::monodromy::Monodromy;
 use crate::sim::steady::{merge_back, Tracker, MAX_PERIOD_MULTIPLE, RING};
 use crate::sim::SimError;
@@ -220,6 +220,28 @@ pub(super) struct Offset<'t, 'a, 's> {
     extremes: bool,
     /// The tangent carried along (the early stop's Lyapunov exponent).
     tangent: Option<&'t mut Tangent<'s>>,
+    /// The march's switching events counted by kind.
+    events: &'t mut EventCounts,
+}
+
+/// Switching events of a run counted by kind (stick, slip+, slip−,
+/// reversal+, reversal−): shooting's check that a trajectory keeps its
+/// orbit's event sequence.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub(super) struct EventCounts([u64; 5]);
+
+impl EventCounts {
+    fn add(&mut self, kind: EventKind) {
+        let i = match kind {
+            EventKind::Stick => 0,
+            EventKind::SlipPlus => 1,
+            EventKind::SlipMinus => 2,
+            EventKind::ReversePlus => 3,
+            EventKind::ReverseMinus => 4,
+            EventKind::Interrupt => return,
+        };
+        self.0[i] += 1;
+    }
 }
 
 /// A tangent vector carried along the march by the variational equations
@@ -348,6 +370,7 @@ impl Observer for Offset<'_, '_, '_> {
         self.extremes
     }
     fn event(&mut self, ev: &Event) {
+        self.events.add(ev.kind);
         if let Some(t) = self.tangent.as_deref_mut() {
             t.events.push(*ev);
         }
@@ -401,11 +424,18 @@ pub(super) enum Shot {
 impl Walk<'_, '_> {
     /// Marches `n` more periods (stops early when the section repeats).
     fn march(&mut self, n: u64) -> crate::sim::engine::RunEnd {
+        self.march_counted(n).0
+    }
+
+    /// [`Walk::march`], with the march's switching events counted by kind.
+    fn march_counted(&mut self, n: u64) -> (crate::sim::engine::RunEnd, EventCounts) {
+        let mut events = EventCounts::default();
         let mut off = Offset {
             tr: &mut self.tr,
             base: self.dwell,
             extremes: self.exact_from.is_some(),
             tangent: self.tangent.as_mut(),
+            events: &mut events,
         };
         let end = self.sim.run_periods(self.state, n, &mut off);
         self.dwell += end.periods;
@@ -414,7 +444,7 @@ impl Walk<'_, '_> {
             x: end.x,
             mode: end.mode,
         };
-        end
+        (end, events)
     }
 
     /// Marches `n` more periods and returns the point where that ends the
@@ -531,19 +561,33 @@ impl Walk<'_, '_> {
         // The check: e_{k+1} = J·e_k + O(|e_k|²) for the deviations of the
         // trajectory's own p-th iterates from the fixed point (in the
         // coordinates shooting varied), the remainder within a tenth of
-        // |e_k|. (A local check: near a weakly stable orbit the trajectory
-        // may follow the linearisation for three iterates and still never
-        // arrive, circling it on a coexisting torus or thrown off later;
-        // the orbit accepted is then a stable steady state beside the one
-        // the trajectory keeps to. Measured and left as it is: see
-        // docs/real-pads.md, session 34.)
+        // |e_k|, and every iterate with the orbit's switching events (J is
+        // the derivative of the map with the orbit's event sequence: an
+        // iterate with a stick phase more or less is not described by it).
+        // Without the event check a trajectory that wanders around a weakly
+        // stable orbit could follow J for three iterates and never arrive;
+        // the orbit was then reported beside the response the trajectory
+        // keeps to (docs/real-pads.md, sessions 34 and 38). The orbit is
+        // run first: its statistics over p periods from the fixed point,
+        // its section states and its switching events.
+        let mut orbit = Orbit {
+            stats: None,
+            sections: Vec::with_capacity(p),
+            events: EventCounts::default(),
+        };
+        let start = sh.init();
+        let end = self.sim.run_periods(start, p as u64, &mut orbit);
+        self.used += end.periods;
+        let (Some(st), true) = (orbit.stats, matches!(end.status, Status::Completed)) else {
+            return Shot::Rejected;
+        };
         let mut e = diff(&ext(&self.state, contact), &sh.x, dim);
         let mut ok = norm(&e, dim) <= lim(&sh.x);
         for _ in 0..VERIFY_ITERATES {
             if ok {
                 break;
             }
-            let end = self.march(p as u64);
+            let (end, events) = self.march_counted(p as u64);
             if let Some(pt) = failed(&end.status, eta, self.used) {
                 return Shot::Failed(pt);
             }
@@ -554,6 +598,13 @@ impl Walk<'_, '_> {
                 return Shot::Rejected;
             }
             if matches!(self.state.mode, Mode::Stick { .. }) != sh.stuck {
+                return Shot::Rejected;
+            }
+            // The linearisation J holds for the orbit's sequence of
+            // switching events only: an iterate with other events (a stick
+            // phase more or less, a reversal instead of a stick) is not
+            // described by it, however close its deviation came to J·e.
+            if events != orbit.events {
                 return Shot::Rejected;
             }
             let e1 = diff(&ext(&self.state, contact), &sh.x, dim);
@@ -568,19 +619,8 @@ impl Walk<'_, '_> {
             ok = norm(&e1, dim) <= lim(&sh.x);
             e = e1;
         }
-        // Accepted: the orbit's statistics over p periods from the fixed
-        // point, its minimal period q and the continuation state.
-        let mut orbit = Orbit {
-            stats: None,
-            sections: Vec::with_capacity(p),
-        };
-        let start = sh.init();
-        let e = self.sim.run_periods(start, p as u64, &mut orbit);
-        self.used += e.periods;
-        let (Some(st), true) = (orbit.stats, matches!(e.status, Status::Completed)) else {
-            return Shot::Rejected;
-        };
-        // A divisor q of p is the minimal period when the orbit returns
+        // Accepted: the orbit's minimal period q and the continuation
+        // state. A divisor q of p is the minimal period when the orbit returns
         // within 1e-6 (relative) after q periods: Newton's residual bounds
         // the fixed point's error only through (I − J)⁻¹, and orbits that
         // differ by less are not told apart anywhere in the tool.
@@ -612,11 +652,15 @@ impl Walk<'_, '_> {
 pub(super) struct Orbit {
     stats: Option<PeriodStats>,
     sections: Vec<([f64; 4], Mode)>,
+    events: EventCounts,
 }
 
 impl Observer for Orbit {
     fn wants_extremes(&self) -> bool {
         true
+    }
+    fn event(&mut self, ev: &Event) {
+        self.events.add(ev.kind);
     }
     fn period(&mut self, _n: u64, x: &[f64; 4], m: Mode, s: &PeriodStats) -> Flow {
         self.stats = Some(match self.stats {
