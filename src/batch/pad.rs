@@ -340,8 +340,51 @@ fn combine(
     })
 }
 
+/// The warning for a simulated extension whose logs scatter about its
+/// model (one value, or κ's power law in N) beyond their intervals: χ²/dof
+/// above χ²'s 99 % point for the model's degrees of freedom (the logs'
+/// count less one, or less two for the power law). Logs that agree within
+/// their intervals pass it 99 times in 100.
+fn scatter_warning(
+    c: &Combined,
+    values: &[(f64, Option<(f64, f64)>)],
+    what: &str,
+) -> Option<Warning> {
+    let usable: Vec<f64> = values
+        .iter()
+        .map(|v| v.0)
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    let n = usable.len();
+    let (chi2, dof, model) = match c.by_normal_force {
+        Some(law) => (law.chi2_per_dof, n.checked_sub(2)?, "κ's power law in N"),
+        None => (c.chi2_per_dof?, n.checked_sub(1)?, "one value"),
+    };
+    let interval = c.interval?;
+    if dof == 0 || chi2.is_nan() {
+        return None;
+    }
+    if chi2 <= crate::stats::chi_squared_quantile(0.99, dof as f64) / dof as f64 {
+        return None;
+    }
+    Some(Warning::BatchPadScatter {
+        extension: what.to_string(),
+        model: model.to_string(),
+        chi2_per_dof: chi2,
+        dof,
+        range: usable
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, &v| {
+                (a.0.min(v), a.1.max(v))
+            }),
+        value: c.value,
+        interval,
+    })
+}
+
 /// The pad of the batch from its logs' fits; a warning for an extension
-/// that some logs chose and the batch does not simulate.
+/// that some logs chose and the batch does not simulate, or whose logs
+/// scatter beyond their intervals.
 pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>) -> BatchPad {
     // Logs whose refined fit saw M2 slide: they could have chosen either.
     let eligible: Vec<&LogFit> = fits
@@ -384,9 +427,9 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
         c.interval = Some(interval);
     }
     let split = combine(&splits, split_chosen, eligible.len());
-    for (c, what) in [
-        (&contact, "a contact spring κ"),
-        (&split, "a split static threshold ρs⁻/ρs⁺"),
+    for (c, values, what) in [
+        (&contact, &kappas, "a contact spring κ"),
+        (&split, &splits, "a split static threshold ρs⁻/ρs⁺"),
     ] {
         if let Some(c) = c.as_ref().filter(|c| !c.used) {
             warnings.push(Warning::BatchPadNotSimulated {
@@ -395,6 +438,13 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
                 eligible: c.eligible,
                 value: c.value,
             });
+        }
+        if let Some(w) = c
+            .as_ref()
+            .filter(|c| c.used)
+            .and_then(|c| scatter_warning(c, values, what))
+        {
+            warnings.push(w);
         }
     }
     BatchPad {
@@ -537,6 +587,79 @@ mod tests {
         // Equal normal forces: no exponent.
         let same: Vec<_> = logs.iter().map(|&(_, k, iv)| (4.0, k, iv)).collect();
         assert!(power_in_normal_force(&same).is_none());
+    }
+
+    /// The batch says so where the logs scatter beyond their intervals
+    /// about the simulated model, and stays silent where they agree.
+    #[test]
+    fn scattered_logs_are_said_to_scatter() {
+        let iv = |k: f64| Some((k / 1.03, k * 1.03));
+        // As `batch_pad` builds it: one value, or the power law where it
+        // explains the logs.
+        type Values = Vec<(f64, Option<(f64, f64)>)>;
+        let model = |logs: &[KappaAt]| -> (Combined, Values) {
+            let values: Vec<_> = logs.iter().map(|&(_, k, iv)| (k, iv)).collect();
+            let mut c = combine(&values, values.len(), values.len()).unwrap();
+            if let Some((law, value, interval)) = power_in_normal_force(logs) {
+                c.by_normal_force = Some(law);
+                c.value = value;
+                c.interval = Some(interval);
+            }
+            (c, values)
+        };
+        let warn = |logs: &[KappaAt]| {
+            let (c, values) = model(logs);
+            scatter_warning(&c, &values, "a contact spring κ")
+        };
+        let at = |pts: &[(f64, f64)]| -> Vec<KappaAt> {
+            pts.iter().map(|&(n, k)| (n, k, iv(k))).collect()
+        };
+        // Agreeing logs; logs on a power law: silent.
+        assert!(warn(&at(&[(2.2, 17.1), (4.0, 16.9), (7.2, 17.05)])).is_none());
+        let law: Vec<(f64, f64)> = [(2.2, 1.004), (4.0, 0.997), (7.2, 1.002)]
+            .iter()
+            .map(|&(n, e)| (n, 17.0 * (n / 4.0f64).powf(0.5) * e))
+            .collect();
+        assert!(model(&at(&law)).0.by_normal_force.is_some());
+        assert!(warn(&at(&law)).is_none());
+        // Trendless scatter beyond the intervals: about one value.
+        let scatter = at(&[
+            (2.0, 17.0),
+            (3.0, 22.0),
+            (4.0, 14.0),
+            (5.0, 22.0),
+            (6.0, 17.0),
+        ]);
+        match warn(&scatter) {
+            Some(Warning::BatchPadScatter {
+                model,
+                dof,
+                chi2_per_dof,
+                interval,
+                ..
+            }) => {
+                assert_eq!((model.as_str(), dof), ("one value", 4));
+                assert!(chi2_per_dof > 50.0, "{chi2_per_dof}");
+                // Birge-widened: the logs' own ±3 % would give ±1.3 %.
+                assert!(interval.1 / interval.0 > 1.3, "{interval:?}");
+            }
+            w => panic!("{w:?}"),
+        }
+        // A trend with scatter about it: the power law is simulated and
+        // the logs scatter about it.
+        let rough: Vec<(f64, f64)> = [(2.0, 1.0), (3.0, 1.12), (4.0, 0.9), (5.0, 1.1), (6.0, 0.92)]
+            .iter()
+            .map(|&(n, e)| (n, 17.0 * (n / 4.0f64).powf(1.0) * e))
+            .collect();
+        assert!(model(&at(&rough)).0.by_normal_force.is_some());
+        match warn(&at(&rough)) {
+            Some(Warning::BatchPadScatter { model, dof, .. }) => {
+                assert_eq!((model.as_str(), dof), ("κ's power law in N", 3));
+            }
+            w => panic!("{w:?}"),
+        }
+        // One log: nothing to scatter.
+        assert!(warn(&at(&[(4.0, 17.0)])).is_none());
     }
 
     /// Where κ depends on N, the corners also take γ's ends.

@@ -108,6 +108,7 @@ pub const CODES: &[&str] = &[
     "mu_d_above_mu_s",
     "censored_disagrees",
     "pad_not_simulated",
+    "pad_scatter",
     "duplicate",
     "same_record",
 ];
@@ -716,6 +717,26 @@ pub enum Warning {
         /// Its value combined over the logs that chose it.
         value: f64,
     },
+    /// The logs' values of a simulated real-pad extension scatter beyond
+    /// their intervals about the batch's model of it (one value, or κ's
+    /// power law in N): χ²/dof above χ²'s 99 % point for its degrees of
+    /// freedom. The simulated value's interval is Birge-widened.
+    BatchPadScatter {
+        /// Which extension (in words).
+        extension: String,
+        /// The model the logs scatter about (in words).
+        model: String,
+        /// χ² per degree of freedom about it.
+        chi2_per_dof: f64,
+        /// Its degrees of freedom.
+        dof: usize,
+        /// The logs' smallest and largest value.
+        range: (f64, f64),
+        /// The simulated value (κ at the reference force for a power law).
+        value: f64,
+        /// Its widened 95 % interval.
+        interval: (f64, f64),
+    },
     /// A log's equation-error and output-error estimates disagree.
     EstimatesDisagree {
         /// The log.
@@ -896,6 +917,7 @@ impl Warning {
             MuDAboveMuS { .. } => "mu_d_above_mu_s",
             CensoredDisagrees { .. } => "censored_disagrees",
             BatchPadNotSimulated { .. } => "pad_not_simulated",
+            BatchPadScatter { .. } => "pad_scatter",
             DuplicateFile { .. } | DuplicateTest { .. } => "duplicate",
             SameRecord { .. } => "same_record",
         }
@@ -1532,6 +1554,21 @@ mod tests {
                 ),
             ),
             (
+                BatchPadScatter {
+                    extension: "a contact spring κ".into(),
+                    model: "one value".into(),
+                    chi2_per_dof: 12.5,
+                    dof: 3,
+                    range: (13.5, 24.0),
+                    value: 17.2,
+                    interval: (14.1, 21.0),
+                },
+                format!(
+                    "{}: the logs' values ({:.4} to {:.4}) scatter beyond their intervals about {} (χ²/dof {:.2} on {} degrees of freedom, above χ²'s 99 % point {:.2}); the worst cases simulate {:.4} with its 95 % interval widened to [{:.4}, {:.4}]: something the logs do not record (wear, temperature, settling of the contact) differs between them, or one log is off",
+                    "a contact spring κ", 13.5, 24.0, "one value", 12.5, 3, 3.78, 17.2, 14.1, 21.0
+                ),
+            ),
+            (
                 EstimatesDisagree { log: p.clone(), quantity: "Rs", z: 2.345 },
                 format!(
                     "{}: its equation-error and output-error {q} differ by {:.1}σ: the log's {q} is in doubt",
@@ -1688,7 +1725,7 @@ mod tests {
 
     /// The number of variants of [`Warning`] (a new variant needs an
     /// example above, a code, and a line in `docs/interface.md`).
-    const VARIANTS: usize = 85;
+    const VARIANTS: usize = 86;
 
     #[test]
     fn every_code_is_documented() {

@@ -86,6 +86,7 @@ impl fmt::Display for Warning {
             | EmptyStaticBounds { .. }
             | EstimatesDisagree { .. }
             | BatchPadNotSimulated { .. }
+            | BatchPadScatter { .. }
             | Conflict { .. }
             | UnresolvedConflict { .. }
             | ConflictSetAside { .. }
@@ -753,6 +754,23 @@ fn fmt_batch(w: &Warning, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         } => write!(
             f,
             "{chosen} of {eligible} logs that slid chose {extension} (combined {value:.4}); fewer than half: the worst cases simulate the pad without it"
+        ),
+        BatchPadScatter {
+            extension,
+            model,
+            chi2_per_dof,
+            dof,
+            range,
+            value,
+            interval,
+        } => write!(
+            f,
+            "{extension}: the logs' values ({:.4} to {:.4}) scatter beyond their intervals about {model} (χ²/dof {chi2_per_dof:.2} on {dof} degrees of freedom, above χ²'s 99 % point {:.2}); the worst cases simulate {value:.4} with its 95 % interval widened to [{:.4}, {:.4}]: something the logs do not record (wear, temperature, settling of the contact) differs between them, or one log is off",
+            range.0,
+            range.1,
+            crate::stats::chi_squared_quantile(0.99, *dof as f64) / *dof as f64,
+            interval.0,
+            interval.1
         ),
         EstimatesDisagree { log, quantity: q, z } => write!(
             f,
