@@ -29,9 +29,14 @@ const MAX_STEPS: usize = 8;
 /// Gauss–Newton iterations per point of the profile.
 const GN_ITERATIONS: usize = 8;
 
-/// A point's iterations stop when a step lowers the cost by less than this
-/// fraction.
-const GN_RTOL: f64 = 1e-6;
+/// A point's iterations stop when a step lowers its ΔBIC by less than this
+/// (the criterion compares ΔBIC with [`THRESHOLD_EVIDENCE_BIC`]).
+const GN_BIC_TOL: f64 = 0.01;
+
+/// Once a step has lowered ΔBIC by less than this, a step that does not
+/// lower the cost ends the descent (at the optimum to within the noise)
+/// instead of being halved.
+const GN_NEAR_BIC: f64 = 1.0;
 
 /// What the profile in v_s found (see the module comment); JSON keys as
 /// the fit's (`r_s_n`, `v_s_m_per_s`, ...).
@@ -132,12 +137,14 @@ impl Refinement {
         // and its cost.
         let descend = |mut t: Vec<f64>, vs: f64| -> Option<(Vec<f64>, f64)> {
             let (mut c, mut r) = pst.residual_vector(&to_st(&t, vs), &sd_proj)?;
+            let mut gain = f64::INFINITY;
             for _ in 0..GN_ITERATIONS {
                 let g: Vec<f64> = (0..p).map(|i| dot(&jac[i], &r)).collect();
                 let delta = solve_small(&a, &g)?;
                 let mut scale = 1.0;
                 let mut better = None;
-                for _ in 0..4 {
+                let tries = if gain < GN_NEAR_BIC { 1 } else { 4 };
+                for _ in 0..tries {
                     let tn: Vec<f64> = t.iter().zip(&delta).map(|(x, d)| x - scale * d).collect();
                     match pst.residual_vector(&to_st(&tn, vs), &sd_proj) {
                         Some((cn, rn)) if cn < c && rn.len() == r.len() => {
@@ -148,9 +155,20 @@ impl Refinement {
                     }
                 }
                 let Some((tn, cn, rn)) = better else { break };
-                let rel = (c - cn) / c;
+                let last = gain;
+                gain = n_eff * (c / cn).ln();
                 (t, c, r) = (tn, cn, rn);
-                if rel < GN_RTOL {
+                if gain < GN_BIC_TOL {
+                    break;
+                }
+                // Refused already: the gains shrink at least twofold per
+                // step, and their geometric tail cannot bring ΔBIC below
+                // the threshold.
+                let q = gain / last;
+                if last.is_finite()
+                    && q < 0.5
+                    && n_eff * (c / c0).ln() - gain * q / (1.0 - q) > THRESHOLD_EVIDENCE_BIC
+                {
                     break;
                 }
             }
