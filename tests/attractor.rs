@@ -49,6 +49,26 @@ fn laws() -> Vec<(&'static str, Model)> {
     ]
 }
 
+/// A static/dynamic pad behind a contact spring κ on the public rig's
+/// absorber (m 4, k 1, D 0.003).
+fn behind_a_contact(rho_s: f64, rho_d: f64, kappa: f64) -> Model {
+    Model {
+        absorber: Absorber {
+            m: 4.0,
+            k: 1.0,
+            damping: 0.003,
+        },
+        law: Law::Linear {
+            rho_s,
+            rho_d,
+            slope: 0.0,
+            minus: None,
+        },
+        stop_below: None,
+        contact_stiffness: Some(kappa),
+    }
+}
+
 /// The plain march from `init` at η, as `simulate --steady` runs it.
 fn march(m: &Model, eta: f64, init: Init) -> (Summary, Init) {
     let sim = Sim::new(m, eta).unwrap();
@@ -348,21 +368,7 @@ fn early_stop_only_where_march_does_not_settle_subset() {
 /// the budget.)
 #[test]
 fn early_stop_behind_a_contact_spring() {
-    let m = Model {
-        absorber: Absorber {
-            m: 4.0,
-            k: 1.0,
-            damping: 0.003,
-        },
-        law: Law::Linear {
-            rho_s: 0.5,
-            rho_d: 0.4,
-            slope: 0.0,
-            minus: None,
-        },
-        stop_below: None,
-        contact_stiffness: Some(5.0),
-    };
+    let m = behind_a_contact(0.5, 0.4, 5.0);
     let (fired, points) = early_stop_only_where_march_does_not_settle(&[("κ 5", m)], &[0.96]);
     assert_eq!((fired, points), (1, 1));
 }
@@ -492,21 +498,7 @@ fn early_stop_counterexample_settles_by_default() {
 /// 20 000-period march from rest does not settle.
 #[test]
 fn shooting_does_not_report_an_orbit_the_trajectory_wanders_around() {
-    let m = Model {
-        absorber: Absorber {
-            m: 4.0,
-            k: 1.0,
-            damping: 0.003,
-        },
-        law: Law::Linear {
-            rho_s: 0.9,
-            rho_d: 0.7,
-            slope: 0.0,
-            minus: None,
-        },
-        stop_below: None,
-        contact_stiffness: Some(60.0),
-    };
+    let m = behind_a_contact(0.9, 0.7, 60.0);
     let (p, _) = steady_state(&m, 0.8, Init::rest(), &SteadyConfig::default()).unwrap();
     assert_ne!(p.method, "shooting", "{p:?}");
     assert!(!p.steady, "{p:?}");

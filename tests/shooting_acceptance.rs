@@ -26,16 +26,22 @@ mod common;
 use stickslip::batch::{worst_case, BatchOptions, PadShape};
 use stickslip::sim::sweep::SteadyConfig;
 
+/// The batch's steady-state settings without shooting, marching up to
+/// 2000 periods.
+fn marched_only(o: &BatchOptions) -> SteadyConfig {
+    SteadyConfig {
+        shooting: false,
+        max_periods: 2000,
+        ..o.steady
+    }
+}
+
 #[test]
 #[ignore = "study: prints W with and without shooting"]
 fn worst_case_with_and_without_shooting() {
     let (ab, etas) = common::public_batch_grid();
     let o = BatchOptions::default();
-    let marched = SteadyConfig {
-        shooting: false,
-        max_periods: 2000,
-        ..o.steady
-    };
+    let marched = marched_only(&o);
     let rigid = PadShape::PAPER;
     let contact = |k: f64| PadShape {
         contact_stiffness: Some(k),
@@ -80,11 +86,7 @@ fn worst_case_with_and_without_shooting() {
 fn the_worst_case_behind_a_contact_is_the_response_from_rest() {
     let (ab, etas) = common::public_batch_grid();
     let o = BatchOptions::default();
-    let marched = SteadyConfig {
-        shooting: false,
-        max_periods: 2000,
-        ..o.steady
-    };
+    let marched = marched_only(&o);
     for k in [20.0, 60.0] {
         let shape = PadShape {
             contact_stiffness: Some(k),

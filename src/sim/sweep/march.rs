@@ -620,10 +620,10 @@ impl Walk<'_, '_> {
             e = e1;
         }
         // Accepted: the orbit's minimal period q and the continuation
-        // state. A divisor q of p is the minimal period when the orbit returns
-        // within 1e-6 (relative) after q periods: Newton's residual bounds
-        // the fixed point's error only through (I − J)⁻¹, and orbits that
-        // differ by less are not told apart anywhere in the tool.
+        // state. A divisor q of p is the minimal period when the orbit
+        // returns within 1e-6 (relative) after q periods: Newton's residual
+        // bounds the fixed point's error only through (I − J)⁻¹, and orbits
+        // that differ by less are not told apart anywhere in the tool.
         let l = 1e-6 * (1.0 + sh.x.iter().fold(0.0f64, |a, v| a.max(v.abs())));
         let q = (1..=p)
             .filter(|q| p % q == 0)
