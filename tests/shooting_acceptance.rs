@@ -87,13 +87,12 @@ fn the_worst_case_behind_a_contact_is_the_response_from_rest() {
     let (ab, etas) = common::public_batch_grid();
     let o = BatchOptions::default();
     let marched = marched_only(&o);
-    for k in [20.0, 60.0] {
+    let rho = 0.9;
+    for (k, rd) in [(20.0, 0.8 * rho), (60.0, 0.7)] {
         let shape = PadShape {
             contact_stiffness: Some(k),
             ..PadShape::PAPER
         };
-        let rho = 0.9;
-        let rd = if k == 20.0 { 0.8 * rho } else { 0.7 };
         let a = worst_case(&ab, shape, rho, rd, &etas, &o.steady).unwrap();
         let b = worst_case(&ab, shape, rho, rd, &etas, &marched).unwrap();
         let r = a.amplitude1 / b.amplitude1 - 1.0;

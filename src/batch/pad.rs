@@ -340,6 +340,25 @@ fn combine(
     })
 }
 
+/// The contact stiffness over the logs that chose one (`kappas_at`, the
+/// same as `kappas` without the normal force), of `eligible`: one κ, or
+/// κ's power law in N where it explains the logs and one κ does not.
+fn contact_model(
+    kappas_at: &[KappaAt],
+    kappas: &[(f64, Option<(f64, f64)>)],
+    eligible: usize,
+) -> Option<Combined> {
+    let mut contact = combine(kappas, kappas.len(), eligible);
+    if let (Some(c), Some((law, value, interval))) =
+        (contact.as_mut(), power_in_normal_force(kappas_at))
+    {
+        c.by_normal_force = Some(law);
+        c.value = value;
+        c.interval = Some(interval);
+    }
+    contact
+}
+
 /// The warning for a simulated extension whose logs scatter about its
 /// model (one value, or κ's power law in N) beyond their intervals: χ²/dof
 /// above χ²'s 99 % point for the model's degrees of freedom (the logs'
@@ -418,14 +437,7 @@ pub(super) fn batch_pad(fits: &[(PathBuf, LogFit)], warnings: &mut Vec<Warning>)
         .collect();
     // (A split whose threshold towards − is only bounded was chosen too.)
     let split_chosen = eligible.iter().filter(|f| f.direction_dependent()).count();
-    let mut contact = combine(&kappas, kappas.len(), eligible.len());
-    if let (Some(c), Some((law, value, interval))) =
-        (contact.as_mut(), power_in_normal_force(&kappas_at))
-    {
-        c.by_normal_force = Some(law);
-        c.value = value;
-        c.interval = Some(interval);
-    }
+    let contact = contact_model(&kappas_at, &kappas, eligible.len());
     let split = combine(&splits, split_chosen, eligible.len());
     for (c, values, what) in [
         (&contact, &kappas, "a contact spring κ"),
@@ -594,18 +606,12 @@ mod tests {
     #[test]
     fn scattered_logs_are_said_to_scatter() {
         let iv = |k: f64| Some((k / 1.03, k * 1.03));
-        // As `batch_pad` builds it: one value, or the power law where it
-        // explains the logs.
+        // The contact model `batch_pad` builds: one value, or the power
+        // law where it explains the logs.
         type Values = Vec<(f64, Option<(f64, f64)>)>;
         let model = |logs: &[KappaAt]| -> (Combined, Values) {
             let values: Vec<_> = logs.iter().map(|&(_, k, iv)| (k, iv)).collect();
-            let mut c = combine(&values, values.len(), values.len()).unwrap();
-            if let Some((law, value, interval)) = power_in_normal_force(logs) {
-                c.by_normal_force = Some(law);
-                c.value = value;
-                c.interval = Some(interval);
-            }
-            (c, values)
+            (contact_model(logs, &values, values.len()).unwrap(), values)
         };
         let warn = |logs: &[KappaAt]| {
             let (c, values) = model(logs);

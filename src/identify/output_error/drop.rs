@@ -161,9 +161,11 @@ impl Refinement {
                 if gain < GN_BIC_TOL {
                     break;
                 }
-                // Refused already: the gains shrink at least twofold per
-                // step, and their geometric tail cannot bring ΔBIC below
-                // the threshold.
+                // Refused already, if the gains keep shrinking as fast as
+                // this step's did (at least twofold): their geometric tail
+                // would not bring ΔBIC below the threshold. (A heuristic
+                // bound: checked on the bundled logs, golden and the 60-log
+                // adequacy study, where every decision is unchanged.)
                 let q = gain / last;
                 if last.is_finite()
                     && q < 0.5
