@@ -5,7 +5,9 @@
 //! intervals), ingest excluded; and of a never-sticking log whose records
 //! lag behind their filters (`tests/logs/never_sticks_lagging.*`, the
 //! calibrated study's z022: 385 s while the lag-free pass was finished
-//! before the lags were tried, about 2 s since). `just bench` runs them.
+//! before the lags were tried, about 2 s since); and of the other rigid,
+//! symmetric bundled logs (issue 34's fit-time bound). `just bench` runs
+//! them.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
@@ -21,6 +23,25 @@ fn fit_one_log(c: &mut Criterion) {
     g.bench_function("char_N4.mcap (one log, adequacy included)", |b| {
         b.iter(|| identify::fit_log(black_box(&run), &IdentifyOptions::default()).expect("fit"))
     });
+    g.finish();
+}
+
+/// The other rigid, symmetric bundled logs (a sticking log at low and at
+/// high normal force, and a Coulomb pad): the logs whose fit time the real
+/// pads' screen must keep (at most 15 % above the commit before the
+/// extensions, issue 34). Run this file at both commits to compare.
+fn fit_rigid_symmetric_logs(c: &mut Criterion) {
+    let mut g = c.benchmark_group("fit rigid symmetric");
+    g.sample_size(10);
+    for name in ["char_N2.2.mcap", "char_N7.2.mcap", "law_coulomb.mcap"] {
+        let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("datasets")
+            .join(name);
+        let run = ingest::read(&path, &IngestOptions::default()).expect("ingest");
+        g.bench_function(name, |b| {
+            b.iter(|| identify::fit_log(black_box(&run), &IdentifyOptions::default()).expect("fit"))
+        });
+    }
     g.finish();
 }
 
@@ -56,5 +77,10 @@ fn fit_lagging_never_sticking_log(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, fit_one_log, fit_lagging_never_sticking_log);
+criterion_group!(
+    benches,
+    fit_one_log,
+    fit_rigid_symmetric_logs,
+    fit_lagging_never_sticking_log
+);
 criterion_main!(benches);

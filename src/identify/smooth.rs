@@ -49,39 +49,53 @@ pub fn solve_small(a: &[Vec<f64>], b: &[f64]) -> Option<Vec<f64>> {
     x.iter().all(|v| v.is_finite()).then_some(x)
 }
 
+/// Most unknowns of a [`Normal`] (a law's row: bias, four law terms at
+/// most, two gains).
+pub const NORMAL_MAX: usize = 6;
+
 /// Normal equations `XᵀWX`, `XᵀWy`, `yᵀWy` of a weighted linear
-/// least-squares problem, accumulated row by row (and summable, which the
-/// period bootstrap uses).
+/// least-squares problem with at most [`NORMAL_MAX`] unknowns, accumulated
+/// row by row (and summable, which the period bootstrap uses). Fixed arrays
+/// on the stack: the slip fit adds every slip sample to one of these tens
+/// of times per log.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Normal {
-    /// XᵀWX.
-    pub xtx: Vec<Vec<f64>>,
+    /// XᵀWX (upper triangle).
+    xtx: [[f64; NORMAL_MAX]; NORMAL_MAX],
     /// XᵀWy.
-    pub xty: Vec<f64>,
+    xty: [f64; NORMAL_MAX],
     /// yᵀWy.
     pub yty: f64,
+    /// Unknowns.
+    p: usize,
     /// Number of rows accumulated.
     pub n: usize,
 }
 
 impl Normal {
-    /// Empty normal equations for `p` unknowns.
+    /// Empty normal equations for `p` unknowns (panics above
+    /// [`NORMAL_MAX`]: a programming error).
     pub fn new(p: usize) -> Self {
+        assert!(p <= NORMAL_MAX, "{p} unknowns, at most {NORMAL_MAX}");
         Self {
-            xtx: vec![vec![0.0; p]; p],
-            xty: vec![0.0; p],
+            xtx: [[0.0; NORMAL_MAX]; NORMAL_MAX],
+            xty: [0.0; NORMAL_MAX],
             yty: 0.0,
+            p,
             n: 0,
         }
     }
 
-    /// Adds one row `x` with target `y` and weight `w` (upper triangle of
-    /// XᵀWX only; [`Normal::solve`] mirrors it).
+    /// Adds one row `x` (of the `p` unknowns) with target `y` and weight
+    /// `w` (upper triangle of XᵀWX only; [`Normal::solve`] mirrors it).
+    #[inline]
     pub fn add(&mut self, x: &[f64], y: f64, w: f64) {
-        for i in 0..x.len() {
+        let p = self.p;
+        let x = &x[..p];
+        for i in 0..p {
             let wx = w * x[i];
             let row = &mut self.xtx[i];
-            for j in i..x.len() {
+            for j in i..p {
                 row[j] += wx * x[j];
             }
             self.xty[i] += wx * y;
@@ -92,8 +106,8 @@ impl Normal {
 
     /// Adds another accumulation (same size).
     pub fn add_all(&mut self, o: &Normal) {
-        for i in 0..self.xty.len() {
-            for j in 0..self.xty.len() {
+        for i in 0..self.p {
+            for j in 0..self.p {
                 self.xtx[i][j] += o.xtx[i][j];
             }
             self.xty[i] += o.xty[i];
@@ -104,8 +118,8 @@ impl Normal {
 
     /// XᵀWX with both triangles.
     pub fn full(&self) -> Vec<Vec<f64>> {
-        let p = self.xty.len();
-        let mut m = self.xtx.clone();
+        let p = self.p;
+        let mut m: Vec<Vec<f64>> = self.xtx[..p].iter().map(|r| r[..p].to_vec()).collect();
         for i in 0..p {
             for j in 0..i {
                 m[i][j] = m[j][i];
@@ -114,9 +128,13 @@ impl Normal {
         m
     }
 
-    /// The least-squares solution, if the problem is well posed.
+    /// XᵀWy.
+    pub fn xty(&self) -> &[f64] {
+        &self.xty[..self.p]
+    }
+
     pub fn solve(&self) -> Option<Vec<f64>> {
-        solve_small(&self.full(), &self.xty)
+        solve_small(&self.full(), self.xty())
     }
 }
 

@@ -1,7 +1,7 @@
 //! The slip samples of a log and the robust (Huber IRLS) regression of one
 //! law family on them.
 
-use super::{basis, Row};
+use super::{basis, Row, STORED_ROWS_MAX};
 use crate::identify::contact::Contact;
 use crate::identify::segment::Segmentation;
 use crate::identify::smooth::Normal;
@@ -133,6 +133,16 @@ pub(super) fn rss(
         .sum()
 }
 
+/// [`rss`] without weights over rows already evaluated (`rows[k]` is
+/// sample k's): the same sum, bit for bit.
+pub(super) fn rss_of_rows(samples: &[Sample], rows: &[Row], coef: &[f64]) -> f64 {
+    samples
+        .iter()
+        .zip(rows)
+        .map(|(smp, x)| (smp.r - x.iter().zip(coef).map(|(a, b)| a * b).sum::<f64>()).powi(2))
+        .sum()
+}
+
 /// Robust (Huber IRLS) fit of one slip model; returns coefficients, final
 /// weights and residuals.
 pub(super) fn irls(
@@ -144,13 +154,22 @@ pub(super) fn irls(
     let mut coef = Vec::new();
     let mut res = vec![0.0; samples.len()];
     let mut prev: Option<Vec<f64>> = None;
-    // The regressors are evaluated where they are used, not stored (a row
-    // per slip sample would be the largest array of the fit).
+    // The regressors, evaluated once and kept up to `STORED_ROWS_MAX`
+    // samples; beyond, evaluated where they are used (a row per slip
+    // sample would be the largest array of a long log's fit).
+    let stored: Option<Vec<Row>> = (samples.len() <= STORED_ROWS_MAX)
+        .then(|| samples.iter().map(|smp| basis(kind, smp, vs)).collect());
+    let row = |k: usize| -> Row {
+        match &stored {
+            Some(rows) => rows[k],
+            None => basis(kind, &samples[k], vs),
+        }
+    };
     let p = samples.first().map_or(0, |smp| basis(kind, smp, vs).len());
     for _ in 0..8 {
         let mut ne = Normal::new(p);
-        for (smp, wi) in samples.iter().zip(&w) {
-            ne.add(&basis(kind, smp, vs), smp.r, *wi);
+        for (k, (smp, wi)) in samples.iter().zip(&w).enumerate() {
+            ne.add(&row(k), smp.r, *wi);
         }
         coef = ne.solve()?;
         // Converged: the weights would not change the fit any more.
@@ -160,8 +179,8 @@ pub(super) fn irls(
                 .all(|(a, b)| (a - b).abs() <= 1e-9 * (1.0 + b.abs()))
         });
         prev = Some(coef.clone());
-        for (rk, smp) in res.iter_mut().zip(samples) {
-            let x = basis(kind, smp, vs);
+        for (k, (rk, smp)) in res.iter_mut().zip(samples).enumerate() {
+            let x = row(k);
             *rk = smp.r - x.iter().zip(&coef).map(|(a, b)| a * b).sum::<f64>();
         }
         let sigma = mad_sigma(&res).max(1e-12);

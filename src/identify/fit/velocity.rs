@@ -4,11 +4,12 @@
 //! by a coarse scan and a golden-section search over log v_s of the
 //! profiled residual sum.
 
-use super::basis;
-use super::slip::{rss, Sample};
+use super::slip::{rss, rss_of_rows, Sample};
+use super::{basis, STORED_ROWS_MAX};
 use crate::identify::smooth::Normal;
 use crate::model::LawKind;
 use crate::stats::golden_section;
+use std::cell::RefCell;
 
 /// The velocity scale (m/s) of family `kind` the slip samples resolve, if
 /// any: None where the speeds span less than a factor 4 above `u_min` (the
@@ -26,15 +27,25 @@ pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> O
     if umax <= 4.0 * umin {
         return None;
     }
-    // The regressors at one v_s, evaluated where they are used (twice per
-    // sample: the normal equations, then the residual sum), not stored.
+    // The regressors at one v_s: the normal equations, then the residual
+    // sum over the same rows (kept between the two passes up to
+    // `STORED_ROWS_MAX` samples, evaluated again beyond).
+    let store = samples.len() <= STORED_ROWS_MAX;
+    let rows = RefCell::new(Vec::with_capacity(if store { samples.len() } else { 0 }));
     let cost = |lv: f64| {
         let vs = lv.exp();
+        let mut rows = rows.borrow_mut();
+        rows.clear();
         let mut ne = Normal::new(basis(kind, &samples[0], vs).len());
         for smp in samples {
-            ne.add(&basis(kind, smp, vs), smp.r, 1.0);
+            let x = basis(kind, smp, vs);
+            ne.add(&x, smp.r, 1.0);
+            if store {
+                rows.push(x);
+            }
         }
         match ne.solve() {
+            Some(c) if store => rss_of_rows(samples, &rows, &c),
             Some(c) => rss(samples, &c, None, kind, vs),
             None => f64::INFINITY,
         }
