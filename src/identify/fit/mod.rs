@@ -157,13 +157,14 @@ impl std::ops::Deref for Row {
 }
 
 /// Slip samples up to which a fit at one velocity scale keeps its rows
-/// between the passes over them (56 bytes each: 11 MB at this bound)
+/// between the passes over them (56 bytes each: 5.6 MB at this bound,
+/// inside the headroom of `limits::FIT_FIXED_BYTES`)
 /// instead of evaluating them again: the same numbers, bit for bit, with
 /// a law's exponential evaluated once per sample instead of twice (the
 /// velocity-scale search) or sixteen times (the robust fit's eight
 /// rounds). Longer logs evaluate them where they are used, within the
 /// fit's memory budget per sample (`limits::FIT_BYTES_PER_SAMPLE`).
-const STORED_ROWS_MAX: usize = 200_000;
+const STORED_ROWS_MAX: usize = 100_000;
 
 /// Bias plus gain-error correction of a model at positions (k1, k2).
 fn offset_at(coef: &[f64], k1: f64, k2: f64) -> f64 {
