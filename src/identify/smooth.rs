@@ -104,6 +104,43 @@ impl Normal {
         self.n += 1;
     }
 
+    /// [`Normal::add`] for the entries that do not involve unknown `col`
+    /// (and yᵀWy, the row count): with [`Normal::add_column`] of the same
+    /// rows, in the same order, the same sums bit for bit. A regression
+    /// whose column `col` alone changes (the velocity-scale search)
+    /// accumulates the rest once.
+    pub fn add_except(&mut self, col: usize, x: &[f64], y: f64, w: f64) {
+        let p = self.p;
+        let x = &x[..p];
+        for i in (0..p).filter(|&i| i != col) {
+            let wx = w * x[i];
+            let row = &mut self.xtx[i];
+            for j in (i..p).filter(|&j| j != col) {
+                row[j] += wx * x[j];
+            }
+            self.xty[i] += wx * y;
+        }
+        self.yty += w * y * y;
+        self.n += 1;
+    }
+
+    /// [`Normal::add`] for the entries that involve unknown `col` only
+    /// (see [`Normal::add_except`]).
+    #[inline]
+    pub fn add_column(&mut self, col: usize, x: &[f64], y: f64, w: f64) {
+        let p = self.p;
+        let x = &x[..p];
+        for i in 0..col {
+            self.xtx[i][col] += (w * x[i]) * x[col];
+        }
+        let wx = w * x[col];
+        let row = &mut self.xtx[col];
+        for j in col..p {
+            row[j] += wx * x[j];
+        }
+        self.xty[col] += wx * y;
+    }
+
     /// Adds another accumulation (same size).
     pub fn add_all(&mut self, o: &Normal) {
         for i in 0..self.p {
@@ -379,6 +416,29 @@ mod tests {
             / fd.len() as f64)
             .sqrt();
         assert!(rms_sg < rms_fd / 10.0, "{rms_sg} vs {rms_fd}");
+    }
+
+    #[test]
+    fn a_column_accumulated_apart_gives_the_same_sums_bit_for_bit() {
+        let rows: Vec<[f64; 5]> = (0..50)
+            .map(|k| {
+                let t = k as f64 * 0.37;
+                [1.0, t.sin(), (-t).exp() * 3.1, t * t - 2.0, t.cos() / 7.0]
+            })
+            .collect();
+        for col in 0..5 {
+            let (mut whole, mut apart) = (Normal::new(5), Normal::new(5));
+            for (k, x) in rows.iter().enumerate() {
+                let (y, w) = (0.3 * k as f64 - 1.0, 1.0 + (k % 3) as f64 * 0.25);
+                whole.add(x, y, w);
+                apart.add_except(col, x, y, w);
+            }
+            for (k, x) in rows.iter().enumerate() {
+                let (y, w) = (0.3 * k as f64 - 1.0, 1.0 + (k % 3) as f64 * 0.25);
+                apart.add_column(col, x, y, w);
+            }
+            assert_eq!(whole, apart, "column {col}");
+        }
     }
 
     #[test]

@@ -29,17 +29,31 @@ pub(super) fn velocity_scale(kind: LawKind, samples: &[Sample], u_min: f64) -> O
     }
     // The regressors at one v_s: the normal equations, then the residual
     // sum over the same rows (kept between the two passes up to
-    // `STORED_ROWS_MAX` samples, evaluated again beyond).
+    // `STORED_ROWS_MAX` samples, evaluated again beyond). The entries of
+    // the normal equations that do not involve the scale's column are the
+    // same at every v_s: accumulated once (the same sums, bit for bit).
+    let p = basis(kind, &samples[0], 1.0).len();
+    let col = kind.family().scale_column();
+    let fixed = col.map(|c| {
+        let mut ne = Normal::new(p);
+        for smp in samples {
+            ne.add_except(c, &basis(kind, smp, 1.0), smp.r, 1.0);
+        }
+        ne
+    });
     let store = samples.len() <= STORED_ROWS_MAX;
     let rows = RefCell::new(Vec::with_capacity(if store { samples.len() } else { 0 }));
     let cost = |lv: f64| {
         let vs = lv.exp();
         let mut rows = rows.borrow_mut();
         rows.clear();
-        let mut ne = Normal::new(basis(kind, &samples[0], vs).len());
+        let mut ne = fixed.clone().unwrap_or_else(|| Normal::new(p));
         for smp in samples {
             let x = basis(kind, smp, vs);
-            ne.add(&x, smp.r, 1.0);
+            match col {
+                Some(c) => ne.add_column(c, &x, smp.r, 1.0),
+                None => ne.add(&x, smp.r, 1.0),
+            }
             if store {
                 rows.push(x);
             }

@@ -138,6 +138,12 @@ pub trait LawFamily: Sync + Send {
     /// `u`, gain terms `k1`, `k2`; velocity scale `vs` where the family has
     /// one): the bias, the law's terms, then `k1`, `k2`; their number.
     fn basis(&self, s: f64, u: f64, k1: f64, k2: f64, vs: f64) -> ([f64; 6], usize);
+    /// The one column of [`LawFamily::basis`] that depends on `vs` (None
+    /// for a family without a velocity scale): the rest of the normal
+    /// equations is accumulated once per velocity-scale search.
+    fn scale_column(&self) -> Option<usize> {
+        None
+    }
     /// True when Rs is the breakaway level (the median over breakaways)
     /// rather than a value of the slip fit.
     fn rs_from_breakaways(&self) -> bool {

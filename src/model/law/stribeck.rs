@@ -91,6 +91,10 @@ impl LawFamily for Stribeck {
     fn basis(&self, s: f64, u: f64, k1: f64, k2: f64, vs: f64) -> ([f64; 6], usize) {
         ([1.0, s, s * self.decay(u, vs), s * u, k1, k2], 6)
     }
+    /// s·decay(u, v_s).
+    fn scale_column(&self) -> Option<usize> {
+        Some(2)
+    }
     /// g(0+) = Rd + (Rs − Rd).
     fn ee_rs(&self, coef: &[f64], _breakaway: f64) -> f64 {
         coef[1] + coef[2]

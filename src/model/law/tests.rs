@@ -141,3 +141,23 @@ fn law_names() {
         "static-dynamic"
     );
 }
+
+#[test]
+fn the_scale_column_is_the_only_one_that_depends_on_the_velocity_scale() {
+    for &k in LawKind::all() {
+        let f = k.family();
+        assert_eq!(f.scale_column().is_some(), f.has_velocity_scale(), "{k:?}");
+        for (s, u) in [(1.0, 3e-3), (-1.0, 4e-4), (1.0, 0.02)] {
+            let (a, na) = f.basis(s, u, 0.7, -0.2, 1e-3);
+            let (b, nb) = f.basis(s, u, 0.7, -0.2, 5e-3);
+            assert_eq!(na, nb);
+            for c in 0..na {
+                if Some(c) == f.scale_column() {
+                    assert_ne!(a[c], b[c], "{k:?} column {c}");
+                } else {
+                    assert_eq!(a[c], b[c], "{k:?} column {c}");
+                }
+            }
+        }
+    }
+}
