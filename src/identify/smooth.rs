@@ -170,6 +170,7 @@ impl Normal {
         &self.xty[..self.p]
     }
 
+    /// The least-squares solution, if the problem is well posed.
     pub fn solve(&self) -> Option<Vec<f64>> {
         solve_small(&self.full(), self.xty())
     }
