@@ -157,13 +157,18 @@ impl std::ops::Deref for Row {
 }
 
 /// Slip samples up to which a fit at one velocity scale keeps its rows
-/// between the passes over them (56 bytes each: 5.6 MB at this bound,
-/// inside the headroom of `limits::FIT_FIXED_BYTES`)
+/// between the passes over them (56 bytes each: at most 5.6 MB per fit)
 /// instead of evaluating them again: the same numbers, bit for bit, with
 /// a law's exponential evaluated once per sample instead of twice (the
 /// velocity-scale search) or sixteen times (the robust fit's eight
-/// rounds). Longer logs evaluate them where they are used, within the
-/// fit's memory budget per sample (`limits::FIT_BYTES_PER_SAMPLE`).
+/// rounds). Longer logs evaluate them where they are used, as the
+/// per-sample budget (`limits::FIT_BYTES_PER_SAMPLE`, measured on
+/// two-hour logs) assumes. Not re-measured: the fit's array fits the
+/// headroom of `limits::FIT_FIXED_BYTES` (50 MB against 38–39 MB measured
+/// at 0.6–1 million samples), but each concurrent calibration re-fit may
+/// hold one too, beyond `limits::REFIT_BYTES_PER_SAMPLE`'s measured
+/// margin on logs that slide most of the time (at most 5 × 5.6 MB: it
+/// matters only under a budget of tens of megabytes).
 const STORED_ROWS_MAX: usize = 100_000;
 
 /// Bias plus gain-error correction of a model at positions (k1, k2).
