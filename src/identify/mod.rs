@@ -1586,13 +1586,24 @@ mod tests {
         assert!(compared >= 28, "{compared}");
     }
 
-    /// The calibration budget's re-computations reuse the base's stages
-    /// and give the plain computation's characteristic bit for bit: every
-    /// single-gain perturbation and a double one, with an accelerometer,
-    /// without one, and without a velocity channel (the Debug form prints
-    /// every f64 so that distinct values print differently).
-    /// [`fit_logs`] drops the channels as recorded before fitting: the
-    /// fit must not read them (the same result, bit for bit, without them).
+    /// A fit's JSON without its wall times (keys holding "seconds") and
+    /// the keys `also`.
+    fn fit_json(f: &LogFit, also: &[&str]) -> String {
+        fn strip(v: &mut serde_json::Value, also: &[&str]) {
+            match v {
+                serde_json::Value::Object(m) => {
+                    m.retain(|k, _| !k.contains("seconds") && !also.contains(&k.as_str()));
+                    m.values_mut().for_each(|v| strip(v, also));
+                }
+                serde_json::Value::Array(a) => a.iter_mut().for_each(|v| strip(v, also)),
+                _ => {}
+            }
+        }
+        let mut v = serde_json::to_value(f).unwrap();
+        strip(&mut v, also);
+        v.to_string()
+    }
+
     /// A refined family's projection computed again where it is used (as
     /// on long logs) gives the fit of the projection kept (as on short
     /// ones), bit for bit, but for the evaluations the computing takes.
@@ -1600,16 +1611,6 @@ mod tests {
     /// Stribeck family refined).
     #[test]
     fn projections_computed_again_give_the_kept_ones_fit() {
-        fn strip(v: &mut serde_json::Value) {
-            match v {
-                serde_json::Value::Object(m) => {
-                    m.retain(|k, _| !k.contains("seconds") && k != "evaluations");
-                    m.values_mut().for_each(strip);
-                }
-                serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
-                _ => {}
-            }
-        }
         for log in ["char_N4.mcap", "law_stribeck.mcap"] {
             let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
                 .join("datasets")
@@ -1629,9 +1630,7 @@ mod tests {
                 };
                 let f = fit_log(&run, &opts).unwrap();
                 let evals = f.output_error.as_ref().expect("refined").evaluations;
-                let mut v = serde_json::to_value(&f).unwrap();
-                strip(&mut v);
-                (v.to_string(), evals)
+                (fit_json(&f, &["evaluations"]), evals)
             };
             let (kept, kept_evals) = fit(usize::MAX);
             let (again, again_evals) = fit(0);
@@ -1658,21 +1657,7 @@ mod tests {
             },
             ..Default::default()
         };
-        fn strip(v: &mut serde_json::Value) {
-            match v {
-                serde_json::Value::Object(m) => {
-                    m.retain(|k, _| !k.contains("seconds"));
-                    m.values_mut().for_each(strip);
-                }
-                serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
-                _ => {}
-            }
-        }
-        let json = |f: LogFit| {
-            let mut v = serde_json::to_value(&f).unwrap();
-            strip(&mut v);
-            v.to_string()
-        };
+        let json = |f: LogFit| fit_json(&f, &[]);
         assert!(rayon::current_thread_index().is_none());
         let outside = json(fit_log(&run, &opts).unwrap());
         for threads in [1, 2] {
@@ -1685,6 +1670,8 @@ mod tests {
         }
     }
 
+    /// [`fit_logs`] drops the channels as recorded before fitting: the
+    /// fit must not read them (the same result, bit for bit, without them).
     #[test]
     fn the_fit_does_not_read_the_recorded_channels() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");
@@ -1700,25 +1687,14 @@ mod tests {
         };
         let a = fit_log(&full, &opts).unwrap();
         let b = fit_log(&bare, &opts).unwrap();
-        // Wall times aside.
-        fn strip(v: &mut serde_json::Value) {
-            match v {
-                serde_json::Value::Object(m) => {
-                    m.retain(|k, _| !k.contains("seconds"));
-                    m.values_mut().for_each(strip);
-                }
-                serde_json::Value::Array(a) => a.iter_mut().for_each(strip),
-                _ => {}
-            }
-        }
-        let strip = |f: &LogFit| {
-            let mut v = serde_json::to_value(f).unwrap();
-            strip(&mut v);
-            v.to_string()
-        };
-        assert_eq!(strip(&a), strip(&b));
+        assert_eq!(fit_json(&a, &[]), fit_json(&b, &[]));
     }
 
+    /// The calibration budget's re-computations reuse the base's stages
+    /// and give the plain computation's characteristic bit for bit: every
+    /// single-gain perturbation and a double one, with an accelerometer,
+    /// without one, and without a velocity channel (the Debug form prints
+    /// every f64 so that distinct values print differently).
     #[test]
     fn reusing_characteristic_is_bit_identical() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("datasets/char_N4.mcap");
