@@ -163,12 +163,13 @@ impl std::ops::Deref for Row {
 /// velocity-scale search) or sixteen times (the robust fit's eight
 /// rounds). Longer logs evaluate them where they are used, as the
 /// per-sample budget (`limits::FIT_BYTES_PER_SAMPLE`, measured on
-/// two-hour logs) assumes. Not re-measured: the fit's array fits the
-/// headroom of `limits::FIT_FIXED_BYTES` (50 MB against 38–39 MB measured
-/// at 0.6–1 million samples), but each concurrent calibration re-fit may
-/// hold one too, beyond `limits::REFIT_BYTES_PER_SAMPLE`'s measured
-/// margin on logs that slide most of the time (at most 5 × 5.6 MB: it
-/// matters only under a budget of tens of megabytes).
+/// two-hour logs) assumes. Each concurrent calibration re-fit may hold
+/// such rows too (at most 5 × 5.6 MB, beyond
+/// `limits::REFIT_BYTES_PER_SAMPLE`'s measured margin on logs that slide
+/// most of the time). Measured (session 40, docs/real-pads.md): a 130-s
+/// log with 81 876 slip samples peaked at 61–71 MiB (one and two threads)
+/// against its planned 81.8 MiB and 91 MiB before the rows were kept; a
+/// budget of tens of megabytes is where the re-fits' rows would count.
 const STORED_ROWS_MAX: usize = 100_000;
 
 /// Bias plus gain-error correction of a model at positions (k1, k2).
